@@ -1,0 +1,217 @@
+"""End-load histories: half-sine pulses, ramps to a step, and tabulated records.
+
+Every signal is a frozen value object with
+
+* ``__call__(t)`` — the value at times ``t`` (s), vectorised;
+* ``laplace(s)`` — its one-sided Laplace transform ``∫₀^∞ f(t) e^{−st} dt``, for the
+  exact time-domain solutions (``femref.exact``);
+* ``time_scale`` — the time over which it changes (s), for automatic step sizes and ε;
+* ``end`` — the last time at which it changes (s).
+
+A constant load is ``Constant(value)`` (a step at t = 0).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+
+class Signal(Protocol):
+    """What the solvers need of a load history."""
+
+    def __call__(self, t: ArrayLike) -> NDArray[np.float64]: ...
+
+    def laplace(self, s: ArrayLike) -> NDArray[np.complex128]: ...
+
+    @property
+    def time_scale(self) -> float: ...
+
+    @property
+    def end(self) -> float: ...
+
+
+@dataclass(frozen=True)
+class Constant:
+    """``f(t) = value`` for ``t ≥ 0``; Laplace transform ``value/s``."""
+
+    value: float
+
+    def __call__(self, t: ArrayLike) -> NDArray[np.float64]:
+        t = np.asarray(t, dtype=float)
+        return np.where(t >= 0.0, self.value, 0.0)
+
+    def laplace(self, s: ArrayLike) -> NDArray[np.complex128]:
+        s = np.asarray(s, dtype=complex)
+        return self.value / s
+
+    @property
+    def time_scale(self) -> float:
+        return math.inf
+
+    @property
+    def end(self) -> float:
+        return 0.0
+
+
+@dataclass(frozen=True)
+class HalfSine:
+    """``f(t) = A sin(π (t − t0)/T)`` for ``t0 ≤ t ≤ t0 + T``, zero elsewhere.
+
+    Laplace transform (shift theorem on the two sine halves):
+    ``F(s) = A (π/T) (e^{−s t0} + e^{−s (t0+T)}) / (s² + (π/T)²)``.
+    """
+
+    amplitude: float
+    duration: float
+    start: float = 0.0
+
+    def __call__(self, t: ArrayLike) -> NDArray[np.float64]:
+        t = np.asarray(t, dtype=float)
+        tau = t - self.start
+        inside = (tau >= 0.0) & (tau <= self.duration)
+        return np.where(inside, self.amplitude * np.sin(np.pi * np.clip(tau, 0.0, self.duration) / self.duration), 0.0)
+
+    def laplace(self, s: ArrayLike) -> NDArray[np.complex128]:
+        s = np.asarray(s, dtype=complex)
+        w = np.pi / self.duration
+        shifts = np.exp(-s * self.start) + np.exp(-s * (self.start + self.duration))
+        return self.amplitude * w * shifts / (s * s + w * w)
+
+    @property
+    def time_scale(self) -> float:
+        return self.duration
+
+    @property
+    def end(self) -> float:
+        return self.start + self.duration
+
+
+@dataclass(frozen=True)
+class RampStep:
+    """``f(t) = A clip((t − t0)/rise, 0, 1)``: a linear rise to a held step.
+
+    Laplace transform: ``F(s) = A (e^{−s t0} − e^{−s (t0+rise)}) / (rise s²)``;
+    for ``rise = 0`` the step ``A e^{−s t0}/s``.
+    """
+
+    amplitude: float
+    rise: float
+    start: float = 0.0
+
+    def __call__(self, t: ArrayLike) -> NDArray[np.float64]:
+        t = np.asarray(t, dtype=float)
+        if self.rise == 0.0:
+            return np.where(t >= self.start, self.amplitude, 0.0)
+        return self.amplitude * np.clip((t - self.start) / self.rise, 0.0, 1.0)
+
+    def laplace(self, s: ArrayLike) -> NDArray[np.complex128]:
+        s = np.asarray(s, dtype=complex)
+        if self.rise == 0.0:
+            return self.amplitude * np.exp(-s * self.start) / s
+        return self.amplitude * (np.exp(-s * self.start) - np.exp(-s * (self.start + self.rise))) / (self.rise * s * s)
+
+    @property
+    def time_scale(self) -> float:
+        return self.rise if self.rise > 0.0 else math.inf
+
+    @property
+    def end(self) -> float:
+        return self.start + self.rise
+
+
+@dataclass(frozen=True, eq=False)
+class Tabulated:
+    """Linear interpolation of samples ``(times[k], values[k])``, zero outside ``[times[0], times[-1]]``.
+
+    Laplace transform, exact for the piecewise-linear function: on each interval
+    ``[a, b]`` with ``f = f_a + k (t − a)``,
+    ``∫_a^b f e^{−st} dt = (f_a e^{−sa} − f_b e^{−sb})/s + k (e^{−sa} − e^{−sb})/s²``.
+    """
+
+    times: NDArray[np.float64]
+    values: NDArray[np.float64]
+
+    def __post_init__(self) -> None:
+        times = np.asarray(self.times, dtype=float)
+        values = np.asarray(self.values, dtype=float)
+        if times.ndim != 1 or times.shape != values.shape or times.size < 2:
+            raise ValueError("a tabulated signal needs two or more (time, value) samples of equal count")
+        if np.any(np.diff(times) <= 0.0):
+            raise ValueError("tabulated times must increase strictly")
+        object.__setattr__(self, "times", times)
+        object.__setattr__(self, "values", values)
+
+    @classmethod
+    def from_csv(cls, path: str | Path, time_column: str | int = 0, value_column: str | int = 1) -> "Tabulated":
+        """Read a CSV with a header row (columns by name) or without one (columns by index)."""
+        times, values = read_csv_columns(path, time_column, value_column)
+        return cls(times, values)
+
+    def __call__(self, t: ArrayLike) -> NDArray[np.float64]:
+        t = np.asarray(t, dtype=float)
+        return np.interp(t, self.times, self.values, left=0.0, right=0.0)
+
+    def laplace(self, s: ArrayLike) -> NDArray[np.complex128]:
+        s = np.asarray(s, dtype=complex)[..., None]
+        a, b = self.times[:-1], self.times[1:]
+        fa, fb = self.values[:-1], self.values[1:]
+        slope = (fb - fa) / (b - a)
+        ea, eb = np.exp(-s * a), np.exp(-s * b)
+        return np.sum((fa * ea - fb * eb) / s + slope * (ea - eb) / (s * s), axis=-1)
+
+    @property
+    def time_scale(self) -> float:
+        return float(np.min(np.diff(self.times))) * 10.0 if self.times.size > 2 else float(self.times[-1] - self.times[0])
+
+    @property
+    def end(self) -> float:
+        return float(self.times[-1])
+
+
+def read_csv_columns(path: str | Path, time_column: str | int, value_column: str | int) -> tuple[NDArray, NDArray]:
+    """Two float columns of a CSV file, by header name or by 0-based index.
+
+    Raises ``ValueError`` with the reason when the file is empty, a column is missing,
+    or a cell is not a number; ``FileNotFoundError`` when the file is absent.
+    """
+    path = Path(path)
+    lines = [ln for ln in path.read_text().splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+    if not lines:
+        raise ValueError(f"CSV file {path} is empty")
+    first = [c.strip() for c in lines[0].split(",")]
+    has_header = not all(_is_number(c) for c in first)
+    header, rows = (first, lines[1:]) if has_header else (None, lines)
+    if not rows:
+        raise ValueError(f"CSV file {path} has no data rows")
+
+    def index_of(column: str | int) -> int:
+        if isinstance(column, int):
+            return column
+        if header is None or column not in header:
+            raise ValueError(f"CSV file {path} has no column {column!r} (header: {header})")
+        return header.index(column)
+
+    it, iv = index_of(time_column), index_of(value_column)
+    times, values = [], []
+    for lineno, row in enumerate(rows, start=2 if has_header else 1):
+        cells = [c.strip() for c in row.split(",")]
+        try:
+            times.append(float(cells[it]))
+            values.append(float(cells[iv]))
+        except (IndexError, ValueError):
+            raise ValueError(f"CSV file {path}, line {lineno}: expected numbers in columns {it} and {iv}, got {row!r}") from None
+    return np.asarray(times), np.asarray(values)
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True

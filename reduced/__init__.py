@@ -1,0 +1,1 @@
+"""Reduced models of freight-car impacts (numpy and scipy only; never imports femref)."""
