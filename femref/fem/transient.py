@@ -34,6 +34,7 @@ from numpy.typing import NDArray
 
 from femref.fem.banded import BandedCholesky
 from femref.fem.operators import Operators
+from femref.scene import output_steps, steps_to
 from femref.signals import Signal
 
 
@@ -171,18 +172,27 @@ class Stepper:
         energy: bool = True,
         progress: Callable[[int, int], None] | None = None,
     ) -> "TransientResponse":
-        """Run to ``end`` and collect probe outputs (and optional fields and energies) every ``output_stride`` steps."""
-        steps = max(1, int(math.ceil(end / self.dt - 1e-9)))
+        """Run to ``end`` and collect probe outputs every ``output_stride`` steps.
+
+        ``fields`` keeps the displacement at the mesh nodes at the same times; ``energy``
+        keeps kinetic and strain energy, the energy dissipated by the Voigt viscosity
+        (``Σ dt v̄ᵀ C v̄``, v̄ the step-mean velocity) and the work of the end loads
+        (``Σ Δuᵀ f̄``); for average acceleration these balance to round-off.
+        """
+        steps = steps_to(end, self.dt)
         ops = self.ops
         x = np.atleast_1d(np.asarray(x, dtype=float))
         values = ops.interpolation(x)
         slopes = ops.interpolation(x, derivative=1) if ops.kind == "rod" else None
         ea, ca = ops.stiffness_profile(x), ops.viscosity_profile(x)
-        outputs = list(range(0, steps + 1, output_stride))
-        if outputs[-1] != steps:
-            outputs.append(steps)
-        n_out = len(outputs)
-        out = TransientResponse.empty(n_out, x, ops.ndof if fields else 0, rod=slopes is not None)
+        outputs = output_steps(steps, output_stride)
+        n_out = outputs.size
+        field_values = ops.interpolation(ops.nodes) if fields else None
+        # generalized-α's a_n is second-order accurate at t_n + (αm − αf)dt, not at t_n: report
+        # the equilibrium acceleration M⁻¹(f(t_n) − C v_n − K u_n) at the outputs instead
+        shifted = self.integrator.alpha_m != self.integrator.alpha_f
+        mass_factor = BandedCholesky(ops.mass) if shifted else None
+        out = TransientResponse.empty(n_out, x, ops.nodes.size if fields else 0, rod=slopes is not None)
         history = load_history(ops, self.loads, self.dt * np.arange(steps + 1))
         dissipated = 0.0
         external = 0.0
@@ -197,14 +207,18 @@ class Stepper:
                 external += float((state.u - u_prev) @ f_mid)
             if energy:
                 v_prev, u_prev = state.v.copy(), state.u.copy()
-            if state.step == outputs[k]:
+            if k < n_out and state.step == outputs[k]:
                 out.time[k] = state.time
                 out.displacement[k] = values @ state.u
-                out.acceleration[k] = values @ state.a
+                if mass_factor is not None:
+                    f_n = ops.load_matrix @ history[state.step]
+                    out.acceleration[k] = values @ mass_factor.solve(f_n - ops.damping @ state.v - ops.stiffness @ state.u)
+                else:
+                    out.acceleration[k] = values @ state.a
                 if slopes is not None:
                     out.axial_force[k] = ea * (slopes @ state.u) + ca * (slopes @ state.v)
-                if fields:
-                    out.fields[k] = state.u
+                if field_values is not None:
+                    out.fields[k] = field_values @ state.u
                 if energy:
                     out.kinetic[k] = 0.5 * float(state.v @ (ops.mass @ state.v))
                     out.strain[k] = 0.5 * float(state.u @ (ops.stiffness @ state.u))
@@ -220,7 +234,7 @@ class Stepper:
 
 @dataclass
 class TransientResponse:
-    """Probe histories ``(Nt_out, Nprobes)``; energies ``(Nt_out,)`` (J); fields ``(Nt_out, ndof)`` if kept."""
+    """Probe histories ``(Nt_out, Nprobes)``; energies ``(Nt_out,)`` (J); fields ``(Nt_out, Nnodes)`` if kept."""
 
     time: NDArray[np.float64]
     x: NDArray[np.float64]

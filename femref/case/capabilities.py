@@ -1,0 +1,67 @@
+"""Which model can serve which scene: the registry the case schema and its messages share.
+
+``MODELS`` maps each model name of a case's ``models:`` list to a function
+``case -> reason | None``: ``None`` when the model can serve the scene, otherwise the
+reason it cannot, worded to follow "<name> cannot serve this case: ". A model that
+cannot serve a scene is refused at validation (DESIGN.md §4), never skipped at run time.
+
+The functions read only attributes every case has (``kind``, ``body``), so the impact
+case of the next issue plugs in by extending them, not by adding branches elsewhere.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # pragma: no cover - typing only
+    from femref.case.schema import Case
+
+Capability = Callable[["Case"], str | None]
+
+#: Case kinds the single-body models serve (the impact kind arrives with the next issue).
+SINGLE_BODY_KINDS = ("harmonic", "transient")
+#: Case kinds the impact-only models serve.
+IMPACT_KINDS = ("impact",)
+
+
+def _serves_every_scene(case: "Case") -> str | None:
+    """``fem``, ``rigid`` and ``quasi_rigid`` serve every harmonic and transient scene."""
+    return None
+
+
+def _impact_only(case: "Case") -> str | None:
+    if case.kind in IMPACT_KINDS:
+        return None
+    return f"it serves impact cases only (kind: impact), and this is a {case.kind} case"
+
+
+def _exact(case: "Case") -> str | None:
+    """The exact solutions are transfer-matrix solutions over piecewise-constant profiles.
+
+    In the time domain (transient) they exist for rods only.
+    """
+    body: Any = case.body
+    if case.kind == "transient" and body.type != "rod":
+        return f"the exact time-domain solution exists for rods only, and this body is a {body.type}"
+    varying = [name for name, spec in body.profile_specs().items() if not spec.build(body.half_length).is_piecewise_constant]
+    if varying:
+        listed = ", ".join(f"body.{name} is {body.profile_specs()[name].kind}" for name in varying)
+        return f"it needs piecewise-constant profiles (number or piecewise), but {listed}"
+    return None
+
+
+#: name → capability function, in the order the names are documented.
+MODELS: Mapping[str, Capability] = {
+    "fem": _serves_every_scene,
+    "exact": _exact,
+    "quasi_rigid": _serves_every_scene,
+    "rigid": _serves_every_scene,
+    "modal": _impact_only,
+    "ann": _impact_only,
+}
+
+
+def refusal(model: str, case: "Case") -> str | None:
+    """Why ``model`` cannot serve ``case``, or ``None`` when it can (``model`` must be registered)."""
+    return MODELS[model](case)

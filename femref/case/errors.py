@@ -1,0 +1,216 @@
+"""One error for every bad case file: :class:`CaseError`, naming the file, key path, rule and value.
+
+Validation may find several independent problems; they are all collected as
+:class:`Problem` records and raised once, as one ``CaseError`` with one line per problem::
+
+    case.yaml: body.mass_per_length.piecewise.breaks: must lie strictly inside the body (-8.0, 8.0); got [-9.0, 4.0]
+
+Inside the pydantic models a validator that finds problems raises
+:func:`problems_error` (a pydantic custom error carrying the problems, with key
+paths relative to the value being validated); :func:`problems_from` turns a pydantic
+``ValidationError`` back into problems with full key paths, translating pydantic's
+own messages into the rules of the case-file language.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from pydantic import ValidationError
+from pydantic_core import PydanticCustomError
+
+__all__ = ["CaseError", "Problem", "did_you_mean", "format_key_path", "problems_error", "problems_from"]
+
+KeyPath = tuple[str | int, ...]
+
+#: Marks a problem without an offending value (a missing key, an unknown key).
+NO_VALUE: Any = type("NoValue", (), {"__repr__": lambda self: "<no value>"})()
+
+_PROBLEMS_ERROR_TYPE = "femref_case_problems"
+
+
+def format_key_path(path: KeyPath) -> str:
+    """``("body", "mass_per_length", "piecewise", "values", 1)`` → ``body.mass_per_length.piecewise.values[1]``."""
+    text = ""
+    for part in path:
+        if isinstance(part, int) and not isinstance(part, bool):
+            text += f"[{part}]"
+        else:
+            text += f".{part}" if text else str(part)
+    return text
+
+
+def _show(value: Any, limit: int = 160) -> str:
+    """A short, YAML-like rendering of an offending value (tuples as lists, long values cut)."""
+
+    def plain(v: Any) -> Any:
+        if isinstance(v, Mapping):
+            return {plain(k): plain(x) for k, x in v.items()}
+        if isinstance(v, (list, tuple)):
+            return [plain(x) for x in v]
+        if hasattr(v, "model_dump"):
+            return v.model_dump(mode="json")
+        return v
+
+    text = repr(plain(value))
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One violated rule: where (``path``), what rule, and the value found there."""
+
+    path: KeyPath
+    rule: str
+    value: Any = NO_VALUE
+
+    @property
+    def key_path(self) -> str:
+        return format_key_path(self.path)
+
+    def under(self, prefix: KeyPath) -> "Problem":
+        """The same problem seen from a value ``prefix`` levels up."""
+        return Problem((*prefix, *self.path), self.rule, self.value)
+
+    def line(self, source: str) -> str:
+        where = f"{source}: {self.key_path}: " if self.path else f"{source}: "
+        got = "" if self.value is NO_VALUE else f"; got {_show(self.value)}"
+        return f"{where}{self.rule}{got}"
+
+
+class CaseError(ValueError):
+    """A case that cannot be run: bad YAML, unknown or missing keys, non-physical values.
+
+    ``source`` is the file (or ``"<case>"``); ``key_path``, ``rule`` and ``value`` describe
+    the first problem and ``problems`` all of them. ``str(error)`` has one line per problem.
+    """
+
+    def __init__(self, problems: Sequence[Problem] | Problem, source: str = "<case>") -> None:
+        self.problems: tuple[Problem, ...] = (problems,) if isinstance(problems, Problem) else tuple(problems)
+        if not self.problems:
+            raise ValueError("a CaseError needs at least one problem")  # internal contract
+        self.source = source
+        super().__init__("\n".join(p.line(source) for p in self.problems))
+
+    @property
+    def key_path(self) -> str:
+        return self.problems[0].key_path
+
+    @property
+    def rule(self) -> str:
+        return self.problems[0].rule
+
+    @property
+    def value(self) -> Any:
+        value = self.problems[0].value
+        return None if value is NO_VALUE else value
+
+
+def did_you_mean(word: Any, choices: Iterable[str]) -> str:
+    """`` (did you mean 'length'?)`` when ``word`` is close to one of ``choices``, else ``""``."""
+    choices = list(choices)
+    text = str(word)
+    lowered = {c.lower(): c for c in choices}
+    if text.lower() in lowered:
+        return f" (did you mean {lowered[text.lower()]!r}?)"
+    close = difflib.get_close_matches(text.lower(), list(lowered), n=1, cutoff=0.6)
+    return f" (did you mean {lowered[close[0]]!r}?)" if close else ""
+
+
+def problems_error(problems: Sequence[Problem]) -> PydanticCustomError:
+    """A pydantic error carrying ``problems`` (paths relative to the value being validated)."""
+    text = "; ".join(f"{p.key_path}: {p.rule}" if p.path else p.rule for p in problems)
+    return PydanticCustomError(_PROBLEMS_ERROR_TYPE, "{summary}", {"summary": text, "problems": tuple(problems)})
+
+
+def _walk(loc: tuple[str | int, ...], raw: Any, missing: bool) -> KeyPath:
+    """Translate a pydantic location into the key path of the case file.
+
+    pydantic's locations also hold union tags (``body.rod.length``); a location part
+    is kept only where the raw input has that key or index, so tags drop out. The last
+    part of a *missing* key is kept though absent. A location that goes on below a
+    scalar (a number standing for a model, like a uniform profile) stops at the scalar.
+    """
+    path: list[str | int] = []
+    node = raw
+    for i, part in enumerate(loc):
+        if isinstance(node, Mapping):
+            if part in node:
+                path.append(part)
+                node = node[part]
+            elif missing and i == len(loc) - 1:
+                path.append(part)
+        elif isinstance(node, (list, tuple)):
+            if isinstance(part, int) and -len(node) <= part < len(node):
+                path.append(part)
+                node = node[part]
+        else:
+            break
+    return tuple(path)
+
+
+def _number(text: Any) -> str:
+    """``0`` rather than ``0.0`` in rules; other bounds as given."""
+    if isinstance(text, float) and math.isfinite(text) and text == int(text):
+        return str(int(text))
+    return str(text)
+
+
+def _rule(error: Mapping[str, Any]) -> str:
+    """The case-file rule for one of pydantic's own error records."""
+    kind, ctx = error["type"], error.get("ctx") or {}
+    rules = {
+        "missing": lambda: "required key is missing",
+        "extra_forbidden": lambda: "unknown key",
+        "greater_than": lambda: f"must be > {_number(ctx['gt'])}",
+        "greater_than_equal": lambda: f"must be >= {_number(ctx['ge'])}",
+        "less_than": lambda: f"must be < {_number(ctx['lt'])}",
+        "less_than_equal": lambda: f"must be <= {_number(ctx['le'])}",
+        "finite_number": lambda: "must be a finite number (not NaN or infinity)",
+        "float_parsing": lambda: "must be a number",
+        "float_type": lambda: "must be a number",
+        "int_parsing": lambda: "must be an integer",
+        "int_type": lambda: "must be an integer",
+        "int_from_float": lambda: "must be an integer",
+        "bool_parsing": lambda: "must be true or false",
+        "bool_type": lambda: "must be true or false",
+        "string_type": lambda: "must be a text string",
+        "literal_error": lambda: f"must be one of {ctx['expected']}",
+        "union_tag_invalid": lambda: f"must be one of {ctx['expected_tags']}",
+        "union_tag_not_found": lambda: "required key is missing",
+        "model_type": lambda: "must be a mapping of keys",
+        "model_attributes_type": lambda: "must be a mapping of keys",
+        "dict_type": lambda: "must be a mapping",
+        "list_type": lambda: "must be a list",
+        "tuple_type": lambda: "must be a list",
+        "too_short": lambda: f"must have at least {ctx['min_length']} entries",
+        "too_long": lambda: f"must have at most {ctx['max_length']} entries",
+        "path_type": lambda: "must be a file path",
+    }
+    if kind in rules:
+        return rules[kind]()
+    message = str(error.get("msg", kind))
+    return message.removeprefix("Value error, ")
+
+
+def problems_from(error: ValidationError, raw: Any) -> list[Problem]:
+    """All problems in a pydantic ``ValidationError`` raised while validating ``raw``."""
+    problems: list[Problem] = []
+    for record in error.errors(include_url=False):
+        kind, ctx = record["type"], record.get("ctx") or {}
+        prefix = _walk(record["loc"], raw, missing=kind == "missing")
+        if kind == _PROBLEMS_ERROR_TYPE:
+            problems.extend(p.under(prefix) for p in ctx["problems"])
+            continue
+        if kind in ("union_tag_invalid", "union_tag_not_found"):
+            # The rule is about the discriminating key itself (body.type, kind).
+            prefix = (*prefix, str(ctx["discriminator"]).strip("'\""))
+        value = NO_VALUE if kind in ("missing", "union_tag_not_found", "extra_forbidden") else record.get("input", NO_VALUE)
+        if kind == "union_tag_invalid":
+            value = ctx.get("tag", value)
+        problems.append(Problem(prefix, _rule(record), value))
+    return problems

@@ -1,0 +1,65 @@
+"""Exact solutions as a model: closed forms / transfer matrices (harmonic), inverse Laplace (transient rods)."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from femref.models import Progress
+from femref.profiles import common_edges, segment_values
+from femref.results import ModelResult
+from femref.scene import Body, Scene, output_steps, steps_to
+
+
+def segments_of(body: Body):
+    """The piecewise-constant body as :class:`femref.exact.Segments`."""
+    from femref.exact import Segments
+
+    edges = common_edges(body.half_length, body.profiles)
+    return Segments(
+        edges=edges,
+        mass_per_length=segment_values(body.mass_per_length, edges),
+        stiffness=segment_values(body.stiffness, edges),
+        viscosity=segment_values(body.viscosity, edges),
+    )
+
+
+class ExactModel:
+    name = "exact"
+
+    def serves(self, scene: Scene) -> str | None:
+        if not scene.body.is_piecewise_constant:
+            return "exact solutions exist for piecewise-constant profiles only (number or piecewise)"
+        if scene.kind == "transient" and scene.body.kind != "rod":
+            return "the exact time-domain solution exists for rods only"
+        return None
+
+    def run(self, scene: Scene, progress: Progress | None = None) -> ModelResult:
+        from femref.exact import beam_harmonic, rod_harmonic, rod_transient
+
+        started = time.perf_counter()
+        segments = segments_of(scene.body)
+        x = scene.probe_x
+        result = ModelResult(self.name, settings={"segments": int(segments.edges.size - 1)})
+        if scene.kind == "harmonic":
+            if scene.body.kind == "rod":
+                response = rod_harmonic(segments, scene.omega, x, **scene.loads)
+                outputs = {"displacement": response.displacement, "axial_force": response.axial_force}
+            else:
+                response = beam_harmonic(segments, scene.omega, x, **scene.loads)
+                outputs = {"displacement": response.deflection}
+            outputs["acceleration"] = response.acceleration
+            result.axes = {"omega": scene.omega, "lambda": scene.body.frequency_to_lambda(scene.omega)}
+        else:
+            times = scene.dt * output_steps(steps_to(scene.end, scene.dt), scene.output_stride)
+            response = rod_transient(segments, times, x, scene.loads.get("F1"), scene.loads.get("F2"))
+            outputs = {
+                "displacement": response.displacement,
+                "acceleration": response.acceleration,
+                "axial_force": response.axial_force,
+            }
+            result.axes = {"time": times}
+        result.probes = {name: {k: v[:, j] for k, v in outputs.items()} for j, name in enumerate(scene.probes)}
+        result.wall_time_s = time.perf_counter() - started
+        return result

@@ -1,0 +1,173 @@
+"""Model results and the HDF5 result file of DESIGN.md §4, written atomically.
+
+Layout::
+
+    /                                attrs: femref_version, case_yaml, created
+    /<model>/                        attrs: status, message, wall_time_s, settings (JSON)
+    /<model>/time | omega, lambda
+    /<model>/probes/<probe>/acceleration, displacement (, axial_force)
+    /<model>/couplers/<coupler>/force
+    /<model>/energy/kinetic, strain, dissipated, external_work   (+ attr balance_error)
+    /<model>/fields/x, /<model>/fields/u
+    /scores/<model>/                 attrs: reference, one per metric
+
+The file is written under a temporary name in the target folder and renamed when
+complete, so a crash never leaves a truncated file under the final name. Fields are
+also written as an XDMF + HDF5 time series (meshio) that ParaView opens directly.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+from numpy.typing import NDArray
+
+from femref import __version__
+
+UNITS = {
+    "time": "s",
+    "omega": "rad/s",
+    "lambda": "1",
+    "acceleration": "m/s^2",
+    "displacement": "m",
+    "axial_force": "N (tension positive)",
+    "force": "N (compression positive)",
+    "x": "m",
+    "u": "m",
+    "kinetic": "J",
+    "strain": "J",
+    "dissipated": "J",
+    "external_work": "J",
+}
+
+
+@dataclass
+class ModelResult:
+    """What every model returns to the runner: outputs, status and work counters."""
+
+    model: str
+    status: str = "ok"
+    message: str = ""
+    wall_time_s: float = 0.0
+    settings: dict[str, Any] = field(default_factory=dict)
+    axes: dict[str, NDArray] = field(default_factory=dict)  # "time" or "omega" and "lambda"
+    probes: dict[str, dict[str, NDArray]] = field(default_factory=dict)
+    couplers: dict[str, dict[str, NDArray]] = field(default_factory=dict)
+    energy: dict[str, NDArray] = field(default_factory=dict)
+    fields: dict[str, NDArray] = field(default_factory=dict)  # "x" (Nx,), "u" (Nt_out, Nx), "time"
+
+    @classmethod
+    def failed(cls, model: str, message: str, wall_time_s: float = 0.0, settings: dict | None = None) -> "ModelResult":
+        return cls(model=model, status="failed", message=message, wall_time_s=wall_time_s, settings=settings or {})
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok"
+
+
+def write_results(
+    path: str | Path,
+    case_yaml: str,
+    results: list[ModelResult],
+    scores: dict[str, dict[str, Any]] | None = None,
+) -> list[Path]:
+    """Write the result file (and XDMF field files) atomically; return the paths written."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    written = []
+    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        with h5py.File(tmp_name, "w") as h5:
+            h5.attrs["femref_version"] = __version__
+            h5.attrs["case_yaml"] = case_yaml
+            h5.attrs["created"] = datetime.now(timezone.utc).isoformat(timespec="seconds")
+            for result in results:
+                _write_model(h5.create_group(result.model), result)
+            for model, metrics in (scores or {}).items():
+                group = h5.require_group(f"scores/{model}")
+                for key, value in metrics.items():
+                    group.attrs[key] = value
+        os.replace(tmp_name, path)
+    except BaseException:
+        Path(tmp_name).unlink(missing_ok=True)
+        raise
+    written.append(path)
+    for result in results:
+        if result.fields:
+            written.extend(write_xdmf_fields(path.with_name(f"{path.stem}_{result.model}_fields.xdmf"), result.fields))
+    return written
+
+
+def _dataset(group: h5py.Group, name: str, data: NDArray) -> None:
+    ds = group.create_dataset(name, data=np.asarray(data))
+    if name in UNITS:
+        ds.attrs["units"] = UNITS[name]
+
+
+def _write_model(group: h5py.Group, result: ModelResult) -> None:
+    group.attrs["status"] = result.status
+    group.attrs["message"] = result.message
+    group.attrs["wall_time_s"] = float(result.wall_time_s)
+    group.attrs["settings"] = json.dumps(result.settings, default=_json_default, sort_keys=True)
+    for name, axis in result.axes.items():
+        _dataset(group, name, axis)
+    for probe, outputs in result.probes.items():
+        sub = group.require_group(f"probes/{probe}")
+        for name, data in outputs.items():
+            _dataset(sub, name, data)
+    for coupler, outputs in result.couplers.items():
+        sub = group.require_group(f"couplers/{coupler}")
+        for name, data in outputs.items():
+            _dataset(sub, name, data)
+    if result.energy:
+        sub = group.create_group("energy")
+        for name, data in result.energy.items():
+            _dataset(sub, name, data)
+    if result.fields:
+        sub = group.create_group("fields")
+        for name, data in result.fields.items():
+            _dataset(sub, name, data)
+
+
+def write_xdmf_fields(path: Path, fields: dict[str, NDArray]) -> list[Path]:
+    """XDMF + HDF5 time series of the displacement field on the 1D mesh (points padded to 3D).
+
+    Written in a temporary folder and moved into place, so the XDMF file's reference to
+    its HDF5 companion stays valid and no partial pair is left behind.
+    """
+    import meshio
+
+    x, u, times = fields["x"], fields["u"], fields["time"]
+    points = np.zeros((x.size, 3))
+    points[:, 0] = x
+    cells = [("line", np.stack([np.arange(x.size - 1), np.arange(1, x.size)], axis=1))]
+    with tempfile.TemporaryDirectory(dir=path.parent) as tmp:
+        tmp_path = Path(tmp) / path.name
+        with meshio.xdmf.TimeSeriesWriter(str(tmp_path)) as writer:
+            writer.write_points_cells(points, cells)
+            for t, values in zip(times, u):
+                writer.write_data(float(t), point_data={"u": np.asarray(values, dtype=float)})
+        moved = []
+        for produced in sorted(Path(tmp).iterdir()):
+            target = path.parent / produced.name
+            shutil.move(str(produced), target)
+            moved.append(target)
+    return moved
+
+
+def _json_default(value: Any) -> Any:
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    return str(value)
