@@ -46,7 +46,7 @@ def _exact(case: "Case") -> str | None:
         return f"the exact time-domain solution exists for rods only, and this body is a {body.type}"
     varying = [name for name, spec in body.profile_specs().items() if not spec.build(body.half_length).is_piecewise_constant]
     if varying:
-        listed = ", ".join(f"body.{name} is {body.profile_specs()[name].kind}" for name in varying)
+        listed = ", ".join(f"body.{name} is {body.profile_specs()[name].tag}" for name in varying)
         return f"it needs piecewise-constant profiles (number or piecewise), but {listed}"
     return None
 

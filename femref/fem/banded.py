@@ -38,14 +38,21 @@ class BandedCholesky:
 
     def __init__(self, matrix: sp.spmatrix) -> None:
         self.shape = matrix.shape
-        self.bandwidth = half_bandwidth(matrix)
-        factor, info = lapack.dpbtrf(upper_banded(matrix, self.bandwidth), lower=0, overwrite_ab=1)
+        self.bandwidth = max(1, half_bandwidth(matrix))
+        ab = upper_banded(matrix, self.bandwidth)
+        if self.bandwidth == 1:  # tridiagonal (P1): LDLᵀ with dpttrf/dpttrs, about twice as fast
+            d, e, info = lapack.dpttrf(ab[1], ab[0, 1:])
+            self._factor = (d, e)
+        else:
+            self._factor, info = lapack.dpbtrf(ab, lower=0, overwrite_ab=1)
         if info != 0:
             raise np.linalg.LinAlgError(f"banded Cholesky failed: leading minor {info} is not positive definite")
-        self._factor = factor
 
     def solve(self, rhs: NDArray[np.float64]) -> NDArray[np.float64]:
-        x, info = lapack.dpbtrs(self._factor, rhs, lower=0)
-        if info != 0:  # pragma: no cover - dpbtrs only fails on bad arguments
-            raise ValueError(f"dpbtrs: illegal argument {-info}")
+        if self.bandwidth == 1:
+            x, info = lapack.dpttrs(*self._factor, rhs)
+        else:
+            x, info = lapack.dpbtrs(self._factor, rhs, lower=0)
+        if info != 0:  # pragma: no cover - the solves only fail on bad arguments
+            raise ValueError(f"banded solve: illegal argument {-info}")
         return x

@@ -1,0 +1,31 @@
+"""Case files (DESIGN.md §3): the YAML schema of a scene, its validation and its resolved form.
+
+>>> from femref.case import load_case, resolved_yaml
+>>> case = load_case("cases/rod_harmonic.yaml")          # doctest: +SKIP
+>>> case.body.profiles()["stiffness"], case.omega()     # doctest: +SKIP
+
+Every bad input raises :class:`CaseError` (a ``ValueError``) naming the file, the key
+path, the rule and the value; several problems come in one error, one per line.
+"""
+
+from femref.case.capabilities import MODELS
+from femref.case.errors import CaseError, Problem
+from femref.case.loader import load_case, parse_case, resolved_yaml
+from femref.case.schema import BODY_TYPES, CASE_KINDS, BeamBody, Body, Case, HarmonicCase, RodBody, TransientCase
+
+__all__ = [
+    "BODY_TYPES",
+    "CASE_KINDS",
+    "MODELS",
+    "BeamBody",
+    "Body",
+    "Case",
+    "CaseError",
+    "HarmonicCase",
+    "Problem",
+    "RodBody",
+    "TransientCase",
+    "load_case",
+    "parse_case",
+    "resolved_yaml",
+]

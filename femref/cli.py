@@ -1,0 +1,113 @@
+"""The ``femref`` command: run and validate case files (DESIGN.md §5).
+
+Exit codes: 0 success, 2 bad input (the message names the key path and the rule),
+1 a failure during the run (the result file still records which model failed and why).
+"""
+
+from __future__ import annotations
+
+import sys
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Iterator
+
+import click
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+from rich.table import Table
+
+from femref.case import CaseError, load_case, parse_case, resolved_yaml
+from femref.defaults import DEFAULT_SCENE_SOURCE, default_scene_data
+
+EXIT_BAD_INPUT = 2
+EXIT_RUN_FAILURE = 1
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="femref")
+def main() -> None:
+    """femref: FEM reference solver for freight-car impacts, and the scores of cheaper models against it."""
+
+
+def _load(case_path: Path | None):
+    if case_path is None:
+        return parse_case(default_scene_data(), source=DEFAULT_SCENE_SOURCE), Path.cwd()
+    return load_case(case_path), case_path.resolve().parent
+
+
+@main.command()
+@click.argument("case_path", metavar="CASE", required=False, type=click.Path(dir_okay=False, path_type=Path))
+def validate(case_path: Path | None) -> None:
+    """Check CASE and print the resolved case (every default filled in)."""
+    try:
+        case, _ = _load(case_path)
+    except CaseError as error:
+        click.echo(f"error: {error}", err=True)
+        sys.exit(EXIT_BAD_INPUT)
+    click.echo(resolved_yaml(case), nl=False)
+
+
+@main.command()
+@click.argument("case_path", metavar="CASE", required=False, type=click.Path(dir_okay=False, path_type=Path))
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), help="result file (default: CASE stem + .h5)")
+def run(case_path: Path | None, output: Path | None) -> None:
+    """Run CASE (no CASE: the built-in default scene) with every requested model; write HDF5 results."""
+    from femref.results import write_results
+    from femref.runner import run_scene
+    from femref.scene_builder import scene_from_case
+
+    console = Console(stderr=True)
+    try:
+        case, base_dir = _load(case_path)
+        scene = scene_from_case(case, base_dir)
+    except CaseError as error:
+        click.echo(f"error: {error}", err=True)
+        sys.exit(EXIT_BAD_INPUT)
+    output = output or Path(f"{case_path.stem if case_path else 'default'}.h5")
+
+    with _progress(console) as progress_for:
+        outcome = run_scene(scene, progress_for)
+    written = write_results(output, resolved_yaml(case), outcome.results, outcome.scores)
+    Console().print(_summary(outcome))
+    for path in written:
+        click.echo(f"wrote {path}")
+    for failed in outcome.failed:
+        click.echo(f"error: model {failed.model} failed: {failed.message}", err=True)
+    if outcome.failed:
+        sys.exit(EXIT_RUN_FAILURE)
+
+
+@contextmanager
+def _progress(console: Console) -> Iterator:
+    """A per-model progress bar on a terminal; nothing when output is piped."""
+    if not console.is_terminal:
+        yield lambda model: None
+        return
+    columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"), TimeRemainingColumn())
+    with Progress(*columns, console=console, transient=True) as bar:
+
+        def progress_for(model: str):
+            task = bar.add_task(model, total=None)
+            return lambda done, total: bar.update(task, completed=done, total=total)
+
+        yield progress_for
+
+
+def _summary(outcome) -> Table:
+    """Model, status, wall time, work and the key outputs, with the error against the reference."""
+    table = Table(title=f"{outcome.scene.kind} scene, ε = {outcome.scene.epsilon:.3g}", title_justify="left")
+    for column in ("model", "status", "wall time", "work", "peak |a| (m/s²)", "error vs reference"):
+        table.add_column(column, justify="right" if column not in ("model", "status") else "left")
+    for result in outcome.results:
+        work = ""
+        if "steps" in result.settings:
+            work = f"{result.settings['steps']} steps"
+        elif "frequencies" in result.settings:
+            work = f"{result.settings['frequencies']} freqs"
+        peaks = ", ".join(
+            f"{probe} {abs(out['acceleration']).max():.3g}" for probe, out in result.probes.items() if "acceleration" in out
+        )
+        score = outcome.scores.get(result.model, {})
+        error = f"{score['acceleration_error_max']:.2e} ({score['reference']})" if score else "reference" if result.ok else ""
+        table.add_row(result.model, result.status, f"{result.wall_time_s * 1e3:.1f} ms", work, peaks, error)
+    return table
