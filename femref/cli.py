@@ -68,7 +68,7 @@ def run(case_path: Path | None, output: Path | None) -> None:
     with _progress(console) as progress_for:
         outcome = run_scene(scene, progress_for)
     written = write_results(output, resolved_yaml(case), outcome.results, outcome.scores)
-    Console().print(_summary(outcome))
+    Console(width=max(100, Console().width)).print(_summary(outcome))
     for path in written:
         click.echo(f"wrote {path}")
     for failed in outcome.failed:
@@ -96,7 +96,7 @@ def _progress(console: Console) -> Iterator:
 def _summary(outcome) -> Table:
     """Model, status, wall time, work and the key outputs, with the error against the reference."""
     table = Table(title=f"{outcome.scene.kind} scene, ε = {outcome.scene.epsilon:.3g}", title_justify="left")
-    for column in ("model", "status", "wall time", "work", "peak |a| (m/s²)", "error vs reference"):
+    for column in ("model", "status", "wall time", "work", "peak |a| m/s²", "peak |F| N", "max error"):
         table.add_column(column, justify="right" if column not in ("model", "status") else "left")
     for result in outcome.results:
         work = ""
@@ -104,10 +104,24 @@ def _summary(outcome) -> Table:
             work = f"{result.settings['steps']} steps"
         elif "frequencies" in result.settings:
             work = f"{result.settings['frequencies']} freqs"
-        peaks = ", ".join(
-            f"{probe} {abs(out['acceleration']).max():.3g}" for probe, out in result.probes.items() if "acceleration" in out
-        )
         score = outcome.scores.get(result.model, {})
-        error = f"{score['acceleration_error_max']:.2e} ({score['reference']})" if score else "reference" if result.ok else ""
-        table.add_row(result.model, result.status, f"{result.wall_time_s * 1e3:.1f} ms", work, peaks, error)
+        error = f"{score['acceleration_error_max']:.2e} vs {score['reference']}" if score else "reference" if result.ok else ""
+        table.add_row(
+            result.model,
+            result.status,
+            f"{result.wall_time_s * 1e3:.1f} ms",
+            work,
+            _peak(result, "acceleration"),
+            _peak(result, "axial_force"),
+            error,
+        )
     return table
+
+
+def _peak(result, quantity: str) -> str:
+    """Largest magnitude of a probe output over all probes and the axis, e.g. ``17.5 @right``."""
+    peaks = {probe: float(abs(out[quantity]).max()) for probe, out in result.probes.items() if quantity in out}
+    if not peaks:
+        return ""
+    probe = max(peaks, key=peaks.get)
+    return f"{peaks[probe]:.4g} @{probe}"

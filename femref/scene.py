@@ -20,6 +20,8 @@ class Body:
     """A free rod or beam on ``x ∈ [−l, l]`` with its section-property profiles.
 
     ``stiffness`` is EA (rod) or EI (beam); ``viscosity`` is cA or cI.
+    ``wave_travel_time`` is ``T_wave = l√(m/EA)`` (rod) or ``l²√(m/EI)`` (beam) with the
+    body's mean properties (s), the time unit of λ and ε.
     """
 
     kind: str
@@ -27,6 +29,7 @@ class Body:
     mass_per_length: Profile
     stiffness: Profile
     viscosity: Profile
+    wave_travel_time: float
 
     @property
     def profiles(self) -> tuple[Profile, Profile, Profile]:
@@ -39,22 +42,6 @@ class Body:
     @property
     def is_piecewise_constant(self) -> bool:
         return all(p.is_piecewise_constant for p in self.profiles)
-
-    def mean(self, which: str) -> float:
-        """Length average of a profile (Gauss quadrature on 400 panels, exact for the profile kinds here)."""
-        profile = getattr(self, which)
-        edges = np.unique(np.concatenate([np.linspace(-self.half_length, self.half_length, 401), self.jumps]))
-        edges = edges[(edges >= -self.half_length) & (edges <= self.half_length)]
-        xg, wg = np.polynomial.legendre.leggauss(4)
-        mid, half = 0.5 * (edges[1:] + edges[:-1]), 0.5 * np.diff(edges)
-        x = mid[:, None] + half[:, None] * xg[None, :]
-        return float(np.sum(profile(x) * wg[None, :] * half[:, None]) / (2.0 * self.half_length))
-
-    @property
-    def wave_travel_time(self) -> float:
-        """``T_wave = l√(m/EA)`` (rod) or ``l²√(m/EI)`` (beam) with length-averaged properties (s)."""
-        ratio = math.sqrt(self.mean("mass_per_length") / self.mean("stiffness"))
-        return self.half_length * ratio if self.kind == "rod" else self.half_length**2 * ratio
 
     def frequency_to_lambda(self, omega: NDArray) -> NDArray:
         """``λ = ω T_wave`` (DESIGN.md §2)."""

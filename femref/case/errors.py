@@ -96,6 +96,11 @@ class CaseError(ValueError):
         self.source = source
         super().__init__("\n".join(p.line(source) for p in self.problems))
 
+    @classmethod
+    def at(cls, key_path: str, rule: str, value: Any = NO_VALUE, *, source: str = "<case>") -> "CaseError":
+        """One problem at a dotted ``key_path`` (e.g. for checks made after validation)."""
+        return cls(Problem((key_path,) if key_path else (), rule, value), source)
+
     @property
     def key_path(self) -> str:
         return self.problems[0].key_path
@@ -138,12 +143,12 @@ def _walk(loc: tuple[str | int, ...], raw: Any, missing: bool) -> KeyPath:
     path: list[str | int] = []
     node = raw
     for i, part in enumerate(loc):
-        if isinstance(node, Mapping):
+        if isinstance(node, Mapping):  # mapping keys are names, even when YAML read them as numbers
             if part in node:
-                path.append(part)
+                path.append(str(part))
                 node = node[part]
             elif missing and i == len(loc) - 1:
-                path.append(part)
+                path.append(str(part))
         elif isinstance(node, (list, tuple)):
             if isinstance(part, int) and -len(node) <= part < len(node):
                 path.append(part)

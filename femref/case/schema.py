@@ -168,16 +168,18 @@ class CaseModel(BaseModel):
         unknown = [key for key in data if key not in fields]
         if not unknown:
             return handler(data)
-        problems = [Problem((key,), cls._unknown_key_rule(key, list(fields))) for key in unknown]
+        problems = [Problem((str(key),), cls._unknown_key_rule(key, list(fields))) for key in unknown]
         return _validate_collecting(handler, {k: v for k, v in data.items() if k in fields}, problems)
 
 
-def _foreign_key_rule(cls: type[CaseModel], key: Any, known: list[str], family: Mapping[str, type[CaseModel]], what: str) -> str | None:
+def _foreign_key_rule(
+    cls: type[CaseModel], key: Any, known: list[str], family: Mapping[str, type[CaseModel]], tag_field: str, noun: str
+) -> str | None:
     """``'axial_stiffness' is a rod key, not a beam key`` when ``key`` belongs to a sibling model."""
-    own = cls.model_fields[what].default
+    own = cls.model_fields[tag_field].default
     for name, other in family.items():
         if other is not cls and key in other.model_fields:
-            return f"{key!r} is a {name} key, not a {own} key{did_you_mean(key, known)}"
+            return f"{key!r} is a {name}{noun} key, not a {own}{noun} key{did_you_mean(key, known)}"
     return None
 
 
@@ -220,8 +222,8 @@ def _tagged_union(registry: Mapping[str, type[TaggedSpec]], what: str, number_ta
         if unknown:
             raise problems_error([Problem((k,), f"unknown {what}{did_you_mean(k, named)}; expected {expected}") for k in unknown])
         if len(value) != 1:
-            given = " and ".join(map(str, value)) or "none"
-            raise PydanticCustomError("spec_shape", "{rule}", {"rule": f"give exactly one of {', '.join(named)}; got {given}"})
+            given = f"got {' and '.join(map(str, value))} together" if value else "got an empty mapping"
+            raise problems_error([Problem((), f"give exactly one of {', '.join(named)}; {given}")])
         return value
 
     members = tuple(Annotated[cls, Tag(name)] for name, cls in registry.items())
@@ -412,7 +414,7 @@ class Body(CaseModel):
 
     @classmethod
     def _unknown_key_rule(cls, key: Any, known: list[str]) -> str:
-        return _foreign_key_rule(cls, key, known, BODY_TYPES, "type") or super()._unknown_key_rule(key, known)
+        return _foreign_key_rule(cls, key, known, BODY_TYPES, "type", "") or super()._unknown_key_rule(key, known)
 
     @field_validator("*", mode="after")
     @classmethod
@@ -783,6 +785,7 @@ class HzRange(FrequencyRange):
     def omega(self, body: Body) -> NDArray[np.float64]:
         return 2.0 * np.pi * self.values()
 
+
 class LambdaRange(FrequencyRange):
     """Nondimensional frequency λ (DESIGN.md §2); ``ω = λ / T`` with the body's wave time
     ``T = l√(m̄/EĀ)`` (rod) or ``l²√(m̄/EĪ)`` (beam), length-averaged ``m`` and stiffness."""
@@ -837,8 +840,8 @@ class IntegratorSettings(CaseModel):
     with ``rho_inf < 1`` damps that ringing)."""
 
     scheme: IntegratorName = Field(
-        default="newmark",
-        description="newmark (average acceleration, no numerical damping) or generalized_alpha. Default newmark.",
+        default="generalized_alpha",
+        description="generalized_alpha (Chung-Hulbert, damps the unresolved highest modes) or newmark (average acceleration, energy conserving, no numerical damping). Default generalized_alpha.",
     )
     rho_inf: Annotated[Real, Field(ge=0, le=1)] | None = Field(
         default=None,
@@ -922,7 +925,7 @@ class SceneCase(CaseModel):
 
     @classmethod
     def _unknown_key_rule(cls, key: Any, known: list[str]) -> str:
-        return _foreign_key_rule(cls, key, known, CASE_KINDS, "kind") or super()._unknown_key_rule(key, known)
+        return _foreign_key_rule(cls, key, known, CASE_KINDS, "kind", "-case") or super()._unknown_key_rule(key, known)
 
     @model_validator(mode="after")
     def _models_serve_the_scene(self) -> "SceneCase":
@@ -954,12 +957,16 @@ class SingleBodyCase(SceneCase):
         body = info.data.get("body")
         if body is None or not isinstance(value, Mapping):
             return handler(value)
-        problems = [
-            Problem((key,), f"{key} is a {LOAD_OWNERS[key]} load; a {body.type} takes {', '.join(body.load_names)}", value[key])
-            for key in value
-            if key in LOAD_OWNERS and key not in body.load_names
-        ]
-        given = {k: v for k, v in value.items() if not (k in LOAD_OWNERS and k not in body.load_names)}
+        takes = f"a {body.type} takes {', '.join(body.load_names)}"
+        problems = []
+        for key in value:
+            if key in body.load_names:
+                continue
+            if key in LOAD_OWNERS:
+                problems.append(Problem((key,), f"{key} is a {LOAD_OWNERS[key]} load; {takes}", value[key]))
+            else:
+                problems.append(Problem((str(key),), f"unknown load{did_you_mean(key, body.load_names)}; {takes}"))
+        given = {k: v for k, v in value.items() if k in body.load_names}
         return _validate_collecting(handler, {**{name: 0.0 for name in body.load_names}, **given}, problems)
 
     @field_validator("probes", mode="after")
@@ -1019,7 +1026,7 @@ class TransientCase(SingleBodyCase):
     kind: Literal["transient"] = Field(default="transient", description="transient. Required in the case file.")
     loads: TransientLoads = Field(description="End-load histories; the body's loads not given are 0; at least one non-zero. Required.")
     time: TimeSettings = Field(description="Simulated interval and step. Required (time.end at least).")
-    integrator: IntegratorSettings = Field(default_factory=IntegratorSettings, description="Time integrator. Default newmark.")
+    integrator: IntegratorSettings = Field(default_factory=IntegratorSettings, description="Time integrator. Default generalized_alpha with rho_inf 0.8.")
     fem: FemSettings = _fem_field()
     models: ModelList = _models_field()
 

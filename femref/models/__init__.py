@@ -1,7 +1,8 @@
 """Models that answer a scene: a name → model registry shared by the runner and the schema.
 
-Every model follows one protocol: ``serves(scene)`` returns None or the reason it cannot
-serve the scene, and ``run(scene, progress)`` returns a :class:`femref.results.ModelResult`.
+Every model follows one protocol: ``run(scene, progress)`` returns a
+:class:`femref.results.ModelResult`. Which model can serve which scene is decided at
+validation, by :mod:`femref.case.capabilities`.
 """
 
 from __future__ import annotations
@@ -16,8 +17,6 @@ Progress = Callable[[int, int], None]
 
 class Model(Protocol):
     name: str
-
-    def serves(self, scene: Scene) -> str | None: ...
 
     def run(self, scene: Scene, progress: Progress | None = None) -> ModelResult: ...
 

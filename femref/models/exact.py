@@ -28,13 +28,6 @@ def segments_of(body: Body):
 class ExactModel:
     name = "exact"
 
-    def serves(self, scene: Scene) -> str | None:
-        if not scene.body.is_piecewise_constant:
-            return "exact solutions exist for piecewise-constant profiles only (number or piecewise)"
-        if scene.kind == "transient" and scene.body.kind != "rod":
-            return "the exact time-domain solution exists for rods only"
-        return None
-
     def run(self, scene: Scene, progress: Progress | None = None) -> ModelResult:
         from femref.exact import beam_harmonic, rod_harmonic, rod_transient
 

@@ -26,9 +26,6 @@ def integrator_for(scene: Scene) -> Integrator:
 class FemModel:
     name = "fem"
 
-    def serves(self, scene: Scene) -> str | None:
-        return None
-
     def run(self, scene: Scene, progress: Progress | None = None) -> ModelResult:
         started = time.perf_counter()
         ops = build_operators(scene.body, scene.fem)

@@ -60,9 +60,6 @@ def inertia_balanced_force(body: Body, loads: NDArray, x: NDArray) -> NDArray:
 class RigidModel:
     name = "rigid"
 
-    def serves(self, scene: Scene) -> str | None:
-        return None
-
     def run(self, scene: Scene, progress: Progress | None = None) -> ModelResult:
         started = time.perf_counter()
         names = ("F1", "F2") if scene.body.kind == "rod" else ("N1", "N2", "G1", "G2")
