@@ -18,6 +18,7 @@ also written as an XDMF + HDF5 time series (meshio) that ParaView opens directly
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import shutil
@@ -86,6 +87,9 @@ def write_results(
     written = []
     fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     os.close(fd)
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp_name, 0o666 & ~umask)  # mkstemp's 0600 would make results private
     try:
         with h5py.File(tmp_name, "w") as h5:
             h5.attrs["femref_version"] = __version__
@@ -152,8 +156,8 @@ def write_xdmf_fields(path: Path, fields: dict[str, NDArray]) -> list[Path]:
     points[:, 0] = x
     cells = [("line", np.stack([np.arange(x.size - 1), np.arange(1, x.size)], axis=1))]
     with tempfile.TemporaryDirectory(dir=path.parent) as tmp:
-        tmp_path = Path(tmp) / path.name
-        with meshio.xdmf.TimeSeriesWriter(str(tmp_path)) as writer:
+        # meshio opens the companion .h5 relative to the working directory: write from inside tmp
+        with contextlib.chdir(tmp), meshio.xdmf.TimeSeriesWriter(path.name) as writer:
             writer.write_points_cells(points, cells)
             for t, values in zip(times, u):
                 writer.write_data(float(t), point_data={"u": np.asarray(values, dtype=float)})

@@ -26,6 +26,7 @@ small ``z``)::
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from math import factorial
 from typing import NamedTuple
@@ -33,7 +34,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from femref.exact.segments import Segments, check_amplitude, check_frequencies, check_positions
+from femref.exact.segments import Segments, check_amplitude, check_frequencies, check_laplace, check_positions
 
 #: Largest ``|κ h|`` of one transfer-matrix step (the Krylov series then converge in 7 terms
 #: and a step amplifies the state by at most ``cosh 1``).
@@ -159,7 +160,7 @@ def beam_unit_response_closed_form(segments: Segments, s: ArrayLike, x: ArrayLik
     (tests/test_exact_beam.py).
     """
     segments = segments.homogeneous()
-    s = _check_laplace(s)
+    s = check_laplace(s)
     x = check_positions(segments, x)
     m, l = segments.mass_per_length[0], segments.half_length
     kappa = np.sqrt(np.sqrt(_quartic_wavenumber(segments, s)[:, 0]))[:, None]
@@ -208,7 +209,7 @@ def beam_unit_response_transfer(segments: Segments, s: ArrayLike, x: ArrayLike) 
     their sign, ``θ, N`` change it). Checked against the closed form (1e-12),
     reciprocity and ``∫ m a dx = N1 − N2`` (tests/test_exact_beam.py).
     """
-    s = _check_laplace(s)
+    s = check_laplace(s)
     x = check_positions(segments, x)
     left = _left_load_sweep(segments, s, x)
     mirror = _left_load_sweep(segments.mirrored(), s, -x)
@@ -244,7 +245,13 @@ def krylov(z: ArrayLike) -> tuple[NDArray, NDArray, NDArray, NDArray]:
 # --------------------------------------------------------------------------- kernels
 
 
-def _harmonic(segments, omega, x, loads, unit_response) -> BeamHarmonic:
+def _harmonic(
+    segments: Segments,
+    omega: ArrayLike,
+    x: ArrayLike,
+    loads: tuple[ArrayLike, ArrayLike, ArrayLike, ArrayLike],
+    unit_response: Callable[[Segments, NDArray, NDArray], BeamUnitResponse],
+) -> BeamHarmonic:
     omega = check_frequencies(omega)
     x = check_positions(segments, x)
     amplitudes = [check_amplitude(v, omega.size, name)[:, None] for v, name in zip(loads, ("N1", "N2", "G1", "G2"))]
@@ -254,14 +261,6 @@ def _harmonic(segments, omega, x, loads, unit_response) -> BeamHarmonic:
     minus_w2 = -(omega**2)[:, None]
     return BeamHarmonic(omega, x, acceleration / minus_w2, angular / minus_w2, acceleration, angular, moment, shear)
 
-
-def _check_laplace(s: ArrayLike) -> NDArray[np.complex128]:
-    s = np.atleast_1d(np.asarray(s, dtype=complex))
-    if s.ndim != 1:
-        raise ValueError(f"Laplace variables s must be a 1-D array, got shape {s.shape}")
-    if not np.all(np.isfinite(s)) or np.any(s == 0.0) or np.any(s.real < 0.0):
-        raise ValueError("Laplace variables s must be finite, nonzero, with Re s >= 0")
-    return s
 
 
 def _quartic_wavenumber(segments: Segments, s: NDArray) -> NDArray:
@@ -310,7 +309,7 @@ def _step_nodes(segments: Segments, s: NDArray, x: NDArray) -> NDArray:
     kappa = np.max(np.abs(_quartic_wavenumber(segments, s)), axis=0) ** 0.25
     pieces = np.maximum(1, np.ceil(kappa * segments.lengths / MAX_STEP_WAVENUMBER).astype(int))
     inner = [np.linspace(a, b, n + 1)[1:-1] for a, b, n in zip(segments.edges[:-1], segments.edges[1:], pieces)]
-    return np.union1d(np.concatenate([segments.edges, x, *inner]), [])
+    return np.unique(np.concatenate([segments.edges, x, *inner]))
 
 
 def _left_load_sweep(segments: Segments, s: NDArray, x: NDArray) -> NDArray:

@@ -23,13 +23,14 @@ In the harmonic case ``γ = −i k``, ``k l = q`` with ``q² = λ²/(1 − iλβ
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from femref.exact.segments import Segments, check_amplitude, check_frequencies, check_positions
+from femref.exact.segments import Segments, check_amplitude, check_frequencies, check_laplace, check_positions
 
 
 class RodUnitResponse(NamedTuple):
@@ -113,15 +114,14 @@ def rod_unit_response_closed_form(segments: Segments, s: ArrayLike, x: ArrayLike
     (Laplace inversion) nor small ``γL`` (low frequency) loses digits.
     """
     segments = segments.homogeneous()
-    s = _check_laplace(s)
+    s = check_laplace(s)
     x = check_positions(segments, x)
     m = segments.mass_per_length[0]
     L = 2.0 * segments.half_length
     gamma = np.sqrt(s * s * m / (segments.stiffness[0] + s * segments.viscosity[0]))[:, None]
     y = (x + segments.half_length)[None, :]
-    cosh_ratio = _cosh_over_sinh  # (γ/m-free) γ cosh(γy)/sinh(γL)
-    acc_right = cosh_ratio(gamma, y, L) / m
-    acc_left = -cosh_ratio(gamma, L - y, L) / m
+    acc_right = _cosh_over_sinh(gamma, y, L) / m
+    acc_left = -_cosh_over_sinh(gamma, L - y, L) / m
     force_right = _sinh_ratio(gamma, y, L)
     force_left = _sinh_ratio(gamma, L - y, L)
     return RodUnitResponse(acc_left, force_left, acc_right, force_right)
@@ -143,7 +143,7 @@ def rod_unit_response_transfer(segments: Segments, s: ArrayLike, x: ArrayLike) -
     Checked against the closed form (one segment, 1e-13), momentum ``∫ m a dx = F2 − F1``,
     reciprocity, and the two-value-density asymptotics (tests/test_exact_rod.py).
     """
-    s = _check_laplace(s)
+    s = check_laplace(s)
     x = check_positions(segments, x)
     acc_left, force_left = _left_load_sweep(segments, s, x)
     acc_mirror, force_mirror = _left_load_sweep(segments.mirrored(), s, -x)
@@ -153,7 +153,14 @@ def rod_unit_response_transfer(segments: Segments, s: ArrayLike, x: ArrayLike) -
 # --------------------------------------------------------------------------- kernels
 
 
-def _harmonic(segments, omega, x, F1, F2, unit_response) -> RodHarmonic:
+def _harmonic(
+    segments: Segments,
+    omega: ArrayLike,
+    x: ArrayLike,
+    F1: ArrayLike,
+    F2: ArrayLike,
+    unit_response: Callable[[Segments, NDArray, NDArray], RodUnitResponse],
+) -> RodHarmonic:
     omega = check_frequencies(omega)
     x = check_positions(segments, x)
     F1 = check_amplitude(F1, omega.size, "F1")[:, None]
@@ -164,14 +171,6 @@ def _harmonic(segments, omega, x, F1, F2, unit_response) -> RodHarmonic:
     displacement = acceleration / -(omega**2)[:, None]
     return RodHarmonic(omega, x, displacement, acceleration, force)
 
-
-def _check_laplace(s: ArrayLike) -> NDArray[np.complex128]:
-    s = np.atleast_1d(np.asarray(s, dtype=complex))
-    if s.ndim != 1:
-        raise ValueError(f"Laplace variables s must be a 1-D array, got shape {s.shape}")
-    if not np.all(np.isfinite(s)) or np.any(s == 0.0) or np.any(s.real < 0.0):
-        raise ValueError("Laplace variables s must be finite, nonzero, with Re s >= 0")
-    return s
 
 
 def _cosh_over_sinh(gamma: NDArray, y: NDArray, L: float) -> NDArray:

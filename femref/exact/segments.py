@@ -166,3 +166,13 @@ def check_amplitude(value: ArrayLike, n_frequencies: int, name: str) -> NDArray[
     if not np.all(np.isfinite(v)):
         raise ValueError(f"{name} must be finite")
     return v
+
+
+def check_laplace(s: ArrayLike) -> NDArray[np.complex128]:
+    """Laplace variables as a 1-D complex array, finite, nonzero, ``Re s ≥ 0`` (1/s)."""
+    s = np.atleast_1d(np.asarray(s, dtype=complex))
+    if s.ndim != 1:
+        raise ValueError(f"Laplace variables s must be a scalar or a 1-D array, got shape {s.shape}")
+    if not np.all(np.isfinite(s)) or np.any(s == 0.0) or np.any(s.real < 0.0):
+        raise ValueError("Laplace variables s must be finite, nonzero, with Re s >= 0")
+    return s

@@ -1,0 +1,210 @@
+"""The quasi-static creep correction shared by the rod and the beam.
+
+A body loaded at its ends moves, to leading order, rigidly; the stress resultant that
+balances that rigid inertia is linear in the end loads ``L_j(t)``:
+
+    R₀(s, t) = Σ_j φ_j(s) L_j(t)            (rod: axial force F₀; beam: moment G₀).
+
+Its creep strain (rod: ``u_x``; beam: curvature ``w_xx``) is, for a Prony kernel
+(:mod:`.creep`), ``κ(s,t) = Σ_i k_i L_{τ_i(s)}[R₀(s,·)](t) / k(s)``, and the correction
+displacement is its n-fold integral (n = 1 rod, 2 beam) with the rigid-body modes
+removed in the mass inner product (``∫ m w₁ = 0``, and ``∫ m x w₁ = 0`` for the beam):
+
+    w₁(x, t) = ∫_{−l}^{l} Kₙ(x, s) κ(s, t) ds,
+    Kₙ(x, s) = (x − s)₊^{n−1}/(n−1)! − Aₙ(s)/M − [n = 2] x B(s)/J,
+    Aₙ(s) = ∫_s^l m(y)(y − s)^{n−1}/(n−1)! dy,   B(s) = ∫_s^l m(y) y (y − s) dy
+
+(the projections of the kernel's rigid content; ``A₁ = M − S₀``,
+``A₂ = S₁(l) − S₁(s) − s (M − S₀(s))``, ``B = J − S₂(s) − s (S₁(l) − S₁(s))``).
+Grouping equal time constants gives the separable form used by every model:
+
+    w₁(x, t) = Σ_j Σ_g C[x, j, g] · L_{τ_g}[L_j](t),
+
+so a probe costs one coefficient table, and time stepping costs one filter per
+(load, time-constant group). Time constants that are piecewise constant on the
+body's segments are grouped exactly; a continuously varying τ is represented by
+barycentric interpolation in log τ on Chebyshev points (``max_tau_groups`` of them);
+measured for τ varying 100-fold along a rod, the relative error of the correction
+against direct adaptive quadrature is 4e-6 with 16 points, 1e-8 with 24 (the
+default) and 4e-11 with 32, at λ = 0.1 … 100 (tests/test_quasi_rigid_frequency.py).
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .creep import CreepKernel
+from .profiles import BodyQuadrature
+
+ShapeFunctions = Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]]
+
+
+class CreepCorrection:
+    """Coefficients ``C[x, j, g]`` and time constants ``τ_g`` of the correction ``w₁``.
+
+    ``shapes(s, S)`` returns ``φ_j(s)`` on a new last axis from positions ``s`` and the
+    cumulative moments ``S = (S₀, S₁, S₂)(s)`` on the last axis. ``order`` is 1 (rod)
+    or 2 (beam).
+    """
+
+    def __init__(
+        self,
+        quadrature: BodyQuadrature,
+        order: int,
+        shapes: ShapeFunctions,
+        kernel: CreepKernel,
+        *,
+        max_tau_groups: int = 24,
+    ) -> None:
+        if order not in (1, 2):
+            raise ValueError("order must be 1 (rod) or 2 (beam)")
+        if max_tau_groups < 2:
+            raise ValueError("max_tau_groups must be ≥ 2")
+        self.quadrature = q = quadrature
+        self.order = order
+        self.shapes = shapes
+        self.kernel = kernel
+        self._choose_groups(max_tau_groups)
+
+        psi = self._psi(q.nodes, q.node_moments, q.stiffness, q.viscosity_function(q.nodes))      # (P, n, J, G)
+        # keep only the groups that carry weight somewhere (τ = 0 and τ = ∞ are often empty)
+        self._keep = np.any(psi != 0.0, axis=(0, 1, 2))
+        self._keep[1:-1] |= self.interpolated
+        self.tau_groups = self.tau_groups[self._keep]
+        psi = psi[..., self._keep]
+        w = q.weights[..., None, None]
+        self._cum0 = np.concatenate([np.zeros((1, *psi.shape[2:])), np.cumsum(np.sum(w * psi, axis=1), axis=0)])
+        self._cum1 = np.concatenate([np.zeros((1, *psi.shape[2:])),
+                                     np.cumsum(np.sum(w * q.nodes[..., None, None] * psi, axis=1), axis=0)])
+        M, S1l, J = q.total_mass, q.first_moment, q.second_moment
+        s, S = q.nodes, q.node_moments
+        if order == 1:
+            a = M - S[..., 0]
+            self._proj0 = q.integrate(a[..., None, None] * psi) / M
+            self._proj1 = np.zeros_like(self._proj0)
+        else:
+            a = (S1l - S[..., 1]) - s * (M - S[..., 0])
+            b = (J - S[..., 2]) - s * (S1l - S[..., 1])
+            self._proj0 = q.integrate(a[..., None, None] * psi) / M
+            self._proj1 = q.integrate(b[..., None, None] * psi) / J
+        self.n_loads = psi.shape[2]
+        # compliance share of each group, ∫ Σ_i k_i ℓ_g(τ_i)/k dx ÷ ∫ dx/k (for ε and the creep factor)
+        weights, taus = kernel.time_constants(q.viscous_time)
+        lam = np.einsum("...i,...ig->...g", weights, self._membership(taus))[..., self._keep]
+        self.group_compliance = q.integrate(lam / q.stiffness[..., None]) / q.integrate(1.0 / q.stiffness)
+
+    # -- time-constant groups -------------------------------------------------------
+    def _choose_groups(self, max_groups: int) -> None:
+        q = self.quadrature
+        _, taus = self.kernel.time_constants(q.viscous_time)            # (P, n, I)
+        positive = taus[(taus > 0.0) & np.isfinite(taus)]
+        # piecewise constant on the segments → exact groups
+        per_segment = [taus[q.panel_segment == k] for k in range(q.segment_edges.size - 1)]
+        piecewise = all(np.allclose(t, t.reshape(-1, t.shape[-1])[0], rtol=1e-10, atol=0.0) for t in per_segment)
+        distinct = _distinct(positive)
+        self.interpolated = distinct.size > 1 and not (piecewise and distinct.size <= max_groups)
+        if self.interpolated:
+            lo, hi = np.log(positive.min()), np.log(positive.max())
+            k = np.arange(max_groups)
+            nodes = 0.5 * (lo + hi) - 0.5 * (hi - lo) * np.cos(np.pi * k / (max_groups - 1))
+            self._log_nodes = nodes
+            bary = (-1.0) ** k
+            bary[[0, -1]] *= 0.5
+            self._bary = bary
+            finite = np.exp(nodes)
+        else:
+            finite = distinct
+        self._all_groups = np.concatenate([[0.0], finite, [np.inf]])  # group 0: τ = 0, last: τ = ∞
+        self.tau_groups = self._all_groups
+
+    def _membership(self, taus: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Weights ``ℓ_g(τ)`` of each time constant on the groups, shape ``(..., G)``."""
+        G = self._all_groups.size
+        out = np.zeros((*taus.shape, G))
+        zero = taus == 0.0
+        inf = np.isinf(taus)
+        mid = ~(zero | inf)
+        out[zero, 0] = 1.0
+        out[inf, G - 1] = 1.0
+        t = taus[mid]
+        if t.size:
+            if self.interpolated:
+                v = np.log(t)[:, None]
+                diff = v - self._log_nodes
+                exact = diff == 0.0
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    terms = self._bary / diff
+                    ell = terms / terms.sum(axis=1, keepdims=True)
+                rows = np.any(exact, axis=1)
+                ell[rows] = exact[rows].astype(float)
+            else:
+                groups = self._all_groups[1:-1]
+                nearest = np.argmin(np.abs(np.log(t)[:, None] - np.log(groups)), axis=1)
+                ell = np.zeros((t.size, groups.size))
+                ell[np.arange(t.size), nearest] = 1.0
+            out[mid, 1 : G - 1] = ell
+        return out
+
+    def _psi(self, s, S, stiffness, viscosity) -> NDArray[np.float64]:
+        """``ψ_{j,g}(s) = φ_j(s)/k(s) · Σ_i k_i ℓ_g(τ_i(s))`` with shape ``(..., J, G)``."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            tau = np.where(viscosity == 0.0, 0.0, viscosity / stiffness)
+        weights, taus = self.kernel.time_constants(tau)                   # (..., I)
+        lam = np.einsum("...i,...ig->...g", weights, self._membership(taus))
+        phi = self.shapes(s, S)                                           # (..., J)
+        return (phi / stiffness[..., None])[..., :, None] * lam[..., None, :]
+
+    # -- coefficients ----------------------------------------------------------------
+    def coefficients(self, x: ArrayLike, derivative: int = 0) -> NDArray[np.float64]:
+        """``C[x, j, g]``: the correction displacement at x per unit filtered load ``L_{τ_g}[L_j]``.
+
+        ``derivative = 1`` gives ``∂C/∂x`` (rod: the strain per unit load; beam: the
+        section rotation), from ``∂Kₙ/∂x`` (no numerical differentiation).
+        """
+        if derivative not in (0, 1):
+            raise ValueError("derivative must be 0 or 1")
+        q = self.quadrature
+        x = np.atleast_1d(np.asarray(x, dtype=float))
+        p, nodes, weights = q.partial_rule(x)
+        xb = x[:, None, None]
+        if self.order == 1 and derivative == 1:
+            S = q.moments(x)
+            return self._psi(x, S, q.stiffness_function(x), q.viscosity_function(x))[..., self._keep]
+        S = q.moments(nodes)
+        psi = self._psi(nodes, S, q.stiffness_function(nodes), q.viscosity_function(nodes))[..., self._keep]
+        if self.order == 1:
+            full = self._cum0[p]
+            partial = np.einsum("xn,xnjg->xjg", weights, psi)
+            return full + partial - self._proj0
+        if derivative == 1:
+            return self._cum0[p] + np.einsum("xn,xnjg->xjg", weights, psi) - self._proj1
+        full = xb * self._cum0[p] - self._cum1[p]
+        partial = np.einsum("xn,xnjg->xjg", weights * (x[:, None] - nodes), psi)
+        return full + partial - self._proj0 - xb * self._proj1
+
+    def mass_weighted_mean(self, group_weights: ArrayLike | None = None) -> NDArray[np.float64]:
+        """``∫ m C dx`` and ``∫ m x C dx`` (axis 0) of ``Σ_g C[:, :, g] · group_weights[g]``: zero by construction.
+
+        For tests of the rigid-mode projection. With interpolated time constants a single
+        group's coefficients are not smooth enough to integrate; weights smooth in τ_g
+        (the default, all ones, is the elastic response) are.
+        """
+        q = self.quadrature
+        weights = np.ones(self.tau_groups.size) if group_weights is None else np.asarray(group_weights)
+        C = self.coefficients(q.nodes.ravel()) @ weights
+        C = C.reshape(*q.nodes.shape, C.shape[-1])
+        mean0 = q.integrate(q.mass[..., None] * C)
+        mean1 = q.integrate((q.mass * q.nodes)[..., None] * C)
+        return np.stack([mean0, mean1])
+
+
+def _distinct(values: NDArray[np.float64], rtol: float = 1e-10) -> NDArray[np.float64]:
+    """Sorted distinct values, merging those within a relative tolerance."""
+    if values.size == 0:
+        return np.zeros(0)
+    v = np.sort(values.ravel())
+    keep = np.concatenate([[True], np.diff(v) > rtol * v[1:]])
+    return v[keep]
