@@ -26,6 +26,6 @@ def default_scene_data() -> dict[str, Any]:
         },
         "loads": {"F2": {"half_sine": {"amplitude": -1.5e6, "duration": 0.12}}},
         "time": {"end": 0.4},
-        "models": ["fem", "exact", "rigid"],
+        "models": ["fem", "exact", "quasi_rigid", "rigid"],
         "fem": {"elements": 64, "order": 2},
     }

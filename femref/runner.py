@@ -68,7 +68,9 @@ def score_results(results: list[ModelResult]) -> dict[str, dict[str, Any]]:
     """Relative errors of each model against the reference, per probe and overall.
 
     ``acceleration_error_<probe> = max|a − a_ref| / max|a_ref|`` over the axis (time or
-    frequency); the same for the rod's axial force; ``speedup`` = reference wall time /
+    frequency), normalised by the reference's peak over all probes (a free end's force is
+    zero); ``…_rms_error_<probe>`` is ``rms(a − a_ref)/rms(a_ref)``; the same for the rod's
+    axial force; ``speedup`` = reference wall time /
     model wall time.
     """
     by_name = {r.model: r for r in results if r.ok}
@@ -83,12 +85,20 @@ def score_results(results: list[ModelResult]) -> dict[str, dict[str, Any]]:
         if result.wall_time_s > 0.0:
             metrics["speedup"] = reference.wall_time_s / result.wall_time_s
         worst = 0.0
+        scale = {
+            quantity: max((float(np.max(np.abs(out[quantity]))) for out in reference.probes.values() if quantity in out), default=0.0)
+            for quantity in ("acceleration", "axial_force")
+        }
         for probe, outputs in reference.probes.items():
             for quantity in ("acceleration", "axial_force"):
                 if quantity in outputs and quantity in result.probes.get(probe, {}):
                     ref = outputs[quantity]
-                    error = float(np.max(np.abs(result.probes[probe][quantity] - ref)) / max(np.max(np.abs(ref)), 1e-300))
+                    error = float(np.max(np.abs(result.probes[probe][quantity] - ref)) / max(scale[quantity], 1e-300))
                     metrics[f"{quantity}_error_{probe}"] = error
+                    difference = result.probes[probe][quantity] - ref
+                    metrics[f"{quantity}_rms_error_{probe}"] = float(
+                        np.sqrt(np.mean(np.abs(difference) ** 2) / max(np.mean(np.abs(ref) ** 2), 1e-300))
+                    )
                     if quantity == "acceleration":
                         worst = max(worst, error)
         metrics["acceleration_error_max"] = worst

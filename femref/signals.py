@@ -3,6 +3,9 @@
 Every signal is a frozen value object with
 
 * ``__call__(t)`` — the value at times ``t`` (s), vectorised;
+* ``derivative(t, order)`` — the first or second time derivative where the signal is
+  smooth (the Dirac parts at kinks and jumps are left out: they carry no information a
+  low-frequency model can use);
 * ``laplace(s)`` — its one-sided Laplace transform ``∫₀^∞ f(t) e^{−st} dt``, for the
   exact time-domain solutions (``femref.exact``);
 * ``time_scale`` — the time over which it changes (s), for automatic step sizes and ε;
@@ -27,6 +30,8 @@ class Signal(Protocol):
 
     def __call__(self, t: ArrayLike) -> NDArray[np.float64]: ...
 
+    def derivative(self, t: ArrayLike, order: int) -> NDArray[np.float64]: ...
+
     def laplace(self, s: ArrayLike) -> NDArray[np.complex128]: ...
 
     @property
@@ -45,6 +50,9 @@ class Constant:
     def __call__(self, t: ArrayLike) -> NDArray[np.float64]:
         t = np.asarray(t, dtype=float)
         return np.where(t >= 0.0, self.value, 0.0)
+
+    def derivative(self, t: ArrayLike, order: int) -> NDArray[np.float64]:
+        return np.zeros(np.shape(t))
 
     def laplace(self, s: ArrayLike) -> NDArray[np.complex128]:
         s = np.asarray(s, dtype=complex)
@@ -76,6 +84,14 @@ class HalfSine:
         tau = t - self.start
         inside = (tau >= 0.0) & (tau <= self.duration)
         return np.where(inside, self.amplitude * np.sin(np.pi * np.clip(tau, 0.0, self.duration) / self.duration), 0.0)
+
+    def derivative(self, t: ArrayLike, order: int) -> NDArray[np.float64]:
+        """``A (π/T)ᵏ sin⁽ᵏ⁾(π(t − t0)/T)`` inside the pulse, zero outside."""
+        tau = np.asarray(t, dtype=float) - self.start
+        inside = (tau >= 0.0) & (tau <= self.duration)
+        w = np.pi / self.duration
+        phase = w * np.clip(tau, 0.0, self.duration) + order * np.pi / 2.0  # sin⁽ᵏ⁾(θ) = sin(θ + kπ/2)
+        return np.where(inside, self.amplitude * w**order * np.sin(phase), 0.0)
 
     def laplace(self, s: ArrayLike) -> NDArray[np.complex128]:
         s = np.asarray(s, dtype=complex)
@@ -109,6 +125,13 @@ class RampStep:
         if self.rise == 0.0:
             return np.where(t >= self.start, self.amplitude, 0.0)
         return self.amplitude * np.clip((t - self.start) / self.rise, 0.0, 1.0)
+
+    def derivative(self, t: ArrayLike, order: int) -> NDArray[np.float64]:
+        """``A/rise`` during the rise (first derivative), zero otherwise and for order 2."""
+        t = np.asarray(t, dtype=float)
+        if order != 1 or self.rise == 0.0:
+            return np.zeros(t.shape)
+        return np.where((t >= self.start) & (t <= self.start + self.rise), self.amplitude / self.rise, 0.0)
 
     def laplace(self, s: ArrayLike) -> NDArray[np.complex128]:
         s = np.asarray(s, dtype=complex)
@@ -156,6 +179,16 @@ class Tabulated:
     def __call__(self, t: ArrayLike) -> NDArray[np.float64]:
         t = np.asarray(t, dtype=float)
         return np.interp(t, self.times, self.values, left=0.0, right=0.0)
+
+    def derivative(self, t: ArrayLike, order: int) -> NDArray[np.float64]:
+        """The slope of the interval containing t (first derivative); zero for order 2."""
+        t = np.asarray(t, dtype=float)
+        if order != 1:
+            return np.zeros(t.shape)
+        slopes = np.diff(self.values) / np.diff(self.times)
+        index = np.clip(np.searchsorted(self.times, t, side="right") - 1, 0, slopes.size - 1)
+        inside = (t >= self.times[0]) & (t <= self.times[-1])
+        return np.where(inside, slopes[index], 0.0)
 
     def laplace(self, s: ArrayLike) -> NDArray[np.complex128]:
         s = np.asarray(s, dtype=complex)[..., None]

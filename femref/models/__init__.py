@@ -25,7 +25,8 @@ def registry() -> dict[str, Model]:
     """All models by name (imported lazily so that ``femref validate`` stays light)."""
     from femref.models.exact import ExactModel
     from femref.models.fem import FemModel
+    from femref.models.quasi_rigid import QuasiRigidModel
     from femref.models.rigid import RigidModel
 
-    models: list[Model] = [FemModel(), ExactModel(), RigidModel()]
+    models: list[Model] = [FemModel(), ExactModel(), QuasiRigidModel(), RigidModel()]
     return {m.name: m for m in models}

@@ -4,18 +4,15 @@ from __future__ import annotations
 
 import time
 
-import numpy as np
-
+from femref.exact import Segments, beam_harmonic, rod_harmonic, rod_transient
 from femref.models import Progress
 from femref.profiles import common_edges, segment_values
 from femref.results import ModelResult
 from femref.scene import Body, Scene, output_steps, steps_to
 
 
-def segments_of(body: Body):
+def segments_of(body: Body) -> Segments:
     """The piecewise-constant body as :class:`femref.exact.Segments`."""
-    from femref.exact import Segments
-
     edges = common_edges(body.half_length, body.profiles)
     return Segments(
         edges=edges,
@@ -29,8 +26,6 @@ class ExactModel:
     name = "exact"
 
     def run(self, scene: Scene, progress: Progress | None = None) -> ModelResult:
-        from femref.exact import beam_harmonic, rod_harmonic, rod_transient
-
         started = time.perf_counter()
         segments = segments_of(scene.body)
         x = scene.probe_x
