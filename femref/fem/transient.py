@@ -17,8 +17,8 @@ from ``(4/dt²)Δu`` would lose as n grows):
                 − (αm M + (1−αf)(1−γ) dt C + (1−αf)(½−β) dt² K) a_n,
     S = (1 − αm) M + (1 − αf) γ dt C + (1 − αf) β dt² K,
 
-so each step costs one sparse product with the fixed matrix ``[K | C + … | αm M + …]``
-and one pair of banded triangular solves with S, factorised once per run.
+so each step costs three banded (DIA) products with fixed matrices and one pair of
+banded triangular solves with S, factorised once per run.
 """
 
 from __future__ import annotations
@@ -144,23 +144,33 @@ class Stepper:
 
         am, af, beta, gamma = it.alpha_m, it.alpha_f, it.beta, it.gamma
         S = BandedCholesky(((1.0 - am) * M + (1.0 - af) * gamma * dt * C + (1.0 - af) * beta * dt * dt * K).tocsr())
-        history_matrix = sp.hstack(
-            [K, C + (1.0 - af) * dt * K, am * M + (1.0 - af) * (1.0 - gamma) * dt * C + (1.0 - af) * (0.5 - beta) * dt * dt * K]
-        ).tocsr()
+        # the fixed matrices acting on u_n, v_n, a_n, negated, in diagonal storage (banded:
+        # scipy's DIA product is ~3× faster than CSR for these few diagonals)
+        on_u, on_v, on_a = (
+            sp.dia_matrix(-matrix)
+            for matrix in (
+                K,
+                C + (1.0 - af) * dt * K,
+                am * M + (1.0 - af) * (1.0 - gamma) * dt * C + (1.0 - af) * (0.5 - beta) * dt * dt * K,
+            )
+        )
         loads_alpha = (1.0 - af) * history[1:] + af * history[:-1]
-        packed = np.concatenate([u, v, a])
         cu, ca = dt * dt * (0.5 - beta), dt * dt * beta
         cv_old, cv_new = dt * (1.0 - gamma), dt * gamma
         for step in range(1, steps + 1):
-            rhs = -(history_matrix @ packed)
+            rhs = on_u @ u
+            rhs += on_v @ v
+            rhs += on_a @ a
             rhs[load_rows] += load_signs * loads_alpha[step - 1, load_cols]  # one load per DOF
             a_new = S.solve(rhs)
-            u_old, v_old, a_old = packed[:n], packed[n : 2 * n], packed[2 * n :]
-            u_old += dt * v_old + cu * a_old + ca * a_new
-            v_old += cv_old * a_old + cv_new * a_new
-            a_old[:] = a_new
+            u += dt * v
+            u += cu * a
+            u += ca * a_new
+            v += cv_old * a
+            v += cv_new * a_new
+            a = a_new
             state.step, state.time = step, float(times[step])
-            state.u, state.v, state.a = u_old, v_old, a_old
+            state.u, state.v, state.a = u, v, a
             yield state
 
     def solve(
