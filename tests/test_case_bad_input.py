@@ -188,6 +188,12 @@ SCHEMA_CASES = {
         "exact cannot serve this case: it needs piecewise-constant profiles .* body.axial_stiffness is linear",
     ),
     "exact for a transient beam": ("beam_transient", {"models": ["exact"]}, "models[0]", "exact cannot serve this case: the exact time-domain solution exists for rods only"),
+    "quasi_rigid for an uneven beam": (
+        "beam_transient",
+        {"body.mass_per_length": {"linear": {"left": 5000.0, "right": 7000.0}}, "models": ["fem", "quasi_rigid"]},
+        "models[1]",
+        "quasi_rigid cannot serve this case: the quasi-rigid beam needs even profiles .* body.mass_per_length is not even",
+    ),
     "modal outside impacts": ("rod_harmonic", {"models": ["fem", "modal"]}, "models[1]", r"modal cannot serve this case: it serves impact cases only"),
     "ann outside impacts": ("rod_transient", {"models": ["ann"]}, "models[0]", r"ann cannot serve this case: it serves impact cases only"),
     "unknown model name": ("rod_harmonic", {"models": ["fem", "rigd"]}, "models[1]", r"unknown model \(did you mean 'rigid'\?\); known models: fem, exact"),

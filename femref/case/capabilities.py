@@ -14,6 +14,8 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 if TYPE_CHECKING:  # pragma: no cover - typing only
     from femref.case.schema import Case
 
@@ -26,7 +28,7 @@ IMPACT_KINDS = ("impact",)
 
 
 def _serves_every_scene(case: "Case") -> str | None:
-    """``fem``, ``rigid`` and ``quasi_rigid`` serve every harmonic and transient scene."""
+    """``fem`` and ``rigid`` serve every harmonic and transient scene."""
     return None
 
 
@@ -51,11 +53,23 @@ def _exact(case: "Case") -> str | None:
     return None
 
 
+def _quasi_rigid(case: "Case") -> str | None:
+    """The quasi-rigid beam expands about the rigid modes of a symmetric body: even profiles only."""
+    body: Any = case.body
+    if body.type != "beam":
+        return None
+    x = np.linspace(0.0, body.half_length, 257)
+    odd = [name for name, profile in body.profiles().items() if not np.allclose(profile(x), profile(-x), rtol=1e-12, atol=0.0)]
+    if odd:
+        return f"the quasi-rigid beam needs even profiles m(x), EI(x), cI(x), but body.{odd[0]} is not even in x"
+    return None
+
+
 #: name → capability function, in the order the names are documented.
 MODELS: Mapping[str, Capability] = {
     "fem": _serves_every_scene,
     "exact": _exact,
-    "quasi_rigid": _serves_every_scene,
+    "quasi_rigid": _quasi_rigid,
     "rigid": _serves_every_scene,
     "modal": _impact_only,
     "ann": _impact_only,
