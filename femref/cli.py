@@ -68,7 +68,7 @@ def run(case_path: Path | None, output: Path | None) -> None:
     with _progress(console) as progress_for:
         outcome = run_scene(scene, progress_for)
     written = write_results(output, resolved_yaml(case), outcome.results, outcome.scores)
-    Console(width=max(100, Console().width)).print(_summary(outcome))
+    Console(width=max(120, Console().width)).print(_summary(outcome))
     for path in written:
         click.echo(f"wrote {path}")
     for failed in outcome.failed:
@@ -96,7 +96,7 @@ def _progress(console: Console) -> Iterator:
 def _summary(outcome) -> Table:
     """Model, status, wall time, work and the key outputs, with the error against the reference."""
     table = Table(title=f"{outcome.scene.kind} scene, ε = {outcome.scene.epsilon:.3g}", title_justify="left")
-    for column in ("model", "status", "wall time", "work", "peak |a| m/s²", "peak |F| N", "max error"):
+    for column in ("model", "status", "wall time", "work", "peak |a| m/s²", "peak |F| N", "error max / rms"):
         table.add_column(column, justify="right" if column not in ("model", "status") else "left")
     for result in outcome.results:
         work = ""
@@ -105,7 +105,11 @@ def _summary(outcome) -> Table:
         elif "frequencies" in result.settings:
             work = f"{result.settings['frequencies']} freqs"
         score = outcome.scores.get(result.model, {})
-        error = f"{score['acceleration_error_max']:.2e} vs {score['reference']}" if score else "reference" if result.ok else ""
+        error = (
+            f"{score['acceleration_error_max']:.2g} / {score['acceleration_rms_error_max']:.2g} vs {score['reference']}"
+            if score
+            else "reference" if result.ok else ""
+        )
         table.add_row(
             result.model,
             result.status,

@@ -84,7 +84,7 @@ def score_results(results: list[ModelResult]) -> dict[str, dict[str, Any]]:
         metrics: dict[str, Any] = {"reference": reference.model, "wall_time_s": result.wall_time_s}
         if result.wall_time_s > 0.0:
             metrics["speedup"] = reference.wall_time_s / result.wall_time_s
-        worst = 0.0
+        worst = worst_rms = 0.0
         scale = {
             quantity: max((float(np.max(np.abs(out[quantity]))) for out in reference.probes.values() if quantity in out), default=0.0)
             for quantity in ("acceleration", "axial_force")
@@ -101,6 +101,8 @@ def score_results(results: list[ModelResult]) -> dict[str, dict[str, Any]]:
                     )
                     if quantity == "acceleration":
                         worst = max(worst, error)
+                        worst_rms = max(worst_rms, metrics[f"acceleration_rms_error_{probe}"])
         metrics["acceleration_error_max"] = worst
+        metrics["acceleration_rms_error_max"] = worst_rms
         scores[result.model] = metrics
     return scores
