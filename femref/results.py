@@ -74,6 +74,10 @@ class ModelResult:
     def ok(self) -> bool:
         return self.status == "ok"
 
+    def set_probe_outputs(self, probe_names, outputs: dict[str, NDArray]) -> None:
+        """Store outputs of shape ``(N_axis, N_probes)`` as per-probe histories, keyed by probe name."""
+        self.probes = {name: {k: v[:, j] for k, v in outputs.items()} for j, name in enumerate(probe_names)}
+
 
 def write_results(
     path: str | Path,

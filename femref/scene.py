@@ -39,10 +39,6 @@ class Body:
     def jumps(self) -> tuple[float, ...]:
         return tuple(sorted({j for p in self.profiles for j in (*p.jumps, *p.kinks)}))
 
-    @property
-    def is_piecewise_constant(self) -> bool:
-        return all(p.is_piecewise_constant for p in self.profiles)
-
     def frequency_to_lambda(self, omega: NDArray) -> NDArray:
         """``λ = ω T_wave`` (DESIGN.md §2)."""
         return np.asarray(omega) * self.wave_travel_time

@@ -95,9 +95,6 @@ class Operators:
         cols = self.element_dofs[e].ravel()
         return sp.csr_matrix((values.T.ravel(), (rows, cols)), shape=(x.size, self.ndof))
 
-    def end_dofs(self) -> tuple[int, int]:
-        """Value DOFs at ``x = −l`` and ``x = +l``."""
-        return int(self.element_dofs[0, 0]), int(self.element_dofs[-1, 1 if self.element != "hermite" else 2])
 
 
 def _coefficient_form(profile: Profile, derivative: bool) -> BilinearForm:

@@ -23,6 +23,7 @@ banded triangular solves with S, factorised once per run.
 
 from __future__ import annotations
 
+import functools
 import math
 import time as _time
 from dataclasses import dataclass, field
@@ -124,6 +125,11 @@ class Stepper:
         if not (self.dt > 0.0 and math.isfinite(self.dt)):
             raise ValueError(f"the time step must be positive and finite, got {self.dt}")
 
+    @functools.cached_property
+    def mass_factor(self) -> BandedCholesky:
+        """Cholesky factor of M, for consistent and equilibrium accelerations (computed once)."""
+        return BandedCholesky(self.ops.mass)
+
     def iterate(self, steps: int, u0: NDArray | None = None, v0: NDArray | None = None) -> Iterator[State]:
         """Yield the state at steps ``0 … steps`` (the same arrays are updated: copy what you keep)."""
         ops, it, dt = self.ops, self.integrator, self.dt
@@ -138,7 +144,7 @@ class Stepper:
         v = np.zeros(n) if v0 is None else np.array(v0, dtype=float)
         f0 = np.zeros(n)
         np.add.at(f0, load_rows, load_signs * history[0, load_cols])
-        a = BandedCholesky(M).solve(f0 - C @ v - K @ u)  # consistent initial acceleration
+        a = self.mass_factor.solve(f0 - C @ v - K @ u)  # consistent initial acceleration
         state = State(0, 0.0, u, v, a)
         yield state
 
@@ -201,7 +207,7 @@ class Stepper:
         # generalized-α's a_n is second-order accurate at t_n + (αm − αf)dt, not at t_n: report
         # the equilibrium acceleration M⁻¹(f(t_n) − C v_n − K u_n) at the outputs instead
         shifted = self.integrator.alpha_m != self.integrator.alpha_f
-        mass_factor = BandedCholesky(ops.mass) if shifted else None
+        mass_factor = self.mass_factor if shifted else None
         out = TransientResponse.empty(n_out, x, ops.nodes.size if fields else 0, rod=slopes is not None)
         history = load_history(ops, self.loads, self.dt * np.arange(steps + 1))
         dissipated = 0.0

@@ -8,7 +8,7 @@ from femref.exact import Segments, beam_harmonic, rod_harmonic, rod_transient
 from femref.models import Progress
 from femref.profiles import common_edges, segment_values
 from femref.results import ModelResult
-from femref.scene import Body, Scene, output_steps, steps_to
+from femref.scene import Body, Scene
 
 
 def segments_of(body: Body) -> Segments:
@@ -40,7 +40,7 @@ class ExactModel:
             outputs["acceleration"] = response.acceleration
             result.axes = {"omega": scene.omega, "lambda": scene.body.frequency_to_lambda(scene.omega)}
         else:
-            times = scene.dt * output_steps(steps_to(scene.end, scene.dt), scene.output_stride)
+            times = scene.time_grid(scene.dt)
             response = rod_transient(segments, times, x, scene.loads.get("F1"), scene.loads.get("F2"))
             outputs = {
                 "displacement": response.displacement,
@@ -48,6 +48,6 @@ class ExactModel:
                 "axial_force": response.axial_force,
             }
             result.axes = {"time": times}
-        result.probes = {name: {k: v[:, j] for k, v in outputs.items()} for j, name in enumerate(scene.probes)}
+        result.set_probe_outputs(scene.probes, outputs)
         result.wall_time_s = time.perf_counter() - started
         return result

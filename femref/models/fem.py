@@ -41,9 +41,6 @@ class FemModel:
             response = harmonic_response(ops, scene.omega, scene.loads, x)
             settings["frequencies"] = int(scene.omega.size)
             result.axes = {"omega": scene.omega, "lambda": scene.body.frequency_to_lambda(scene.omega)}
-            outputs = {"displacement": response.displacement, "acceleration": response.acceleration}
-            if response.axial_force is not None:
-                outputs["axial_force"] = response.axial_force
         else:
             integrator = integrator_for(scene)
             stepper = Stepper(ops, integrator, scene.dt, scene.loads)
@@ -53,9 +50,6 @@ class FemModel:
             settings.update(integrator=integrator.name, dt=scene.dt, steps=response.steps, factorizations=2)
             settings["energy_balance_error"] = response.energy_balance_error
             result.axes = {"time": response.time}
-            outputs = {"displacement": response.displacement, "acceleration": response.acceleration}
-            if response.axial_force is not None:
-                outputs["axial_force"] = response.axial_force
             result.energy = {
                 "kinetic": response.kinetic,
                 "strain": response.strain,
@@ -65,6 +59,9 @@ class FemModel:
             if response.fields is not None:
                 stride = scene.fem.field_stride
                 result.fields = {"x": ops.nodes, "u": response.fields[::stride], "time": response.time[::stride]}
-        result.probes = {name: {k: v[:, j] for k, v in outputs.items()} for j, name in enumerate(scene.probes)}
+        outputs = {"displacement": response.displacement, "acceleration": response.acceleration}
+        if response.axial_force is not None:
+            outputs["axial_force"] = response.axial_force
+        result.set_probe_outputs(scene.probes, outputs)
         result.wall_time_s = time.perf_counter() - started
         return result

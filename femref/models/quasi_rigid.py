@@ -50,7 +50,7 @@ class QuasiRigidModel:
         outputs = {"acceleration": response.acceleration, "displacement": response.displacement}
         if scene.kind == "transient":
             outputs = {name: values[keep] for name, values in outputs.items()}
-        result.probes = {name: {k: v[:, j] for k, v in outputs.items()} for j, name in enumerate(scene.probes)}
+        result.set_probe_outputs(scene.probes, outputs)
         result.wall_time_s = time.perf_counter() - started
         return result
 

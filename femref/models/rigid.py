@@ -86,6 +86,6 @@ class RigidModel:
         outputs = {"acceleration": accel, "displacement": displacement}
         if scene.body.kind == "rod":
             outputs["axial_force"] = force
-        result.probes = {name: {k: v[:, j] for k, v in outputs.items()} for j, name in enumerate(scene.probes)}
+        result.set_probe_outputs(scene.probes, outputs)
         result.wall_time_s = time.perf_counter() - started
         return result
