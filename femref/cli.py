@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Iterator
 
 import click
+import numpy as np
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 from rich.table import Table
@@ -95,6 +96,8 @@ def _progress(console: Console) -> Iterator:
 
 def _summary(outcome) -> Table:
     """Model, status, wall time, work and the key outputs, with the error against the reference."""
+    if outcome.scene.kind == "impact":
+        return _impact_summary(outcome)
     table = Table(title=f"{outcome.scene.kind} scene, ε = {outcome.scene.epsilon:.3g}", title_justify="left")
     for column in ("model", "status", "wall time", "work", "peak |a| m/s²", "peak |F| N", "error max / rms"):
         table.add_column(column, justify="right" if column not in ("model", "status") else "left")
@@ -129,3 +132,35 @@ def _peak(result, quantity: str) -> str:
         return ""
     probe = max(peaks, key=peaks.get)
     return f"{peaks[probe]:.4g} @{probe}"
+
+
+def _impact_summary(outcome) -> Table:
+    """Per model run and estimator: peak coupler force and its errors against fem, sensor error, cost."""
+    scene = outcome.scene
+    title = f"impact scene, {len(scene.cars)} cars, ε = {scene.epsilon:.3g}, dt = {scene.dt:.3g} s"
+    table = Table(title=title, title_justify="left")
+    columns = ("model", "status", "wall time", "speed-up", "peak P kN @coupler", "peak err", "t_peak err ms", "P rms err", "a rms err max", "energy bal.")
+    for column in columns:
+        table.add_column(column, justify="left" if column in ("model", "status") else "right")
+    for result in outcome.results:
+        score = outcome.scores.get(result.model, {})
+        peaks = {c: float(np.max(out["force"])) for c, out in result.couplers.items()} if result.ok else {}
+        coupler = max(peaks, key=peaks.get) if peaks else None
+        balance = result.settings.get("energy_balance_error")
+        table.add_row(
+            result.model,
+            result.status,
+            f"{result.wall_time_s * 1e3:.1f} ms",
+            f"{score['speedup']:.3g}×" if "speedup" in score else ("reference" if result.ok and not score else ""),
+            f"{peaks[coupler] / 1e3:.1f} @{coupler}" if coupler else "",
+            _fmt(score.get(f"coupler_force_peak_error_{coupler}"), "{:.2%}"),
+            _fmt(score.get(f"coupler_force_peak_time_error_{coupler}"), "{:+.2f}", 1e3),
+            _fmt(score.get(f"coupler_force_rms_error_{coupler}"), "{:.2%}"),
+            _fmt(score.get("acceleration_rms_error_max"), "{:.2%}"),
+            _fmt(balance, "{:.1e}"),
+        )
+    return table
+
+
+def _fmt(value, pattern: str, factor: float = 1.0) -> str:
+    return "" if value is None else pattern.format(value * factor)

@@ -8,6 +8,9 @@ Layout::
     /<model>/probes/<probe>/acceleration, displacement (, axial_force)
     /<model>/couplers/<coupler>/force
     /<model>/energy/kinetic, strain, dissipated, external_work   (+ attr balance_error)
+                                     impacts: kinetic, strain, body_dissipated, coupler_stored,
+                                     coupler_dissipated, total
+    /<model>/measured/time, /<model>/measured/<probe>/acceleration   (measurement chain)
     /<model>/fields/x, /<model>/fields/u
     /scores/<model>/                 attrs: reference, one per metric
 
@@ -48,6 +51,11 @@ UNITS = {
     "strain": "J",
     "dissipated": "J",
     "external_work": "J",
+    "body_dissipated": "J",
+    "coupler_stored": "J",
+    "coupler_dissipated": "J",
+    "total": "J",
+    "closure": "m (compression positive)",
 }
 
 
@@ -65,6 +73,7 @@ class ModelResult:
     couplers: dict[str, dict[str, NDArray]] = field(default_factory=dict)
     energy: dict[str, NDArray] = field(default_factory=dict)
     fields: dict[str, NDArray] = field(default_factory=dict)  # "x" (Nx,), "u" (Nt_out, Nx), "time"
+    measured: dict[str, NDArray] = field(default_factory=dict)  # "time" and probe → measured acceleration
 
     @classmethod
     def failed(cls, model: str, message: str, wall_time_s: float = 0.0, settings: dict | None = None) -> "ModelResult":
@@ -141,6 +150,15 @@ def _write_model(group: h5py.Group, result: ModelResult) -> None:
         sub = group.create_group("energy")
         for name, data in result.energy.items():
             _dataset(sub, name, data)
+        if "energy_balance_error" in result.settings:
+            sub.attrs["balance_error"] = float(result.settings["energy_balance_error"])
+    if result.measured:
+        sub = group.create_group("measured")
+        for name, data in result.measured.items():
+            if name == "time":
+                _dataset(sub, "time", data)
+            else:
+                _dataset(sub.require_group(name), "acceleration", data)
     if result.fields:
         sub = group.create_group("fields")
         for name, data in result.fields.items():

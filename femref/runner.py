@@ -47,6 +47,10 @@ def resolve_time_step(scene: Scene) -> tuple[Scene, str | None]:
 
 def run_scene(scene: Scene, progress_for: Callable[[str], Progress | None] | None = None) -> RunOutcome:
     """Run ``scene.models`` in order; ``progress_for(model)`` may supply a progress callback."""
+    if scene.kind == "impact":
+        from femref.impact.runner import run_impact_scene
+
+        return run_impact_scene(scene, progress_for)
     scene, dt_rule = resolve_time_step(scene)
     models = registry()
     results = []

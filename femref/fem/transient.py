@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 from typing import Callable, Iterator
 
 import numpy as np
+import scipy.linalg
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
@@ -112,6 +113,67 @@ def automatic_time_step(ops: Operators, load_time_scale: float, end: float) -> t
     return rule[0], rule[1]
 
 
+class DenseCholesky:
+    """Solver for a small dense SPD matrix (modal and rigid cars) with the BandedCholesky interface.
+
+    The matrix is Cholesky-checked once and its inverse kept: for a few DOFs one small
+    matrix product per solve beats LAPACK's call overhead several times over.
+    """
+
+    def __init__(self, matrix: NDArray[np.float64]) -> None:
+        matrix = np.asarray(matrix, dtype=float)
+        self.shape = matrix.shape
+        factor = scipy.linalg.cho_factor(matrix)  # raises LinAlgError when not positive definite
+        self._inverse = scipy.linalg.cho_solve(factor, np.eye(matrix.shape[0]))
+
+    def solve(self, rhs: NDArray[np.float64]) -> NDArray[np.float64]:
+        return self._inverse @ rhs
+
+
+class StepOperators:
+    """The fixed operators of one generalized-α step of size ``dt`` (see the module docstring).
+
+    ``effective`` is S factorised once; :meth:`history_terms` is the load-free right-hand
+    side ``−K u_n − (C + (1−αf) dt K) v_n − (αm M + …) a_n`` (three banded products);
+    :meth:`advance` updates ``u``, ``v`` in place from ``a_n`` and ``a_{n+1}``. Sparse
+    matrices are factorised banded and multiplied in DIA storage; dense ones (a few
+    modal or rigid DOFs) with LAPACK Cholesky and dense products.
+    """
+
+    def __init__(self, mass, damping, stiffness, integrator: Integrator, dt: float) -> None:
+        am, af, beta, gamma = integrator.alpha_m, integrator.alpha_f, integrator.beta, integrator.gamma
+        self.integrator, self.dt = integrator, dt
+        effective = (1.0 - am) * mass + (1.0 - af) * gamma * dt * damping + (1.0 - af) * beta * dt * dt * stiffness
+        history = (
+            stiffness,
+            damping + (1.0 - af) * dt * stiffness,
+            am * mass + (1.0 - af) * (1.0 - gamma) * dt * damping + (1.0 - af) * (0.5 - beta) * dt * dt * stiffness,
+        )
+        if sp.issparse(effective):
+            self.effective = BandedCholesky(sp.csr_matrix(effective))
+            # scipy's DIA product is ~3× faster than CSR for these few diagonals
+            self._on_u, self._on_v, self._on_a = (sp.dia_matrix(-matrix) for matrix in history)
+        else:
+            self.effective = DenseCholesky(effective)
+            self._on_u, self._on_v, self._on_a = (-np.asarray(matrix, dtype=float) for matrix in history)
+        self.cu, self.ca = dt * dt * (0.5 - beta), dt * dt * beta
+        self.cv_old, self.cv_new = dt * (1.0 - gamma), dt * gamma
+
+    def history_terms(self, u: NDArray, v: NDArray, a: NDArray) -> NDArray:
+        rhs = self._on_u @ u
+        rhs += self._on_v @ v
+        rhs += self._on_a @ a
+        return rhs
+
+    def advance(self, u: NDArray, v: NDArray, a: NDArray, a_new: NDArray) -> None:
+        """``u += dt v + dt²((½−β) a + β a_new)``, ``v += dt((1−γ) a + γ a_new)``, in place."""
+        u += self.dt * v
+        u += self.cu * a
+        u += self.ca * a_new
+        v += self.cv_old * a
+        v += self.cv_new * a_new
+
+
 @dataclass(frozen=True, eq=False)
 class Stepper:
     """Time stepping configuration; :meth:`iterate` yields states, :meth:`solve` collects outputs."""
@@ -148,32 +210,14 @@ class Stepper:
         state = State(0, 0.0, u, v, a)
         yield state
 
-        am, af, beta, gamma = it.alpha_m, it.alpha_f, it.beta, it.gamma
-        S = BandedCholesky(((1.0 - am) * M + (1.0 - af) * gamma * dt * C + (1.0 - af) * beta * dt * dt * K).tocsr())
-        # the fixed matrices acting on u_n, v_n, a_n, negated, in diagonal storage (banded:
-        # scipy's DIA product is ~3× faster than CSR for these few diagonals)
-        on_u, on_v, on_a = (
-            sp.dia_matrix(-matrix)
-            for matrix in (
-                K,
-                C + (1.0 - af) * dt * K,
-                am * M + (1.0 - af) * (1.0 - gamma) * dt * C + (1.0 - af) * (0.5 - beta) * dt * dt * K,
-            )
-        )
+        step_ops = StepOperators(M, C, K, it, dt)
+        af = it.alpha_f
         loads_alpha = (1.0 - af) * history[1:] + af * history[:-1]
-        cu, ca = dt * dt * (0.5 - beta), dt * dt * beta
-        cv_old, cv_new = dt * (1.0 - gamma), dt * gamma
         for step in range(1, steps + 1):
-            rhs = on_u @ u
-            rhs += on_v @ v
-            rhs += on_a @ a
+            rhs = step_ops.history_terms(u, v, a)
             rhs[load_rows] += load_signs * loads_alpha[step - 1, load_cols]  # one load per DOF
-            a_new = S.solve(rhs)
-            u += dt * v
-            u += cu * a
-            u += ca * a_new
-            v += cv_old * a
-            v += cv_new * a_new
+            a_new = step_ops.effective.solve(rhs)
+            step_ops.advance(u, v, a, a_new)
             a = a_new
             state.step, state.time = step, float(times[step])
             state.u, state.v, state.a = u, v, a

@@ -1,0 +1,259 @@
+"""Car models stepped in time inside the coupled impact solve.
+
+Every car model answers the same two questions each step (:class:`CarModel`):
+
+* :meth:`predict` — its end displacements and velocities at ``t_{n+1}`` as affine
+  functions of its end loads ``L = (F1, F2)`` at ``t_{n+1}`` (internal axial force at
+  ``−l`` and ``+l``, tension positive): ``u_end = u_free + G_u L``, ``v_end = v_free + G_v L``.
+  The gains are the exact Jacobian the coupler Newton iteration needs (they are fixed
+  for a fixed step, so the car's matrices are never refactorised);
+* :meth:`advance` — commit the step once the coupler forces, hence ``L``, are known.
+
+:class:`LinearCar` is a linear second-order system ``M ü + C u̇ + K u = B L`` stepped by
+generalized-α (:class:`femref.fem.transient.StepOperators`): the FEM car (banded
+matrices), the modal car (a few dense modal DOFs with a static correction) and the
+rigid car (one DOF) are all instances. The quasi-rigid car wraps
+:class:`reduced.quasi_rigid.QuasiRigidStepper` (:mod:`femref.impact.quasi_rigid_car`).
+
+Per step a LinearCar costs the three banded products and one pair of triangular solves
+of the transient stepper, plus O(n) vector updates: with ``Z = (1−αf) S⁻¹ B`` computed
+once, the new acceleration is ``a_free + Z L``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import NDArray
+
+from femref.fem.banded import BandedCholesky
+from femref.fem.transient import DenseCholesky, Integrator, StepOperators
+from femref.impact.scene import Car
+from femref.models.fem import build_operators
+from femref.scene import FemSettings
+
+
+@dataclass(frozen=True, eq=False)
+class EndPrediction:
+    """End displacements (m) and velocities (m/s) at ``(−l, +l)`` after the step, affine in its end loads.
+
+    ``displacement + displacement_gain @ L`` and ``velocity + velocity_gain @ L``; gains are
+    2 × 2 (m/N, m/(s·N)), columns in the load order ``(F1, F2)``.
+    """
+
+    displacement: NDArray[np.float64]
+    displacement_gain: NDArray[np.float64]
+    velocity: NDArray[np.float64]
+    velocity_gain: NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class CarEnergy:
+    """Kinetic and strain energy now, and energy dissipated in the body so far (J)."""
+
+    kinetic: float
+    strain: float
+    dissipated: float
+
+
+class CarModel(Protocol):
+    """What the coupled solver needs of a car, whatever its fidelity."""
+
+    fidelity: str
+    settings: dict[str, Any]
+    loads: NDArray[np.float64]
+
+    def predict(self) -> EndPrediction: ...
+
+    def advance(self, loads: NDArray[np.float64]) -> None: ...
+
+    def sensor_outputs(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Displacement (m) and acceleration (m/s²) at the sensors, now."""
+        ...
+
+    def energy(self) -> CarEnergy: ...
+
+    def momentum(self) -> float:
+        """Linear momentum of the car (kg·m/s)."""
+        ...
+
+
+class LinearCar:
+    """``M ü + C u̇ + K u = B L`` with outputs, stepped by generalized-α with step ``dt``.
+
+    ``load_matrix`` B (ndof × 2) maps ``(F1, F2)`` to generalized forces;
+    ``end_outputs`` (2 × ndof) and ``sensor_outputs`` (S × ndof) read displacements.
+    Optional ``feedthrough`` is a static correction (modal truncation): outputs gain
+    ``R L`` instantly — ``end_feedthrough`` (2 × 2), ``sensor_feedthrough`` (S × 2), with
+    strain energy ``½ Lᵀ Q L`` (``feedthrough_energy`` Q); its velocity is the backward
+    difference ``R (L_{n+1} − L_n)/dt`` and it adds no acceleration (it is massless).
+
+    The car starts undeformed with DOF velocity ``velocity`` and end loads ``loads``
+    (consistent initial acceleration ``M a₀ = B L₀ − C v₀``). With αm ≠ αf the sensors
+    report the equilibrium acceleration ``M⁻¹(B L − C v − K u)``: generalized-α's own
+    ``a_n`` lags by ``(αm − αf) dt``. ``translation`` is the DOF vector of a unit rigid
+    translation, for :meth:`momentum`.
+    """
+
+    def __init__(
+        self,
+        fidelity: str,
+        mass: Any,
+        damping: Any,
+        stiffness: Any,
+        load_matrix: Any,
+        end_outputs: Any,
+        sensor_outputs: Any,
+        integrator: Integrator,
+        dt: float,
+        velocity: NDArray[np.float64],
+        loads: NDArray[np.float64],
+        *,
+        end_feedthrough: NDArray[np.float64] | None = None,
+        sensor_feedthrough: NDArray[np.float64] | None = None,
+        feedthrough_energy: NDArray[np.float64] | None = None,
+        translation: NDArray[np.float64] | None = None,
+        settings: dict[str, Any] | None = None,
+    ) -> None:
+        self.fidelity = fidelity
+        self.settings = dict(settings or {})
+        self.dt = dt
+        sparse = sp.issparse(mass)
+        self._mass, self._damping, self._stiffness = (
+            (sp.dia_matrix(m) if sparse else np.asarray(m, dtype=float)) for m in (mass, damping, stiffness)
+        )
+        self._B = sp.csr_matrix(load_matrix) if sparse else np.asarray(load_matrix, dtype=float)
+        self._E = end_outputs
+        self._O = sensor_outputs
+        self._mass_factor = BandedCholesky(sp.csr_matrix(mass)) if sparse else DenseCholesky(np.asarray(mass, dtype=float))
+        self._step = StepOperators(mass, damping, stiffness, integrator, dt)
+        self._alpha_f = integrator.alpha_f
+        self._equilibrium_acceleration = integrator.alpha_m != integrator.alpha_f
+        ndof = self._mass.shape[0]
+        loads_matrix = self._dense(self._B)
+        self._Z = (1.0 - self._alpha_f) * np.column_stack([self._step.effective.solve(col.copy()) for col in loads_matrix.T])
+        self._EZ = np.asarray(self._E @ self._Z)
+        self._R_end = np.zeros((2, 2)) if end_feedthrough is None else np.asarray(end_feedthrough, dtype=float)
+        self._R_sensor = None if sensor_feedthrough is None else np.asarray(sensor_feedthrough, dtype=float)
+        self._Q = None if feedthrough_energy is None else np.asarray(feedthrough_energy, dtype=float)
+        self._displacement_gain = self._step.ca * self._EZ + self._R_end
+        self._velocity_gain = self._step.cv_new * self._EZ + self._R_end / dt
+        self._translation = None if translation is None else np.asarray(translation, dtype=float)
+        self.u = np.zeros(ndof)
+        self.v = np.array(velocity, dtype=float)
+        self.loads = np.array(loads, dtype=float)
+        self.a = self._equilibrium(self.loads)
+        self._dissipated = 0.0
+        self._free: tuple[NDArray, NDArray, NDArray] | None = None
+
+    @staticmethod
+    def _dense(matrix: Any) -> NDArray[np.float64]:
+        return matrix.toarray() if sp.issparse(matrix) else np.asarray(matrix, dtype=float)
+
+    def _equilibrium(self, loads: NDArray[np.float64]) -> NDArray[np.float64]:
+        return self._mass_factor.solve(self._B @ loads - self._damping @ self.v - self._stiffness @ self.u)
+
+    def predict(self) -> EndPrediction:
+        step = self._step
+        rhs = step.history_terms(self.u, self.v, self.a)
+        rhs += self._alpha_f * (self._B @ self.loads)
+        a_free = step.effective.solve(rhs)
+        u_free = self.u + self.dt * self.v + step.cu * self.a + step.ca * a_free
+        v_free = self.v + step.cv_old * self.a + step.cv_new * a_free
+        self._free = (a_free, u_free, v_free)
+        return EndPrediction(
+            displacement=self._E @ u_free,
+            displacement_gain=self._displacement_gain,
+            velocity=self._E @ v_free - self._R_end @ self.loads / self.dt,
+            velocity_gain=self._velocity_gain,
+        )
+
+    def advance(self, loads: NDArray[np.float64]) -> None:
+        if self._free is None:
+            raise RuntimeError("advance() needs predict() first")
+        a_free, u_free, v_free = self._free
+        response = self._Z @ loads
+        v_mid = 0.5 * self.v
+        self.a = a_free + response
+        self.u = u_free + self._step.ca * response
+        self.v = v_free + self._step.cv_new * response
+        v_mid += 0.5 * self.v
+        self._dissipated += self.dt * float(v_mid @ (self._damping @ v_mid))
+        self.loads = np.array(loads, dtype=float)
+        self._free = None
+
+    @property
+    def end_displacement(self) -> NDArray[np.float64]:
+        return self._E @ self.u + self._R_end @ self.loads
+
+    @property
+    def end_velocity(self) -> NDArray[np.float64]:
+        return self._E @ self.v
+
+    def sensor_outputs(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        displacement = self._O @ self.u
+        if self._R_sensor is not None:
+            displacement = displacement + self._R_sensor @ self.loads
+        acceleration = self._equilibrium(self.loads) if self._equilibrium_acceleration else self.a
+        return np.asarray(displacement), np.asarray(self._O @ acceleration)
+
+    def energy(self) -> CarEnergy:
+        strain = 0.5 * float(self.u @ (self._stiffness @ self.u))
+        if self._Q is not None:
+            strain += 0.5 * float(self.loads @ self._Q @ self.loads)
+        return CarEnergy(0.5 * float(self.v @ (self._mass @ self.v)), strain, self._dissipated)
+
+    def momentum(self) -> float:
+        """Linear momentum ``tᵀ M v`` (kg·m/s), t the unit translation."""
+        if self._translation is None:
+            raise ValueError(f"the {self.fidelity} car was built without its translation vector")
+        return float(self._translation @ (self._mass @ self.v))
+
+    def field(self) -> NDArray[np.float64]:
+        """The DOF displacement vector now (m)."""
+        return self.u.copy()
+
+
+def fem_car(car: Car, settings: FemSettings, integrator: Integrator, dt: float, loads: NDArray[np.float64]) -> LinearCar:
+    """The car body as scikit-fem rod elements (P1/P2), nodes on every profile jump."""
+    ops = build_operators(car.body, settings)
+    l = car.body.half_length
+    return LinearCar(
+        "fem",
+        ops.mass,
+        ops.damping,
+        ops.stiffness,
+        ops.load_matrix,
+        ops.interpolation(np.array([-l, l])),
+        ops.interpolation(car.sensor_x),
+        integrator,
+        dt,
+        car.velocity * ops.rigid_modes[:, 0],
+        loads,
+        translation=ops.rigid_modes[:, 0],
+        settings={"element": ops.element, "elements": ops.elements, "dofs": ops.ndof, "nodes": ops.nodes},
+    )
+
+
+def rigid_car(car: Car, integrator: Integrator, dt: float, loads: NDArray[np.float64]) -> LinearCar:
+    """The car as a point mass: ``M ü = F2 − F1``, every point moving together."""
+    mass = car.mass
+    ones = np.ones((1, 1))
+    return LinearCar(
+        "rigid",
+        mass * ones,
+        np.zeros((1, 1)),
+        np.zeros((1, 1)),
+        np.array([[-1.0, 1.0]]),
+        np.ones((2, 1)),
+        np.ones((len(car.sensors), 1)),
+        integrator,
+        dt,
+        np.array([car.velocity]),
+        loads,
+        translation=np.ones(1),
+        settings={"dofs": 1, "mass": mass},
+    )

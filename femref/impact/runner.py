@@ -1,0 +1,159 @@
+"""Run every model of an impact scene, the inverse estimators on the fem records, and score them.
+
+All runs share one time step (chosen automatically unless the case gives it), so every
+history compares sample by sample with the reference ``fem`` run. Sensor records go
+through the measurement chain (:mod:`femref.impact.measurement`) when the case asks for
+one; the inverse estimators (:mod:`femref.impact.estimators`) read the fem run's
+records — measured if so — as a railroad's accelerometers would deliver them.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from typing import Any, Callable
+
+import numpy as np
+
+from femref.fem.mesh import body_nodes
+from femref.impact.scene import ImpactScene, ModelRun
+from femref.impact.solver import ImpactResponse, solve_impact
+from femref.results import ModelResult
+
+REFERENCE = "fem"
+
+
+def automatic_time_step(scene: ImpactScene) -> tuple[float, str]:
+    """``dt = min(T_contact/100, T_h, end/20)`` and the rule that chose it.
+
+    ``T_contact`` is the shortest rigid-body contact time of the couplers
+    (:meth:`ImpactScene.contact_time`); ``T_h = h_min/c_max`` is the wave transit time of
+    the smallest element of the cars modelled by finite elements (fem or modal) in any
+    run, so that the shortest resolved wave is followed by every run's common step.
+    """
+    candidates = {"coupler contact time / 100": scene.contact_time() / 100.0, "end time / 20": scene.end / 20.0}
+    meshed = {i for run in scene.runs for i, fidelity in enumerate(run.fidelity) if fidelity in ("fem", "modal")}
+    for i in sorted(meshed):
+        body = scene.cars[i].body
+        nodes = body_nodes(body.half_length, scene.fem.elements, body.jumps, scene.fem.grading)
+        speed = float(np.max(np.sqrt(body.stiffness(nodes) / body.mass_per_length(nodes))))
+        candidates.setdefault("mesh wave period", math.inf)
+        candidates["mesh wave period"] = min(candidates["mesh wave period"], float(np.min(np.diff(nodes))) / speed)
+    value, rule = min((v, k) for k, v in candidates.items() if math.isfinite(v))
+    return value, rule
+
+
+def resolve_time_step(scene: ImpactScene) -> tuple[ImpactScene, str]:
+    if scene.dt is not None:
+        return scene, "given in the case"
+    dt, rule = automatic_time_step(scene)
+    return dataclasses.replace(scene, dt=dt), f"automatic: {rule}"
+
+
+def model_result(scene: ImpactScene, run: ModelRun, response: ImpactResponse, dt_rule: str) -> ModelResult:
+    """The response as the result file's model group (DESIGN.md §4)."""
+    settings: dict[str, Any] = {
+        "fidelity": dict(zip((car.name for car in scene.cars), run.fidelity)),
+        "dt": scene.dt,
+        "dt_rule": dt_rule,
+        "integrator": scene.integrator,
+        "rho_inf": scene.rho_inf,
+        "steps": response.steps,
+        "newton_iterations": response.newton_iterations,
+        "newton_iterations_max": response.newton_iterations_max,
+        "contact_changes": response.contact_changes,
+        "energy_balance_error": response.energy_balance_error,
+        "cars": {car.name: _public(s) for car, s in zip(scene.cars, response.car_settings)},
+    }
+    result = ModelResult(run.name, settings=settings, wall_time_s=response.wall_time)
+    result.axes = {"time": response.time}
+    result.probes = response.sensors
+    result.couplers = response.couplers
+    result.energy = response.energy
+    return result
+
+
+def _public(settings: dict[str, Any]) -> dict[str, Any]:
+    """Car settings without bulky arrays (node coordinates)."""
+    return {k: v for k, v in settings.items() if not (isinstance(v, np.ndarray) and v.size > 16)}
+
+
+def run_impact_scene(scene: ImpactScene, progress_for: Callable[[str], Any] | None = None):
+    """Every run of ``scene.runs``, then the estimators, then the scores against ``fem``."""
+    from femref.runner import RunOutcome
+
+    scene, dt_rule = resolve_time_step(scene)
+    results: list[ModelResult] = []
+    for run in scene.runs:
+        started = time.perf_counter()
+        try:
+            response, _ = solve_impact(scene, run, scene.dt, progress_for(run.name) if progress_for else None)
+            result = model_result(scene, run, response, dt_rule)
+        except Exception as error:  # recorded as the model's status; the other runs still go
+            result = ModelResult.failed(run.name, f"{type(error).__name__}: {error}", time.perf_counter() - started)
+        results.append(result)
+    if scene.measurement is not None:
+        for result in results:
+            if result.ok:
+                add_measured_records(scene, result)
+    reference = next((r for r in results if r.model == REFERENCE and r.ok), None)
+    if scene.estimators and reference is not None:
+        results.extend(run_estimators(scene, reference))
+    return RunOutcome(scene, results, score_impact_results(results), dt_rule)
+
+
+def add_measured_records(scene: ImpactScene, result: ModelResult) -> None:
+    """Sensor accelerations as the measurement chain delivers them, under ``result.measured``."""
+    from femref.impact.measurement import measure
+
+    probes = list(result.probes)
+    accelerations = np.column_stack([result.probes[p]["acceleration"] for p in probes])
+    t, records = measure(result.axes["time"], accelerations, scene.measurement)
+    result.measured = {"time": t, **{p: records[:, k] for k, p in enumerate(probes)}}
+
+
+def run_estimators(scene: ImpactScene, reference: ModelResult) -> list[ModelResult]:
+    """Each inverse estimator on the fem run's (measured) records, as a result with coupler forces only."""
+    from femref.impact.estimators import ESTIMATORS
+
+    if reference.measured:
+        t = reference.measured["time"]
+        records = {p: v for p, v in reference.measured.items() if p != "time"}
+        source = "measured"
+    else:
+        t = reference.axes["time"]
+        records = {p: out["acceleration"] for p, out in reference.probes.items()}
+        source = "model"
+    results = []
+    for name in scene.estimators:
+        started = time.perf_counter()
+        try:
+            forces = ESTIMATORS[name](scene, t, records)
+            result = ModelResult(name, settings={"records": f"{REFERENCE} ({source})"})
+            result.axes = {"time": t}
+            result.couplers = {c: {"force": f} for c, f in forces.items()}
+            result.wall_time_s = time.perf_counter() - started
+        except Exception as error:
+            result = ModelResult.failed(name, f"{type(error).__name__}: {error}", time.perf_counter() - started)
+        results.append(result)
+    return results
+
+
+def score_impact_results(results: list[ModelResult]) -> dict[str, dict[str, Any]]:
+    """Scores of every ok result against the ``fem`` run, with wall time and speed-up."""
+    from femref.impact.scoring import score_impact
+
+    reference = next((r for r in results if r.model == REFERENCE and r.ok), None)
+    if reference is None:
+        return {}
+    scores: dict[str, dict[str, Any]] = {}
+    for result in results:
+        if result is reference or not result.ok:
+            continue
+        metrics: dict[str, Any] = {"reference": REFERENCE, "wall_time_s": result.wall_time_s}
+        metrics.update(score_impact(reference, result))
+        if result.wall_time_s > 0.0:
+            metrics["speedup"] = reference.wall_time_s / result.wall_time_s
+        scores[result.model] = metrics
+    return scores
