@@ -122,6 +122,7 @@ class CoupledImpactInversion:
         half_length: float,
         *,
         breakpoints: tuple[float, ...] = (),
+        span: tuple[float, float] | None = None,
     ) -> CoupledImpactInversion:
         """Variable ``m(x)`` (kg/m) and ``EA(x)`` (N) on ``[−l, l]``: ``k1 = 1/C``, ``k2 = −(∫ μ/EA)/C``.
 
@@ -129,6 +130,13 @@ class CoupledImpactInversion:
         once by ``scipy.integrate.quad`` (nested for ``μ``), with ``breakpoints`` (jumps
         of the profiles) passed as ``points``. The profiles are checked finite and
         positive at 65 points and the breakpoints.
+
+        ``span = (x1, x2)``: accelerometers at ``x1 < x2`` instead of the ends. The
+        elongation between them is ``∫_{x1}^{x2} F0/EA dx``, so both integrals run over
+        ``[x1, x2]`` (``μ`` still counts from ``−l``): ``k1 = 1/∫_{x1}^{x2} dx/EA``,
+        ``k2 = −∫_{x1}^{x2} μ/EA dx / ∫_{x1}^{x2} dx/EA``. Checked against the two-term
+        quasi-rigid car with sensors at ±0.9 l: 0.6 % of the peak instead of 5 % with the
+        end coefficients (``tests/test_impact_estimators.py``).
         """
         l = _checks.positive("half_length", half_length)
         if not callable(mass_per_length) or not callable(axial_stiffness):
@@ -155,9 +163,12 @@ class CoupledImpactInversion:
                 return 0.0
             return quad(m, -l, x, points=points_in(-l, x), limit=200, epsabs=0.0, epsrel=1e-12)[0]
 
+        x1, x2 = (-l, l) if span is None else (_checks.finite("span[0]", span[0]), _checks.finite("span[1]", span[1]))
+        if not -l <= x1 < x2 <= l:
+            raise ValueError(f"span must satisfy -l <= x1 < x2 <= l with l = {l!r}, got {span!r}")
         total = mu(l)
-        compliance = quad(flex, -l, l, points=points_in(-l, l), limit=200, epsabs=0.0, epsrel=1e-12)[0]
-        weighted = quad(lambda x: mu(x) * flex(x), -l, l, points=points_in(-l, l), limit=200, epsabs=0.0, epsrel=1e-11)[0]
+        compliance = quad(flex, x1, x2, points=points_in(x1, x2), limit=200, epsabs=0.0, epsrel=1e-12)[0]
+        weighted = quad(lambda x: mu(x) * flex(x), x1, x2, points=points_in(x1, x2), limit=200, epsabs=0.0, epsrel=1e-11)[0]
         return cls(k1=1.0 / compliance, k2=-weighted / compliance, total_mass=total)
 
     @classmethod

@@ -214,7 +214,7 @@ def test_coupling_modes_with_slack() -> None:
     bare = Coupling(law, "bilateral")
     assert bare.always_engaged and bare.evaluate(-0.01, 0.5).force == pytest.approx(-4e5 + 1.5e5)
     built = coupling_from_name("kelvin_voigt", {"stiffness": 4e7, "damping": 3e5}, contact="bilateral")
-    assert built.law == law and set(COUPLER_LAWS) == {"kelvin_voigt", "power_law", "standard_linear"}
+    assert built.law == law and set(COUPLER_LAWS) == {"kelvin_voigt", "power_law", "standard_linear", "draft_gear", "table"}
 
 
 def test_power_law_peak_estimate_is_first_order_in_damping() -> None:

@@ -11,6 +11,7 @@ path, the rule and the value; several problems come in one error, one per line.
 from femref.case.capabilities import MODELS
 from femref.case.errors import CaseError, Problem
 from femref.case.loader import load_case, parse_case, resolved_yaml
+from femref.case.impact import ImpactCase
 from femref.case.schema import BODY_TYPES, CASE_KINDS, BeamBody, Body, Case, HarmonicCase, RodBody, TransientCase
 
 __all__ = [
@@ -22,6 +23,7 @@ __all__ = [
     "Case",
     "CaseError",
     "HarmonicCase",
+    "ImpactCase",
     "Problem",
     "RodBody",
     "TransientCase",

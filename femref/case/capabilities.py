@@ -5,8 +5,10 @@
 reason it cannot, worded to follow "<name> cannot serve this case: ". A model that
 cannot serve a scene is refused at validation (DESIGN.md §4), never skipped at run time.
 
-The functions read only attributes every case has (``kind``, ``body``), so the impact
-case of the next issue plugs in by extending them, not by adding branches elsewhere.
+Every function first looks at ``kind``: single-body cases have a ``body``, impact cases
+(:mod:`femref.case.impact`) have ``cars`` and no ``body``. For an impact case, ``fem``,
+``modal``, ``quasi_rigid`` and ``rigid`` serve (they are the per-car fidelities of
+``femref.impact.scene.FIDELITIES``); ``exact`` and ``ann`` are refused with the reason.
 """
 
 from __future__ import annotations
@@ -21,14 +23,14 @@ if TYPE_CHECKING:  # pragma: no cover - typing only
 
 Capability = Callable[["Case"], str | None]
 
-#: Case kinds the single-body models serve (the impact kind arrives with the next issue).
+#: Case kinds with one body under end loads.
 SINGLE_BODY_KINDS = ("harmonic", "transient")
 #: Case kinds the impact-only models serve.
 IMPACT_KINDS = ("impact",)
 
 
 def _serves_every_scene(case: "Case") -> str | None:
-    """``fem`` and ``rigid`` serve every harmonic and transient scene."""
+    """``fem`` and ``rigid`` serve every harmonic, transient and impact scene."""
     return None
 
 
@@ -41,8 +43,11 @@ def _impact_only(case: "Case") -> str | None:
 def _exact(case: "Case") -> str | None:
     """The exact solutions are transfer-matrix solutions over piecewise-constant profiles.
 
-    In the time domain (transient) they exist for rods only.
+    In the time domain (transient) they exist for rods only; impacts (nonlinear contact)
+    have none.
     """
+    if case.kind in IMPACT_KINDS:
+        return "no exact solution is implemented for impact scenes (nonlinear contact); score against fem"
     body: Any = case.body
     if case.kind == "transient" and body.type != "rod":
         return f"the exact time-domain solution exists for rods only, and this body is a {body.type}"
@@ -54,7 +59,12 @@ def _exact(case: "Case") -> str | None:
 
 
 def _quasi_rigid(case: "Case") -> str | None:
-    """The quasi-rigid beam expands about the rigid modes of a symmetric body: even profiles only."""
+    """The quasi-rigid beam expands about the rigid modes of a symmetric body: even profiles only.
+
+    Impact cars are rods, which the quasi-rigid rod serves with any profile.
+    """
+    if case.kind in IMPACT_KINDS:
+        return None
     body: Any = case.body
     if body.type != "beam":
         return None
@@ -65,6 +75,13 @@ def _quasi_rigid(case: "Case") -> str | None:
     return None
 
 
+def _ann(case: "Case") -> str | None:
+    """Network estimators serve impacts only, and need a trained network file the case cannot name yet."""
+    if case.kind not in IMPACT_KINDS:
+        return _impact_only(case)
+    return "ann estimators need a trained network file and are not available yet"
+
+
 #: name → capability function, in the order the names are documented.
 MODELS: Mapping[str, Capability] = {
     "fem": _serves_every_scene,
@@ -72,7 +89,7 @@ MODELS: Mapping[str, Capability] = {
     "quasi_rigid": _quasi_rigid,
     "rigid": _serves_every_scene,
     "modal": _impact_only,
-    "ann": _impact_only,
+    "ann": _ann,
 }
 
 

@@ -4,7 +4,7 @@ Every model is frozen, forbids unknown keys (with a "did you mean …?" hint) an
 accepts finite numbers only. Defaults are documented in each field's description
 and filled in the validated case, so ``resolved_yaml`` shows everything a run used.
 
-Layout, shared with the impact case of the next issue:
+Layout, shared with the impact case (:mod:`femref.case.impact`):
 
 * numbers: :data:`Real`, :data:`PositiveReal`, :data:`NonNegativeReal`, :data:`Count`;
 * profiles (registry :data:`PROFILES`): a number or ``{piecewise|linear|table: …}``,
@@ -16,7 +16,8 @@ Layout, shared with the impact case of the next issue:
   :data:`INTEGRATORS`), :class:`FemSettings`, the ``models`` list (registry
   ``femref.case.capabilities.MODELS``);
 * cases (registry :data:`CASE_KINDS`): :class:`HarmonicCase`, :class:`TransientCase`,
-  and :data:`Case`, their union discriminated on ``kind``.
+  :class:`~femref.case.impact.ImpactCase` (in :mod:`femref.case.impact`, imported at the
+  bottom of this module), and :data:`Case`, their union discriminated on ``kind``.
 
 Validation runs in two stages. Each key is first checked on its own (type, sign,
 finiteness, shape) and every failure is reported. Rules that relate keys — profile
@@ -77,6 +78,7 @@ __all__ = [
     "HarmonicCase",
     "HarmonicLoads",
     "HzRange",
+    "ImpactCase",
     "IntegratorSettings",
     "LambdaRange",
     "LinearProfile",
@@ -1035,8 +1037,11 @@ class TransientCase(SingleBodyCase):
         return {name: spec.build(base_dir) for name, spec in self.loads.items()}
 
 
-#: Case kinds by case-file name (``impact`` joins with the next issue).
-CASE_KINDS: Mapping[str, type[SceneCase]] = {"harmonic": HarmonicCase, "transient": TransientCase}
+# The impact case lives in its own module, built on the pieces above (imported last: it imports them).
+from femref.case.impact import ImpactCase  # noqa: E402
+
+#: Case kinds by case-file name.
+CASE_KINDS: Mapping[str, type[SceneCase]] = {"harmonic": HarmonicCase, "transient": TransientCase, "impact": ImpactCase}
 
 #: Any case, discriminated on ``kind``.
-Case = Annotated[Union[HarmonicCase, TransientCase], Field(discriminator="kind")]  # noqa: UP007
+Case = Annotated[Union[HarmonicCase, TransientCase, ImpactCase], Field(discriminator="kind")]  # noqa: UP007

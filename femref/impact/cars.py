@@ -70,11 +70,9 @@ class CarModel(Protocol):
 
     def advance(self, loads: NDArray[np.float64]) -> None: ...
 
-    def sensor_outputs(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Displacement (m) and acceleration (m/s²) at the sensors, now."""
+    def observe(self) -> tuple[NDArray[np.float64], NDArray[np.float64], CarEnergy]:
+        """Displacement (m) and acceleration (m/s²) at the sensors, and the car's energies, now."""
         ...
-
-    def energy(self) -> CarEnergy: ...
 
     def momentum(self) -> float:
         """Linear momentum of the car (kg·m/s)."""
@@ -125,17 +123,15 @@ class LinearCar:
         self._mass, self._damping, self._stiffness = (
             (sp.dia_matrix(m) if sparse else np.asarray(m, dtype=float)) for m in (mass, damping, stiffness)
         )
-        self._B = sp.csr_matrix(load_matrix) if sparse else np.asarray(load_matrix, dtype=float)
-        self._E = end_outputs
-        self._O = sensor_outputs
+        # the load and output maps have 2 columns / a few rows: dense is cheapest to apply
+        self._B, self._E, self._O = (self._dense(m) for m in (load_matrix, end_outputs, sensor_outputs))
         self._mass_factor = BandedCholesky(sp.csr_matrix(mass)) if sparse else DenseCholesky(np.asarray(mass, dtype=float))
         self._step = StepOperators(mass, damping, stiffness, integrator, dt)
         self._alpha_f = integrator.alpha_f
         self._equilibrium_acceleration = integrator.alpha_m != integrator.alpha_f
         ndof = self._mass.shape[0]
-        loads_matrix = self._dense(self._B)
-        self._Z = (1.0 - self._alpha_f) * np.column_stack([self._step.effective.solve(col.copy()) for col in loads_matrix.T])
-        self._EZ = np.asarray(self._E @ self._Z)
+        self._Z = (1.0 - self._alpha_f) * np.column_stack([self._step.effective.solve(col.copy()) for col in self._B.T])
+        self._EZ = self._E @ self._Z
         self._R_end = np.zeros((2, 2)) if end_feedthrough is None else np.asarray(end_feedthrough, dtype=float)
         self._R_sensor = None if sensor_feedthrough is None else np.asarray(sensor_feedthrough, dtype=float)
         self._Q = None if feedthrough_energy is None else np.asarray(feedthrough_energy, dtype=float)
@@ -159,7 +155,8 @@ class LinearCar:
     def predict(self) -> EndPrediction:
         step = self._step
         rhs = step.history_terms(self.u, self.v, self.a)
-        rhs += self._alpha_f * (self._B @ self.loads)
+        if self._alpha_f:
+            rhs += self._alpha_f * (self._B @ self.loads)
         a_free = step.effective.solve(rhs)
         u_free = self.u + self.dt * self.v + step.cu * self.a + step.ca * a_free
         v_free = self.v + step.cv_old * self.a + step.cv_new * a_free
@@ -193,18 +190,23 @@ class LinearCar:
     def end_velocity(self) -> NDArray[np.float64]:
         return self._E @ self.v
 
-    def sensor_outputs(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    def observe(self) -> tuple[NDArray[np.float64], NDArray[np.float64], CarEnergy]:
+        """Sensor displacements (m) and accelerations (m/s²), and the energies, now.
+
+        The products ``K u`` and ``C v`` serve both the equilibrium acceleration and the
+        strain energy, so an output sample costs three banded products and one solve.
+        """
+        stiffness_u = self._stiffness @ self.u
+        mass_v = self._mass @ self.v
         displacement = self._O @ self.u
+        strain = 0.5 * float(self.u @ stiffness_u)
         if self._R_sensor is not None:
             displacement = displacement + self._R_sensor @ self.loads
-        acceleration = self._equilibrium(self.loads) if self._equilibrium_acceleration else self.a
-        return np.asarray(displacement), np.asarray(self._O @ acceleration)
-
-    def energy(self) -> CarEnergy:
-        strain = 0.5 * float(self.u @ (self._stiffness @ self.u))
-        if self._Q is not None:
             strain += 0.5 * float(self.loads @ self._Q @ self.loads)
-        return CarEnergy(0.5 * float(self.v @ (self._mass @ self.v)), strain, self._dissipated)
+        acceleration = self.a
+        if self._equilibrium_acceleration:
+            acceleration = self._mass_factor.solve(self._B @ self.loads - self._damping @ self.v - stiffness_u)
+        return displacement, self._O @ acceleration, CarEnergy(0.5 * float(self.v @ mass_v), strain, self._dissipated)
 
     def momentum(self) -> float:
         """Linear momentum ``tᵀ M v`` (kg·m/s), t the unit translation."""

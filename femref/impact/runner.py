@@ -28,9 +28,11 @@ def automatic_time_step(scene: ImpactScene) -> tuple[float, str]:
     """``dt = min(T_contact/100, T_h, end/20)`` and the rule that chose it.
 
     ``T_contact`` is the shortest rigid-body contact time of the couplers
-    (:meth:`ImpactScene.contact_time`); ``T_h = h_min/c_max`` is the wave transit time of
-    the smallest element of the cars modelled by finite elements (fem or modal) in any
-    run, so that the shortest resolved wave is followed by every run's common step.
+    (:meth:`ImpactScene.contact_time`); ``T_h = h/c_max`` is the wave transit time of an
+    average element (``h = 2l/elements``) of the cars modelled by finite elements (fem or
+    modal) in any run, so that the shortest wave the mesh resolves is followed by every
+    run's common step. (An element shortened to put a node on a profile jump resolves no
+    shorter waves than its neighbours, so ``h_min`` would only cost steps.)
     """
     candidates = {"coupler contact time / 100": scene.contact_time() / 100.0, "end time / 20": scene.end / 20.0}
     meshed = {i for run in scene.runs for i, fidelity in enumerate(run.fidelity) if fidelity in ("fem", "modal")}
@@ -39,7 +41,7 @@ def automatic_time_step(scene: ImpactScene) -> tuple[float, str]:
         nodes = body_nodes(body.half_length, scene.fem.elements, body.jumps, scene.fem.grading)
         speed = float(np.max(np.sqrt(body.stiffness(nodes) / body.mass_per_length(nodes))))
         candidates.setdefault("mesh wave period", math.inf)
-        candidates["mesh wave period"] = min(candidates["mesh wave period"], float(np.min(np.diff(nodes))) / speed)
+        candidates["mesh wave period"] = min(candidates["mesh wave period"], 2.0 * body.half_length / scene.fem.elements / speed)
     value, rule = min((v, k) for k, v in candidates.items() if math.isfinite(v))
     return value, rule
 

@@ -24,12 +24,21 @@ derivative of the cubic through the last four load samples: no look-ahead, secon
 for smooth loads with error ``≈ (11/12) dt² L⁗`` (the time-domain model's central
 difference has ``dt²/12``); a kink of slope jump s shows as ``(2, −1)·s/dt`` over two
 steps. Before the first step the loads are taken as held at their initial values with
-the body in quasi-static equilibrium; displacements count from that position and shape.
+the body in quasi-static equilibrium; displacements count from that position and shape
+(``initial_shape="equilibrium"``, the default). With ``initial_shape="undeformed"`` the
+body starts undeformed under its initial loads, as in an impact whose coupler force
+jumps at contact: the loads count as zero before t = 0, the filters of L start from
+rest, and the deformation under the initial loads then develops through the creep
+filters (an elastic body takes it at once, in the first step). Only the displacement
+sees that jump; the rate filters (of L̇, L̈) count the load's change after t = 0, so the
+velocity misses the decaying ``C L₀ e^{−t/τ}/τ`` of the jump (unbounded as τ → 0).
 
 Verified (tests/test_quasi_rigid_coupled.py): displacements equal the time-domain model
 to 1e-12; momentum ``∫ m v dx = M v₀ + ∫(F2 − F1) dt`` to 1e-12; the harmonic steady
 state; the exact response to O(ε²); rigid cars with a Kelvin–Voigt coupler reproduce the
-two-mass closed form (SOURCE-NOTES A1) to 2e-5 at dt = 2e-4 s.
+two-mass closed form (SOURCE-NOTES A1) to 2e-5 at dt = 2e-4 s. The undeformed start
+differs from the equilibrium start by exactly ``C L₀ (1 − e^{−t/τ})`` (1e-12,
+tests/test_impact_cars.py).
 """
 
 from __future__ import annotations
@@ -64,13 +73,21 @@ class StepPrediction:
         return self.displacement + self.displacement_gain @ L, self.velocity + self.velocity_gain @ L
 
 
+#: Initial shapes of a loaded body (:class:`QuasiRigidStepper`).
+INITIAL_SHAPES: tuple[str, ...] = ("equilibrium", "undeformed")
+
+
 class QuasiRigidStepper:
     """Stateful stepper of a quasi-rigid body; ``positions`` are ``[−l, +l, *probes]``.
 
     ``initial_loads`` (order of ``body.load_names``) are held before t = ``time`` with the
-    body in quasi-static equilibrium under them; displacements count from that initial
+    body (by default) in quasi-static equilibrium under them; displacements count from that initial
     position and shape (so a rigid, τ = ∞, body never deforms). ``initial_rigid_velocity``
     is the rigid-mode velocity (rod: centre-of-mass velocity, m/s; beam: ``(v, Ω)``).
+    ``initial_shape`` is ``"equilibrium"`` (the default: pre-deformed by the held initial
+    loads) or ``"undeformed"`` (undeformed at ``time`` although loaded: the filter states of
+    L start from zero, so the deformation develops through the creep filters — see the
+    module docstring); displacements then count from the undeformed shape.
     """
 
     def __init__(
@@ -81,7 +98,10 @@ class QuasiRigidStepper:
         initial_loads: ArrayLike | None = None,
         initial_rigid_velocity: ArrayLike = 0.0,
         time: float = 0.0,
+        initial_shape: str = "equilibrium",
     ) -> None:
+        if initial_shape not in INITIAL_SHAPES:
+            raise ValueError(f"initial_shape must be one of {INITIAL_SHAPES}, got {initial_shape!r}")
         self.body = body
         l = body.half_length
         self.positions = np.concatenate([[-l, l], np.atleast_1d(np.asarray(probes, dtype=float))])
@@ -101,7 +121,8 @@ class QuasiRigidStepper:
         self.rigid_velocity = np.broadcast_to(np.asarray(initial_rigid_velocity, dtype=float), (K,)).copy()
         # filter states, (3, G, J): L_τ[L] (steady state of the held load), L_τ[L̇], L_τ[L̈]
         self._state = np.zeros((3, G, J))
-        self._state[0] = L0
+        if initial_shape == "equilibrium":
+            self._state[0] = L0
         self._y0 = self._state[0].ravel().copy()            # displacements count from this shape
         self._second = np.zeros(J)                          # L̈ estimate at the current time
         self._times: list[float] = []                       # the last four sample times and loads
@@ -244,6 +265,30 @@ class QuasiRigidStepper:
     def acceleration(self) -> NDArray[np.float64]:
         """Acceleration at :attr:`positions` (m/s²)."""
         return self._modes_gain @ self.loads + self._Cf @ self._state[2].ravel()
+
+    @property
+    def correction_loads(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The filtered loads behind the correction now, ``(y − y₀, z)``, each ``(G, J)``.
+
+        ``u(x) = r(x) q + Σ_{g,j} C[x, j, g] (y − y₀)[g, j]`` and ``v(x) = r(x) q̇ + Σ C[x, j, g] z[g, j]``
+        for any x (:meth:`at`): with a coefficient table computed once, fields and energies
+        of the body cost a small product when they are wanted, nothing per step.
+        """
+        G, J = self._state.shape[1:]
+        return self._state[0] - self._y0.reshape(G, J), self._state[1].copy()
+
+    def at(self, x: ArrayLike, derivative: int = 0) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Displacement and velocity (``derivative = 1``: their x-derivatives) at any positions x now.
+
+        Same state as :attr:`displacement` and :attr:`velocity`, without making x a probe
+        (the body caches the coefficient table of x).
+        """
+        x = np.atleast_1d(np.asarray(x, dtype=float))
+        C = self.body.coefficients(x, derivative)
+        y, z = self.correction_loads
+        modes = self.body.rigid_modes(x, derivative)
+        return (modes @ self.rigid_displacement + np.einsum("xjg,gj->x", C, y),
+                modes @ self.rigid_velocity + np.einsum("xjg,gj->x", C, z))
 
     @property
     def end_displacement(self) -> NDArray[np.float64]:

@@ -1,0 +1,67 @@
+"""Cost of the default impact scene per fidelity, as ratios measured in one run.
+
+    python benchmarks/bench_impact.py [--quick]
+
+Reports, for the built-in default scene (two covered hoppers, draft gear, 0.5 s):
+* each fidelity's wall time (median of repeats) for the whole run, steps per second,
+  and the fem cost as a multiple of modal, quasi-rigid and rigid cost in the same run;
+* how the fem run grows with elements per car (1e1 … 1e4, P2), at the scene's step.
+Nothing here is asserted: the test suite checks correctness, this script measures speed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import statistics
+import time
+
+from femref.case import parse_case
+from femref.defaults import DEFAULT_SCENE_SOURCE, default_scene_data
+from femref.impact.runner import resolve_time_step
+from femref.impact.scene import ModelRun
+from femref.impact.solver import solve_impact
+from femref.scene_builder import scene_from_case
+
+
+def default_scene():
+    scene = scene_from_case(parse_case(default_scene_data(), source=DEFAULT_SCENE_SOURCE))
+    scene, _ = resolve_time_step(scene)
+    return scene
+
+
+def timed(scene, fidelity: str, repeats: int) -> tuple[float, int]:
+    run = ModelRun(fidelity, (fidelity,) * len(scene.cars))
+    times = []
+    for _ in range(repeats):
+        started = time.perf_counter()
+        response, _ = solve_impact(scene, run, scene.dt)
+        times.append(time.perf_counter() - started)
+    return statistics.median(times), response.steps
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="fewer repeats and element counts")
+    args = parser.parse_args()
+    repeats = 3 if args.quick else 5
+    scene = default_scene()
+    print(f"default scene: dt = {scene.dt:.3g} s, end = {scene.end} s, fem {scene.fem.elements} P{scene.fem.order} elements per car")
+    costs = {}
+    for fidelity in ("fem", "modal", "quasi_rigid", "rigid"):
+        costs[fidelity], steps = timed(scene, fidelity, repeats)
+    print(f"{'fidelity':<12} {'wall s':>9} {'steps/s':>10} {'fem / this':>11}")
+    for fidelity, cost in costs.items():
+        print(f"{fidelity:<12} {cost:9.4f} {steps / cost:10.0f} {costs['fem'] / cost:11.2f}")
+    print("\nfem cost against elements per car (P2, same dt):")
+    print(f"{'elements':>9} {'wall s':>9} {'µs/step':>9} {'× 64 el.':>9}")
+    counts = (10, 100, 1000) if args.quick else (10, 64, 100, 1000, 10000)
+    base = costs["fem"]
+    for n in counts:
+        meshed = dataclasses.replace(scene, fem=dataclasses.replace(scene.fem, elements=n))
+        cost, steps = timed(meshed, "fem", 1 if n >= 1000 else repeats)
+        print(f"{n:9d} {cost:9.4f} {cost / steps * 1e6:9.1f} {cost / base:9.2f}")
+
+
+if __name__ == "__main__":
+    main()
