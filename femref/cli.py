@@ -137,9 +137,9 @@ def _peak(result, quantity: str) -> str:
 def _impact_summary(outcome) -> Table:
     """Per model run and estimator: peak coupler force and its errors against fem, sensor error, cost."""
     scene = outcome.scene
-    title = f"impact scene, {len(scene.cars)} cars, ε = {scene.epsilon:.3g}, dt = {scene.dt:.3g} s"
+    title = f"impact scene, {len(scene.cars)} cars, {len(scene.couplers)} couplers, ε = {scene.epsilon:.3g}; errors against fem"
     table = Table(title=title, title_justify="left")
-    columns = ("model", "status", "wall time", "speed-up", "peak P kN @coupler", "peak err", "t_peak err ms", "P rms err", "a rms err max", "energy bal.")
+    columns = ("model", "status", "steps", "wall time", "speed-up", "peak P kN @coupler", "peak err", "t_peak err ms", "P rms err", "a rms err max", "energy bal.")
     for column in columns:
         table.add_column(column, justify="left" if column in ("model", "status") else "right")
     for result in outcome.results:
@@ -150,6 +150,7 @@ def _impact_summary(outcome) -> Table:
         table.add_row(
             result.model,
             result.status,
+            str(result.settings.get("steps", "")),
             f"{result.wall_time_s * 1e3:.1f} ms",
             f"{score['speedup']:.3g}×" if "speedup" in score else ("reference" if result.ok and not score else ""),
             f"{peaks[coupler] / 1e3:.1f} @{coupler}" if coupler else "",

@@ -292,7 +292,7 @@ def test_quasi_rigid_car_matches_the_fem_car_to_order_epsilon_squared():
         qr = quasi_rigid_car(car, dt, loads[0])
         fem = fem_car(car, FEM, GEN_ALPHA, dt, loads[0])
         u_qr = drive(qr, loads, lambda m: np.concatenate([m.end_displacement, m.stepper.rigid_displacement]))
-        u_fem = drive(fem, loads, lambda m: np.concatenate([m.end_displacement, [ones_mass @ m.u]]))
+        u_fem = drive(fem, loads, lambda m: np.concatenate([m.end_displacement, [ones_mass @ m.field()]]))
         rigid = np.max(np.abs(u_qr[:, 2] - car.velocity * t))
         errors.append(np.max(np.abs(u_qr[:, :2] - u_fem[:, :2])) / rigid)
         deformation_qr, deformation_fem = u_qr[:, :2] - u_qr[:, 2:], u_fem[:, :2] - u_fem[:, 2:]

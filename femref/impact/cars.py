@@ -92,8 +92,11 @@ class LinearCar:
     The car starts undeformed with DOF velocity ``velocity`` and end loads ``loads``
     (consistent initial acceleration ``M a₀ = B L₀ − C v₀``). With αm ≠ αf the sensors
     report the equilibrium acceleration ``M⁻¹(B L − C v − K u)``: generalized-α's own
-    ``a_n`` lags by ``(αm − αf) dt``. ``translation`` is the DOF vector of a unit rigid
-    translation, for :meth:`momentum`.
+    ``a_n`` lags by ``(αm − αf) dt``. ``translation`` t is the DOF vector of a unit rigid
+    translation (``K t = C t = 0``, every output row reads 1 from it), for :meth:`momentum`
+    and to keep the displacement small: after each step the rigid travel is moved from
+    ``u`` into a scalar ``offset`` (``u_total = u + offset t``), so that ``K u`` and
+    ``½ uᵀ K u`` do not cancel metres of travel against millimetres of deformation.
     """
 
     def __init__(
@@ -138,6 +141,8 @@ class LinearCar:
         self._displacement_gain = self._step.ca * self._EZ + self._R_end
         self._velocity_gain = self._step.cv_new * self._EZ + self._R_end / dt
         self._translation = None if translation is None else np.asarray(translation, dtype=float)
+        self._pivot = None if translation is None else int(np.argmax(np.abs(self._translation)))
+        self.offset = 0.0
         self.u = np.zeros(ndof)
         self.v = np.array(velocity, dtype=float)
         self.loads = np.array(loads, dtype=float)
@@ -162,7 +167,7 @@ class LinearCar:
         v_free = self.v + step.cv_old * self.a + step.cv_new * a_free
         self._free = (a_free, u_free, v_free)
         return EndPrediction(
-            displacement=self._E @ u_free,
+            displacement=self._E @ u_free + self.offset,
             displacement_gain=self._displacement_gain,
             velocity=self._E @ v_free - self._R_end @ self.loads / self.dt,
             velocity_gain=self._velocity_gain,
@@ -176,6 +181,10 @@ class LinearCar:
         v_mid = 0.5 * self.v
         self.a = a_free + response
         self.u = u_free + self._step.ca * response
+        if self._pivot is not None:  # move the rigid travel out of u (K t = C t = 0: the dynamics are unchanged)
+            shift = self.u[self._pivot] / self._translation[self._pivot]
+            self.u -= shift * self._translation
+            self.offset += shift
         self.v = v_free + self._step.cv_new * response
         v_mid += 0.5 * self.v
         self._dissipated += self.dt * float(v_mid @ (self._damping @ v_mid))
@@ -184,7 +193,7 @@ class LinearCar:
 
     @property
     def end_displacement(self) -> NDArray[np.float64]:
-        return self._E @ self.u + self._R_end @ self.loads
+        return self._E @ self.u + self.offset + self._R_end @ self.loads
 
     @property
     def end_velocity(self) -> NDArray[np.float64]:
@@ -198,7 +207,7 @@ class LinearCar:
         """
         stiffness_u = self._stiffness @ self.u
         mass_v = self._mass @ self.v
-        displacement = self._O @ self.u
+        displacement = self._O @ self.u + self.offset
         strain = 0.5 * float(self.u @ stiffness_u)
         if self._R_sensor is not None:
             displacement = displacement + self._R_sensor @ self.loads
@@ -216,7 +225,7 @@ class LinearCar:
 
     def field(self) -> NDArray[np.float64]:
         """The DOF displacement vector now (m)."""
-        return self.u.copy()
+        return self.u if self._translation is None else self.u + self.offset * self._translation
 
 
 def fem_car(car: Car, settings: FemSettings, integrator: Integrator, dt: float, loads: NDArray[np.float64]) -> LinearCar:

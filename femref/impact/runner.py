@@ -1,7 +1,8 @@
 """Run every model of an impact scene, the inverse estimators on the fem records, and score them.
 
-All runs share one time step (chosen automatically unless the case gives it), so every
-history compares sample by sample with the reference ``fem`` run. Sensor records go
+Each run steps at the case's ``time.dt`` or, by default, at the step its own cars need
+(:func:`automatic_time_step`): a rigid run does not pay for the fem mesh. The scores
+interpolate the reference ``fem`` histories onto each run's time axis. Sensor records go
 through the measurement chain (:mod:`femref.impact.measurement`) when the case asks for
 one; the inverse estimators (:mod:`femref.impact.estimators`) read the fem run's
 records — measured if so — as a railroad's accelerometers would deliver them.
@@ -9,7 +10,6 @@ records — measured if so — as a railroad's accelerometers would deliver them
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import time
 from typing import Any, Callable
@@ -24,40 +24,47 @@ from femref.results import ModelResult
 REFERENCE = "fem"
 
 
-def automatic_time_step(scene: ImpactScene) -> tuple[float, str]:
-    """``dt = min(T_contact/100, T_h, end/20)`` and the rule that chose it.
+def automatic_time_step(scene: ImpactScene, run: ModelRun) -> tuple[float, str]:
+    """The step a run's own fidelities need, ``min(T_contact/100, T_cars, end/20)``, and the rule.
 
     ``T_contact`` is the shortest rigid-body contact time of the couplers
-    (:meth:`ImpactScene.contact_time`); ``T_h = h/c_max`` is the wave transit time of an
-    average element (``h = 2l/elements``) of the cars modelled by finite elements (fem or
-    modal) in any run, so that the shortest wave the mesh resolves is followed by every
-    run's common step. (An element shortened to put a node on a profile jump resolves no
-    shorter waves than its neighbours, so ``h_min`` would only cost steps.)
+    (:meth:`ImpactScene.contact_time`): it is all a run of rigid and quasi-rigid cars
+    needs. A fem car adds ``T_h = h/c_max``, the wave transit time of an average element
+    (``h = 2l/elements``): the shortest wave its mesh resolves. (An element shortened to
+    put a node on a profile jump resolves no shorter waves than its neighbours, so
+    ``h_min`` would only cost steps.) A modal car adds a twentieth of the period of its
+    highest kept mode, ``4l/(k c_max)`` for a free rod. Each run thus pays only for what it
+    models; the scores interpolate the reference onto each run's time axis.
     """
     candidates = {"coupler contact time / 100": scene.contact_time() / 100.0, "end time / 20": scene.end / 20.0}
-    meshed = {i for run in scene.runs for i, fidelity in enumerate(run.fidelity) if fidelity in ("fem", "modal")}
-    for i in sorted(meshed):
+    for i, fidelity in enumerate(run.fidelity):
         body = scene.cars[i].body
+        if fidelity not in ("fem", "modal"):
+            continue
         nodes = body_nodes(body.half_length, scene.fem.elements, body.jumps, scene.fem.grading)
         speed = float(np.max(np.sqrt(body.stiffness(nodes) / body.mass_per_length(nodes))))
-        candidates.setdefault("mesh wave period", math.inf)
-        candidates["mesh wave period"] = min(candidates["mesh wave period"], 2.0 * body.half_length / scene.fem.elements / speed)
+        if fidelity == "fem":
+            rule, value = "mesh wave period", 2.0 * body.half_length / scene.fem.elements / speed
+        else:
+            rule, value = "highest modal period / 20", 4.0 * body.half_length / (scene.modal_modes * speed) / 20.0
+        candidates[rule] = min(candidates.get(rule, math.inf), value)
     value, rule = min((v, k) for k, v in candidates.items() if math.isfinite(v))
     return value, rule
 
 
-def resolve_time_step(scene: ImpactScene) -> tuple[ImpactScene, str]:
+def time_step_for(scene: ImpactScene, run: ModelRun) -> tuple[float, str]:
+    """The case's ``time.dt`` for every run, or each run's automatic step."""
     if scene.dt is not None:
-        return scene, "given in the case"
-    dt, rule = automatic_time_step(scene)
-    return dataclasses.replace(scene, dt=dt), f"automatic: {rule}"
+        return scene.dt, "given in the case"
+    dt, rule = automatic_time_step(scene, run)
+    return dt, f"automatic: {rule}"
 
 
-def model_result(scene: ImpactScene, run: ModelRun, response: ImpactResponse, dt_rule: str) -> ModelResult:
+def model_result(scene: ImpactScene, run: ModelRun, response: ImpactResponse, dt: float, dt_rule: str) -> ModelResult:
     """The response as the result file's model group (DESIGN.md §4)."""
     settings: dict[str, Any] = {
         "fidelity": dict(zip((car.name for car in scene.cars), run.fidelity)),
-        "dt": scene.dt,
+        "dt": dt,
         "dt_rule": dt_rule,
         "integrator": scene.integrator,
         "rho_inf": scene.rho_inf,
@@ -85,13 +92,13 @@ def run_impact_scene(scene: ImpactScene, progress_for: Callable[[str], Any] | No
     """Every run of ``scene.runs``, then the estimators, then the scores against ``fem``."""
     from femref.runner import RunOutcome
 
-    scene, dt_rule = resolve_time_step(scene)
     results: list[ModelResult] = []
     for run in scene.runs:
         started = time.perf_counter()
         try:
-            response, _ = solve_impact(scene, run, scene.dt, progress_for(run.name) if progress_for else None)
-            result = model_result(scene, run, response, dt_rule)
+            dt, dt_rule = time_step_for(scene, run)
+            response, _ = solve_impact(scene, run, dt, progress_for(run.name) if progress_for else None)
+            result = model_result(scene, run, response, dt, dt_rule)
         except Exception as error:  # recorded as the model's status; the other runs still go
             result = ModelResult.failed(run.name, f"{type(error).__name__}: {error}", time.perf_counter() - started)
         results.append(result)
@@ -102,7 +109,7 @@ def run_impact_scene(scene: ImpactScene, progress_for: Callable[[str], Any] | No
     reference = next((r for r in results if r.model == REFERENCE and r.ok), None)
     if scene.estimators and reference is not None:
         results.extend(run_estimators(scene, reference))
-    return RunOutcome(scene, results, score_impact_results(results), dt_rule)
+    return RunOutcome(scene, results, score_impact_results(results))
 
 
 def add_measured_records(scene: ImpactScene, result: ModelResult) -> None:
@@ -142,8 +149,21 @@ def run_estimators(scene: ImpactScene, reference: ModelResult) -> list[ModelResu
     return results
 
 
+def _measured_view(result: ModelResult) -> ModelResult:
+    """The measured records of a result as a result of their own (time axis, probe accelerations)."""
+    view = ModelResult(result.model)
+    view.axes = {"time": result.measured["time"]}
+    view.probes = {p: {"acceleration": a} for p, a in result.measured.items() if p != "time"}
+    return view
+
+
 def score_impact_results(results: list[ModelResult]) -> dict[str, dict[str, Any]]:
-    """Scores of every ok result against the ``fem`` run, with wall time and speed-up."""
+    """Scores of every ok result against the ``fem`` run, with wall time and speed-up.
+
+    With a measurement chain the sensor accelerations are also scored as measured
+    (``measured_acceleration_rms_error_<probe>`` …): in the band the records keep, where
+    the cheaper models are meant to be compared.
+    """
     from femref.impact.scoring import score_impact
 
     reference = next((r for r in results if r.model == REFERENCE and r.ok), None)
@@ -155,6 +175,9 @@ def score_impact_results(results: list[ModelResult]) -> dict[str, dict[str, Any]
             continue
         metrics: dict[str, Any] = {"reference": REFERENCE, "wall_time_s": result.wall_time_s}
         metrics.update(score_impact(reference, result))
+        if reference.measured and result.measured:
+            measured = score_impact(_measured_view(reference), _measured_view(result))
+            metrics.update({f"measured_{name}": value for name, value in measured.items()})
         if result.wall_time_s > 0.0:
             metrics["speedup"] = reference.wall_time_s / result.wall_time_s
         scores[result.model] = metrics

@@ -41,6 +41,8 @@ from numpy.typing import NDArray
 
 from femref.fem.transient import INTEGRATORS, Integrator
 from femref.impact.cars import CarModel, fem_car, rigid_car
+from femref.impact.modal import modal_car
+from femref.impact.quasi_rigid_car import quasi_rigid_car
 from femref.impact.scene import ImpactScene, ModelRun
 from femref.scene import output_steps, steps_to
 
@@ -58,12 +60,8 @@ def make_car(fidelity: str, index: int, scene: ImpactScene, integrator: Integrat
     if fidelity == "rigid":
         return rigid_car(car, integrator, dt, loads)
     if fidelity == "modal":
-        from femref.impact.modal import modal_car
-
         return modal_car(car, scene.fem, scene.modal_modes, integrator, dt, loads)
     if fidelity == "quasi_rigid":
-        from femref.impact.quasi_rigid_car import quasi_rigid_car
-
         return quasi_rigid_car(car, dt, loads)
     raise ValueError(f"unknown car fidelity {fidelity!r}")
 
