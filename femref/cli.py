@@ -141,7 +141,7 @@ def _impact_summary(outcome) -> Table:
     table = Table(title=title, title_justify="left")
     columns = ("model", "status", "steps", "wall time", "speed-up", "peak P kN @coupler", "peak err", "t_peak err ms", "P rms err", "a rms err max", "energy bal.")
     for column in columns:
-        table.add_column(column, justify="left" if column in ("model", "status") else "right")
+        table.add_column(column, justify="left" if column in ("model", "status") else "right", no_wrap=column == "model")
     for result in outcome.results:
         score = outcome.scores.get(result.model, {})
         peaks = {c: float(np.max(out["force"])) for c, out in result.couplers.items()} if result.ok else {}
