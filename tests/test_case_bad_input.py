@@ -10,6 +10,7 @@ import pytest
 import yaml
 
 from femref.case import CaseError, load_case
+from case_helpers import expect, load_bad
 
 ROD_HARMONIC: dict[str, Any] = {
     "kind": "harmonic",
@@ -47,20 +48,6 @@ def edited(base: str, edits: dict[str, Any]) -> dict[str, Any]:
         else:
             node[last] = value
     return data
-
-
-def load_bad(tmp_path: Path, data: Any) -> CaseError:
-    path = tmp_path / "case.yaml"
-    path.write_text(yaml.safe_dump(data, sort_keys=False))
-    with pytest.raises(CaseError) as caught:
-        load_case(path)
-    assert caught.value.source == str(path)
-    return caught.value
-
-
-def expect(key_path: str, rule: str) -> str:
-    """Regex for the message line of ``key_path`` (literal) with ``rule`` (a regex)."""
-    return rf"case\.yaml: {re.escape(key_path)}: {rule}"
 
 
 # (base, edits, key path, rule regex)

@@ -15,8 +15,9 @@ import pytest
 import yaml
 from click.testing import CliRunner
 
-from femref.case import CaseError, load_case, parse_case
+from femref.case import parse_case
 from femref.cli import main
+from case_helpers import expect, load_bad
 
 TABLE_LAW = {"closure": [0.0, 0.02, 0.05, 0.08], "loading": [0.0, 2.0e5, 1.2e6, 2.5e6], "unloading": [0.0, 5.0e4, 4.0e5, 1.5e6]}
 DRAFT_GEAR = {"gear_stiffness": 3.4e7, "gear_damping": 5.0e5, "stroke": 0.0825, "solid_stiffness": 2.0e8}
@@ -72,20 +73,6 @@ def edited(edits: dict[str, Any]) -> dict[str, Any]:
 
 def test_base_case_is_valid() -> None:
     assert parse_case(edited({})).car_names == ["hammer", "anvil", "wagon"]
-
-
-def load_bad(tmp_path: Path, data: Any) -> CaseError:
-    path = tmp_path / "case.yaml"
-    path.write_text(yaml.safe_dump(data, sort_keys=False))
-    with pytest.raises(CaseError) as caught:
-        load_case(path)
-    assert caught.value.source == str(path)
-    return caught.value
-
-
-def expect(key_path: str, rule: str) -> str:
-    """Regex for the message line of ``key_path`` (literal) with ``rule`` (a regex)."""
-    return rf"case\.yaml: {re.escape(key_path)}: {rule}"
 
 
 def table(**changes: Any) -> dict[str, Any]:
