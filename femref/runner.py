@@ -3,7 +3,7 @@
 The reference is ``exact`` where it serves the scene, else ``fem``. Every model runs on
 the same output axis (frequencies, or the time grid of the resolved step), so scores
 compare sample by sample. A model that raises is recorded as failed with its message;
-the others still run.
+the others still run. Impact scenes go to :func:`femref.impact.runner.run_impact_scene`.
 """
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ from __future__ import annotations
 import dataclasses
 import time
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
 
@@ -21,12 +21,15 @@ from femref.fem.transient import automatic_time_step
 from femref.results import ModelResult
 from femref.scene import Scene
 
+if TYPE_CHECKING:  # pragma: no cover - typing only
+    from femref.impact.scene import ImpactScene
+
 REFERENCE_ORDER = ("exact", "fem")
 
 
 @dataclass
 class RunOutcome:
-    scene: Scene
+    scene: "Scene | ImpactScene"
     results: list[ModelResult]
     scores: dict[str, dict[str, Any]]
     dt_rule: str | None = None
@@ -45,7 +48,7 @@ def resolve_time_step(scene: Scene) -> tuple[Scene, str | None]:
     return dataclasses.replace(scene, dt=dt), f"automatic: {rule}"
 
 
-def run_scene(scene: Scene, progress_for: Callable[[str], Progress | None] | None = None) -> RunOutcome:
+def run_scene(scene: "Scene | ImpactScene", progress_for: Callable[[str], Progress | None] | None = None) -> RunOutcome:
     """Run ``scene.models`` in order; ``progress_for(model)`` may supply a progress callback."""
     if scene.kind == "impact":
         from femref.impact.runner import run_impact_scene
