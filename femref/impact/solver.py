@@ -154,7 +154,7 @@ class _Couplers:
                 # faces touching and closing: the contact is engaged from t = 0 (a dashpot's force jump)
                 self.force[j], self.modes[j] = coupling.transmitted_force(0.0, float(closure_rate[j]), state, 1), 1
             self.state_rate[self.state_slices[j]] = response.state_rate
-            self.stored[j] = self._stored(j, 0.0, self.state[self.state_slices[j]], response.mode)
+            self.stored[j] = self._stored(j, 0.0, state, int(self.modes[j]))
 
     def _stored(self, j: int, closure: float, state: NDArray, mode: int) -> float:
         coupling = self.couplings[j]
