@@ -69,7 +69,7 @@ def run(case_path: Path | None, output: Path | None) -> None:
     with _progress(console) as progress_for:
         outcome = run_scene(scene, progress_for)
     written = write_results(output, resolved_yaml(case), outcome.results, outcome.scores)
-    Console(width=max(120, Console().width)).print(_summary(outcome))
+    Console(width=max(150, Console().width)).print(_summary(outcome))
     for path in written:
         click.echo(f"wrote {path}")
     for failed in outcome.failed:

@@ -39,6 +39,22 @@ class Body:
     def jumps(self) -> tuple[float, ...]:
         return tuple(sorted({j for p in self.profiles for j in (*p.jumps, *p.kinks)}))
 
+    def quadrature(self, panels: int = 200) -> tuple[NDArray, NDArray]:
+        """Gauss points and weights on ``[−l, l]``: 5 per panel, panels ending on every jump and kink
+        (exact for the piecewise-polynomial profile kinds)."""
+        l = self.half_length
+        edges = np.unique(np.concatenate([np.linspace(-l, l, panels + 1), self.jumps]))
+        edges = edges[(edges >= -l) & (edges <= l)]
+        xg, wg = np.polynomial.legendre.leggauss(5)
+        mid, half = 0.5 * (edges[1:] + edges[:-1]), 0.5 * np.diff(edges)
+        return (mid[:, None] + half[:, None] * xg).ravel(), (half[:, None] * wg).ravel()
+
+    @property
+    def total_mass(self) -> float:
+        """``M = ∫ m dx`` (kg) by :meth:`quadrature`."""
+        x, w = self.quadrature()
+        return float(np.sum(w * self.mass_per_length(x)))
+
     def frequency_to_lambda(self, omega: NDArray) -> NDArray:
         """``λ = ω T_wave`` (DESIGN.md §2)."""
         return np.asarray(omega) * self.wave_travel_time

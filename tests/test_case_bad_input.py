@@ -1,6 +1,5 @@
 """Bad case files: each raises one CaseError whose message names the file, key path and rule."""
 
-import copy
 import math
 import re
 from pathlib import Path
@@ -10,7 +9,7 @@ import pytest
 import yaml
 
 from femref.case import CaseError, load_case
-from case_helpers import expect, load_bad
+from case_helpers import DELETE, edited_copy, expect, load_bad
 
 ROD_HARMONIC: dict[str, Any] = {
     "kind": "harmonic",
@@ -32,22 +31,9 @@ BEAM_TRANSIENT: dict[str, Any] = {
 }
 BASES = {"rod_harmonic": ROD_HARMONIC, "rod_transient": ROD_TRANSIENT, "beam_transient": BEAM_TRANSIENT}
 
-DELETE = object()
-
-
 def edited(base: str, edits: dict[str, Any]) -> dict[str, Any]:
     """A copy of a valid base case with ``edits`` (dotted key path → new value, or DELETE)."""
-    data = copy.deepcopy(BASES[base])
-    for dotted, value in edits.items():
-        *parents, last = dotted.split(".")
-        node = data
-        for key in parents:
-            node = node.setdefault(key, {})
-        if value is DELETE:
-            del node[last]
-        else:
-            node[last] = value
-    return data
+    return edited_copy(BASES[base], edits)
 
 
 # (base, edits, key path, rule regex)

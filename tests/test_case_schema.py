@@ -11,6 +11,7 @@ from pydantic import ValidationError
 from femref import profiles, signals
 from femref.case import HarmonicCase, TransientCase, load_case, parse_case, resolved_yaml
 from femref.case.schema import length_average
+from case_helpers import write_case
 
 ROD_HARMONIC = """\
 kind: harmonic
@@ -41,12 +42,6 @@ time: {end: 0.5, dt: 1.0e-4}
 """
 
 MOMENT_CSV = "t,G\n0.0,0.0\n0.1,2.5e4\n0.2,0.0\n"
-
-
-def write_case(directory: Path, text: str, name: str = "case.yaml") -> Path:
-    path = directory / name
-    path.write_text(text)
-    return path
 
 
 @pytest.fixture

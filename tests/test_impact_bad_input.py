@@ -5,7 +5,6 @@ three-car case; then several problems in one error, and the command line (exit c
 nothing written).
 """
 
-import copy
 import math
 import re
 from pathlib import Path
@@ -17,7 +16,7 @@ from click.testing import CliRunner
 
 from femref.case import parse_case
 from femref.cli import main
-from case_helpers import expect, load_bad
+from case_helpers import DELETE, edited_copy, expect, load_bad
 
 TABLE_LAW = {"closure": [0.0, 0.02, 0.05, 0.08], "loading": [0.0, 2.0e5, 1.2e6, 2.5e6], "unloading": [0.0, 5.0e4, 4.0e5, 1.5e6]}
 DRAFT_GEAR = {"gear_stiffness": 3.4e7, "gear_damping": 5.0e5, "stroke": 0.0825, "solid_stiffness": 2.0e8}
@@ -53,22 +52,9 @@ BASE: dict[str, Any] = {
     "models": ["fem", "quasi_rigid", "rigid"],
 }
 
-DELETE = object()
-
-
 def edited(edits: dict[str, Any]) -> dict[str, Any]:
     """A copy of BASE with ``edits`` (dotted key path, list indices as numbers → new value, or DELETE)."""
-    data = copy.deepcopy(BASE)
-    for dotted, value in edits.items():
-        *parents, last = [int(k) if k.isdigit() else k for k in dotted.split(".")]
-        node = data
-        for key in parents:
-            node = node[key]
-        if value is DELETE:
-            del node[last]
-        else:
-            node[last] = value
-    return data
+    return edited_copy(BASE, edits)
 
 
 def test_base_case_is_valid() -> None:

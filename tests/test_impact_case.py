@@ -14,6 +14,7 @@ from femref.impact.scene import FIDELITIES, ImpactScene, Measurement, ModelRun
 from femref.scene import FemSettings
 from femref.scene_builder import scene_from_case
 from reduced.couplers import COUPLER_LAWS, Coupling, KelvinVoigt, StandardLinearDraftGear
+from case_helpers import write_case
 
 #: The free-to-roll example of DESIGN.md §3, verbatim.
 DESIGN_EXAMPLE = """\
@@ -83,12 +84,6 @@ modal: {modes: 6}
 measurement: {rate: 2000.0, lowpass: 500.0, noise: 0.05, seed: 7}
 estimators: [inverse_quasi_rigid, inverse_rigid]
 """
-
-
-def write_case(directory: Path, text: str, name: str = "case.yaml") -> Path:
-    path = directory / name
-    path.write_text(text)
-    return path
 
 
 @pytest.fixture

@@ -146,7 +146,7 @@ class LinearCar:
         self.u = np.zeros(ndof)
         self.v = np.array(velocity, dtype=float)
         self.loads = np.array(loads, dtype=float)
-        self.a = self._equilibrium(self.loads)
+        self.a = self._equilibrium(np.zeros(ndof))
         self._dissipated = 0.0
         self._free: tuple[NDArray, NDArray, NDArray] | None = None
 
@@ -154,8 +154,9 @@ class LinearCar:
     def _dense(matrix: Any) -> NDArray[np.float64]:
         return matrix.toarray() if sp.issparse(matrix) else np.asarray(matrix, dtype=float)
 
-    def _equilibrium(self, loads: NDArray[np.float64]) -> NDArray[np.float64]:
-        return self._mass_factor.solve(self._B @ loads - self._damping @ self.v - self._stiffness @ self.u)
+    def _equilibrium(self, stiffness_u: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``M⁻¹(B L − C v − K u)`` at the current state, given ``K u``."""
+        return self._mass_factor.solve(self._B @ self.loads - self._damping @ self.v - stiffness_u)
 
     def predict(self) -> EndPrediction:
         step = self._step
@@ -214,7 +215,7 @@ class LinearCar:
             strain += 0.5 * float(self.loads @ self._Q @ self.loads)
         acceleration = self.a
         if self._equilibrium_acceleration:
-            acceleration = self._mass_factor.solve(self._B @ self.loads - self._damping @ self.v - stiffness_u)
+            acceleration = self._equilibrium(stiffness_u)
         return displacement, self._O @ acceleration, CarEnergy(0.5 * float(self.v @ mass_v), strain, self._dissipated)
 
     def momentum(self) -> float:

@@ -138,17 +138,15 @@ def modal_car(
     ops = build_operators(car.body, settings)
     phi, omega2 = free_free_modes(ops, modes, car.body.wave_travel_time)
     l = car.body.half_length
-    end_rows = ops.interpolation(np.array([-l, l])) @ phi
-    sensor_rows = ops.interpolation(car.sensor_x) @ phi
-    velocity = car.velocity * _rigid_translation(phi.shape[1], ops.total_mass)
+    at_ends, at_sensors = ops.interpolation(np.array([-l, l])), ops.interpolation(car.sensor_x)
+    translation = _rigid_translation(phi.shape[1], ops.total_mass)
     feedthrough = {}
     if static_correction:
         R = residual_flexibility(ops, phi, omega2)
-        Q = ops.load_matrix.T @ R
         feedthrough = dict(
-            end_feedthrough=np.asarray(ops.interpolation(np.array([-l, l])) @ R),
-            sensor_feedthrough=np.asarray(ops.interpolation(car.sensor_x) @ R),
-            feedthrough_energy=_symmetric(Q),
+            end_feedthrough=np.asarray(at_ends @ R),
+            sensor_feedthrough=np.asarray(at_sensors @ R),
+            feedthrough_energy=_symmetric(ops.load_matrix.T @ R),
         )
     frequencies = np.sqrt(np.maximum(omega2[1:], 0.0)) / (2.0 * math.pi)
     return LinearCar(
@@ -157,14 +155,14 @@ def modal_car(
         _symmetric(phi.T @ (ops.damping @ phi)),
         np.diag(omega2),
         phi.T @ ops.load_matrix.toarray(),
-        np.asarray(end_rows),
-        np.asarray(sensor_rows),
+        np.asarray(at_ends @ phi),
+        np.asarray(at_sensors @ phi),
         integrator,
         dt,
-        velocity,
+        car.velocity * translation,
         loads,
         **feedthrough,
-        translation=_rigid_translation(phi.shape[1], ops.total_mass),
+        translation=translation,
         settings={
             "modes": modes,
             "frequencies_hz": [float(f) for f in frequencies],

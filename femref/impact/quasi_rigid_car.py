@@ -28,6 +28,7 @@ from numpy.typing import NDArray
 
 from femref.impact.cars import CarEnergy, EndPrediction
 from femref.impact.scene import Car
+from femref.models.quasi_rigid import quasi_rigid_body
 from reduced.quasi_rigid import QuasiRigidRod, QuasiRigidStepper
 
 
@@ -140,10 +141,9 @@ def _energy_forms(rod: QuasiRigidRod) -> tuple[NDArray[np.float64], NDArray[np.f
 
 def quasi_rigid_rod(car: Car) -> QuasiRigidRod:
     """The car's body as a :class:`QuasiRigidRod` (profiles and jumps as given)."""
-    body = car.body
-    if body.kind != "rod":
-        raise ValueError(f"a quasi-rigid car is a rod, got a {body.kind}")
-    return QuasiRigidRod(body.half_length, body.mass_per_length, body.stiffness, body.viscosity, jumps=body.jumps)
+    if car.body.kind != "rod":
+        raise ValueError(f"a quasi-rigid car is a rod, got a {car.body.kind}")
+    return quasi_rigid_body(car.body)
 
 
 def quasi_rigid_car(car: Car, dt: float, loads: NDArray[np.float64]) -> QuasiRigidCar:

@@ -149,10 +149,11 @@ class _Couplers:
             state = self.state[self.state_slices[j]]
             response = coupling.evaluate(0.0, float(closure_rate[j]), state)
             self.force[j], self.modes[j] = response.force, response.mode
-            closing = coupling.slack == 0.0 and closure_rate[j] > 0.0 and response.mode == 0
-            if closing and coupling.transmitted_force(0.0, float(closure_rate[j]), state, 1) > 0.0:
+            if coupling.slack == 0.0 and closure_rate[j] > 0.0 and response.mode == 0:
                 # faces touching and closing: the contact is engaged from t = 0 (a dashpot's force jump)
-                self.force[j], self.modes[j] = coupling.transmitted_force(0.0, float(closure_rate[j]), state, 1), 1
+                engaged = coupling.transmitted_force(0.0, float(closure_rate[j]), state, 1)
+                if engaged > 0.0:
+                    self.force[j], self.modes[j] = engaged, 1
             self.state_rate[self.state_slices[j]] = response.state_rate
             self.stored[j] = self._stored(j, 0.0, state, int(self.modes[j]))
 
@@ -192,7 +193,7 @@ class _Couplers:
         P, s = self.force.copy(), self.state.copy()
         modes = self.modes
         for iteration in range(1, NEWTON_ITERATIONS + 1):
-            closure, rate, responses, residual = self._residual(closure_free, rate_free, P, s)
+            closure, rate, responses, residual, state_rate = self._residual(closure_free, rate_free, P, s)
             new_modes = np.array([r.mode for r in responses])
             settled = np.array_equal(new_modes, modes)
             modes = new_modes
@@ -203,14 +204,13 @@ class _Couplers:
             s += step[n:]
         else:  # Newton cycles where a law is nearly discontinuous (a friction gear's switch band)
             P, s, sweeps = self._gauss_seidel(closure_free, rate_free)
-            closure, rate, responses, residual = self._residual(closure_free, rate_free, P, s)
+            closure, rate, responses, residual, state_rate = self._residual(closure_free, rate_free, P, s)
             iteration += sweeps
-        state_rate = np.concatenate([r.state_rate for r in responses]) if ns else np.zeros(0)
         self._commit(P, s, closure, rate, state_rate, np.array([r.mode for r in responses]))
         return iteration
 
     def _residual(self, closure_free: NDArray, rate_free: NDArray, P: NDArray, s: NDArray) -> tuple:
-        """Closures, rates, the laws' responses and the residual ``(P − T, s − s_n − dt/2 (ṡ_n + ṡ))``."""
+        """Closures, rates, the laws' responses, the residual ``(P − T, s − s_n − dt/2 (ṡ_n + ṡ))`` and ``ṡ``."""
         closure = closure_free + self.gain_u @ P
         rate = rate_free + self.gain_v @ P
         responses = [
@@ -219,10 +219,9 @@ class _Couplers:
         ]
         residual = np.empty(self.n + self.n_state)
         residual[: self.n] = P - np.array([r.force for r in responses])
-        if self.n_state:
-            state_rate = np.concatenate([r.state_rate for r in responses])
-            residual[self.n :] = s - self.state - 0.5 * self.dt * (self.state_rate + state_rate)
-        return closure, rate, responses, residual
+        state_rate = np.concatenate([r.state_rate for r in responses]) if self.n_state else np.zeros(0)
+        residual[self.n :] = s - self.state - 0.5 * self.dt * (self.state_rate + state_rate)
+        return closure, rate, responses, residual, state_rate
 
     def _converged(self, residual: NDArray) -> bool:
         return bool(
@@ -274,7 +273,7 @@ class _Couplers:
         sl = self.state_slices[j]
         rows = np.r_[j, self.n + np.arange(sl.start, sl.stop)]
         for _ in range(MAX_NEWTON_ITERATIONS):
-            _, _, responses, residual = self._residual(closure_free, rate_free, P, s)
+            _, _, responses, residual, _ = self._residual(closure_free, rate_free, P, s)
             local = residual[rows]
             if abs(local[0]) <= self.force_tolerance and np.max(np.abs(local[1:])) <= STATE_TOLERANCE:
                 return

@@ -14,11 +14,11 @@ import numpy as np
 from femref.models import Progress
 from reduced.quasi_rigid import LoadHistory, QuasiRigidBeam, QuasiRigidRod
 from femref.results import ModelResult
-from femref.scene import Scene, output_steps, steps_to
+from femref.scene import Body, Scene, output_steps, steps_to
 
 
-def quasi_rigid_body(scene: Scene) -> QuasiRigidRod | QuasiRigidBeam:
-    body = scene.body
+def quasi_rigid_body(body: Body) -> QuasiRigidRod | QuasiRigidBeam:
+    """The body's quasi-rigid model (profiles and jumps as given)."""
     kind = QuasiRigidRod if body.kind == "rod" else QuasiRigidBeam
     return kind(body.half_length, body.mass_per_length, body.stiffness, body.viscosity, jumps=body.jumps)
 
@@ -28,7 +28,7 @@ class QuasiRigidModel:
 
     def run(self, scene: Scene, progress: Progress | None = None) -> ModelResult:
         started = time.perf_counter()
-        model = quasi_rigid_body(scene)
+        model = quasi_rigid_body(scene.body)
         x = scene.probe_x
         result = ModelResult(self.name)
         if scene.kind == "harmonic":

@@ -24,18 +24,9 @@ from femref.results import ModelResult
 from femref.scene import Body, Scene, steps_to, output_steps
 
 
-def _quadrature(body: Body, panels: int = 200) -> tuple[NDArray, NDArray]:
-    l = body.half_length
-    edges = np.unique(np.concatenate([np.linspace(-l, l, panels + 1), body.jumps]))
-    edges = edges[(edges >= -l) & (edges <= l)]
-    xg, wg = np.polynomial.legendre.leggauss(5)
-    mid, half = 0.5 * (edges[1:] + edges[:-1]), 0.5 * np.diff(edges)
-    return (mid[:, None] + half[:, None] * xg).ravel(), (half[:, None] * wg).ravel()
-
-
 def rigid_accelerations(body: Body, loads: NDArray, x: NDArray) -> NDArray:
     """Accelerations at ``x`` for end loads ``loads[..., j]`` in the order F1, F2 (rod) or N1, N2, G1, G2."""
-    xq, wq = _quadrature(body)
+    xq, wq = body.quadrature()
     m = body.mass_per_length(xq)
     if body.kind == "rod":
         return np.repeat(((loads[..., 1] - loads[..., 0]) / np.sum(wq * m))[..., None], np.size(x), axis=-1)
@@ -49,7 +40,7 @@ def rigid_accelerations(body: Body, loads: NDArray, x: NDArray) -> NDArray:
 
 def inertia_balanced_force(body: Body, loads: NDArray, x: NDArray) -> NDArray:
     """Rod internal force of rigid motion ``F0(x) = F1 + (F2 − F1) ∫_{−l}^x m / M`` (tension positive)."""
-    xq, wq = _quadrature(body)
+    xq, wq = body.quadrature()
     order = np.argsort(xq)
     cumulative = np.concatenate([[0.0], np.cumsum((wq * body.mass_per_length(xq))[order])])
     positions = np.concatenate([[-body.half_length], xq[order]])
