@@ -7,6 +7,7 @@ Layout::
     /<model>/time | omega, lambda
     /<model>/probes/<probe>/acceleration, displacement (, axial_force)
     /<model>/couplers/<coupler>/force
+    /<model>/couplers/<coupler>/peak_force   () N, network estimators (ann_<name>): the estimated peak, no time axis
     /<model>/energy/kinetic, strain, dissipated, external_work   (+ attr balance_error)
                                      impacts: kinetic, strain, body_dissipated, coupler_stored,
                                      coupler_dissipated, total
@@ -45,6 +46,7 @@ UNITS = {
     "displacement": "m",
     "axial_force": "N (tension positive)",
     "force": "N (compression positive)",
+    "peak_force": "N (compression positive)",
     "x": "m",
     "u": "m",
     "kinetic": "J",

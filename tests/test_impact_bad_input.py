@@ -182,7 +182,7 @@ RULES = {
     "ann refused": (
         {"models": ["ann", "fem"]},
         "models[0]",
-        "ann cannot serve this case: ann estimators need a trained network file and are not available yet",
+        re.escape("ann cannot serve this case: a network is an estimator on the fem sensor records, not a model run; list it under estimators:"),
     ),
     # settings
     "lowpass at Nyquist": ({"measurement": {"rate": 2000.0, "lowpass": 1000.0}}, "measurement.lowpass", r"must be below the Nyquist frequency rate/2 = 1000 Hz; got 1000\.0"),

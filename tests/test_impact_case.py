@@ -219,13 +219,15 @@ def test_cli_validate_prints_the_resolved_impact_case(tmp_path: Path) -> None:
 
 # Capabilities
 
+NETWORK_ENTRY = "{name: ann_<name>, network: file.npz}"
+
 
 def test_capabilities_of_an_impact_case(design_case: ImpactCase) -> None:
     """Per-car fidelities serve impacts; exact and ann are refused with a reason; nothing needs ``.body``."""
     served = {name: refusal(name, design_case) for name in MODELS}
     assert {name for name, reason in served.items() if reason is None} == set(FIDELITIES)
     assert served["exact"] == "no exact solution is implemented for impact scenes (nonlinear contact); score against fem"
-    assert served["ann"] == "ann estimators need a trained network file and are not available yet"
+    assert served["ann"] == f"a network is an estimator on the fem sensor records, not a model run; list it under estimators: as {NETWORK_ENTRY}"
 
 
 # The built scene

@@ -8,7 +8,8 @@ cannot serve a scene is refused at validation (DESIGN.md §4), never skipped at 
 Every function first looks at ``kind``: single-body cases have a ``body``, impact cases
 (:mod:`femref.case.impact`) have ``cars`` and no ``body``. For an impact case, ``fem``,
 ``modal``, ``quasi_rigid`` and ``rigid`` serve (they are the per-car fidelities of
-``femref.impact.scene.FIDELITIES``); ``exact`` and ``ann`` are refused with the reason.
+``femref.impact.scene.FIDELITIES``); ``exact`` and ``ann`` are refused with the reason
+(a network estimator of an impact is an entry of ``estimators:``, not a model run).
 """
 
 from __future__ import annotations
@@ -76,10 +77,15 @@ def _quasi_rigid(case: "Case") -> str | None:
 
 
 def _ann(case: "Case") -> str | None:
-    """Network estimators serve impacts only, and need a trained network file the case cannot name yet."""
+    """A network is an estimator on the fem sensor records, not a model run of the scene.
+
+    Networks serve impacts only, as entries of ``estimators:`` (a mapping with the saved
+    network file, :class:`femref.case.impact.AnnEstimatorSpec`); as a ``models:`` entry
+    ``ann`` is refused for every case kind, with the reason pointing there.
+    """
     if case.kind not in IMPACT_KINDS:
         return _impact_only(case)
-    return "ann estimators need a trained network file and are not available yet"
+    return "a network is an estimator on the fem sensor records, not a model run; list it under estimators: as {name: ann_<name>, network: file.npz}"
 
 
 #: name → capability function, in the order the names are documented.

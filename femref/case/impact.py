@@ -9,12 +9,15 @@ Layout of an impact case file::
     models:      model runs: a model name (uniform run) or {name, fidelity, cars} (mixed run)
     modal:       {modes}: elastic modes per modal car
     measurement: optional accelerometer model (rate, lowpass, noise, seed)
-    estimators:  inverse estimators run on the fem sensor records
+    estimators:  estimators run on the fem sensor records: an inverse estimator's name, or a
+                 network {name: ann_<name>, network: file.npz} (a saved ann.storage network)
 
 Validation follows :mod:`femref.case.schema`: each key on its own first (every failure
 reported), then the rules that relate keys — sensors against the car length, couplers
 against the car names and line order, car overrides of mixed runs against the car names,
-estimators against the runs and sensors — once the keys they relate are valid.
+estimators against the runs, sensors, couplers, time and measurement — once the keys they
+relate are valid. A network file is read when the case is loaded (like a CSV load), so a
+missing or broken file is a case error too.
 
 :func:`femref.impact.build.impact_scene_from_case` turns a validated case into the
 frozen :class:`femref.impact.scene.ImpactScene`.
@@ -22,10 +25,12 @@ frozen :class:`femref.impact.scene.ImpactScene`.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping
+from pathlib import Path
 from typing import Annotated, Any, ClassVar, Literal, Union
 
-from pydantic import AfterValidator, BeforeValidator, Discriminator, Field, Tag, ValidationInfo, field_validator, model_validator
+from pydantic import AfterValidator, BeforeValidator, Discriminator, Field, PrivateAttr, Tag, ValidationInfo, field_validator, model_validator
 from pydantic_core import PydanticCustomError
 
 from femref.case.capabilities import MODELS, refusal
@@ -47,11 +52,13 @@ from femref.case.schema import (
     _reject_bool,
     _tagged_union,
 )
+from femref.impact.ann_estimator import NetworkContract, NetworkFileError, read_network
 from femref.impact.scene import ESTIMATOR_NAMES, FIDELITIES
 from reduced.couplers import CONTACT_KINDS, KelvinVoigt, StandardLinearDraftGear
 
 __all__ = [
     "COUPLER_LAW_SPECS",
+    "AnnEstimatorSpec",
     "CarSpec",
     "CouplerLawSpec",
     "CouplerSpec",
@@ -487,18 +494,110 @@ class MeasurementSpec(CaseModel):
         return self
 
 
-def _known_estimators(names: tuple[str, ...]) -> tuple[str, ...]:
-    """Registered estimator names (``femref.impact.scene.ESTIMATOR_NAMES``), each once."""
+def _known_estimator(name: str) -> str:
+    """A plain ``estimators`` entry names a registered inverse estimator (``ESTIMATOR_NAMES``)."""
+    if name not in ESTIMATOR_NAMES:
+        hint = did_you_mean(name, ESTIMATOR_NAMES)
+        if not hint and _is_network_name(name):
+            hint = f" (a network estimator is a mapping {{name: {name}, network: file.npz}})"
+        raise PydanticCustomError(
+            "estimator_name",
+            "unknown estimator{hint}; known estimators: {known}, or a network {network}",
+            {"hint": hint, "known": ", ".join(ESTIMATOR_NAMES), "network": "{name: ann_<name>, network: file.npz}"},
+        )
+    return name
+
+
+def _is_network_name(name: str) -> bool:
+    return name == "ann" or name.startswith("ann_")
+
+
+def _network_name(name: str) -> str:
+    """A network estimator's result-group name: ``ann`` or ``ann_<name>`` (DESIGN.md §4)."""
+    _name_rule("estimator")(name)
+    if not _is_network_name(name) or name == "ann_":
+        raise PydanticCustomError("network_name", "network estimators are named ann or ann_<name> (DESIGN.md §4)")
+    return name
+
+
+class AnnEstimatorSpec(CaseModel):
+    """A trained network (an ``ann.storage`` file) that estimates one coupler's peak force from the fem
+    sensor records (:mod:`femref.impact.ann_estimator`).
+
+    The file is read and its metadata contract checked when the case is loaded; the
+    case then checks the contract against the scene (coupler, probes, time.end,
+    measurement). A relative ``network`` path is relative to the case file's directory
+    and is stored resolved (absolute), so the resolved case reads the same file from anywhere.
+    """
+
+    name: Annotated[str, AfterValidator(_network_name)] = Field(description="Result-group name: ann or ann_<name>, unique. Required.")
+    network: Path = Field(description="Network file (ann.storage .npz), relative to the case file's directory. Required.")
+    _contract: NetworkContract | None = PrivateAttr(default=None)
+
+    @field_validator("network", mode="after")
+    @classmethod
+    def _resolve(cls, path: Path, info: ValidationInfo) -> Path:
+        base_dir = Path((info.context or {}).get("base_dir") or Path.cwd())
+        path = path.expanduser()
+        return path if path.is_absolute() else (base_dir / path).resolve()
+
+    @model_validator(mode="after")
+    def _readable(self) -> "AnnEstimatorSpec":
+        try:
+            _, self._contract = read_network(self.network)
+        except NetworkFileError as error:
+            raise problems_error([Problem(("network",), str(error))]) from None
+        return self
+
+    @property
+    def contract(self) -> NetworkContract:
+        """The network file's contract, as read at validation."""
+        assert self._contract is not None  # set by the validator
+        return self._contract
+
+
+def _estimator_kind(value: Any) -> str | None:
+    """The union tag of an ``estimators`` entry: an inverse estimator's name or a network mapping."""
+    if isinstance(value, str):
+        return "inverse"
+    if isinstance(value, (Mapping, AnnEstimatorSpec)):
+        return "ann"  # a tag no mapping has as a key: error key paths drop union tags absent from the input
+    return None
+
+
+def _estimator_shape(value: Any) -> Any:
+    if _estimator_kind(value) is None:
+        raise PydanticCustomError("estimator_shape", "must be an estimator name or a network {shape}", {"shape": "{name: ann_<name>, network: file.npz}"})
+    return value
+
+
+#: One entry of ``estimators``: an inverse estimator's name or an :class:`AnnEstimatorSpec`.
+EstimatorEntry = Annotated[
+    Union[Annotated[Annotated[str, AfterValidator(_known_estimator)], Tag("inverse")], Annotated[AnnEstimatorSpec, Tag("ann")]],  # noqa: UP007
+    Discriminator(_estimator_kind),
+    BeforeValidator(_estimator_shape),
+]
+
+
+def _estimator_name(entry: str | AnnEstimatorSpec) -> str:
+    """The result-group name of an estimator."""
+    return entry if isinstance(entry, str) else entry.name
+
+
+def _estimators_rule(entries: tuple[str | AnnEstimatorSpec, ...]) -> tuple[str | AnnEstimatorSpec, ...]:
+    """Each estimator once: names unique (a name listed twice, or two networks of one name)."""
     problems = []
-    for i, name in enumerate(names):
-        if name not in ESTIMATOR_NAMES:
-            rule = f"unknown estimator{did_you_mean(name, ESTIMATOR_NAMES)}; known estimators: {', '.join(ESTIMATOR_NAMES)}"
-            problems.append(Problem((i,), rule, name))
-        elif name in names[:i]:
+    names = [_estimator_name(entry) for entry in entries]
+    for i, (entry, name) in enumerate(zip(entries, names)):
+        if name not in names[:i]:
+            continue
+        if isinstance(entry, str):
             problems.append(Problem((i,), "is listed twice", name))
+        else:
+            problems.append(Problem((i, "name"), f"duplicate estimator name; {name!r} is already used at index {names.index(name)}", name))
     if problems:
         raise problems_error(problems)
-    return names
+    return entries
 
 
 #: Minimum sensors on the front car of every coupler that ``inverse_quasi_rigid`` needs.
@@ -530,9 +629,12 @@ class ImpactCase(SceneCase):
     fem: FemSettings = _fem_field()
     modal: ModalSettings = Field(default_factory=ModalSettings, description="Modal car model. Default: see ModalSettings (4 modes).")
     measurement: MeasurementSpec | None = Field(default=None, description="Accelerometer model. Default null: records on the model's time grid, no filter, no noise.")
-    estimators: Annotated[tuple[str, ...], AfterValidator(_known_estimators)] = Field(
+    estimators: Annotated[tuple[EstimatorEntry, ...], AfterValidator(_estimators_rule)] = Field(
         default=(),
-        description=f"Inverse estimators run on the fem sensor records, out of {', '.join(ESTIMATOR_NAMES)}; they need a uniform fem run. Default [].",
+        description=(
+            f"Estimators run on the fem sensor records: an inverse estimator ({', '.join(ESTIMATOR_NAMES)}) or a network "
+            "{name: ann_<name>, network: file.npz} (peak force of one coupler); unique names; they need a uniform fem run. Default []."
+        ),
     )
 
     @classmethod
@@ -585,19 +687,24 @@ class ImpactCase(SceneCase):
 
     @field_validator("estimators", mode="after")
     @classmethod
-    def _estimators_have_records(cls, names: tuple[str, ...], info: ValidationInfo) -> tuple[str, ...]:
+    def _estimators_have_records(cls, entries: tuple[str | AnnEstimatorSpec, ...], info: ValidationInfo) -> tuple[str | AnnEstimatorSpec, ...]:
         cars, couplers, runs = (info.data.get(key) for key in ("cars", "couplers", "models"))
-        if not names or cars is None or runs is None:
-            return names
+        if not entries or cars is None or runs is None:
+            return entries
+        names = [_estimator_name(entry) for entry in entries]
         car_names = [car.name for car in cars]
         if not any(set(_fidelities(run, car_names)) == {"fem"} for run in runs):
             rule = "the estimators run on the fem sensor records; add fem (a uniform fem run) to models"
-            raise problems_error([Problem((), rule, list(names))])
+            raise problems_error([Problem((), rule, names)])
+        problems = []
         if "inverse_quasi_rigid" in names and couplers is not None:
-            problems = _quasi_rigid_sensor_problems(names.index("inverse_quasi_rigid"), cars, couplers)
-            if problems:
-                raise problems_error(problems)
-        return names
+            problems += _quasi_rigid_sensor_problems(names.index("inverse_quasi_rigid"), cars, couplers)
+        for i, entry in enumerate(entries):
+            if isinstance(entry, AnnEstimatorSpec):
+                problems += [p.under((i, "network")) for p in _network_problems(entry.contract, cars, couplers, info.data)]
+        if problems:
+            raise problems_error(problems)
+        return entries
 
     @model_validator(mode="after")
     def _models_serve_the_scene(self) -> "ImpactCase":
@@ -640,3 +747,56 @@ def _quasi_rigid_sensor_problems(at: int, cars: tuple[CarSpec, ...], couplers: t
             )
             problems.append(Problem((at,), rule, "inverse_quasi_rigid"))
     return problems
+
+
+def _network_problems(contract: NetworkContract, cars: tuple[CarSpec, ...], couplers: tuple[CouplerSpec, ...] | None, data: Mapping[str, Any]) -> list[Problem]:
+    """A network's contract against the scene: its coupler and probes exist, its records fit in
+    ``time.end``, and the case measures the records as the training records were measured
+    (same chain rate and low-pass; noise and seed may differ — testing on noisier records is legitimate).
+
+    ``data`` holds the case keys validated so far; a key that failed is not compared.
+    """
+    problems = []
+    coupler_names = [c.name for c in couplers or ()]
+    if couplers is not None and contract.coupler not in coupler_names:
+        rule = f"the network estimates coupler {contract.coupler!r}, which this case does not have; couplers: {', '.join(coupler_names)}"
+        problems.append(Problem((), rule))
+    probes = [f"{car.name}/{sensor}" for car in cars for sensor in car.sensors]
+    missing = [p for p in contract.probes if p not in probes]
+    if missing:
+        rule = f"the network reads probe(s) {', '.join(missing)}, which are not sensors of this case; probes: {', '.join(probes)}"
+        problems.append(Problem((), rule))
+    time = data.get("time")
+    if time is not None and contract.record_end > time.end:
+        problems.append(Problem((), f"the network reads records over [0, {contract.record_end:g}] s, beyond time.end = {time.end:g} s"))
+    if "measurement" in data:
+        problem = _chain_problem(contract, data["measurement"])
+        if problem is not None:
+            problems.append(Problem((), problem))
+    return problems
+
+
+def _chain_problem(contract: NetworkContract, measurement: MeasurementSpec | None) -> str | None:
+    """Why the case's records are not measured like the network's training records, or None."""
+    trained = contract.measurement
+    if trained is None:
+        if measurement is not None:
+            return "the network was trained on the model's own sensor accelerations (record_source model); this case measures them (measurement:) — remove measurement or use a network trained on measured records"
+        return None
+    chain = f"rate {_hz(trained.rate)}, lowpass {_hz(trained.lowpass)}"
+    if measurement is None:
+        return f"the network was trained on measured records ({chain}); add that measurement: to the case"
+    if not (_same(measurement.rate, trained.rate) and _same(measurement.lowpass, trained.lowpass)):
+        return (
+            f"the network was trained on records measured at {chain}; this case measures at rate {_hz(measurement.rate)}, "
+            f"lowpass {_hz(measurement.lowpass)} (rate and lowpass must match; noise and seed may differ)"
+        )
+    return None
+
+
+def _same(a: float | None, b: float | None) -> bool:
+    return a is None and b is None or (a is not None and b is not None and math.isclose(a, b, rel_tol=1e-9))
+
+
+def _hz(value: float | None) -> str:
+    return "null" if value is None else f"{value:g} Hz"

@@ -3,7 +3,8 @@
 The case has already checked every rule (names, line order, sensors, laws, runs); this
 module only converts: rod specs to :class:`femref.scene.Body` (the same way single-body
 scenes are built), coupler specs to :class:`reduced.couplers.Coupling`, runs to
-per-car fidelity tuples in line order.
+per-car fidelity tuples in line order, network estimator specs to loaded
+:class:`femref.impact.ann_estimator.AnnEstimator` networks.
 """
 
 from __future__ import annotations
@@ -11,7 +12,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from femref.case import CaseError, ImpactCase
-from femref.case.impact import CarSpec, CouplerSpec, MeasurementSpec
+from femref.case.impact import AnnEstimatorSpec, CarSpec, CouplerSpec, MeasurementSpec
+from femref.impact.ann_estimator import AnnEstimator, NetworkFileError
 from femref.impact.scene import Car, Coupler, ImpactScene, Measurement, ModelRun
 from femref.scene_builder import body_from_spec, fem_settings_of
 from reduced.couplers import Coupling
@@ -22,9 +24,11 @@ __all__ = ["impact_scene_from_case"]
 def impact_scene_from_case(case: ImpactCase, base_dir: Path | None = None) -> ImpactScene:
     """Resolve the cars, couplers, model runs and settings of an impact case.
 
-    ``base_dir`` is accepted for symmetry with :func:`femref.scene_builder.scene_from_case`
-    (impact cases read no files). Raises :class:`CaseError` only when :mod:`reduced.couplers`
-    lacks a law the case names or refuses its parameters by a rule the schema does not check.
+    ``base_dir`` is accepted for symmetry with :func:`femref.scene_builder.scene_from_case`:
+    the network files of ``estimators`` were resolved (absolute) when the case was loaded.
+    Raises :class:`CaseError` when :mod:`reduced.couplers` lacks a law the case names or
+    refuses its parameters by a rule the schema does not check, or when a network file
+    can no longer be read as it was at validation.
     """
     index = {name: i for i, name in enumerate(case.car_names)}
     integrator = case.integrator
@@ -40,7 +44,8 @@ def impact_scene_from_case(case: ImpactCase, base_dir: Path | None = None) -> Im
         fem=fem_settings_of(case.fem),
         modal_modes=case.modal.modes,
         measurement=_measurement_of(case.measurement),
-        estimators=tuple(case.estimators),
+        estimators=tuple(entry for entry in case.estimators if isinstance(entry, str)),
+        networks=tuple(_network_of(i, spec) for i, spec in enumerate(case.estimators) if isinstance(spec, AnnEstimatorSpec)),
     )
 
 
@@ -60,6 +65,18 @@ def _coupler_of(k: int, spec: CouplerSpec, index: dict[str, int]) -> Coupler:
     coupling = Coupling(law, contact=spec.contact, slack=spec.slack, tension_slack=spec.tension_slack)
     assert spec.name is not None  # the case fills in default names
     return Coupler(name=spec.name, rear=index[spec.between[0]], coupling=coupling)
+
+
+def _network_of(i: int, spec: AnnEstimatorSpec) -> AnnEstimator:
+    """Load network estimator ``estimators[i]``; the file must still hold what the case validated."""
+    where = f"estimators[{i}].network"
+    try:
+        network = AnnEstimator.load(spec.name, spec.network)
+    except NetworkFileError as error:
+        raise CaseError.at(where, str(error)) from None
+    if network.contract != spec.contract:
+        raise CaseError.at(where, f"network file {spec.network} changed since the case was validated; load the case again")
+    return network
 
 
 def _measurement_of(spec: MeasurementSpec | None) -> Measurement | None:

@@ -16,7 +16,10 @@ A compressed coupler pushes the car ahead of it forward and the car behind it ba
 so rigid car ``k`` obeys ``M_k a_k = P_{k−1} − P_k`` (its rear coupler ``P_{k−1}``, its
 front coupler ``P_k``; an absent coupler counts 0).
 
-Registry :data:`ESTIMATORS` (names of :data:`femref.impact.scene.ESTIMATOR_NAMES`).
+Registry :data:`ESTIMATORS` (names of :data:`femref.impact.scene.ESTIMATOR_NAMES`). These
+are the inverse estimators, which a case names; the network estimators (``ann_<name>``, a
+saved network file) are not in this registry: they estimate one coupler's peak force,
+not a history, and live in :mod:`femref.impact.ann_estimator`.
 """
 
 from __future__ import annotations

@@ -1,11 +1,14 @@
-"""Run every model of an impact scene, the inverse estimators on the fem records, and score them.
+"""Run every model of an impact scene, the estimators on the fem records, and score them.
 
 Each run steps at the case's ``time.dt`` or, by default, at the step its own cars need
 (:func:`automatic_time_step`): a rigid run does not pay for the fem mesh. The scores
 interpolate the reference ``fem`` histories onto each run's time axis. Sensor records go
 through the measurement chain (:mod:`femref.impact.measurement`) when the case asks for
-one; the inverse estimators (:mod:`femref.impact.estimators`) read the fem run's
-records — measured if so — as a railroad's accelerometers would deliver them.
+one; the estimators read the fem run's records — measured if so — as a railroad's
+accelerometers would deliver them (:func:`femref.impact.records.acceleration_histories`):
+the inverse estimators (:mod:`femref.impact.estimators`) return coupler force histories,
+the network estimators (:mod:`femref.impact.ann_estimator`) the peak force of one coupler,
+``couplers[c]["peak_force"]`` (no time axis), scored on that peak alone.
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ from typing import Any, Callable
 import numpy as np
 
 from femref.fem.mesh import body_nodes
+from femref.impact.records import acceleration_histories
 from femref.impact.scene import ImpactScene, ModelRun
 from femref.impact.solver import ImpactResponse, solve_impact
 from femref.results import ModelResult
@@ -89,7 +93,7 @@ def _public(settings: dict[str, Any]) -> dict[str, Any]:
 
 
 def run_impact_scene(scene: ImpactScene, progress_for: Callable[[str], Any] | None = None):
-    """Every run of ``scene.runs``, then the estimators, then the scores against ``fem``."""
+    """Every run of ``scene.runs``, then the inverse and network estimators, then the scores against ``fem``."""
     from femref.runner import RunOutcome
 
     results: list[ModelResult] = []
@@ -107,8 +111,9 @@ def run_impact_scene(scene: ImpactScene, progress_for: Callable[[str], Any] | No
             if result.ok:
                 add_measured_records(scene, result)
     reference = next((r for r in results if r.model == REFERENCE and r.ok), None)
-    if scene.estimators and reference is not None:
+    if reference is not None:
         results.extend(run_estimators(scene, reference))
+        results.extend(run_networks(scene, reference))
     return RunOutcome(scene, results, score_impact_results(results))
 
 
@@ -126,20 +131,13 @@ def run_estimators(scene: ImpactScene, reference: ModelResult) -> list[ModelResu
     """Each inverse estimator on the fem run's (measured) records, as a result with coupler forces only."""
     from femref.impact.estimators import ESTIMATORS
 
-    if reference.measured:
-        t = reference.measured["time"]
-        records = {p: v for p, v in reference.measured.items() if p != "time"}
-        source = "measured"
-    else:
-        t = reference.axes["time"]
-        records = {p: out["acceleration"] for p, out in reference.probes.items()}
-        source = "model"
+    t, records = acceleration_histories(reference)
     results = []
     for name in scene.estimators:
         started = time.perf_counter()
         try:
             forces = ESTIMATORS[name](scene, t, records)
-            result = ModelResult(name, settings={"records": f"{REFERENCE} ({source})"})
+            result = ModelResult(name, settings={"records": _records_source(reference)})
             result.axes = {"time": t}
             result.couplers = {c: {"force": f} for c, f in forces.items()}
             result.wall_time_s = time.perf_counter() - started
@@ -147,6 +145,33 @@ def run_estimators(scene: ImpactScene, reference: ModelResult) -> list[ModelResu
             result = ModelResult.failed(name, f"{type(error).__name__}: {error}", time.perf_counter() - started)
         results.append(result)
     return results
+
+
+def run_networks(scene: ImpactScene, reference: ModelResult) -> list[ModelResult]:
+    """Each network estimator on the fem run's (measured) records: a result holding only the peak
+    force of its coupler, ``couplers[c]["peak_force"]`` (0-d, N), and no time axis.
+
+    The records are made as the sweep files that trained it store them
+    (:meth:`femref.impact.ann_estimator.AnnEstimator.peak_force`); the wall time covers
+    making them and the prediction.
+    """
+    t, records = acceleration_histories(reference)
+    results = []
+    for network in scene.networks:
+        started = time.perf_counter()
+        try:
+            peak = network.peak_force(t, records)
+            result = ModelResult(network.name, settings={"records": _records_source(reference), **network.settings})
+            result.couplers = {network.coupler: {"peak_force": np.array(peak)}}
+            result.wall_time_s = time.perf_counter() - started
+        except Exception as error:
+            result = ModelResult.failed(network.name, f"{type(error).__name__}: {error}", time.perf_counter() - started)
+        results.append(result)
+    return results
+
+
+def _records_source(reference: ModelResult) -> str:
+    return f"{REFERENCE} ({'measured' if reference.measured else 'model'})"
 
 
 def _measured_view(result: ModelResult) -> ModelResult:

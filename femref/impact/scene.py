@@ -16,11 +16,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from femref.scene import Body, FemSettings
 from reduced.couplers import Coupling
+
+if TYPE_CHECKING:  # pragma: no cover - typing only
+    from femref.impact.ann_estimator import AnnEstimator
 
 #: What a car can be modelled as within one model run.
 FIDELITIES: tuple[str, ...] = ("fem", "modal", "quasi_rigid", "rigid")
@@ -95,7 +99,9 @@ class ImpactScene:
 
     ``dt`` is None when the runner is to choose it. ``modal_modes`` is the number of
     elastic modes per car a ``modal`` car keeps (plus its rigid mode and a static
-    correction). ``estimators`` are the inverse estimators run on the fem sensor records.
+    correction). ``estimators`` are the inverse estimators run on the fem sensor records
+    (names of :data:`ESTIMATOR_NAMES`), ``networks`` the network estimators
+    (:class:`femref.impact.ann_estimator.AnnEstimator`, loaded) run on the same records.
     """
 
     cars: tuple[Car, ...]
@@ -110,6 +116,7 @@ class ImpactScene:
     modal_modes: int = 4
     measurement: Measurement | None = None
     estimators: tuple[str, ...] = ()
+    networks: tuple["AnnEstimator", ...] = ()
 
     kind = "impact"
 

@@ -16,7 +16,13 @@ Metrics (floats; names fixed, they become HDF5 attributes of ``/scores/<model>``
     acceleration_peak_error_<p>        |max|a| − max|a_ref|| / max|a_ref|
     coupler_force_peak_error_max, coupler_force_rms_error_max, acceleration_rms_error_max
 
-for every coupler and probe present in both results. A relative metric whose
+for every coupler and probe present in both results.
+
+A result that estimates peaks only — a network estimator, ``couplers[c]["peak_force"]``
+(N, one value) and no time axis — is scored on those peaks alone
+(:func:`score_peak_estimates`): ``coupler_force_peak_error_<c> = |P̂ − max P_ref| / max P_ref``
+with ``max P_ref`` over the whole reference history, and ``coupler_force_peak_error_max``.
+It has no histories, so no peak-time, rms or acceleration metrics. A relative metric whose
 reference scale vanishes — ``max P_ref ≤ 0`` (the coupler never compressed; then the
 peak time is undefined too), ``rms(P_ref) = 0``, ``max|a_ref| = 0`` — is **NaN**: the
 relative error of a signal that is not there is undefined, and NaN cannot be mistaken
@@ -41,9 +47,12 @@ Metrics = dict[str, float]
 def score_impact(reference: ModelResult, result: ModelResult) -> Metrics:
     """Coupler-force and acceleration errors of ``result`` against ``reference`` (module docstring).
 
+    A result of peak estimates only (no time axis) goes to :func:`score_peak_estimates`.
     Raises ValueError when either result failed, lacks a time axis, or the two time
     axes have fewer than two of the result's samples in common.
     """
+    if _peaks_only(result):
+        return score_peak_estimates(reference, result)
     t_ref, t = _time_axis(reference), _time_axis(result)
     window = _common_window(t_ref, t)
     tw = t[window]
@@ -60,13 +69,52 @@ def score_impact(reference: ModelResult, result: ModelResult) -> Metrics:
     return metrics
 
 
+def score_peak_estimates(reference: ModelResult, result: ModelResult) -> Metrics:
+    """Peak coupler-force errors of a result that holds peak estimates ``couplers[c]["peak_force"]`` only.
+
+    ``coupler_force_peak_error_<c> = |P̂ − max P_ref| / max P_ref`` (NaN when the reference
+    never compresses, ``max P_ref ≤ 0``) for every coupler in both results, and the
+    aggregate ``coupler_force_peak_error_max``. Raises ValueError when either result failed,
+    the reference lacks a time axis or a force history, or a peak is not one value.
+    """
+    t_ref = _time_axis(reference)
+    if not result.ok:
+        raise ValueError(f"cannot score model {result.model!r}: its status is {result.status!r} ({result.message})")
+    metrics: Metrics = {}
+    for name in sorted(set(reference.couplers) & set(result.couplers)):
+        ref = _series(reference.couplers[name], "force", reference.model, f"coupler {name}", t_ref.size)
+        metrics[f"coupler_force_peak_error_{name}"] = _peak_error(_peak_estimate(result, name), float(np.max(ref)))
+    metrics.update(_aggregates(metrics))
+    return metrics
+
+
+def _peaks_only(result: ModelResult) -> bool:
+    """A result of peak estimates: coupler ``peak_force`` values and no time axis (a network estimator)."""
+    return result.ok and "time" not in result.axes and any("peak_force" in out for out in result.couplers.values())
+
+
+def _peak_estimate(result: ModelResult, name: str) -> float:
+    outputs = result.couplers[name]
+    if "peak_force" not in outputs:
+        raise ValueError(f"model {result.model!r}: coupler {name} has no 'peak_force' estimate")
+    value = np.asarray(outputs["peak_force"], dtype=float)
+    if value.size != 1:
+        raise ValueError(f"model {result.model!r}: coupler {name} peak_force has shape {value.shape}, expected one value")
+    return float(value.reshape(-1)[0])
+
+
+def _peak_error(peak: float, peak_ref: float) -> float:
+    """``|P − P_ref| / P_ref`` of peak compressions, NaN when the reference never compresses (``P_ref ≤ 0``)."""
+    return abs(peak - peak_ref) / peak_ref if peak_ref > 0.0 else math.nan
+
+
 def coupler_force_errors(name: str, time: NDArray[np.float64], force: NDArray[np.float64], reference: NDArray[np.float64]) -> Metrics:
     """Peak, peak-time and rms errors of one coupler force on a shared time axis (NaN where undefined)."""
     peak_ref = float(np.max(reference))
     k, k_ref = int(np.argmax(force)), int(np.argmax(reference))
     compressed = peak_ref > 0.0
     return {
-        f"coupler_force_peak_error_{name}": abs(float(force[k]) - peak_ref) / peak_ref if compressed else math.nan,
+        f"coupler_force_peak_error_{name}": _peak_error(float(force[k]), peak_ref),
         f"coupler_force_peak_time_error_{name}": float(time[k] - time[k_ref]) if compressed else math.nan,
         f"coupler_force_rms_error_{name}": _relative_rms(force, reference),
     }
@@ -144,4 +192,4 @@ def _has_acceleration(reference: ModelResult, result: ModelResult, probe: str) -
     return "acceleration" in reference.probes[probe] and "acceleration" in result.probes[probe]
 
 
-__all__ = ["AGGREGATES", "acceleration_errors", "coupler_force_errors", "score_impact"]
+__all__ = ["AGGREGATES", "acceleration_errors", "coupler_force_errors", "score_impact", "score_peak_estimates"]
