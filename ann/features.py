@@ -10,11 +10,17 @@ samples)`` into a feature matrix ``(N, features)``:
 2. optional zero-phase low-pass (4th-order Butterworth, ``sosfiltfilt``), which
    also serves as the anti-alias filter before resampling;
 3. linear resampling of each record to ``length`` samples over its duration;
-4. optional peak normalisation: each record is divided by its largest absolute
-   value and that peak is appended as a feature, so shape and amplitude enter
-   the network separately (the coupler force scales with the amplitude);
+4. optional normalisation, so shape and amplitude enter the network separately:
+   ``"peak"`` divides each record by its largest absolute value and appends that
+   peak; ``"channel_peak"`` divides each channel by its own peak ``A_c`` and
+   appends ``log A_c``. Logarithms suit force estimation: ``P = M a`` makes
+   ``log P = log M + log A`` additive, so with a log target
+   (``log_target=True`` in :mod:`ann.networks`) and log masses among the extras
+   a network has a linear relation to learn, whatever the impact speed;
 5. optional ``|rfft|`` magnitudes of the resampled channels;
-6. standardisation ``(f - mean) / std`` with mean and std fitted on the
+6. optional known scalar inputs (``extras``, e.g. the car masses a railroad
+   has from the waybill), appended as ``log`` values — they must be positive;
+7. standardisation ``(f - mean) / std`` with mean and std fitted on the
    training records only (never on validation or test data).
 """
 
@@ -25,7 +31,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import signal
 
-NORMALISATIONS = ("peak", "none")
+NORMALISATIONS = ("peak", "channel_peak", "none")
+#: Floor of a channel peak before its logarithm (a channel that never moved).
+TINY_AMPLITUDE = 1e-12
 _RATE_RTOL = 1e-9
 
 
@@ -41,8 +49,12 @@ class FeatureSettings:
     lowpass : cut-off of the zero-phase low-pass in Hz, or ``None`` for none;
         must lie below the Nyquist frequency ``rate / 2``.
     spectrum : append the ``|rfft|`` magnitudes of each resampled channel.
-    normalise : ``"peak"`` (divide each record by its peak and append the peak)
-        or ``"none"``.
+    normalise : ``"peak"`` (divide each record by its peak and append the peak),
+        ``"channel_peak"`` (divide each channel by its peak and append the log
+        peaks) or ``"none"``.
+    extras : names of the known positive scalar inputs given with the records
+        (e.g. ``("car_mass/hammer", "car_mass/anvil")``, kg), appended as logs;
+        the names tell a user of the saved network what to pass, in order.
     """
 
     length: int
@@ -50,6 +62,7 @@ class FeatureSettings:
     lowpass: float | None = None
     spectrum: bool = False
     normalise: str = "none"
+    extras: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if int(self.length) != self.length or self.length < 2:
@@ -64,6 +77,8 @@ class FeatureSettings:
             raise ValueError(
                 f"FeatureSettings.normalise must be one of {NORMALISATIONS}, got {self.normalise!r}"
             )
+        if len(set(self.extras)) != len(self.extras) or not all(isinstance(e, str) and e for e in self.extras):
+            raise ValueError(f"FeatureSettings.extras must be distinct non-empty names, got {self.extras!r}")
 
 
 class FeaturePipeline:
@@ -86,27 +101,30 @@ class FeaturePipeline:
         """True once ``fit`` (or a load) has set the scaler."""
         return self.mean_ is not None
 
-    def fit(self, records: np.ndarray, rate: float) -> FeaturePipeline:
-        """Fix the record layout and fit the scaler on these (training) records."""
+    def fit(self, records: np.ndarray, rate: float, extras: np.ndarray | None = None) -> FeaturePipeline:
+        """Fix the record layout and fit the scaler on these (training) records.
+
+        ``extras`` (N, len(settings.extras)): the known scalar inputs of each record.
+        """
         records = self._check(records, rate, layout_known=False)
         self.channels, self.samples = records.shape[1], records.shape[2]
-        raw = self._raw_features(records)
+        raw = self._raw_features(records, self._check_extras(extras, records.shape[0]))
         self.mean_ = raw.mean(axis=0)
         std = raw.std(axis=0)
         # Constant features carry no information; scale 1 keeps them at zero.
         self.scale_ = np.where(std > 0, std, 1.0)
         return self
 
-    def transform(self, records: np.ndarray, rate: float) -> np.ndarray:
-        """Features of ``records`` standardised with the training mean and std."""
+    def transform(self, records: np.ndarray, rate: float, extras: np.ndarray | None = None) -> np.ndarray:
+        """Features of ``records`` (and ``extras``) standardised with the training mean and std."""
         if not self.fitted:
             raise ValueError("FeaturePipeline.transform called before fit; fit it on training records first")
         records = self._check(records, rate, layout_known=True)
-        return (self._raw_features(records) - self.mean_) / self.scale_
+        return (self._raw_features(records, self._check_extras(extras, records.shape[0])) - self.mean_) / self.scale_
 
-    def fit_transform(self, records: np.ndarray, rate: float) -> np.ndarray:
+    def fit_transform(self, records: np.ndarray, rate: float, extras: np.ndarray | None = None) -> np.ndarray:
         """``fit`` then ``transform`` on the same (training) records."""
-        return self.fit(records, rate).transform(records, rate)
+        return self.fit(records, rate, extras).transform(records, rate, extras)
 
     # -- steps ---------------------------------------------------------------
 
@@ -144,7 +162,22 @@ class FeaturePipeline:
             )
         return records
 
-    def _raw_features(self, records: np.ndarray) -> np.ndarray:
+    def _check_extras(self, extras: np.ndarray | None, n: int) -> np.ndarray:
+        names = self.settings.extras
+        if not names:
+            if extras is not None and np.size(extras):
+                raise ValueError("extras given, but the pipeline takes none (FeatureSettings.extras is empty)")
+            return np.empty((n, 0))
+        if extras is None:
+            raise ValueError(f"the pipeline needs the extras {', '.join(names)} with the records")
+        extras = np.asarray(extras, dtype=float)
+        if extras.shape != (n, len(names)):
+            raise ValueError(f"extras must have shape ({n}, {len(names)}) for {', '.join(names)}, got {extras.shape}")
+        if not np.all(np.isfinite(extras)) or np.any(extras <= 0.0):
+            raise ValueError(f"extras ({', '.join(names)}) must be finite and positive (they enter as logarithms)")
+        return extras
+
+    def _raw_features(self, records: np.ndarray, extras: np.ndarray) -> np.ndarray:
         s = self.settings
         x = records
         if s.lowpass is not None:
@@ -157,9 +190,14 @@ class FeaturePipeline:
             peak = np.abs(x).max(axis=(1, 2))
             x = x / np.where(peak > 0, peak, 1.0)[:, None, None]
             parts.append(peak[:, None])
+        elif s.normalise == "channel_peak":
+            peak = np.maximum(np.abs(x).max(axis=2), TINY_AMPLITUDE)
+            x = x / peak[:, :, None]
+            parts.append(np.log(peak))
         parts.append(x.reshape(x.shape[0], -1))
         if s.spectrum:
             parts.append(np.abs(np.fft.rfft(x, axis=-1)).reshape(x.shape[0], -1))
+        parts.append(np.log(extras))
         return np.concatenate(parts, axis=1)
 
     # -- plain-array state (for ann.storage) ---------------------------------
@@ -175,6 +213,7 @@ class FeaturePipeline:
             "lowpass": np.array(np.nan if s.lowpass is None else s.lowpass, dtype=float),
             "spectrum": np.array(s.spectrum, dtype=bool),
             "normalise": np.array(s.normalise),
+            "extras": np.array(s.extras, dtype=str),
             "channels": np.array(self.channels, dtype=np.int64),
             "samples": np.array(self.samples, dtype=np.int64),
             "mean": self.mean_,
@@ -191,6 +230,7 @@ class FeaturePipeline:
             lowpass=None if np.isnan(lowpass) else lowpass,
             spectrum=bool(arrays["spectrum"]),
             normalise=str(arrays["normalise"]),
+            extras=tuple(str(e) for e in arrays.get("extras", np.array([], dtype=str))),
         )
         pipeline = cls(settings)
         pipeline.channels = int(arrays["channels"])

@@ -11,6 +11,12 @@ explicit seeds, and both predict with plain numpy from arrays that
 * ``RBFNetwork`` — ``y(x) = sum_j w_j phi(||x - c_j|| / width) + w_0`` with
   centres ``c_j`` from k-means and the weights from ridge-regularised least
   squares.
+
+Both take ``log_target``: fit ``log y`` and predict ``exp`` of the output. Peak
+forces span an order of magnitude over yard speeds and car masses; in logs the
+relative error is what the squared loss weighs (``Δ log P ≈ ΔP/P``), the
+prediction is always positive, and ``log P = log M + log A`` is linear in the
+log-amplitude features of :mod:`ann.features`.
 """
 
 from __future__ import annotations
@@ -30,7 +36,7 @@ ACTIVATIONS: dict[str, Callable[[np.ndarray], np.ndarray]] = {
     "relu": lambda z: np.maximum(z, 0.0),
     "tanh": np.tanh,
 }
-SOLVERS = ("sgd", "adam")
+SOLVERS = ("sgd", "adam", "lbfgs")
 
 # phi(q) with q = r / width.
 BASES: dict[str, Callable[[np.ndarray], np.ndarray]] = {
@@ -56,6 +62,19 @@ def _check_xy(X: np.ndarray, y: np.ndarray | None = None) -> tuple[np.ndarray, n
     return X, y
 
 
+def _target_in(y: np.ndarray, log_target: bool) -> np.ndarray:
+    """The training target: ``y`` or ``log y`` (then ``y`` must be positive)."""
+    if not log_target:
+        return y
+    if np.any(y <= 0.0):
+        raise ValueError("log_target needs positive targets (peak compression forces > 0)")
+    return np.log(y)
+
+
+def _target_out(z: np.ndarray, log_target: bool) -> np.ndarray:
+    return np.exp(z) if log_target else z
+
+
 class MLPForceRegressor:
     """Multilayer perceptron for force regression (scikit-learn training, numpy prediction).
 
@@ -69,6 +88,12 @@ class MLPForceRegressor:
     (1e-4, 10): on a synthetic sin² pulse problem those stopped the default
     (200, 21) logistic network at ~4.5 % mean error, these reach ~0.5 %.
     With ``early_stopping`` the weights of the best validation epoch are kept.
+
+    Solvers: ``"sgd"`` (back-propagation with ``momentum``, the source study's
+    rule), ``"adam"`` (adaptive), ``"lbfgs"`` (quasi-Newton on the full batch:
+    on a few thousand samples it converges in a few hundred iterations, where the
+    stochastic solvers wander; it has no early stopping, so ``alpha`` does the
+    regularising).
     """
 
     kind = "mlp"
@@ -87,6 +112,7 @@ class MLPForceRegressor:
         alpha: float = 1e-4,
         tol: float = 1e-6,
         n_iter_no_change: int = 30,
+        log_target: bool = False,
     ) -> None:
         if activation not in ACTIVATIONS:
             raise ValueError(f"activation must be one of {tuple(ACTIVATIONS)}, got {activation!r}")
@@ -106,6 +132,7 @@ class MLPForceRegressor:
         self.alpha = alpha
         self.tol = tol
         self.n_iter_no_change = n_iter_no_change
+        self.log_target = log_target
         self.coefs_: list[np.ndarray] | None = None
         self.intercepts_: list[np.ndarray] | None = None
         self.target_mean_: np.ndarray | None = None
@@ -116,6 +143,7 @@ class MLPForceRegressor:
     def fit(self, X: np.ndarray, y: np.ndarray) -> MLPForceRegressor:
         """Train on features ``X (N, features)`` and forces ``y (N,)`` or ``(N, outputs)``."""
         X, y = _check_xy(X, y)
+        y = _target_in(y, self.log_target)
         self.target_mean_ = y.mean(axis=0)
         std = y.std(axis=0)
         self.target_scale_ = np.where(std > 0, std, 1.0)
@@ -163,7 +191,7 @@ class MLPForceRegressor:
         out = h @ self.coefs_[-1] + self.intercepts_[-1]
         if np.ndim(self.target_mean_) == 0:
             out = out[:, 0]
-        return out * self.target_scale_ + self.target_mean_
+        return _target_out(out * self.target_scale_ + self.target_mean_, self.log_target)
 
     def to_arrays(self) -> dict[str, np.ndarray]:
         """Weights and target scaling as plain arrays (no sklearn object)."""
@@ -176,6 +204,7 @@ class MLPForceRegressor:
             "target_scale": np.asarray(self.target_scale_),
             "n_iter": np.array(self.n_iter_, dtype=np.int64),
             "converged": np.array(self.converged_, dtype=bool),
+            "log_target": np.array(self.log_target, dtype=bool),
         }
         for i, (W, b) in enumerate(zip(self.coefs_, self.intercepts_)):
             arrays[f"coef_{i}"] = W
@@ -187,7 +216,11 @@ class MLPForceRegressor:
         """Rebuild a trained network from ``to_arrays`` output."""
         layers = int(arrays["layers"])
         coefs = [np.asarray(arrays[f"coef_{i}"], dtype=float) for i in range(layers)]
-        net = cls(hidden=tuple(W.shape[1] for W in coefs[:-1]) or (1,), activation=str(arrays["activation"]))
+        net = cls(
+            hidden=tuple(W.shape[1] for W in coefs[:-1]) or (1,),
+            activation=str(arrays["activation"]),
+            log_target=bool(arrays.get("log_target", False)),
+        )
         net.coefs_ = coefs
         net.intercepts_ = [np.asarray(arrays[f"intercept_{i}"], dtype=float) for i in range(layers)]
         net.target_mean_ = np.asarray(arrays["target_mean"], dtype=float)
@@ -218,6 +251,7 @@ class RBFNetwork:
         width_factor: float = 1.0,
         ridge: float = 1e-8,
         seed: int | None = 0,
+        log_target: bool = False,
     ) -> None:
         if int(centres) != centres or centres < 2:
             raise ValueError(f"centres must be an integer >= 2, got {centres!r}")
@@ -238,6 +272,7 @@ class RBFNetwork:
         self.width_factor = width_factor
         self.ridge = ridge
         self.seed = seed
+        self.log_target = log_target
         self.centres_: np.ndarray | None = None
         self.width_: float | None = None
         self.weights_: np.ndarray | None = None
@@ -245,6 +280,7 @@ class RBFNetwork:
     def fit(self, X: np.ndarray, y: np.ndarray) -> RBFNetwork:
         """Place centres, choose the width, solve for the output weights."""
         X, y = _check_xy(X, y)
+        y = _target_in(y, self.log_target)
         if X.shape[0] < self.centres:
             raise ValueError(f"{X.shape[0]} training samples are fewer than the {self.centres} centres")
         kmeans = KMeans(n_clusters=self.centres, n_init=10, random_state=self.seed).fit(X)
@@ -276,7 +312,7 @@ class RBFNetwork:
         X, _ = _check_xy(X)
         if X.shape[1] != self.centres_.shape[1]:
             raise ValueError(f"X has {X.shape[1]} features but the network expects {self.centres_.shape[1]}")
-        return self._design(X) @ self.weights_
+        return _target_out(self._design(X) @ self.weights_, self.log_target)
 
     def to_arrays(self) -> dict[str, np.ndarray]:
         """Centres, width, basis and weights as plain arrays."""
@@ -287,6 +323,7 @@ class RBFNetwork:
             "centres": self.centres_,
             "width": np.array(self.width_, dtype=float),
             "weights": self.weights_,
+            "log_target": np.array(self.log_target, dtype=bool),
         }
 
     @classmethod
@@ -294,7 +331,7 @@ class RBFNetwork:
         """Rebuild a trained network from ``to_arrays`` output."""
         centres = np.asarray(arrays["centres"], dtype=float)
         width = float(arrays["width"])
-        net = cls(centres=centres.shape[0], basis=str(arrays["basis"]), width=width)
+        net = cls(centres=centres.shape[0], basis=str(arrays["basis"]), width=width, log_target=bool(arrays.get("log_target", False)))
         net.centres_ = centres
         net.width_ = width
         net.weights_ = np.asarray(arrays["weights"], dtype=float)

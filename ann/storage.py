@@ -36,9 +36,12 @@ class Estimator:
     pipeline: FeaturePipeline
     network: Network
 
-    def predict(self, records: np.ndarray, rate: float) -> np.ndarray:
-        """Forces for records ``(N, channels, samples)`` sampled at ``rate`` Hz."""
-        return self.network.predict(self.pipeline.transform(records, rate))
+    def predict(self, records: np.ndarray, rate: float, extras: np.ndarray | None = None) -> np.ndarray:
+        """Forces for records ``(N, channels, samples)`` sampled at ``rate`` Hz.
+
+        ``extras`` (N, k): the known scalar inputs named by ``pipeline.settings.extras``.
+        """
+        return self.network.predict(self.pipeline.transform(records, rate, extras))
 
 
 def save(path: str | os.PathLike, pipeline: FeaturePipeline, network: Network, metadata: dict[str, Any]) -> None:

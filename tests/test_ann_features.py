@@ -107,3 +107,50 @@ def test_transform_before_fit_is_rejected():
 def test_bad_settings(kwargs, match):
     with pytest.raises(ValueError, match=match):
         FeatureSettings(**{"length": 8, "rate": RATE, **kwargs})
+
+
+def test_channel_peak_normalisation_gives_log_amplitudes():
+    """Scaling channel 1 by 3 shifts its log-peak feature by log 3; shapes and channel 0 are unchanged."""
+    x = records(n=1, channels=2, samples=8)
+    scaled = x.copy()
+    scaled[:, 1] *= 3.0
+    pipeline = FeaturePipeline(FeatureSettings(length=8, rate=RATE, normalise="channel_peak")).fit(np.concatenate([x, scaled]), RATE)
+    raw = pipeline.transform(np.concatenate([x, scaled]), RATE) * pipeline.scale_ + pipeline.mean_
+    np.testing.assert_allclose(raw[0, :2], np.log(np.abs(x[0]).max(axis=1)), rtol=1e-12)
+    np.testing.assert_allclose(raw[1, 1] - raw[0, 1], np.log(3.0), rtol=1e-12)
+    np.testing.assert_allclose(raw[1, [0, *range(2, raw.shape[1])]], raw[0, [0, *range(2, raw.shape[1])]], atol=1e-12)
+    np.testing.assert_allclose(np.abs(raw[0, 2:]).reshape(2, 8).max(axis=1), 1.0, rtol=1e-12)
+
+
+def test_extras_enter_as_logarithms_after_the_records():
+    x = records(n=3, channels=1, samples=6)
+    masses = np.array([[1.0e5, 9.0e4], [1.2e5, 1.0e5], [8.0e4, 1.1e5]])
+    settings = FeatureSettings(length=6, rate=RATE, extras=("car_mass/hammer", "car_mass/anvil"))
+    pipeline = FeaturePipeline(settings).fit(x, RATE, masses)
+    raw = pipeline.transform(x, RATE, masses) * pipeline.scale_ + pipeline.mean_
+    np.testing.assert_allclose(raw[:, -2:], np.log(masses), rtol=1e-12)
+    assert raw.shape == (3, 6 + 2)
+
+
+@pytest.mark.parametrize(
+    "extras, match",
+    [
+        (None, "needs the extras car_mass/a"),
+        (np.ones((3, 2)), r"shape \(3, 1\)"),
+        (np.array([[1.0], [0.0], [2.0]]), "finite and positive"),
+        (np.array([[1.0], [np.nan], [2.0]]), "finite and positive"),
+    ],
+)
+def test_bad_extras(extras, match):
+    x = records(n=3, channels=1, samples=6)
+    pipeline = FeaturePipeline(FeatureSettings(length=6, rate=RATE, extras=("car_mass/a",))).fit(x, RATE, np.ones((3, 1)))
+    with pytest.raises(ValueError, match=match):
+        pipeline.transform(x, RATE, extras)
+
+
+def test_extras_refused_when_the_pipeline_takes_none():
+    x = records(n=3, channels=1, samples=6)
+    with pytest.raises(ValueError, match="takes none"):
+        FeaturePipeline(FeatureSettings(length=6, rate=RATE)).fit(x, RATE, np.ones((3, 1)))
+    with pytest.raises(ValueError, match="distinct non-empty names"):
+        FeatureSettings(length=6, rate=RATE, extras=("m", "m"))

@@ -88,3 +88,19 @@ def test_not_a_model_file_and_bad_metadata(tmp_path, trained):
     pipeline, networks, _ = trained
     with pytest.raises(ValueError, match="JSON-serialisable"):
         storage.save(tmp_path / "m.npz", pipeline, networks["rbf"], {"array": np.zeros(2)})
+
+
+def test_round_trip_keeps_extras_and_log_target(tmp_path):
+    """A pipeline with car-mass extras and a log-target network predict the same after a load."""
+    records, amplitude = pulse_problem(n=60, seed=4)
+    masses = np.random.default_rng(0).uniform(8e4, 1.2e5, (60, 2))
+    settings = FeatureSettings(length=16, rate=RATE, normalise="channel_peak", extras=("car_mass/a", "car_mass/b"))
+    pipeline = FeaturePipeline(settings).fit(records, RATE, masses)
+    network = RBFNetwork(centres=10, seed=0, log_target=True).fit(pipeline.transform(records, RATE, masses), amplitude * masses[:, 1])
+    storage.save(tmp_path / "net.npz", pipeline, network, {})
+    estimator, _ = storage.load_estimator(tmp_path / "net.npz")
+    assert estimator.pipeline.settings.extras == ("car_mass/a", "car_mass/b")
+    assert estimator.network.log_target
+    np.testing.assert_allclose(estimator.predict(records, RATE, masses), storage.Estimator(pipeline, network).predict(records, RATE, masses), rtol=1e-12)
+    with pytest.raises(ValueError, match="needs the extras"):
+        estimator.predict(records, RATE)
