@@ -80,6 +80,23 @@ def case(edits: dict[str, Any] | None = None) -> dict[str, Any]:
     return edited_copy(CASE, edits or {})
 
 
+_TRAINING: dict[str, np.ndarray] = {}
+
+
+def trained_records() -> tuple[np.ndarray, np.ndarray]:
+    """Measured fem records ``(8, channels, RECORD_LENGTH)`` of the case at 8 speeds (1–3 m/s) and their peak forces."""
+    if not _TRAINING:
+        records, peaks = [], []
+        for k, speed in enumerate(np.linspace(1.0, 3.0, 8)):
+            data = case({"cars.0.velocity": float(speed), "models": ["fem"], "estimators": [], "measurement.seed": 10 + k})
+            fem = run_impact_scene(scene_from_case(parse_case(data))).results[0]
+            time, histories = acceleration_histories(fem)
+            records.append(fixed_length_records(time, histories, PROBES, RECORD_LENGTH, RECORD_END))
+            peaks.append(float(np.max(fem.couplers["c1"]["force"])))
+        _TRAINING.update(records=np.array(records), peaks=np.array(peaks))
+    return _TRAINING["records"], _TRAINING["peaks"]
+
+
 @pytest.fixture(scope="module")
 def trained() -> tuple[FeaturePipeline, RBFNetwork]:
     """Pipeline and RBF network fitted on the measured fem records of the case at 8 speeds (1–3 m/s).
@@ -87,16 +104,10 @@ def trained() -> tuple[FeaturePipeline, RBFNetwork]:
     The records scale with the speed and so does the peak force: the multiquadric network
     interpolates them to a few 0.1 % (checked at 1.3, 2.2 and 2.9 m/s while writing this test).
     """
-    records, peaks = [], []
-    for k, speed in enumerate(np.linspace(1.0, 3.0, 8)):
-        data = case({"cars.0.velocity": float(speed), "models": ["fem"], "estimators": [], "measurement.seed": 10 + k})
-        fem = run_impact_scene(scene_from_case(parse_case(data))).results[0]
-        time, histories = acceleration_histories(fem)
-        records.append(fixed_length_records(time, histories, PROBES, RECORD_LENGTH, RECORD_END))
-        peaks.append(float(np.max(fem.couplers["c1"]["force"])))
+    records, peaks = trained_records()
     rate = record_rate(RECORD_LENGTH, RECORD_END)
-    pipeline = FeaturePipeline(FeatureSettings(length=32, rate=rate)).fit(np.array(records), rate)
-    network = RBFNetwork(centres=8, basis="multiquadric", width_factor=3.0, seed=0).fit(pipeline.transform(np.array(records), rate), np.array(peaks))
+    pipeline = FeaturePipeline(FeatureSettings(length=32, rate=rate)).fit(records, rate)
+    network = RBFNetwork(centres=8, basis="multiquadric", width_factor=3.0, seed=0).fit(pipeline.transform(records, rate), peaks)
     return pipeline, network
 
 
@@ -216,6 +227,53 @@ def test_network_file_changed_after_validation_is_a_case_error(trained, tmp_path
     save_network(tmp_path / "net.npz", trained, {**METADATA, "probes": list(reversed(PROBES))})
     with pytest.raises(CaseError, match=re.escape("estimators[1].network: network file") + ".*changed since the case was validated"):
         scene_from_case(loaded, tmp_path)
+
+
+def _mass_network(extras: tuple[str, ...]) -> tuple[FeaturePipeline, RBFNetwork]:
+    """The fixture's network retrained on the same records with car masses as extra inputs."""
+    records, peaks = trained_records()
+    rate = record_rate(RECORD_LENGTH, RECORD_END)
+    masses = np.tile([7000.0 * 17.0, 6500.0 * 15.0][: len(extras)], (len(peaks), 1)) * np.linspace(0.9, 1.1, len(peaks))[:, None]
+    settings = FeatureSettings(length=32, rate=rate, normalise="channel_peak", extras=extras)
+    with_masses = FeaturePipeline(settings).fit(records, rate, masses)
+    network = RBFNetwork(centres=8, basis="gaussian", width_factor=4.0, seed=0, log_target=True).fit(with_masses.transform(records, rate, masses), peaks)
+    return with_masses, network
+
+
+def test_network_with_car_mass_inputs_gets_the_case_masses(tmp_path: Path) -> None:
+    """A network taking ``car_mass/anvil`` and ``car_mass/hammer`` predicts with the masses of the case's cars (kg)."""
+    pair = _mass_network(("car_mass/anvil", "car_mass/hammer"))
+    save_network(tmp_path / "net.npz", pair)
+    output = tmp_path / "out.h5"
+    result = CliRunner().invoke(main, ["run", str(write_case(tmp_path, case())), "-o", str(output)])
+    assert result.exit_code == 0, result.output
+    with h5py.File(output) as h5:
+        peak = float(np.asarray(h5["ann_x/couplers/c1/peak_force"][()]).reshape(-1)[0])
+        measured = {p: h5[f"fem/measured/{p}/acceleration"][()] for p in PROBES}
+        t_measured = h5["fem/measured/time"][()]
+        assert json.loads(h5["ann_x"].attrs["settings"])["extras"] == ["car_mass/anvil", "car_mass/hammer"]
+    records = fixed_length_records(t_measured, measured, PROBES, RECORD_LENGTH, RECORD_END)
+    masses = np.array([[6500.0 * 15.0, 7000.0 * 17.0]])
+    expected = storage.Estimator(*pair).predict(records[None], record_rate(RECORD_LENGTH, RECORD_END), masses)[0]
+    assert peak == pytest.approx(expected, rel=1e-12)
+    swapped = storage.Estimator(*pair).predict(records[None], record_rate(RECORD_LENGTH, RECORD_END), masses[:, ::-1])[0]
+    assert abs(swapped - peak) > 1e-6 * peak
+
+
+@pytest.mark.parametrize(
+    ("extras", "rule"),
+    [
+        (("car_mass/tender",), r"the network takes the mass of car\(s\) tender, which this case does not have; cars: hammer, anvil"),
+        (("speed",), r"the network takes the input\(s\) speed; femref supplies only car_mass/<car>"),
+    ],
+)
+def test_network_inputs_femref_cannot_supply_exit_2(tmp_path: Path, extras, rule) -> None:
+    save_network(tmp_path / "net.npz", _mass_network(extras))
+    path = write_case(tmp_path, case())
+    result = CliRunner().invoke(main, ["run", str(path), "-o", str(tmp_path / "out.h5")])
+    assert result.exit_code == 2, result.output
+    assert re.search(rf"{re.escape(f'{path}: {NETWORK}: ')}[^\n]*{rule}", result.output), result.output
+    assert not (tmp_path / "out.h5").exists()
 
 
 # Bad input: exit 2, the key path, nothing written

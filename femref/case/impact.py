@@ -766,6 +766,11 @@ def _network_problems(contract: NetworkContract, cars: tuple[CarSpec, ...], coup
     if missing:
         rule = f"the network reads probe(s) {', '.join(missing)}, which are not sensors of this case; probes: {', '.join(probes)}"
         problems.append(Problem((), rule))
+    car_names = [car.name for car in cars]
+    unknown_cars = [car for car in contract.mass_inputs if car not in car_names]
+    if unknown_cars:
+        rule = f"the network takes the mass of car(s) {', '.join(unknown_cars)}, which this case does not have; cars: {', '.join(car_names)}"
+        problems.append(Problem((), rule))
     time = data.get("time")
     if time is not None and contract.record_end > time.end:
         problems.append(Problem((), f"the network reads records over [0, {contract.record_end:g}] s, beyond time.end = {time.end:g} s"))

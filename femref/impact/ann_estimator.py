@@ -23,7 +23,10 @@ this module reads (:class:`NetworkContract`)::
     measurement:   {rate, lowpass, noise, seed} | null   the chain the training records went through
     training:      free-form (optional here)   source model, samples, errors, …
 
-and the pipeline's sampling rate must be ``(record_length − 1)/record_end``.
+and the pipeline's sampling rate must be ``(record_length − 1)/record_end``. A pipeline
+may also take known scalar inputs (``ann.features.FeatureSettings.extras``); femref
+supplies ``car_mass/<car>``, the car's total mass in kg (:attr:`Car.mass`, the mass a
+railroad knows from the waybill), and refuses networks asking for anything else.
 :func:`read_network` checks all of this for any scene; the case schema
 (:mod:`femref.case.impact`) checks it against the scene (coupler, probes, time, measurement).
 ``ann`` is imported only when a network is read: ``femref`` imports ``ann``, never the
@@ -36,7 +39,7 @@ import math
 import os
 import zipfile
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -55,6 +58,8 @@ TARGETS: tuple[str, ...] = ("peak_coupler_force",)
 RECORD_SOURCES: tuple[str, ...] = ("measured", "model")
 #: Metadata keys the runner relies on.
 REQUIRED_KEYS: tuple[str, ...] = ("target", "coupler", "probes", "record_length", "record_end", "record_source", "measurement")
+#: Prefix of the one kind of scalar network input femref supplies: ``car_mass/<car>`` (kg).
+CAR_MASS = "car_mass/"
 #: First bytes of a zip archive (an .npz file).
 ZIP_MAGIC = b"PK\x03\x04"
 #: Relative tolerance of rate comparisons (that of ``ann.features``).
@@ -83,6 +88,12 @@ class NetworkContract:
     measurement: Measurement | None
     kind: str
     training: dict[str, Any] = field(default_factory=dict)
+    extras: tuple[str, ...] = ()
+
+    @property
+    def mass_inputs(self) -> tuple[str, ...]:
+        """The cars whose masses the network takes, in input order."""
+        return tuple(name[len(CAR_MASS) :] for name in self.extras)
 
     @property
     def rate(self) -> float:
@@ -170,7 +181,7 @@ def read_network(path: str | os.PathLike) -> tuple["Estimator", NetworkContract]
         raise NetworkFileError(f"not a usable ann network file (ann.storage .npz): {detail}") from None
     contract = NetworkContract.from_metadata(metadata, estimator.network.kind)
     _check_pipeline(estimator, contract)
-    return estimator, contract
+    return estimator, replace(contract, extras=tuple(estimator.pipeline.settings.extras))
 
 
 def _check_pipeline(estimator: "Estimator", contract: NetworkContract) -> None:
@@ -185,6 +196,9 @@ def _check_pipeline(estimator: "Estimator", contract: NetworkContract) -> None:
         raise NetworkFileError(f"the network's pipeline was fitted on {pipeline.channels} channels, but metadata lists {len(contract.probes)} probes")
     if pipeline.samples != contract.record_length:
         raise NetworkFileError(f"the network's pipeline was fitted on records of {pipeline.samples} samples, but record_length is {contract.record_length}")
+    unknown = [name for name in pipeline.settings.extras if not (name.startswith(CAR_MASS) and len(name) > len(CAR_MASS))]
+    if unknown:
+        raise NetworkFileError(f"the network takes the input(s) {', '.join(unknown)}; femref supplies only {CAR_MASS}<car> (car mass, kg)")
 
 
 @dataclass(frozen=True, eq=False)
@@ -211,9 +225,17 @@ class AnnEstimator:
         c = self.contract
         return fixed_length_records(time, histories, c.probes, c.record_length, c.record_end)
 
-    def peak_force(self, time: ArrayLike, histories: Mapping[str, ArrayLike]) -> float:
-        """``P̂ = predict(records[None], rate)[0]`` (N, compression positive; module docstring)."""
-        prediction = np.asarray(self.estimator.predict(self.records(time, histories)[None], self.contract.rate), dtype=float)
+    def peak_force(self, time: ArrayLike, histories: Mapping[str, ArrayLike], car_masses: Mapping[str, float] | None = None) -> float:
+        """``P̂ = predict(records[None], rate, masses)[0]`` (N, compression positive; module docstring).
+
+        ``car_masses`` (car name → kg) must hold the cars of :attr:`NetworkContract.mass_inputs`.
+        """
+        masses = car_masses or {}
+        missing = [car for car in self.contract.mass_inputs if car not in masses]
+        if missing:
+            raise ValueError(f"network {self.path} needs the mass of car(s) {', '.join(missing)}")
+        extras = np.array([[masses[car] for car in self.contract.mass_inputs]]) if self.contract.extras else None
+        prediction = np.asarray(self.estimator.predict(self.records(time, histories)[None], self.contract.rate, extras), dtype=float)
         if prediction.size != 1:
             raise ValueError(f"network {self.path} predicted {prediction.size} values for one record stack; a peak-force network predicts one")
         return float(prediction.reshape(-1)[0])
@@ -236,6 +258,7 @@ class AnnEstimator:
             "record_end": c.record_end,
             "record_rate": c.rate,
             "record_source": c.record_source,
+            "extras": list(c.extras),
             "training_measurement": chain,
             "training": {k: v for k, v in c.training.items() if v is None or isinstance(v, (str, int, float, bool))},
         }

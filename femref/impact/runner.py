@@ -160,7 +160,7 @@ def run_networks(scene: ImpactScene, reference: ModelResult) -> list[ModelResult
     for network in scene.networks:
         started = time.perf_counter()
         try:
-            peak = network.peak_force(t, records)
+            peak = network.peak_force(t, records, {car.name: car.mass for car in scene.cars})
             result = ModelResult(network.name, settings={"records": _records_source(reference), **network.settings})
             result.couplers = {network.coupler: {"peak_force": np.array(peak)}}
             result.wall_time_s = time.perf_counter() - started
