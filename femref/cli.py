@@ -2,6 +2,8 @@
 
 Exit codes: 0 success, 2 bad input (the message names the key path and the rule),
 1 a failure during the run (the result file still records which model failed and why).
+``femref sweep`` exits 0 when the sweep ran, even with failed samples (the sweep file
+records them), 1 when the sweep machinery fails, 130 when interrupted (stored samples kept).
 """
 
 from __future__ import annotations
@@ -135,7 +137,11 @@ def _peak(result, quantity: str) -> str:
 
 
 def _impact_summary(outcome) -> Table:
-    """Per model run and estimator: peak coupler force and its errors against fem, sensor error, cost."""
+    """Per model run and estimator: peak coupler force and its errors against fem, sensor error, cost.
+
+    A network estimator gives a peak only (``peak_force``): its row shows that peak and its
+    error; the history columns (peak time, rms, acceleration, energy) stay blank.
+    """
     scene = outcome.scene
     title = f"impact scene, {len(scene.cars)} cars, {len(scene.couplers)} couplers, ε = {scene.epsilon:.3g}; errors against fem"
     table = Table(title=title, title_justify="left")
@@ -144,7 +150,7 @@ def _impact_summary(outcome) -> Table:
         table.add_column(column, justify="left" if column in ("model", "status") else "right", no_wrap=column == "model")
     for result in outcome.results:
         score = outcome.scores.get(result.model, {})
-        peaks = {c: float(np.max(out["force"])) for c, out in result.couplers.items()} if result.ok else {}
+        peaks = {c: float(np.max(out["force"] if "force" in out else out["peak_force"])) for c, out in result.couplers.items()} if result.ok else {}
         coupler = max(peaks, key=peaks.get) if peaks else None
         balance = result.settings.get("energy_balance_error")
         table.add_row(
@@ -165,3 +171,70 @@ def _impact_summary(outcome) -> Table:
 
 def _fmt(value, pattern: str, factor: float = 1.0) -> str:
     return "" if value is None else pattern.format(value * factor)
+
+
+EXIT_INTERRUPTED = 130
+#: Failed samples listed after a sweep (the file holds every error).
+SHOWN_FAILURES = 5
+
+
+@main.command()
+@click.argument("sweep_path", metavar="SWEEP", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--scheduler", metavar="tcp://HOST:PORT", help="run on this Dask scheduler (default: a local cluster)")
+@click.option("--workers", type=click.IntRange(min=1), help="local cluster worker processes (default: one per CPU)")
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), help="sweep file (default: SWEEP stem + .h5)")
+@click.option("--limit", type=click.IntRange(min=0), help="run at most N samples now (the file stays .partial)")
+@click.option("--retry-failed", is_flag=True, help="run the samples stored as failed again")
+def sweep(sweep_path: Path, scheduler: str | None, workers: int | None, output: Path | None, limit: int | None, retry_failed: bool) -> None:
+    """Run the samples of SWEEP not yet stored in the sweep file, on Dask; resumable (DESIGN.md §6)."""
+    from femref.sweep import SweepInterrupted, load_sweep, run_sweep
+
+    if scheduler is not None and workers is not None:
+        raise click.UsageError("--workers sizes the local cluster; the cluster behind --scheduler has its own workers")
+    console = Console(stderr=True)
+    try:
+        loaded = load_sweep(sweep_path)
+        output = output or Path(f"{sweep_path.stem}.h5")
+        with _sweep_progress(console) as progress:
+            summary = run_sweep(loaded, output, scheduler=scheduler, workers=workers, limit=limit, retry_failed=retry_failed, progress=progress)
+    except CaseError as error:
+        click.echo(f"error: {error}", err=True)
+        sys.exit(EXIT_BAD_INPUT)
+    except SweepInterrupted as interrupted:
+        _sweep_report(interrupted.summary)
+        click.echo(f"interrupted: {interrupted.summary.run} samples stored in this call; run again to resume", err=True)
+        sys.exit(EXIT_INTERRUPTED)
+    except Exception as error:  # the sweep machinery (scheduler, workers, file system), not a sample
+        click.echo(f"error: sweep failed: {type(error).__name__}: {error}", err=True)
+        sys.exit(EXIT_RUN_FAILURE)
+    _sweep_report(summary)
+
+
+@contextmanager
+def _sweep_progress(console: Console) -> Iterator:
+    """A samples progress bar on a terminal; None when output is piped."""
+    if not console.is_terminal:
+        yield None
+        return
+    columns = (TextColumn("sweep"), BarColumn(), TextColumn("{task.completed}/{task.total} samples"), TimeRemainingColumn())
+    with Progress(*columns, console=console, transient=True) as bar:
+        task = bar.add_task("sweep", total=None)
+        yield lambda done, total: bar.update(task, completed=done, total=total)
+
+
+def _sweep_report(summary) -> None:
+    """One line of counts and speed, the first failures, and where the samples are."""
+    if summary.run == 0 and summary.complete:
+        failed = f" ({summary.stored_failed} failed; --retry-failed runs them again)" if summary.stored_failed else ""
+        click.echo(f"all {summary.total} samples already stored in {summary.path}{failed}")
+        return
+    failed = f"{summary.failed} failed" + (f" ({summary.stored_failed} stored as failed in all)" if summary.stored_failed != summary.failed else "")
+    click.echo(
+        f"samples: {summary.total} total, {summary.run} run now, {summary.skipped} skipped (already stored), {failed}; "
+        f"wall time {summary.wall_time_s:.1f} s, {summary.runs_per_second:.2f} runs/s"
+    )
+    for index, error in summary.failures[:SHOWN_FAILURES]:
+        click.echo(f"  sample {index} failed: {error}", err=True)
+    if summary.failed > SHOWN_FAILURES:
+        click.echo(f"  … and {summary.failed - SHOWN_FAILURES} more (samples/error in the file)", err=True)
+    click.echo(f"wrote {summary.path}" + ("" if summary.complete else " (incomplete: run again to resume)"))

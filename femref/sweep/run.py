@@ -1,0 +1,204 @@
+"""Run a sweep on dask.distributed and stream the samples into the sweep file as they finish.
+
+The client (this process) draws each sample (:meth:`Sweep.sample`), validates its case —
+a sample whose case fails validation is stored as failed right away — and submits the
+rest as :func:`femref.sweep.worker.run_sample` tasks, keeping about two per worker
+thread in flight (``distributed.as_completed`` with ``add``), so a sweep of 10⁵ samples
+never queues everything at once. Only the client writes the file
+(:class:`femref.sweep.store.SweepStore`), one flushed row per finished sample.
+
+Where the work runs: a ``distributed.LocalCluster`` of ``workers`` single-threaded
+processes (default: one per CPU), an existing scheduler (``scheduler="tcp://host:8786"``),
+or a given ``distributed.Client``.
+
+>>> summary = run_sweep("cases/sweeps/free_roll_speeds.yaml", "speeds.h5", workers=2)  # doctest: +SKIP
+>>> summary.run, summary.failed, f"{summary.runs_per_second:.2f} runs/s"                  # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import time
+import uuid
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from femref.case import CaseError
+from femref.sweep.spec import Sweep, load_sweep
+from femref.sweep.store import FAILED, SweepLayout, SweepStore, partial_path
+from femref.sweep.worker import run_sample
+
+__all__ = ["SweepInterrupted", "SweepSummary", "run_sweep"]
+
+#: Futures kept in flight per worker thread: enough to keep every worker busy, few enough to stream.
+IN_FLIGHT_PER_THREAD = 2
+
+#: ``progress(done, to_run)`` after each sample stored in this call.
+Progress = Callable[[int, int], None]
+
+
+@dataclass
+class SweepSummary:
+    """What one call did: samples in the file, run now, skipped (already stored), failed now."""
+
+    output: Path
+    total: int
+    run: int = 0
+    skipped: int = 0
+    failures: list[tuple[int, str]] = field(default_factory=list)
+    stored_failed: int = 0
+    wall_time_s: float = 0.0
+    complete: bool = False
+
+    @property
+    def failed(self) -> int:
+        return len(self.failures)
+
+    @property
+    def path(self) -> Path:
+        """Where the samples are now: the output when complete, else its ``.partial``."""
+        return self.output if self.complete else partial_path(self.output)
+
+    @property
+    def runs_per_second(self) -> float:
+        return self.run / self.wall_time_s if self.wall_time_s > 0.0 else 0.0
+
+
+class SweepInterrupted(KeyboardInterrupt):
+    """Ctrl-C during a sweep: the futures were cancelled and the stored samples kept (``summary``)."""
+
+    def __init__(self, summary: SweepSummary) -> None:
+        super().__init__(f"sweep interrupted: {summary.run} samples stored in this call")
+        self.summary = summary
+
+
+def run_sweep(
+    sweep: Sweep | str | Path,
+    output: str | Path,
+    *,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    client: Any = None,
+    limit: int | None = None,
+    retry_failed: bool = False,
+    progress: Progress | None = None,
+) -> SweepSummary:
+    """Run every sample of ``sweep`` not yet stored in ``output``; return what was done.
+
+    ``limit`` runs at most that many samples in this call (the file stays ``.partial``).
+    ``retry_failed`` runs failed samples again. Raises :class:`CaseError` for a bad sweep
+    file or an ``output`` holding another sweep, :class:`SweepInterrupted` on Ctrl-C.
+    """
+    sweep = sweep if isinstance(sweep, Sweep) else load_sweep(sweep)
+    output = Path(output)
+    status = SweepStore.stored_status(output, sweep)
+    if status is not None and status.size >= sweep.size and not (retry_failed and np.any(status == FAILED)):
+        return SweepSummary(output, int(status.size), skipped=int(status.size), stored_failed=int(np.sum(status == FAILED)), complete=True)
+
+    store = SweepStore.open(output, sweep, SweepLayout.of(sweep))
+    summary = SweepSummary(output, store.size)
+    interrupted = False
+    started = time.perf_counter()
+    try:
+        if store.size > sweep.size:  # a file is never shrunk: run all of its samples
+            sweep = sweep.with_samples(store.size // (sweep.size // sweep.spec.samples))
+        pending = store.pending(retry_failed)
+        summary.skipped = store.size - len(pending)
+        todo = pending if limit is None else pending[: max(0, limit)]
+        if todo:
+            with _client(scheduler, workers, client) as dask_client:
+                started = time.perf_counter()  # the rate of the runs, without the cluster's start and stop
+                _run(dask_client, sweep, store, todo, summary, progress)
+                summary.wall_time_s = time.perf_counter() - started
+    except KeyboardInterrupt:
+        interrupted = True
+        summary.wall_time_s = time.perf_counter() - started
+    finally:
+        summary.stored_failed = int(np.sum(store.status == FAILED))
+        summary.complete = store.close()
+    if interrupted:
+        raise SweepInterrupted(summary)
+    return summary
+
+
+@contextmanager
+def _client(scheduler: str | None, workers: int | None, client: Any) -> Iterator[Any]:
+    """The given client, a client of ``scheduler``, or a client of a new local cluster."""
+    if client is not None:
+        yield client
+        return
+    from distributed import Client, LocalCluster
+
+    if scheduler is not None:
+        with Client(scheduler) as remote:  # connect timeout: dask config distributed.comm.timeouts.connect
+            yield remote
+        return
+    cluster = LocalCluster(
+        n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=logging.ERROR
+    )
+    with cluster, Client(cluster) as local:
+        yield local
+
+
+def _run(client: Any, sweep: Sweep, store: SweepStore, todo: list[int], summary: SweepSummary, progress: Progress | None) -> None:
+    """Submit ``todo`` with a bounded number of futures in flight; store each sample as it finishes."""
+    from distributed import as_completed
+
+    outputs = sweep.spec.outputs
+    slots = IN_FLIGHT_PER_THREAD * max(1, sum(client.nthreads().values()))
+    queue = iter(todo)
+    in_flight: dict[Any, Any] = {}
+    finished = as_completed()
+
+    def stored(index: int, parameters: dict[str, float | int], record: dict[str, Any]) -> None:
+        if not store.store(index, parameters, record):
+            summary.failures.append((index, record.get("error") or store.layout.mismatch(record)))
+        summary.run += 1
+        if progress is not None:
+            progress(summary.run, len(todo))
+
+    def submit_more() -> None:
+        while len(in_flight) < slots:
+            index = next(queue, None)
+            if index is None:
+                return
+            sample = sweep.sample(index)
+            error = sample.error
+            if not error:
+                try:
+                    sweep.sample_case(sample)
+                except CaseError as invalid:
+                    error = str(invalid)
+            if error:
+                stored(index, sample.stored, {"error": error})
+                continue
+            key = f"femref-sample-{index}-{uuid.uuid4().hex[:8]}"
+            future = client.submit(run_sample, sample.case_data, str(sweep.base_dir), outputs.record_length, outputs.force_length, key=key, pure=False)
+            in_flight[future] = sample
+            finished.add(future)
+
+    try:
+        submit_more()
+        for future in finished:
+            sample = in_flight.pop(future)
+            stored(sample.index, sample.stored, _record_of(future))
+            submit_more()
+    except BaseException:
+        client.cancel(list(in_flight))
+        raise
+
+
+def _record_of(future: Any) -> dict[str, Any]:
+    """The worker's record; a sample that killed its workers is the sample's failure, other errors are the sweep's."""
+    from distributed import KilledWorker
+
+    try:
+        return future.result()
+    except KilledWorker as error:
+        return {"error": f"the sample killed the workers that ran it ({error})"}

@@ -1,0 +1,607 @@
+"""Sweep files (DESIGN.md §6): a base impact case, parameter distributions, and the samples they give.
+
+Layout of a sweep file (YAML, read with the case files' loader)::
+
+    base: ../impact_free_roll.yaml     # an impact case file, relative to this file
+                                       #   (or instead:  case: {...an inline impact case...})
+    samples: 40                        # random draws (per grid point when grid parameters exist)
+    seed: 7                            # integer >= 0
+    models: [fem, rigid]               # optional: replaces the base case's models
+    parameters:                        # case key path -> distribution, applied in this order
+      cars.0.velocity: {uniform: [0.5, 4.0]}
+      cars.1.body.axial_stiffness: {log_uniform: [1.0e9, 6.0e9]}
+      cars.0.body.axial_viscosity: {normal: {mean: 2.0e6, std: 5.0e5, clip: [5.0e5, 4.0e6]}}
+      couplers.0.law: {choice: [{kelvin_voigt: {stiffness: 4.0e7}}, {draft_gear: {...}}]}
+      fem.elements: {grid: [16, 32]}
+    outputs: {record_length: 200, force_length: 200}
+
+Key paths are dotted; integer parts index lists (``couplers.0.law.kelvin_voigt.stiffness``).
+They address the *resolved* base case (every default filled in, ``femref validate``),
+so a default the base file leaves out (``fem.elements``, ``integrator.rho_inf``) can be
+swept. Every part but the last must exist in the base case — or in a value of an earlier
+``choice``/``grid`` parameter that replaces a parent; a path that exists in no way is a
+sweep-file error. When an earlier choice removes a parent in some samples only, those
+samples fail (they are stored as failed samples, see :mod:`femref.sweep.store`).
+
+Distributions (registry :data:`DISTRIBUTIONS`): ``uniform: [low, high]``,
+``log_uniform: [low, high]`` (``log x`` uniform, ``low > 0``), ``normal: {mean, std,
+clip: [low, high]}`` (draw, then ``np.clip``; ``clip`` optional), ``choice: [v0, v1, …]``
+or ``choice: {values: […], weights: […]}`` (any YAML values), and ``grid: [v0, v1, …]``
+(the cartesian product over all grid parameters).
+
+Sampling rule — deterministic and independent of the total count::
+
+    N = samples · n_grid                   n_grid = product of the grid parameters' lengths
+    i = draw · n_grid + grid_point         grid_point: C order over the grid parameters (the last varies fastest)
+    random values of draw d:  numpy.random.default_rng([seed, d]), drawn in parameter order
+
+so raising ``samples`` keeps every earlier sample identical, and all grid points of one
+draw share its random values. Each sample's case is the resolved base case with the
+parameters applied in order, ``models`` replaced (if given) and ``estimators: []``. When
+the sample's case has a ``measurement`` and the sweep does not set ``measurement.seed``,
+sample ``i`` gets the noise seed ``int(SeedSequence([seed, i]).generate_state(1)[0])``.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import hashlib
+import json
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Annotated, Any, ClassVar
+
+import numpy as np
+import yaml
+from pydantic import BeforeValidator, Field, TypeAdapter, ValidationError, field_validator, model_validator
+
+from femref.case import CaseError, ImpactCase, Problem, load_case, parse_case
+from femref.case.errors import did_you_mean, problems_error, problems_from
+from femref.case.loader import _CaseYamlLoader, _yaml_problem
+from femref.case.schema import CaseModel, Count, PositiveReal, Real, TaggedSpec, _reject_bool, _tagged_union
+
+__all__ = [
+    "DISTRIBUTIONS",
+    "Choice",
+    "Distribution",
+    "Grid",
+    "LogUniform",
+    "Normal",
+    "OutputSettings",
+    "Sample",
+    "Sweep",
+    "SweepFile",
+    "Uniform",
+    "load_sweep",
+    "parse_sweep",
+]
+
+#: Case keys a parameter may not set, nor anything below them: the sweep fixes them.
+FIXED_KEYS: Mapping[str, str] = {
+    "kind": "a sweep's base case is an impact case; kind is fixed",
+    "models": "set the models with the sweep's own models key (one list for every sample)",
+    "estimators": "a sweep drops the estimators; they run on the records afterwards",
+}
+#: Key paths a parameter may not set (keys below them may be): every record spans one time axis.
+FIXED_PATHS: Mapping[str, str] = {
+    "time": "every record of a sweep spans [0, time.end] of the base case; sweep time.dt or time.output_stride instead",
+    "time.end": "every record of a sweep spans [0, time.end] of the base case",
+}
+#: Group names of the sweep file a model run may not take.
+RESERVED_GROUPS = ("parameters", "samples")
+
+
+# ---------------------------------------------------------------------------------------------
+# Distributions (registry DISTRIBUTIONS)
+
+
+def _pair(data: Any, names: tuple[str, str]) -> Any:
+    """``[low, high]`` → ``{low: …, high: …}``; other input is left for the model to judge."""
+    if isinstance(data, (list, tuple)):
+        if len(data) != 2:
+            raise problems_error([Problem((), f"must be a list of two numbers [{', '.join(names)}]", list(data))])
+        return dict(zip(names, data))
+    return data
+
+
+class Distribution(TaggedSpec):
+    """A parameter's distribution: ``draw(rng)`` gives ``(value put in the case, value stored in the file)``."""
+
+    @classmethod
+    def _shorthand(cls, data: Any) -> Any:
+        return cls._list_form(super()._shorthand(data))
+
+    @classmethod
+    def _list_form(cls, data: Any) -> Any:
+        return data
+
+    def draw(self, rng: np.random.Generator) -> tuple[Any, float | int]:
+        raise NotImplementedError
+
+    def example(self) -> Any:
+        """A value the distribution can give (used to check a key path against the case schema)."""
+        raise NotImplementedError
+
+    def stored_values(self) -> list[Any] | None:
+        """The values the stored indices refer to; None when the file stores the values themselves."""
+        return None
+
+
+class _Bounded(Distribution):
+    low: Real = Field(description="Lower bound. Required.")
+    high: Real = Field(description="Upper bound, > low. Required.")
+
+    @classmethod
+    def _list_form(cls, data: Any) -> Any:
+        return _pair(data, ("low", "high"))
+
+    @model_validator(mode="after")
+    def _ordered(self) -> "_Bounded":
+        if not self.low < self.high:
+            raise problems_error([Problem((), "low must be < high", [self.low, self.high])])
+        return self
+
+    def example(self) -> float:
+        return self.low
+
+
+class Uniform(_Bounded):
+    """``x ~ U(low, high)``."""
+
+    tag: ClassVar[str] = "uniform"
+
+    def draw(self, rng: np.random.Generator) -> tuple[float, float]:
+        x = float(rng.uniform(self.low, self.high))
+        return x, x
+
+
+class LogUniform(_Bounded):
+    """``log x ~ U(log low, log high)``, ``0 < low < high``: equal odds per decade."""
+
+    tag: ClassVar[str] = "log_uniform"
+
+    @model_validator(mode="after")
+    def _positive(self) -> "LogUniform":
+        if self.low <= 0.0:
+            raise problems_error([Problem(("low",), "must be > 0 (log_uniform draws log x)", self.low)])
+        return self
+
+    def draw(self, rng: np.random.Generator) -> tuple[float, float]:
+        x = float(np.exp(rng.uniform(math.log(self.low), math.log(self.high))))
+        return x, x
+
+
+class Normal(Distribution):
+    """``x = clip(N(mean, std²), low, high)``: a normal draw, clipped when ``clip`` is given."""
+
+    tag: ClassVar[str] = "normal"
+    mean: Real = Field(description="Mean. Required.")
+    std: PositiveReal = Field(description="Standard deviation, > 0. Required.")
+    clip: tuple[Real, Real] | None = Field(default=None, description="[low, high], low < high: np.clip of the draw. Default null: no clip.")
+
+    @field_validator("clip", mode="after")
+    @classmethod
+    def _ordered(cls, clip: tuple[float, float] | None) -> tuple[float, float] | None:
+        if clip is not None and not clip[0] < clip[1]:
+            raise problems_error([Problem((), "must be [low, high] with low < high", list(clip))])
+        return clip
+
+    def example(self) -> float:
+        return self.mean
+
+    def draw(self, rng: np.random.Generator) -> tuple[float, float]:
+        x = float(rng.normal(self.mean, self.std))
+        if self.clip is not None:
+            x = float(np.clip(x, *self.clip))
+        return x, x
+
+
+def _values_form(data: Any) -> Any:
+    return {"values": list(data)} if isinstance(data, (list, tuple)) else data
+
+
+Values = Annotated[list[Any], Field(min_length=1)]
+
+
+class Choice(Distribution):
+    """One of ``values`` (any YAML values), with probabilities ``weights / sum(weights)`` (default equal)."""
+
+    tag: ClassVar[str] = "choice"
+    values: Values = Field(description="The values to choose from, at least one. Required.")
+    weights: list[Annotated[Real, Field(ge=0)]] | None = Field(default=None, description="Relative weights >= 0, one per value, summing > 0. Default equal.")
+
+    @classmethod
+    def _list_form(cls, data: Any) -> Any:
+        return _values_form(data)
+
+    @model_validator(mode="after")
+    def _weights_fit(self) -> "Choice":
+        if self.weights is None:
+            return self
+        if len(self.weights) != len(self.values):
+            rule = f"must give one weight per value ({len(self.values)} values)"
+            raise problems_error([Problem(("weights",), rule, self.weights)])
+        if not sum(self.weights) > 0.0:
+            raise problems_error([Problem(("weights",), "must sum to > 0", self.weights)])
+        return self
+
+    def example(self) -> Any:
+        return self.values[0]
+
+    def draw(self, rng: np.random.Generator) -> tuple[Any, int]:
+        p = None if self.weights is None else np.asarray(self.weights) / sum(self.weights)
+        k = int(rng.choice(len(self.values), p=p))
+        return self.values[k], k
+
+    def stored_values(self) -> list[Any]:
+        return self.values
+
+
+class Grid(Distribution):
+    """Every one of ``values``: an axis of the cartesian product of all grid parameters."""
+
+    tag: ClassVar[str] = "grid"
+    values: Values = Field(description="The grid values, at least one. Required.")
+
+    @classmethod
+    def _list_form(cls, data: Any) -> Any:
+        return _values_form(data)
+
+    @property
+    def numeric(self) -> bool:
+        """All values are numbers: the file stores them as float64, not as indices."""
+        return all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in self.values)
+
+    def example(self) -> Any:
+        return self.values[0]
+
+    def point(self, k: int) -> tuple[Any, float | int]:
+        value = self.values[k]
+        return value, (float(value) if self.numeric else k)
+
+    def stored_values(self) -> list[Any] | None:
+        return None if self.numeric else self.values
+
+
+#: Distributions by sweep-file name.
+DISTRIBUTIONS: Mapping[str, type[Distribution]] = {
+    "uniform": Uniform,
+    "log_uniform": LogUniform,
+    "normal": Normal,
+    "choice": Choice,
+    "grid": Grid,
+}
+AnyDistribution = _tagged_union(DISTRIBUTIONS, "distribution")
+
+
+# ---------------------------------------------------------------------------------------------
+# The sweep file
+
+
+RecordLength = Annotated[int, BeforeValidator(_reject_bool), Field(ge=2)]
+
+
+class OutputSettings(CaseModel):
+    """Lengths of the fixed-length histories stored per sample (:mod:`femref.impact.records`)."""
+
+    record_length: RecordLength = Field(default=200, description="Samples per acceleration record over [0, time.end], >= 2. Default 200.")
+    force_length: RecordLength = Field(default=200, description="Samples per coupler force history over [0, time.end], >= 2. Default 200.")
+
+
+def _key_path(path: str) -> str:
+    if not path or any(not part or part != part.strip() for part in path.split(".")):
+        raise problems_error([Problem((), "a key path is dotted names and list indices, e.g. cars.0.velocity; no empty parts or spaces", path)])
+    return path
+
+
+class SweepFile(CaseModel):
+    """What a sweep file says, validated on its own (the key paths are checked against the base case later)."""
+
+    base: str | None = Field(default=None, description="Base impact case file, relative to the sweep file. Give base or case.")
+    case: dict[str, Any] | None = Field(default=None, description="Inline base impact case. Give base or case.")
+    samples: Count = Field(description="Random draws, >= 1 (per grid point when grid parameters exist). Required.")
+    seed: Annotated[int, BeforeValidator(_reject_bool), Field(ge=0)] = Field(description="Seed of the draws, an integer >= 0. Required.")
+    models: list[Any] | None = Field(default=None, description="Model runs of every sample, as in a case file. Default: the base case's.")
+    parameters: dict[Annotated[str, BeforeValidator(_key_path)], AnyDistribution] = Field(
+        default_factory=dict, description="Case key path → distribution, applied in order. Default {} (repeats of the base case)."
+    )
+    outputs: OutputSettings = Field(default_factory=OutputSettings, description="Stored history lengths. Default 200 / 200.")
+
+    @model_validator(mode="after")
+    def _one_base(self) -> "SweepFile":
+        if (self.base is None) == (self.case is None):
+            given = "both" if self.base is not None else "neither"
+            raise problems_error([Problem(("base",), f"give exactly one of base (a case file) or case (an inline case); got {given}")])
+        return self
+
+
+_SWEEP_ADAPTER: TypeAdapter[SweepFile] = TypeAdapter(SweepFile)
+
+
+# ---------------------------------------------------------------------------------------------
+# Key paths
+
+
+class _PathError(LookupError):
+    """A key path that does not lead anywhere; the message is the rule."""
+
+
+def _parts(path: str) -> tuple[str, ...]:
+    return tuple(path.split("."))
+
+
+def _child(node: Any, part: str, where: str) -> Any:
+    """``node[part]`` with integer parts indexing lists; raises :class:`_PathError` saying why not."""
+    if isinstance(node, list):
+        if not part.isdigit():
+            raise _PathError(f"{where or 'the case'} is a list; index it with an integer 0…{len(node) - 1}, not {part!r}")
+        if int(part) >= len(node):
+            raise _PathError(f"index {part} is out of range; {where} has {len(node)} entries")
+        return node[int(part)]
+    if isinstance(node, Mapping):
+        if part not in node:
+            keys = [str(k) for k in node]
+            raise _PathError(f"no key {part!r} under {where or 'the top level'}{did_you_mean(part, keys)}; keys there: {', '.join(keys)}")
+        return node[part]
+    raise _PathError(f"{where} is a single value ({node!r}), not a mapping or a list")
+
+
+def _parent(root: Any, parts: tuple[str, ...]) -> Any:
+    """The container that holds the last part of ``parts``, checking that the last part may go there."""
+    node = root
+    for k, part in enumerate(parts[:-1]):
+        node = _child(node, part, ".".join(parts[:k]))
+    where = ".".join(parts[:-1])
+    if isinstance(node, list):
+        _child(node, parts[-1], where)  # a list entry must exist to be replaced
+    elif not isinstance(node, Mapping):
+        raise _PathError(f"{where} is a single value ({node!r}), not a mapping or a list")
+    return node
+
+
+def _assign(root: Any, parts: tuple[str, ...], value: Any) -> None:
+    node = _parent(root, parts)
+    if isinstance(node, list):
+        node[int(parts[-1])] = copy.deepcopy(value)
+    else:
+        node[parts[-1]] = copy.deepcopy(value)
+
+
+# ---------------------------------------------------------------------------------------------
+# The sweep: base case, parameters and samples
+
+
+@dataclass(frozen=True)
+class Sample:
+    """Sample ``index``: its parameter values, what the file stores for them, and its case.
+
+    ``case_data`` is None when the parameters cannot be applied (``error`` says why).
+    """
+
+    index: int
+    values: dict[str, Any]
+    stored: dict[str, float | int]
+    case_data: dict[str, Any] | None
+    error: str = ""
+
+
+@dataclass(frozen=True, eq=False)
+class Sweep:
+    """A validated sweep: the file, its resolved base case and where relative paths resolve."""
+
+    source: str
+    spec: SweepFile
+    base_case: ImpactCase
+    base_dir: Path
+
+    @property
+    def base_data(self) -> dict[str, Any]:
+        """The resolved base case (models replaced, estimators dropped) as plain data."""
+        return self.base_case.model_dump(mode="json")
+
+    @property
+    def grid(self) -> dict[str, Grid]:
+        return {path: d for path, d in self.spec.parameters.items() if isinstance(d, Grid)}
+
+    @property
+    def grid_shape(self) -> tuple[int, ...]:
+        return tuple(len(d.values) for d in self.grid.values())
+
+    @property
+    def size(self) -> int:
+        """Number of samples ``N = samples · n_grid``."""
+        return self.spec.samples * math.prod(self.grid_shape)
+
+    def with_samples(self, samples: int) -> "Sweep":
+        """The same sweep with another number of draws (the first ones stay identical)."""
+        return dataclasses.replace(self, spec=self.spec.model_copy(update={"samples": samples}))
+
+    def resolved_data(self) -> dict[str, Any]:
+        """The sweep file with every default filled in."""
+        return self.spec.model_dump(mode="json", exclude_none=True)
+
+    def resolved_yaml(self) -> str:
+        return yaml.safe_dump(self.resolved_data(), sort_keys=False, default_flow_style=None, allow_unicode=True, width=100)
+
+    @property
+    def spec_hash(self) -> str:
+        """SHA-256 of what fixes each sample: the resolved sweep without ``samples``, with the resolved base case.
+
+        Where the base case came from (file name or inline) does not enter; its content does.
+        """
+        sweep = {k: v for k, v in self.resolved_data().items() if k not in ("samples", "base", "case")}
+        text = json.dumps({"sweep": sweep, "base_case": self.base_data}, sort_keys=True, separators=(",", ":"))
+        return hashlib.sha256(text.encode()).hexdigest()
+
+    def sample(self, index: int) -> Sample:
+        """Sample ``index`` by the sampling rule (module docstring)."""
+        if not 0 <= index < self.size:
+            raise IndexError(f"sample index {index} outside 0…{self.size - 1}")
+        n_grid = math.prod(self.grid_shape)
+        draw, grid_point = divmod(index, n_grid)
+        point = dict(zip(self.grid, np.unravel_index(grid_point, self.grid_shape))) if self.grid else {}
+        rng = np.random.default_rng([self.spec.seed, draw])
+        values: dict[str, Any] = {}
+        stored: dict[str, float | int] = {}
+        for path, distribution in self.spec.parameters.items():
+            if isinstance(distribution, Grid):
+                values[path], stored[path] = distribution.point(int(point[path]))
+            else:
+                values[path], stored[path] = distribution.draw(rng)
+        data = self.base_data
+        for path, value in values.items():
+            try:
+                _assign(data, _parts(path), value)
+            except _PathError as error:
+                return Sample(index, values, stored, None, f"{self.source}: parameters.{path}: {error} in this sample")
+        if isinstance(data.get("measurement"), Mapping) and not self._sets_measurement_seed(values):
+            data["measurement"]["seed"] = noise_seed(self.spec.seed, index)
+        return Sample(index, values, stored, data)
+
+    def sample_case(self, sample: Sample) -> ImpactCase:
+        """Validate a sample's case; raises :class:`CaseError` naming the sample."""
+        return parse_case(sample.case_data, source=f"{self.source} sample {sample.index}", base_dir=self.base_dir)
+
+    @staticmethod
+    def _sets_measurement_seed(values: Mapping[str, Any]) -> bool:
+        whole = values.get("measurement")
+        return "measurement.seed" in values or (isinstance(whole, Mapping) and "seed" in whole)
+
+
+def noise_seed(seed: int, index: int) -> int:
+    """The measurement noise seed of sample ``index``: ``SeedSequence([seed, index])``'s first word."""
+    return int(np.random.SeedSequence([seed, index]).generate_state(1)[0])
+
+
+# ---------------------------------------------------------------------------------------------
+# Loading
+
+
+def load_sweep(path: str | Path) -> Sweep:
+    """Read and validate the sweep file at ``path``, its base case and its key paths. Raises :class:`CaseError`."""
+    path = Path(path)
+    source = str(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise CaseError(Problem((), "sweep file not found"), source) from None
+    except (OSError, UnicodeDecodeError) as error:
+        raise CaseError(Problem((), f"cannot read the sweep file: {error}"), source) from None
+    try:
+        data = yaml.load(text, Loader=_CaseYamlLoader)  # noqa: S506 - a SafeLoader subclass
+    except yaml.YAMLError as error:
+        raise CaseError(Problem((), _yaml_problem(error)), source) from None
+    return parse_sweep(data, source=source, base_dir=path.parent)
+
+
+def parse_sweep(data: Any, *, source: str = "<sweep>", base_dir: Path | None = None) -> Sweep:
+    """Validate parsed sweep YAML. ``base_dir`` is where ``base`` (and an inline case's files) resolve."""
+    base_dir = Path(base_dir) if base_dir is not None else Path.cwd()
+    if not isinstance(data, Mapping):
+        raise CaseError(Problem((), "a sweep file must be a mapping of keys (base, samples, seed, parameters, ...)", data), source)
+    try:
+        spec = _SWEEP_ADAPTER.validate_python(data)
+    except ValidationError as error:
+        raise CaseError(problems_from(error, data), source) from None
+    base_data, case_dir = _base_data(spec, source, base_dir)
+    if spec.models is not None:
+        base_data["models"] = spec.models
+    base_data["estimators"] = []
+    try:
+        base_case = parse_case(base_data, source=source, base_dir=case_dir)
+    except CaseError as error:  # only the sweep's own overrides can fail here: the base case is valid
+        raise CaseError([p.under(() if p.path[:1] == ("models",) else ("case",)) for p in error.problems], source) from None
+    reserved = [Problem(("models",), f"run name {name!r} is a group of the sweep file; rename the run", name) for name in base_case.run_fidelities() if name in RESERVED_GROUPS]
+    if reserved:
+        raise CaseError(reserved, source)
+    sweep = Sweep(source=source, spec=spec, base_case=base_case, base_dir=case_dir)
+    problems = _key_path_problems(sweep)
+    if problems:
+        raise CaseError(problems, source)
+    return sweep
+
+
+def _base_data(spec: SweepFile, source: str, base_dir: Path) -> tuple[dict[str, Any], Path]:
+    """The base case as resolved data (every default filled in) and its directory; it must be an impact case."""
+    if spec.base is not None:
+        path = base_dir / spec.base
+        if not path.is_file():
+            raise CaseError(Problem(("base",), f"base case file not found: {path}", spec.base), source)
+        case = load_case(path)  # its own errors name its own file
+        case_dir = path.resolve().parent  # absolute: workers may run elsewhere
+    else:
+        case_dir = base_dir.resolve()
+        if spec.case.get("kind") != "impact":
+            rule = "a sweep's base case must be kind: impact (sweeps feed the coupler-force networks)"
+            raise CaseError(Problem(("case", "kind"), rule, spec.case.get("kind")), source)
+        try:
+            case = parse_case(spec.case, source=source, base_dir=case_dir)
+        except CaseError as error:
+            raise CaseError([p.under(("case",)) for p in error.problems], source) from None
+    if case.kind != "impact":
+        rule = f"a sweep's base case must be kind: impact (sweeps feed the coupler-force networks); {spec.base} is kind: {case.kind}"
+        raise CaseError(Problem(("base",), rule), source)
+    return case.model_dump(mode="json"), case_dir
+
+
+def _key_path_problems(sweep: Sweep) -> list[Problem]:
+    """Each parameter's key path against the base case and the earlier parameters' possible values."""
+    base = sweep.base_data
+    problems = []
+    earlier: list[tuple[tuple[str, ...], Distribution]] = []
+    for path, distribution in sweep.spec.parameters.items():
+        parts = _parts(path)
+        fixed = FIXED_KEYS.get(parts[0], FIXED_PATHS.get(path))
+        if fixed is not None:
+            problems.append(Problem(("parameters", path), f"cannot be swept: {fixed}"))
+        else:
+            rule = _unreachable(base, parts, earlier) or _unknown_last_key(sweep, parts, distribution)
+            if rule is not None:
+                problems.append(Problem(("parameters", path), rule))
+        earlier.append((parts, distribution))
+    return problems
+
+
+def _unknown_last_key(sweep: Sweep, parts: tuple[str, ...], distribution: Distribution) -> str | None:
+    """The case schema's rule when the last part is a key the base case lacks and the schema does not know.
+
+    A new key is fine where the case takes names (a new sensor); a misspelt setting would
+    fail every sample, so it is refused here, with the schema's own did-you-mean.
+    """
+    data = sweep.base_data
+    try:
+        parent = _parent(data, parts)
+    except _PathError:
+        return None  # reachable through an earlier choice only: judged per sample
+    if not isinstance(parent, Mapping) or parts[-1] in parent:
+        return None
+    parent[parts[-1]] = distribution.example()
+    try:
+        parse_case(data, source=sweep.source, base_dir=sweep.base_dir)
+    except CaseError as error:
+        for problem in error.problems:
+            if tuple(str(p) for p in problem.path) == parts and problem.rule.startswith("unknown"):
+                return f"the case has no such key: {problem.rule}"
+    return None
+
+
+def _unreachable(base: Any, parts: tuple[str, ...], earlier: list[tuple[tuple[str, ...], Distribution]]) -> str | None:
+    """None when ``parts`` can be set in the base case or in a value an earlier choice/grid puts above it."""
+    try:
+        _parent(base, parts)
+        return None
+    except _PathError as error:
+        rule = f"every part of a key path but the last must exist in the base case: {error}"
+    for prefix, distribution in reversed(earlier):
+        values = distribution.values if isinstance(distribution, (Choice, Grid)) else []
+        if len(prefix) < len(parts) and parts[: len(prefix)] == prefix:
+            for value in values:
+                try:
+                    _parent(value, parts[len(prefix) :])
+                    return None
+                except _PathError:
+                    continue
+    return rule
