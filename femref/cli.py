@@ -238,3 +238,57 @@ def _sweep_report(summary) -> None:
     if summary.failed > SHOWN_FAILURES:
         click.echo(f"  … and {summary.failed - SHOWN_FAILURES} more (samples/error in the file)", err=True)
     click.echo(f"wrote {summary.path}" + ("" if summary.complete else " (incomplete: run again to resume)"))
+
+
+@main.command()
+@click.argument("study_path", metavar="STUDY", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("-o", "--output", "out_dir", type=click.Path(file_okay=False, path_type=Path), help="study folder (default: STUDY stem)")
+@click.option("--scheduler", metavar="tcp://HOST:PORT", help="run the sweeps on this Dask scheduler (default: a local cluster)")
+@click.option("--workers", type=click.IntRange(min=1), help="local cluster worker processes (default: one per CPU)")
+@click.option("--scale", type=click.FloatRange(min=0.0, min_open=True, max=1.0), default=1.0, help="run every set at this fraction of its samples")
+def study(study_path: Path, out_dir: Path | None, scheduler: str | None, workers: int | None, scale: float) -> None:
+    """Run the network study STUDY: sweeps, networks per training source, scores against fem (issue 5)."""
+    from femref.study.run import run_study
+    from femref.study.spec import load_study
+    from femref.sweep import SweepInterrupted
+
+    if scheduler is not None and workers is not None:
+        raise click.UsageError("--workers sizes the local cluster; the cluster behind --scheduler has its own workers")
+    console = Console(stderr=True)
+    try:
+        spec, study_dir = load_study(study_path)
+        if scale != 1.0:
+            spec = spec.scaled(scale)
+        out_dir = out_dir or Path(study_path.stem)
+        with _sweep_progress(console) as progress:
+            outcome = run_study(spec, study_dir, out_dir, source=str(study_path), scheduler=scheduler, workers=workers, progress=progress)
+    except CaseError as error:
+        click.echo(f"error: {error}", err=True)
+        sys.exit(EXIT_BAD_INPUT)
+    except SweepInterrupted:
+        click.echo("interrupted: the sweeps keep what they stored; run again to resume", err=True)
+        sys.exit(EXIT_INTERRUPTED)
+    Console(width=max(150, Console().width)).print(_study_table(outcome))
+    click.echo(f"wrote {out_dir / 'study.h5'}, {out_dir / 'study.md'} and {len(outcome.networks)} networks in {out_dir / 'networks'}")
+
+
+def _study_table(outcome) -> Table:
+    """Peak-force errors against fem: per network (by training source) and inverse estimator, per evaluation set."""
+    sets = list(outcome.sets)
+    table = Table(title="peak coupler force error against fem, |P̂ − P|/P: mean / 95th percentile", title_justify="left")
+    for column in ("estimator", "trained on", "own source", *sets, "train s", "µs/record"):
+        table.add_column(column, justify="left" if column in ("estimator", "trained on") else "right")
+    timing = {t.name: t.training_time_s for t in outcome.networks}
+    first = outcome.sets[sets[0]]
+    for row in outcome.table_rows():
+        own = row["own source"]
+        name = row["estimator"]
+        table.add_row(
+            name,
+            row["trained on"],
+            "" if own is None else f"{own.mean:.2%}",
+            *(f"{row[s].mean:.2%} / {row[s].p95:.2%}" if s in row else "" for s in sets),
+            f"{timing[name]:.1f}" if name in timing else "",
+            f"{first.inference_time_s[name] * 1e6:.0f}" if name in first.inference_time_s else "",
+        )
+    return table

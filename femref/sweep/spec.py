@@ -370,6 +370,14 @@ def _assign(root: Any, parts: tuple[str, ...], value: Any) -> None:
         node[parts[-1]] = copy.deepcopy(value)
 
 
+def assign_key_path(data: Any, path: str, value: Any) -> None:
+    """Set ``value`` at the dotted key ``path`` of case data in place (the sweep's rule for key paths).
+
+    Raises LookupError saying why when the path does not lead anywhere.
+    """
+    _assign(data, _parts(path), value)
+
+
 # ---------------------------------------------------------------------------------------------
 # The sweep: base case, parameters and samples
 

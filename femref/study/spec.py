@@ -1,0 +1,196 @@
+"""The network study file: which impacts to simulate, which networks to train on them, how to score them.
+
+A study answers the source study's question with the FEM as ground truth: *can a network
+trained on simulated impacts estimate the peak coupler force from acceleration records,
+and does it matter which model generated the training data?* (issue 5, SOURCE-NOTES C).
+
+.. code-block:: yaml
+
+    base: impact_free_roll.yaml          # the impact case every sample starts from
+    base_overrides: {fem.elements: 32}   # key path → value, applied to the base once
+    parameters:                          # the shared distribution (sweep syntax, femref.sweep.spec)
+      cars.0.velocity: {uniform: [0.5, 4.0]}
+    sets:
+      train: {samples: 1500, seed: 11, models: [fem, quasi_rigid, rigid]}
+      test: {samples: 300, seed: 12, models: [fem], parameters: {measurement.noise: {choice: [0.1]}}}
+      out_of_range: {samples: 200, seed: 13, models: [fem], parameters: {cars.0.velocity: {uniform: [4.0, 6.0]}}}
+    coupler: c1                          # the coupler whose peak force the networks estimate
+    probes: [anvil/center, ...]          # record channels (default: every sensor of the scene)
+    car_masses: true                     # the car masses are network inputs (known from the waybill)
+    features: {length: 50, normalise: channel_peak}
+    networks:
+      mlp: {mlp: {hidden: [200, 21], activation: logistic, solver: lbfgs, alpha: 0.1}}
+      rbf: {rbf: {centres: 120, basis: gaussian, width_factor: 8.0}}
+
+Every set is a sweep (:mod:`femref.sweep`) of the base case over the shared ``parameters``,
+with the set's own ``parameters`` replacing or adding key paths. ``train`` is required: each
+of its ``models`` is a training source (a network per source and per entry of
+``networks``, trained on that model's records and that model's peak force). Every other
+set is an evaluation set and must run ``fem``: the networks and the inverse estimators
+are scored on its fem records against its fem peak force.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import yaml
+from pydantic import BeforeValidator, Field, TypeAdapter, ValidationError, model_validator
+
+from femref.case.errors import CaseError, Problem, problems_error, problems_from
+from femref.case.loader import _CaseYamlLoader, _yaml_problem
+from femref.case.schema import CaseModel, TaggedSpec, _tagged_union
+
+#: The training set's name; every other set is an evaluation set.
+TRAIN = "train"
+
+
+def _reject_bool(value: Any) -> Any:
+    if isinstance(value, bool):
+        raise ValueError("must be a number, not true/false")
+    return value
+
+
+Count = Annotated[int, BeforeValidator(_reject_bool), Field(ge=1)]
+
+
+class SetSpec(CaseModel):
+    """One sweep of the study: how many samples, the seed, the model runs, extra parameters."""
+
+    samples: Count = Field(description="Samples (random draws) of this set, >= 1. Required.")
+    seed: Annotated[int, BeforeValidator(_reject_bool), Field(ge=0)] = Field(description="Seed of this set's draws. Required.")
+    models: tuple[Literal["fem", "modal", "quasi_rigid", "rigid"], ...] = Field(
+        default=("fem",), min_length=1, description="Uniform model runs of every sample. Default [fem]."
+    )
+    parameters: dict[str, Any] = Field(default_factory=dict, description="Key path → distribution, replacing or adding to the shared ones.")
+
+
+class FeatureSpec(CaseModel):
+    """The feature pipeline (:class:`ann.features.FeatureSettings`) minus what the records fix."""
+
+    length: Count = Field(default=50, description="Samples per channel after resampling. Default 50.")
+    lowpass: float | None = Field(default=None, gt=0.0, description="Zero-phase low-pass (Hz) before resampling. Default none.")
+    spectrum: bool = Field(default=False, description="Append |rfft| magnitudes. Default false.")
+    normalise: Literal["none", "peak", "channel_peak"] = Field(default="channel_peak", description="Default channel_peak (log amplitudes).")
+
+
+class MlpSpec(TaggedSpec):
+    """:class:`ann.networks.MLPForceRegressor` settings."""
+
+    tag = "mlp"
+    hidden: tuple[Count, ...] = Field(default=(200, 21), min_length=1)
+    activation: Literal["logistic", "tanh", "relu"] = "logistic"
+    solver: Literal["sgd", "adam", "lbfgs"] = "lbfgs"
+    alpha: float = Field(default=0.1, ge=0.0)
+    learning_rate: float = Field(default=1e-3, gt=0.0)
+    momentum: float = Field(default=0.9, ge=0.0, lt=1.0)
+    max_iter: Count = 3000
+    seed: int = 0
+
+    def build(self) -> Any:
+        from ann.networks import MLPForceRegressor
+
+        return MLPForceRegressor(
+            hidden=self.hidden, activation=self.activation, solver=self.solver, alpha=self.alpha,
+            learning_rate=self.learning_rate, momentum=self.momentum, max_iter=self.max_iter, seed=self.seed, log_target=True,
+        )
+
+
+class RbfSpec(TaggedSpec):
+    """:class:`ann.networks.RBFNetwork` settings."""
+
+    tag = "rbf"
+    centres: Annotated[int, Field(ge=2)] = 120
+    basis: Literal["gaussian", "multiquadric", "inverse_quadratic"] = "gaussian"
+    width_factor: float = Field(default=8.0, gt=0.0)
+    ridge: float = Field(default=1e-6, ge=0.0)
+    seed: int = 0
+
+    def build(self) -> Any:
+        from ann.networks import RBFNetwork
+
+        return RBFNetwork(centres=self.centres, basis=self.basis, width_factor=self.width_factor, ridge=self.ridge, seed=self.seed, log_target=True)
+
+
+NETWORK_SPECS: dict[str, type[TaggedSpec]] = {"mlp": MlpSpec, "rbf": RbfSpec}
+NetworkSpec = _tagged_union(NETWORK_SPECS, "network")
+
+
+class StudyFile(CaseModel):
+    """A network study (module docstring)."""
+
+    base: str = Field(description="Base impact case file, relative to the study file. Required.")
+    base_overrides: dict[str, Any] = Field(default_factory=dict, description="Key path → value applied to the base case once.")
+    parameters: dict[str, Any] = Field(default_factory=dict, description="Shared key path → distribution (sweep syntax).")
+    sets: dict[str, SetSpec] = Field(description="train (required) and evaluation sets. Required.")
+    coupler: str = Field(default="c1", description="The coupler whose peak force is estimated. Default c1.")
+    probes: tuple[str, ...] | None = Field(default=None, description="Record channels <car>/<sensor>. Default: every sensor.")
+    car_masses: bool = Field(default=True, description="Give the networks the car masses (kg) as inputs. Default true.")
+    record_length: Annotated[int, Field(ge=2)] = Field(default=200, description="Samples per stored record. Default 200.")
+    force_length: Annotated[int, Field(ge=2)] = Field(default=50, description="Samples per stored force history. Default 50.")
+    validation_fraction: float = Field(default=0.15, gt=0.0, lt=0.5, description="Share of train held out to score each network on its own source.")
+    features: FeatureSpec = Field(default_factory=FeatureSpec)
+    networks: dict[str, NetworkSpec] = Field(min_length=1, description="Name → {mlp: {...}} or {rbf: {...}}. Required.")
+
+    @model_validator(mode="after")
+    def _sets(self) -> "StudyFile":
+        problems = []
+        if TRAIN not in self.sets:
+            problems.append(Problem(("sets",), f"a study needs a {TRAIN!r} set (the training sources)"))
+        if len(self.sets) < 2:
+            problems.append(Problem(("sets",), "a study needs at least one evaluation set besides train"))
+        for name, spec in self.sets.items():
+            if name != TRAIN and "fem" not in spec.models:
+                problems.append(Problem(("sets", name, "models"), "an evaluation set is scored against fem; add fem", list(spec.models)))
+        if problems:
+            raise problems_error(problems)
+        return self
+
+    @property
+    def evaluation_sets(self) -> list[str]:
+        return [name for name in self.sets if name != TRAIN]
+
+    def scaled(self, fraction: float) -> "StudyFile":
+        """A quick version: every set's ``samples`` and every RBF network's ``centres`` times ``fraction``.
+
+        (At least 1 sample and 2 centres.) The centres scale with the training set: an RBF
+        network needs fewer centres than training samples.
+        """
+        sets = {name: s.model_copy(update={"samples": max(1, round(s.samples * fraction))}) for name, s in self.sets.items()}
+        networks = {
+            name: n.model_copy(update={"centres": max(2, round(n.centres * fraction))}) if isinstance(n, RbfSpec) else n
+            for name, n in self.networks.items()
+        }
+        return self.model_copy(update={"sets": sets, "networks": networks})
+
+
+_STUDY_ADAPTER: TypeAdapter[StudyFile] = TypeAdapter(StudyFile)
+
+
+def load_study(path: str | Path) -> tuple[StudyFile, Path]:
+    """Read and validate a study file; returns it and its directory. Raises :class:`CaseError`."""
+    path = Path(path)
+    source = str(path)
+    try:
+        data = yaml.load(path.read_text(encoding="utf-8"), Loader=_CaseYamlLoader)  # noqa: S506 - a SafeLoader subclass
+    except FileNotFoundError:
+        raise CaseError(Problem((), "study file not found"), source) from None
+    except (OSError, UnicodeDecodeError) as error:
+        raise CaseError(Problem((), f"cannot read the study file: {error}"), source) from None
+    except yaml.YAMLError as error:
+        raise CaseError(Problem((), _yaml_problem(error)), source) from None
+    return parse_study(data, source=source), path.parent
+
+
+def parse_study(data: Any, *, source: str = "<study>") -> StudyFile:
+    """Validate parsed study YAML. Raises :class:`CaseError` naming the key path."""
+    if not isinstance(data, dict):
+        raise CaseError(Problem((), "a study file must be a mapping of keys (base, parameters, sets, networks, ...)", data), source)
+    try:
+        return _STUDY_ADAPTER.validate_python(data)
+    except ValidationError as error:
+        raise CaseError(problems_from(error, data), source) from None
+
+
+__all__ = ["TRAIN", "FeatureSpec", "MlpSpec", "RbfSpec", "SetSpec", "StudyFile", "load_study", "parse_study"]
