@@ -236,7 +236,10 @@ class RBFNetwork:
     Centres ``c_j``: k-means cluster centres of the training features (seeded).
     Width: ``"nearest"`` takes ``width_factor`` times the mean distance from each
     centre to its nearest other centre (so neighbouring bases overlap); a float
-    sets it directly.  Weights: least squares on the augmented system
+    sets it directly. The default factor 4 is measured: factor 1 left 13–16 %
+    mean error on the synthetic pulse problem (4: 0.5–1.7 %), and the network
+    study chose 8 over 2 and 4 (:mod:`femref.study`); in tens of feature
+    dimensions the nearest centre is far, and narrow bases leave gaps.  Weights: least squares on the augmented system
     ``[Phi; sqrt(ridge) I] w = [y; 0]``, i.e. ``(Phi^T Phi + ridge I) w = Phi^T y``
     without forming the normal equations (better conditioned).
     """
@@ -248,7 +251,7 @@ class RBFNetwork:
         centres: int = 20,
         basis: str = "gaussian",
         width: str | float = "nearest",
-        width_factor: float = 1.0,
+        width_factor: float = 4.0,
         ridge: float = 1e-8,
         seed: int | None = 0,
         log_target: bool = False,
