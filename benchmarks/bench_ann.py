@@ -13,24 +13,14 @@ Nothing is asserted: the tests check correctness, this measures speed.
 from __future__ import annotations
 
 import argparse
-import statistics
-import time
 from pathlib import Path
 
 import numpy as np
 
+from bench_reduced import median_time  # benchmarks/ is the script's directory
 from femref.study.run import read_set
 from femref.study.spec import TRAIN, load_study
 from femref.sweep import parse_sweep
-
-
-def median_time(function, repeats: int) -> float:
-    times = []
-    for _ in range(repeats):
-        started = time.perf_counter()
-        function()
-        times.append(time.perf_counter() - started)
-    return statistics.median(times)
 
 
 def main() -> None:

@@ -51,6 +51,7 @@ from femref.case.schema import (
     _fem_field,
     _reject_bool,
     _tagged_union,
+    resolve_case_path,
 )
 from femref.impact.ann_estimator import NetworkContract, NetworkFileError, read_network
 from femref.impact.scene import ESTIMATOR_NAMES, FIDELITIES
@@ -537,9 +538,7 @@ class AnnEstimatorSpec(CaseModel):
     @field_validator("network", mode="after")
     @classmethod
     def _resolve(cls, path: Path, info: ValidationInfo) -> Path:
-        base_dir = Path((info.context or {}).get("base_dir") or Path.cwd())
-        path = path.expanduser()
-        return path if path.is_absolute() else (base_dir / path).resolve()
+        return resolve_case_path(path, info)
 
     @model_validator(mode="after")
     def _readable(self) -> "AnnEstimatorSpec":

@@ -23,7 +23,7 @@ from pydantic import TypeAdapter, ValidationError
 from femref.case.errors import CaseError, Problem, problems_from
 from femref.case.schema import CASE_KINDS, Case
 
-__all__ = ["load_case", "parse_case", "resolved_yaml"]
+__all__ = ["load_case", "parse_case", "read_yaml_file", "resolved_yaml"]
 
 _CASE_ADAPTER: TypeAdapter[Case] = TypeAdapter(Case)
 
@@ -74,20 +74,28 @@ def load_case(path: str | Path) -> Case:
     :class:`CaseError` for any bad input.
     """
     path = Path(path)
+    return parse_case(read_yaml_file(path, "case"), source=str(path), base_dir=path.parent)
+
+
+def read_yaml_file(path: str | Path, what: str) -> Any:
+    """The YAML document of a ``what`` file (case, sweep, study) in this module's dialect.
+
+    Raises :class:`CaseError` (source: the path) for a missing or unreadable file, a
+    file that is not UTF-8 text, or a YAML syntax error.
+    """
     source = str(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        text = Path(path).read_text(encoding="utf-8")
     except FileNotFoundError:
-        raise CaseError(Problem((), "case file not found"), source) from None
+        raise CaseError(Problem((), f"{what} file not found"), source) from None
     except UnicodeDecodeError:
         raise CaseError(Problem((), "not a text (UTF-8) file"), source) from None
     except OSError as error:
-        raise CaseError(Problem((), f"cannot read the case file: {error.strerror or error}"), source) from None
+        raise CaseError(Problem((), f"cannot read the {what} file: {error.strerror or error}"), source) from None
     try:
-        data = yaml.load(text, Loader=_CaseYamlLoader)  # noqa: S506 - a SafeLoader subclass
+        return yaml.load(text, Loader=_CaseYamlLoader)  # noqa: S506 - a SafeLoader subclass
     except yaml.YAMLError as error:
         raise CaseError(Problem((), _yaml_problem(error)), source) from None
-    return parse_case(data, source=source, base_dir=path.parent)
 
 
 def parse_case(data: Any, *, source: str = "<case>", base_dir: Path | None = None) -> Case:

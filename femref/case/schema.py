@@ -594,6 +594,17 @@ def _csv_column(value: Any) -> int | str:
 CsvColumn = Annotated[int | str, PlainValidator(_csv_column)]
 
 
+def resolve_case_path(path: Path, info: ValidationInfo) -> Path:
+    """A file path of a case, absolute: relative paths are relative to the case file's directory.
+
+    The directory comes in the validation context (``base_dir``, set by the loader);
+    without one, the working directory.
+    """
+    base_dir = Path((info.context or {}).get("base_dir") or Path.cwd())
+    path = path.expanduser()
+    return path if path.is_absolute() else (base_dir / path).resolve()
+
+
 class CsvSignal(SignalSpec):
     """Samples from a CSV file, interpolated linearly, zero outside the recorded times.
 
@@ -610,9 +621,7 @@ class CsvSignal(SignalSpec):
     @field_validator("path", mode="after")
     @classmethod
     def _resolve(cls, path: Path, info: ValidationInfo) -> Path:
-        base_dir = Path((info.context or {}).get("base_dir") or Path.cwd())
-        path = path.expanduser()
-        return path if path.is_absolute() else (base_dir / path).resolve()
+        return resolve_case_path(path, info)
 
     @model_validator(mode="after")
     def _readable(self) -> "CsvSignal":

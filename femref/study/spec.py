@@ -35,11 +35,10 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-import yaml
 from pydantic import BeforeValidator, Field, TypeAdapter, ValidationError, model_validator
 
 from femref.case.errors import CaseError, Problem, problems_error, problems_from
-from femref.case.loader import _CaseYamlLoader, _yaml_problem
+from femref.case.loader import read_yaml_file
 from femref.case.schema import CaseModel, TaggedSpec, _tagged_union
 
 #: The training set's name; every other set is an evaluation set.
@@ -171,16 +170,8 @@ _STUDY_ADAPTER: TypeAdapter[StudyFile] = TypeAdapter(StudyFile)
 def load_study(path: str | Path) -> tuple[StudyFile, Path]:
     """Read and validate a study file; returns it and its directory. Raises :class:`CaseError`."""
     path = Path(path)
-    source = str(path)
-    try:
-        data = yaml.load(path.read_text(encoding="utf-8"), Loader=_CaseYamlLoader)  # noqa: S506 - a SafeLoader subclass
-    except FileNotFoundError:
-        raise CaseError(Problem((), "study file not found"), source) from None
-    except (OSError, UnicodeDecodeError) as error:
-        raise CaseError(Problem((), f"cannot read the study file: {error}"), source) from None
-    except yaml.YAMLError as error:
-        raise CaseError(Problem((), _yaml_problem(error)), source) from None
-    return parse_study(data, source=source), path.parent
+    data = read_yaml_file(path, "study")
+    return parse_study(data, source=str(path)), path.parent
 
 
 def parse_study(data: Any, *, source: str = "<study>") -> StudyFile:

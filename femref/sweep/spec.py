@@ -60,7 +60,7 @@ from pydantic import BeforeValidator, Field, TypeAdapter, ValidationError, field
 
 from femref.case import CaseError, ImpactCase, Problem, load_case, parse_case
 from femref.case.errors import did_you_mean, problems_error, problems_from
-from femref.case.loader import _CaseYamlLoader, _yaml_problem
+from femref.case.loader import read_yaml_file
 from femref.case.schema import CaseModel, Count, PositiveReal, Real, TaggedSpec, _reject_bool, _tagged_union
 
 __all__ = [
@@ -491,18 +491,7 @@ def noise_seed(seed: int, index: int) -> int:
 def load_sweep(path: str | Path) -> Sweep:
     """Read and validate the sweep file at ``path``, its base case and its key paths. Raises :class:`CaseError`."""
     path = Path(path)
-    source = str(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise CaseError(Problem((), "sweep file not found"), source) from None
-    except (OSError, UnicodeDecodeError) as error:
-        raise CaseError(Problem((), f"cannot read the sweep file: {error}"), source) from None
-    try:
-        data = yaml.load(text, Loader=_CaseYamlLoader)  # noqa: S506 - a SafeLoader subclass
-    except yaml.YAMLError as error:
-        raise CaseError(Problem((), _yaml_problem(error)), source) from None
-    return parse_sweep(data, source=source, base_dir=path.parent)
+    return parse_sweep(read_yaml_file(path, "sweep"), source=str(path), base_dir=path.parent)
 
 
 def parse_sweep(data: Any, *, source: str = "<sweep>", base_dir: Path | None = None) -> Sweep:
