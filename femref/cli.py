@@ -292,3 +292,13 @@ def _study_table(outcome) -> Table:
             f"{first.inference_time_s[name] * 1e6:.0f}" if name in first.inference_time_s else "",
         )
     return table
+
+
+@main.command()
+@click.option("-o", "--output", "folder", type=click.Path(file_okay=False, path_type=Path), default=Path("docs/figures"), show_default=True, help="folder for the PNG files")
+def figures(folder: Path) -> None:
+    """Regenerate the verification figures: FEM convergence orders, FEM and quasi-rigid vs exact, the ε slope."""
+    from femref.verification import write_figures
+
+    for path in write_figures(folder):
+        click.echo(f"wrote {path}")
