@@ -302,3 +302,13 @@ def figures(folder: Path) -> None:
 
     for path in write_figures(folder):
         click.echo(f"wrote {path}")
+
+
+def _register_commands() -> None:
+    """Commands that live in their own packages."""
+    from femref.report import report_command
+
+    main.add_command(report_command)
+
+
+_register_commands()

@@ -1,0 +1,59 @@
+"""``femref report RESULTS.h5 [-o REPORT.html]``: one self-contained HTML page of a result file.
+
+Exit codes (DESIGN.md §5): 0 written, 2 bad input (missing file, not HDF5, not a femref
+result file, output naming the input). The page is assembled in memory and written under
+a temporary name in the target folder, then renamed: a failure leaves nothing under the
+final name.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+import click
+
+from femref.report.build import build_report
+from femref.report.read import ReportInputError
+
+EXIT_BAD_INPUT = 2
+
+
+def default_output(results: Path) -> Path:
+    """The report next to the result file: its stem + ``.html``."""
+    return results.with_name(results.stem + ".html")
+
+
+def write_atomically(path: Path, text: str) -> None:
+    """Write ``text`` (UTF-8) to a temporary file beside ``path`` and rename it into place."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as handle:
+            handle.write(text)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp_name, 0o666 & ~umask)  # mkstemp's 0600 would make the report private
+        os.replace(tmp_name, path)
+    except BaseException:
+        Path(tmp_name).unlink(missing_ok=True)
+        raise
+
+
+@click.command("report")
+@click.argument("results", metavar="RESULTS.h5", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), help="HTML file (default: RESULTS stem + .html, next to RESULTS)")
+def report_command(results: Path, output: Path | None) -> None:
+    """Write one self-contained HTML page (scores, plots, field map, case) from a femref result file."""
+    output = output or default_output(results)
+    try:
+        if output.resolve() == results.resolve():
+            raise ReportInputError(f"{output}: the report would overwrite the result file; choose another -o")
+        page = build_report(results)
+    except ReportInputError as error:
+        click.echo(f"error: {error}", err=True)
+        sys.exit(EXIT_BAD_INPUT)
+    write_atomically(output, page)
+    click.echo(f"wrote {output}")

@@ -1,0 +1,203 @@
+"""A femref result file (DESIGN.md §4) read into plain dataclasses for the report.
+
+Everything the report shows is read here, once, so that the figure and page modules
+never touch HDF5. A file that is missing, is not HDF5, or is not a femref result file
+(no ``case_yaml`` root attribute) raises :class:`ReportInputError`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+import yaml
+from numpy.typing import NDArray
+
+SCORES_GROUP = "scores"
+FAILED = "failed"
+
+
+class ReportInputError(ValueError):
+    """The input is not a readable femref result file; the message says why."""
+
+
+@dataclass(frozen=True)
+class ModelData:
+    """One model's group: status, axis and outputs (arrays in SI units, as stored).
+
+    ``axis_name`` is ``"time"`` (s) or ``"lambda"`` (1), or None when the group stores
+    none (a peak-only network estimator, or a model sharing the reference's time grid).
+    ``probes`` maps a probe name (``<car>/<sensor>`` in impacts) to its outputs;
+    ``couplers`` maps a coupler to ``force`` (N, history) and/or ``peak_force`` (N, a
+    scalar array); ``measured`` holds the measurement chain's records and their ``time``.
+    """
+
+    name: str
+    status: str
+    message: str
+    wall_time_s: float
+    axis_name: str | None = None
+    axis: NDArray | None = None
+    probes: dict[str, dict[str, NDArray]] = field(default_factory=dict)
+    couplers: dict[str, dict[str, NDArray]] = field(default_factory=dict)
+    measured_time: NDArray | None = None
+    measured: dict[str, NDArray] = field(default_factory=dict)
+    fields: dict[str, NDArray] = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        return self.status != FAILED
+
+
+@dataclass(frozen=True)
+class Epsilon:
+    """The scene's small parameter ``ε = (T_wave/T_load)²`` recomputed from the case, or why not."""
+
+    value: float | None
+    problem: str = ""
+
+
+@dataclass(frozen=True)
+class ResultFile:
+    """Everything the report shows of one result file."""
+
+    path: Path
+    femref_version: str
+    created: str
+    case_yaml: str
+    kind: str
+    models: dict[str, ModelData]
+    scores: dict[str, dict[str, Any]]
+
+    @property
+    def ok_models(self) -> list[ModelData]:
+        return [m for m in self.models.values() if m.ok]
+
+    @property
+    def failed_models(self) -> list[ModelData]:
+        return [m for m in self.models.values() if not m.ok]
+
+
+def read_result_file(path: str | Path) -> ResultFile:
+    """Read the result file at ``path``; raise :class:`ReportInputError` for bad input."""
+    path = Path(path)
+    if not path.exists():
+        raise ReportInputError(f"{path}: result file not found")
+    if not path.is_file():
+        raise ReportInputError(f"{path}: not a file")
+    if not h5py.is_hdf5(path):
+        raise ReportInputError(f"{path}: not an HDF5 file")
+    try:
+        with h5py.File(path, "r") as h5:
+            return _read_open_file(path, h5)
+    except OSError as error:
+        raise ReportInputError(f"{path}: cannot read the HDF5 file: {error}") from None
+
+
+def _read_open_file(path: Path, h5: h5py.File) -> ResultFile:
+    if "case_yaml" not in h5.attrs:
+        raise ReportInputError(f"{path}: not a femref result file (no 'case_yaml' root attribute)")
+    case_yaml = _text(h5.attrs["case_yaml"])
+    models = {
+        name: _read_model(name, group)
+        for name, group in h5.items()
+        if name != SCORES_GROUP and isinstance(group, h5py.Group)
+    }
+    scores = {}
+    if SCORES_GROUP in h5:
+        scores = {name: {k: _attr_value(v) for k, v in group.attrs.items()} for name, group in h5[SCORES_GROUP].items()}
+    return ResultFile(
+        path=path,
+        femref_version=_text(h5.attrs.get("femref_version", "unknown")),
+        created=_text(h5.attrs.get("created", "unknown")),
+        case_yaml=case_yaml,
+        kind=_scene_kind(case_yaml, models),
+        models=models,
+        scores=scores,
+    )
+
+
+def _read_model(name: str, group: h5py.Group) -> ModelData:
+    axis_name = next((a for a in ("time", "lambda") if isinstance(group.get(a), h5py.Dataset)), None)
+    measured = _datasets_by_parent(group["measured"], "acceleration") if "measured" in group else {}
+    return ModelData(
+        name=name,
+        status=_text(group.attrs.get("status", "ok")),
+        message=_text(group.attrs.get("message", "")),
+        wall_time_s=float(group.attrs.get("wall_time_s", math.nan)),
+        axis_name=axis_name,
+        axis=group[axis_name][()] if axis_name else None,
+        probes=_outputs_by_parent(group["probes"]) if "probes" in group else {},
+        couplers=_outputs_by_parent(group["couplers"]) if "couplers" in group else {},
+        measured_time=group["measured/time"][()] if "measured/time" in group else None,
+        measured={k: v["acceleration"] for k, v in measured.items()},
+        fields={k: v[()] for k, v in group["fields"].items()} if "fields" in group else {},
+    )
+
+
+def _outputs_by_parent(group: h5py.Group) -> dict[str, dict[str, NDArray]]:
+    """Datasets under ``group`` keyed by their parent's path (the probe or coupler name), then their name."""
+    return _datasets_by_parent(group, None)
+
+
+def _datasets_by_parent(group: h5py.Group, only: str | None) -> dict[str, dict[str, NDArray]]:
+    found: dict[str, dict[str, NDArray]] = {}
+
+    def visit(name: str, obj: Any) -> None:
+        if isinstance(obj, h5py.Dataset) and "/" in name:
+            parent, leaf = name.rsplit("/", 1)
+            if only is None or leaf == only:
+                found.setdefault(parent, {})[leaf] = obj[()]
+
+    group.visititems(visit)
+    return found
+
+
+def _scene_kind(case_yaml: str, models: dict[str, ModelData]) -> str:
+    """``kind`` of the resolved case; if the YAML cannot say, guessed from the stored outputs."""
+    try:
+        data = yaml.safe_load(case_yaml)
+    except yaml.YAMLError:
+        data = None
+    if isinstance(data, dict) and isinstance(data.get("kind"), str):
+        return data["kind"]
+    if any(m.axis_name == "lambda" for m in models.values()):
+        return "harmonic"
+    return "impact" if any(m.couplers for m in models.values()) else "transient"
+
+
+def scene_epsilon(result: ResultFile) -> Epsilon:
+    """``ε`` of the scene rebuilt from the stored case (relative CSV paths: next to the result file)."""
+    from femref.case import CaseError, parse_case
+    from femref.scene_builder import scene_from_case
+
+    base_dir = result.path.resolve().parent
+    try:
+        case = parse_case(yaml.safe_load(result.case_yaml), source=f"{result.path} (case_yaml)", base_dir=base_dir)
+        scene = scene_from_case(case, base_dir)
+        return Epsilon(float(scene.epsilon))
+    except CaseError as error:
+        first_line = (str(error).strip().splitlines() or ["invalid case"])[0]
+        return Epsilon(None, f"the stored case does not validate: {first_line}")
+    except Exception as error:  # noqa: BLE001 - ε is informative; a case from another version must not stop the report
+        first_line = (str(error).strip().splitlines() or [type(error).__name__])[0]
+        return Epsilon(None, f"the scene could not be rebuilt from the stored case: {first_line}")
+
+
+def _text(value: Any) -> str:
+    return value.decode("utf-8", "replace") if isinstance(value, bytes) else str(value)
+
+
+def _attr_value(value: Any) -> Any:
+    """An HDF5 attribute as a Python scalar or string."""
+    if isinstance(value, bytes):
+        return value.decode("utf-8", "replace")
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        return value.item()
+    return value
