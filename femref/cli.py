@@ -306,9 +306,11 @@ def figures(folder: Path) -> None:
 
 def _register_commands() -> None:
     """Commands that live in their own packages."""
+    from femref.bench.command import bench_command
     from femref.report import report_command
 
     main.add_command(report_command)
+    main.add_command(bench_command)
 
 
 _register_commands()

@@ -1,0 +1,177 @@
+"""The bench's files: the HDF5 table and the Pareto plot (error against wall time).
+
+HDF5 layout (written under a temporary name in the target folder, then renamed)::
+
+    /                        attrs: femref_version, created
+    /bench                   one row per configuration (compound dataset, :data:`COLUMNS`)
+                             attrs: case_yaml, reference, reference_wall_time_s, reference_steps,
+                                    repeats, primary_error, secondary_error, time_ratio_base,
+                                    pareto_rule, units (JSON: column → unit), notes
+    /bench_wall_times_s      (rows, repeats) every repeat's wall time (s), NaN for a failed row
+
+The plot is log–log: primary error (y) against median wall time (x, s; the top axis
+gives the same times as ratios to the rigid model's), one marker per model family, the
+Pareto-optimal configurations ringed, labelled and joined by a step line. Errors that a
+log axis cannot show — 0, or NaN (not scored) — are drawn at a floor a decade below the
+least positive error, with open markers, and the legend says so.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import tempfile
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any, Callable
+
+import h5py
+import numpy as np
+
+from femref import __version__
+from femref.bench.run import PRIMARY_ERROR, RATIO_BASE, SECONDARY_ERROR, BenchOutcome, BenchRow
+
+__all__ = ["COLUMNS", "plot_pareto", "write_bench_table"]
+
+_STR = h5py.string_dtype("utf-8")
+
+COLUMNS: dict[str, tuple[Any, str, Callable[[BenchRow], Any]]] = {
+    "label": (_STR, "", lambda r: r.configuration.label),
+    "model": (_STR, "", lambda r: r.configuration.family),
+    "kind": (_STR, "solve | estimator", lambda r: r.configuration.kind),
+    "setting": (_STR, "elements | dt_factor | modes | ''", lambda r: r.configuration.setting),
+    "value": (np.float64, "1 (NaN: no setting)", lambda r: r.configuration.value),
+    "elements": (np.int64, "1 (fem elements per car; 0: not fem)", lambda r: _elements(r)),
+    "dt_s": (np.float64, "s (NaN: estimator)", lambda r: r.configuration.dt),
+    "steps": (np.int64, "1 (0: estimator or failed)", lambda r: r.steps),
+    "wall_time_s": (np.float64, "s (median of the repeats)", lambda r: r.wall_time_s),
+    "time_ratio_rigid": (np.float64, "1 (wall_time_s / rigid wall_time_s)", lambda r: r.time_ratio_rigid),
+    "peak_error": (np.float64, f"1 ({PRIMARY_ERROR})", lambda r: r.peak_error),
+    "rms_error": (np.float64, f"1 ({SECONDARY_ERROR})", lambda r: r.rms_error),
+    "pareto": (np.bool_, "Pareto-optimal in (wall_time_s, peak_error)", lambda r: r.pareto),
+    "status": (_STR, "ok | failed", lambda r: r.status),
+    "message": (_STR, "", lambda r: r.message),
+}
+"""Column → (HDF5 type, unit/meaning, value of a row)."""
+
+PARETO_RULE = "no other configuration is at least as fast and as accurate and strictly better in one (NaN never optimal)"
+
+
+def _elements(row: BenchRow) -> int:
+    c = row.configuration
+    return int(c.scene.fem.elements) if c.family == "fem" and c.scene is not None else 0
+
+
+def write_bench_table(path: str | Path, case_yaml: str, outcome: BenchOutcome) -> Path:
+    """Write the bench file (module docstring) atomically; return its path."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    dtype = np.dtype([(name, column[0]) for name, column in COLUMNS.items()])
+    table = np.array([tuple(column[2](row) for column in COLUMNS.values()) for row in outcome.rows], dtype=dtype)
+    times = np.full((len(outcome.rows), outcome.repeats), np.nan)
+    for i, row in enumerate(outcome.rows):
+        times[i, : len(row.wall_times_s)] = row.wall_times_s
+    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp_name, 0o666 & ~umask)
+    try:
+        with h5py.File(tmp_name, "w") as h5:
+            h5.attrs["femref_version"] = __version__
+            h5.attrs["created"] = datetime.now(timezone.utc).isoformat(timespec="seconds")
+            bench = h5.create_dataset("bench", data=table)
+            bench.attrs["case_yaml"] = case_yaml
+            bench.attrs["reference"] = outcome.plan.reference_description
+            bench.attrs["reference_wall_time_s"] = outcome.reference_wall_time_s
+            bench.attrs["reference_steps"] = outcome.reference_steps
+            bench.attrs["repeats"] = outcome.repeats
+            bench.attrs["primary_error"] = PRIMARY_ERROR
+            bench.attrs["secondary_error"] = SECONDARY_ERROR
+            bench.attrs["time_ratio_base"] = RATIO_BASE
+            bench.attrs["pareto_rule"] = PARETO_RULE
+            bench.attrs["units"] = json.dumps({name: column[1] for name, column in COLUMNS.items()})
+            bench.attrs["notes"] = "\n".join(outcome.notes)
+            h5.create_dataset("bench_wall_times_s", data=times).attrs["units"] = "s"
+        os.replace(tmp_name, path)
+    except BaseException:
+        Path(tmp_name).unlink(missing_ok=True)
+        raise
+    return path
+
+
+MARKERS = {"fem": "o", "modal": "s", "quasi_rigid": "^", "rigid": "D"}
+ESTIMATOR_MARKERS = ("v", "P", "X", "*", "h", "<", ">")
+
+
+def error_floor(errors: np.ndarray) -> float:
+    """A decade below the least positive finite error (1e-6 when there is none): where 0 and NaN are drawn."""
+    positive = errors[np.isfinite(errors) & (errors > 0.0)]
+    return float(positive.min()) / 10.0 if positive.size else 1e-6
+
+
+def plot_pareto(path: str | Path, outcome: BenchOutcome, title: str = "") -> Path:
+    """The log–log Pareto plot (module docstring) as a PNG, written under a temporary name and renamed."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    rows = [row for row in outcome.rows if math.isfinite(row.wall_time_s) and row.wall_time_s > 0.0]
+    times = np.array([row.wall_time_s for row in rows])
+    errors = np.array([row.peak_error for row in rows])
+    floor = error_floor(errors)
+    clipped = ~(np.isfinite(errors) & (errors > 0.0))
+    shown = np.where(clipped, floor, errors)
+
+    fig, ax = plt.subplots(figsize=(9.0, 6.0), dpi=110)
+    families = list(dict.fromkeys(row.configuration.family for row in rows))
+    extra = iter(ESTIMATOR_MARKERS)
+    for k, family in enumerate(families):
+        marker = MARKERS.get(family) or next(extra, "o")
+        color = f"C{k % 10}"
+        pick = np.array([row.configuration.family == family for row in rows])
+        for hollow, sel in ((False, pick & ~clipped), (True, pick & clipped)):
+            if sel.any():
+                ax.scatter(
+                    times[sel], shown[sel], marker=marker, s=45, zorder=3, edgecolors=color,
+                    facecolors="none" if hollow else color, label=None if hollow and (pick & ~clipped).any() else family,
+                )
+    front = [i for i, row in enumerate(rows) if row.pareto]
+    front.sort(key=lambda i: times[i])
+    if front:
+        ax.plot(times[front], shown[front], drawstyle="steps-post", color="black", lw=1.2, zorder=2, label="Pareto front")
+        ax.scatter(times[front], shown[front], s=160, facecolors="none", edgecolors="red", linewidths=1.5, zorder=4, label="Pareto-optimal")
+        for i in front:
+            ax.annotate(rows[i].configuration.label, (times[i], shown[i]), textcoords="offset points", xytext=(6, 6), fontsize=8)
+    if clipped.any():
+        ax.plot([], [], ls="none", marker="o", mfc="none", mec="grey", label=f"error 0 or NaN: drawn at floor {floor:.1e}")
+        ax.axhline(floor, color="grey", lw=0.6, ls=":")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel(f"wall time, s (median of {outcome.repeats})")
+    ax.set_ylabel("peak coupler force error vs reference")
+    rigid = next((row.wall_time_s for row in outcome.rows if row.configuration.family == RATIO_BASE and row.ok), math.nan)
+    if math.isfinite(rigid) and rigid > 0.0:
+        top = ax.secondary_xaxis("top", functions=(lambda x: x / rigid, lambda r: r * rigid))
+        top.set_xlabel("wall time / rigid wall time")
+    note = " (errors 0/NaN clipped to floor)" if clipped.any() else ""
+    ax.set_title((title + "\n" if title else "") + f"reference: {outcome.plan.reference_description}{note}", fontsize=9)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8, loc="best")
+    fig.tight_layout()
+    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        fig.savefig(tmp_name, format="png")
+        os.chmod(tmp_name, 0o644)
+        os.replace(tmp_name, path)
+    except BaseException:
+        Path(tmp_name).unlink(missing_ok=True)
+        raise
+    finally:
+        plt.close(fig)
+    return path

@@ -1,0 +1,196 @@
+"""Time and score every configuration of a bench plan (:mod:`femref.bench.configurations`).
+
+Rules (DESIGN.md §7):
+
+* **Time** of a configuration: the median of ``repeats`` wall times. A solve's wall time
+  is :attr:`femref.impact.solver.ImpactResponse.wall_time` (building the cars — mesh,
+  factorisation, modes — and stepping); an estimator's is what ``femref run`` records for it
+  (:func:`femref.impact.runner.run_estimators` / ``run_networks``: the estimator on the
+  records already made, not the fem run that made them). Every time is also given as a
+  ratio to the rigid model's median time of the same bench, ``t / t_rigid``: only such
+  ratios compare across machines (absolute seconds are kept, never compared).
+* **Error** of a configuration: :func:`femref.impact.scoring.score_impact` against the
+  reference run — the primary error is ``coupler_force_peak_error_max`` (relative error of
+  the peak compression, worst coupler), the secondary ``coupler_force_rms_error_max``
+  (NaN for a network estimator, which gives a peak only). Solves are deterministic, so
+  the last repeat's response is the one scored.
+* **Pareto flag**: :func:`femref.bench.pareto.pareto_mask` over (median time, primary error).
+
+A configuration that raises is kept as a failed row (status, message, NaN time and
+errors) and the others still run; a failed reference leaves nothing to score against
+and raises :class:`ReferenceFailed`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from femref.bench.configurations import ESTIMATOR, BenchPlan, Configuration, bench_plan
+from femref.bench.pareto import pareto_mask
+from femref.impact.runner import add_measured_records, model_result, run_estimators, run_networks
+from femref.impact.scene import ImpactScene
+from femref.impact.scoring import score_impact
+from femref.impact.solver import solve_impact
+from femref.results import ModelResult
+
+__all__ = ["PRIMARY_ERROR", "SECONDARY_ERROR", "BenchOutcome", "BenchRow", "ReferenceFailed", "run_bench", "run_plan"]
+
+PRIMARY_ERROR = "coupler_force_peak_error_max"
+SECONDARY_ERROR = "coupler_force_rms_error_max"
+RATIO_BASE = "rigid"
+"""The family whose median time every time is divided by."""
+
+Progress = Callable[[str], None]
+
+
+class ReferenceFailed(RuntimeError):
+    """The reference fem run failed: there is nothing to score the configurations against."""
+
+
+@dataclass
+class BenchRow:
+    """One configuration's outcome: status, work, the repeats' wall times (s), errors, ratio, Pareto flag."""
+
+    configuration: Configuration
+    status: str = "ok"
+    message: str = ""
+    steps: int = 0
+    wall_times_s: tuple[float, ...] = ()
+    peak_error: float = math.nan
+    rms_error: float = math.nan
+    time_ratio_rigid: float = math.nan
+    pareto: bool = False
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok"
+
+    @property
+    def wall_time_s(self) -> float:
+        """Median of the repeats' wall times (s); NaN when none was measured."""
+        return float(np.median(self.wall_times_s)) if self.wall_times_s else math.nan
+
+
+@dataclass
+class BenchOutcome:
+    """The rows in plan order, the plan, the reference's (single) wall time and the repeat count."""
+
+    plan: BenchPlan
+    rows: list[BenchRow]
+    repeats: int
+    reference_wall_time_s: float
+    reference_steps: int
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def failed(self) -> list[BenchRow]:
+        return [row for row in self.rows if not row.ok]
+
+    @property
+    def pareto_rows(self) -> list[BenchRow]:
+        """The Pareto-optimal rows, fastest first."""
+        return sorted((row for row in self.rows if row.pareto), key=lambda row: row.wall_time_s)
+
+
+def run_bench(scene: ImpactScene, repeats: int = 3, progress: Progress | None = None) -> BenchOutcome:
+    """Plan the configurations of ``scene`` (:func:`bench_plan`) and run them (:func:`run_plan`)."""
+    return run_plan(bench_plan(scene), scene, repeats, progress)
+
+
+def run_plan(plan: BenchPlan, scene: ImpactScene, repeats: int = 3, progress: Progress | None = None) -> BenchOutcome:
+    """The reference once, every configuration ``repeats`` times; scores, ratios and Pareto flags (module docstring)."""
+    if repeats < 1:
+        raise ValueError(f"repeats must be at least 1, got {repeats}")
+    if progress:
+        progress("reference")
+    try:
+        reference, _ = _solve(plan.reference, repeats=1)
+    except Exception as error:
+        raise ReferenceFailed(f"the reference run ({plan.reference_description}) failed: {type(error).__name__}: {error}") from error
+    records: ModelResult | None = None
+    rows: list[BenchRow] = []
+    for index, configuration in enumerate(plan.configurations):
+        if progress:
+            progress(configuration.label)
+        if configuration.kind == ESTIMATOR:
+            row = _estimator_row(configuration, scene, records, reference, repeats)
+        else:
+            row, result = _solve_row(configuration, reference, repeats)
+            if index == plan.records_from and result is not None:
+                if scene.measurement is not None:
+                    add_measured_records(configuration.scene, result)
+                records = result
+        rows.append(row)
+    _add_ratios(rows)
+    for row, optimal in zip(rows, pareto_mask([r.wall_time_s for r in rows], [r.peak_error for r in rows])):
+        row.pareto = bool(optimal)
+    notes = [f"estimators read the records of {plan.configurations[plan.records_from].label}"] if any(c.kind == ESTIMATOR for c in plan.configurations) else []
+    return BenchOutcome(plan, rows, repeats, reference.wall_time_s, int(reference.settings["steps"]), notes)
+
+
+def _solve(configuration: Configuration, repeats: int) -> tuple[ModelResult, tuple[float, ...]]:
+    """Step the configuration ``repeats`` times; the last response as a result, and every wall time (s)."""
+    assert configuration.scene is not None and configuration.run is not None  # internal contract: a solve
+    times = []
+    for _ in range(repeats):
+        response, _ = solve_impact(configuration.scene, configuration.run, configuration.dt)
+        times.append(response.wall_time)
+    result = model_result(configuration.scene, configuration.run, response, configuration.dt, configuration.dt_rule)
+    return result, tuple(times)
+
+
+def _solve_row(configuration: Configuration, reference: ModelResult, repeats: int) -> tuple[BenchRow, ModelResult | None]:
+    try:
+        result, times = _solve(configuration, repeats)
+        metrics = score_impact(reference, result)
+    except Exception as error:  # kept as a failed row; the other configurations still run
+        return BenchRow(configuration, status="failed", message=f"{type(error).__name__}: {error}"), None
+    row = BenchRow(
+        configuration,
+        steps=int(result.settings["steps"]),
+        wall_times_s=times,
+        peak_error=float(metrics.get(PRIMARY_ERROR, math.nan)),
+        rms_error=float(metrics.get(SECONDARY_ERROR, math.nan)),
+    )
+    return row, result
+
+
+def _estimator_row(
+    configuration: Configuration, scene: ImpactScene, records: ModelResult | None, reference: ModelResult, repeats: int
+) -> BenchRow:
+    """Run one estimator ``repeats`` times on the records, as ``femref run`` does, and score its last result."""
+    if records is None:
+        return BenchRow(configuration, status="failed", message="no records: the fem run they are read from failed")
+    name = configuration.family
+    networks = tuple(n for n in scene.networks if n.name == name)
+    alone = dataclasses.replace(scene, estimators=tuple(e for e in scene.estimators if e == name), networks=networks)
+    runner = run_networks if networks else run_estimators
+    times = []
+    for _ in range(repeats):
+        (result,) = runner(alone, records)
+        if not result.ok:
+            return BenchRow(configuration, status="failed", message=result.message)
+        times.append(result.wall_time_s)
+    try:
+        metrics = score_impact(reference, result)
+    except ValueError as error:
+        return BenchRow(configuration, status="failed", message=f"cannot score: {error}")
+    return BenchRow(
+        configuration,
+        wall_times_s=tuple(times),
+        peak_error=float(metrics.get(PRIMARY_ERROR, math.nan)),
+        rms_error=float(metrics.get(SECONDARY_ERROR, math.nan)),
+    )
+
+
+def _add_ratios(rows: list[BenchRow]) -> None:
+    """``time_ratio_rigid = t / t_rigid`` for every row with a time (NaN without a rigid time)."""
+    base = next((row.wall_time_s for row in rows if row.configuration.family == RATIO_BASE and row.ok), math.nan)
+    for row in rows:
+        if row.ok and math.isfinite(base) and base > 0.0:
+            row.time_ratio_rigid = row.wall_time_s / base
