@@ -178,8 +178,6 @@ def _undrawn_note(names: list[str]) -> str:
     return f"; not drawn (no time axis of matching length): {', '.join(names)}" if names else ""
 
 
-
-
 def _reference_peak_time(coupler: str, reference: ModelData | None, result: ResultFile) -> float | None:
     """Time (s) of the reference's largest compression at ``coupler``; None without a reference history."""
     if reference is None or "force" not in reference.couplers.get(coupler, {}):
