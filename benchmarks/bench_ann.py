@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from bench_reduced import median_time  # benchmarks/ is the script's directory
-from femref.study.run import read_set
+from femref.study.run import feature_settings, read_set
 from femref.study.spec import TRAIN, load_study
 from femref.sweep import parse_sweep
 
@@ -30,7 +30,7 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3)
     args = parser.parse_args()
 
-    from ann.features import FeaturePipeline, FeatureSettings
+    from ann.features import FeaturePipeline
     from ann.storage import Estimator
     from femref.study.run import base_case_data, set_sweep_data
 
@@ -41,8 +41,7 @@ def main() -> None:
     records, peaks = train.records("fem", probes), train.peaks("fem", study.coupler)
     masses = train.car_masses if study.car_masses else None
     rate = train.data.record_rate
-    extras = tuple(f"car_mass/{car}" for car in train.car_names) if study.car_masses else ()
-    settings = FeatureSettings(length=study.features.length, rate=rate, lowpass=study.features.lowpass, normalise=study.features.normalise, extras=extras)
+    settings = feature_settings(study, train)
 
     print(f"{records.shape[0]} fem training records of {records.shape[1]} channels × {records.shape[2]} samples")
     print(f"{'network':8} {'train s':>9} {'batch µs/record':>16} {'single-record µs':>17} {'train / mlp':>12}")

@@ -29,6 +29,7 @@ import shutil
 import tempfile
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -90,6 +91,30 @@ class ModelResult:
         self.probes = {name: {k: v[:, j] for k, v in outputs.items()} for j, name in enumerate(probe_names)}
 
 
+@contextlib.contextmanager
+def atomic_path(path: str | Path) -> Iterator[Path]:
+    """A temporary path beside ``path`` to write; renamed to ``path`` when the block ends without error.
+
+    On any error (or interrupt) the temporary file is removed, so nothing is ever left
+    under the final name half-written (DESIGN.md §4). The file gets the permissions of
+    a newly created file (umask), not ``mkstemp``'s private 0600. Creates the folder.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    tmp = Path(tmp_name)
+    try:
+        yield tmp
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
 def write_results(
     path: str | Path,
     case_yaml: str,
@@ -98,28 +123,17 @@ def write_results(
 ) -> list[Path]:
     """Write the result file (and XDMF field files) atomically; return the paths written."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     written = []
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp_name, 0o666 & ~umask)  # mkstemp's 0600 would make results private
-    try:
-        with h5py.File(tmp_name, "w") as h5:
-            h5.attrs["femref_version"] = __version__
-            h5.attrs["case_yaml"] = case_yaml
-            h5.attrs["created"] = datetime.now(timezone.utc).isoformat(timespec="seconds")
-            for result in results:
-                _write_model(h5.create_group(result.model), result)
-            for model, metrics in (scores or {}).items():
-                group = h5.require_group(f"scores/{model}")
-                for key, value in metrics.items():
-                    group.attrs[key] = value
-        os.replace(tmp_name, path)
-    except BaseException:
-        Path(tmp_name).unlink(missing_ok=True)
-        raise
+    with atomic_path(path) as tmp_name, h5py.File(tmp_name, "w") as h5:
+        h5.attrs["femref_version"] = __version__
+        h5.attrs["case_yaml"] = case_yaml
+        h5.attrs["created"] = datetime.now(timezone.utc).isoformat(timespec="seconds")
+        for result in results:
+            _write_model(h5.create_group(result.model), result)
+        for model, metrics in (scores or {}).items():
+            group = h5.require_group(f"scores/{model}")
+            for key, value in metrics.items():
+                group.attrs[key] = value
     written.append(path)
     for result in results:
         if result.fields:

@@ -20,8 +20,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Callable
@@ -31,6 +29,7 @@ import numpy as np
 
 from femref import __version__
 from femref.bench.run import PRIMARY_ERROR, RATIO_BASE, SECONDARY_ERROR, BenchOutcome, BenchRow
+from femref.results import atomic_path
 
 __all__ = ["COLUMNS", "plot_pareto", "write_bench_table"]
 
@@ -66,38 +65,27 @@ def _elements(row: BenchRow) -> int:
 def write_bench_table(path: str | Path, case_yaml: str, outcome: BenchOutcome) -> Path:
     """Write the bench file (module docstring) atomically; return its path."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     dtype = np.dtype([(name, column[0]) for name, column in COLUMNS.items()])
     table = np.array([tuple(column[2](row) for column in COLUMNS.values()) for row in outcome.rows], dtype=dtype)
     times = np.full((len(outcome.rows), outcome.repeats), np.nan)
     for i, row in enumerate(outcome.rows):
         times[i, : len(row.wall_times_s)] = row.wall_times_s
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp_name, 0o666 & ~umask)
-    try:
-        with h5py.File(tmp_name, "w") as h5:
-            h5.attrs["femref_version"] = __version__
-            h5.attrs["created"] = datetime.now(timezone.utc).isoformat(timespec="seconds")
-            bench = h5.create_dataset("bench", data=table)
-            bench.attrs["case_yaml"] = case_yaml
-            bench.attrs["reference"] = outcome.plan.reference_description
-            bench.attrs["reference_wall_time_s"] = outcome.reference_wall_time_s
-            bench.attrs["reference_steps"] = outcome.reference_steps
-            bench.attrs["repeats"] = outcome.repeats
-            bench.attrs["primary_error"] = PRIMARY_ERROR
-            bench.attrs["secondary_error"] = SECONDARY_ERROR
-            bench.attrs["time_ratio_base"] = RATIO_BASE
-            bench.attrs["pareto_rule"] = PARETO_RULE
-            bench.attrs["units"] = json.dumps({name: column[1] for name, column in COLUMNS.items()})
-            bench.attrs["notes"] = "\n".join(outcome.notes)
-            h5.create_dataset("bench_wall_times_s", data=times).attrs["units"] = "s"
-        os.replace(tmp_name, path)
-    except BaseException:
-        Path(tmp_name).unlink(missing_ok=True)
-        raise
+    with atomic_path(path) as tmp_name, h5py.File(tmp_name, "w") as h5:
+        h5.attrs["femref_version"] = __version__
+        h5.attrs["created"] = datetime.now(timezone.utc).isoformat(timespec="seconds")
+        bench = h5.create_dataset("bench", data=table)
+        bench.attrs["case_yaml"] = case_yaml
+        bench.attrs["reference"] = outcome.plan.reference_description
+        bench.attrs["reference_wall_time_s"] = outcome.reference_wall_time_s
+        bench.attrs["reference_steps"] = outcome.reference_steps
+        bench.attrs["repeats"] = outcome.repeats
+        bench.attrs["primary_error"] = PRIMARY_ERROR
+        bench.attrs["secondary_error"] = SECONDARY_ERROR
+        bench.attrs["time_ratio_base"] = RATIO_BASE
+        bench.attrs["pareto_rule"] = PARETO_RULE
+        bench.attrs["units"] = json.dumps({name: column[1] for name, column in COLUMNS.items()})
+        bench.attrs["notes"] = "\n".join(outcome.notes)
+        h5.create_dataset("bench_wall_times_s", data=times).attrs["units"] = "s"
     return path
 
 
@@ -163,15 +151,9 @@ def plot_pareto(path: str | Path, outcome: BenchOutcome, title: str = "") -> Pat
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8, loc="best")
     fig.tight_layout()
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
     try:
-        fig.savefig(tmp_name, format="png")
-        os.chmod(tmp_name, 0o644)
-        os.replace(tmp_name, path)
-    except BaseException:
-        Path(tmp_name).unlink(missing_ok=True)
-        raise
+        with atomic_path(path) as tmp_name:
+            fig.savefig(tmp_name, format="png")
     finally:
         plt.close(fig)
     return path

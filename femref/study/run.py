@@ -22,8 +22,6 @@ profiles. Every estimator reads the same stored records.
 
 from __future__ import annotations
 
-import os
-import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -38,12 +36,14 @@ from femref import __version__
 from femref.case import load_case
 from femref.case.errors import CaseError, Problem
 from femref.impact.records import record_times
+from femref.impact.scene import ESTIMATOR_NAMES
+from femref.results import atomic_path
 from femref.study.spec import TRAIN, StudyFile
 from femref.sweep import Sweep, SweepData, parse_sweep, read_sweep, run_sweep
 from femref.sweep.spec import assign_key_path
 
-#: Estimator name prefix of the networks in the tables: ``<source>_<network>``.
-INVERSE_ESTIMATORS = ("inverse_rigid", "inverse_quasi_rigid")
+#: The inverse estimators scored next to the networks (every one femref has).
+INVERSE_ESTIMATORS = ESTIMATOR_NAMES
 
 
 @dataclass(frozen=True)
@@ -171,13 +171,21 @@ def prepare_sweeps(study: StudyFile, study_dir: Path, out_dir: Path, source: str
 
 @dataclass(frozen=True)
 class SetData:
-    """The usable samples of one set: records, peak forces per model, car masses, sample scenes."""
+    """The usable samples of one set: records, peak forces per model, and each sample's scene."""
 
     sweep: Sweep
     data: SweepData
     index: NDArray[np.int64]  # sample indices with status ok
-    car_masses: NDArray[np.float64]  # (n_ok, cars), kg
-    car_names: tuple[str, ...]
+    scenes: tuple[Any, ...]  # ImpactScene of each ok sample, in index order
+
+    @property
+    def car_names(self) -> tuple[str, ...]:
+        return tuple(car.name for car in self.scenes[0].cars) if self.scenes else ()
+
+    @property
+    def car_masses(self) -> NDArray[np.float64]:
+        """``(n_ok, cars)`` total car masses (kg) of each sample."""
+        return np.array([[car.mass for car in scene.cars] for scene in self.scenes]).reshape(len(self.scenes), len(self.car_names))
 
     def records(self, model: str, probes: list[str]) -> NDArray[np.float64]:
         channels = [self.data.probes.index(p) for p in probes]
@@ -188,36 +196,37 @@ class SetData:
 
 
 def read_set(sweep: Sweep, path: Path) -> SetData:
-    """Read a set's sweep file and the car masses of its ok samples (from each sample's case)."""
+    """Read a set's sweep file and rebuild the scene of each ok sample (car masses, estimator geometry)."""
     from femref.impact.build import impact_scene_from_case
 
     data = read_sweep(path)
     index = np.flatnonzero(data.ok)
-    masses, names = [], ()
-    for i in index:
-        scene = impact_scene_from_case(sweep.sample_case(sweep.sample(int(i))), sweep.base_dir)
-        names = tuple(car.name for car in scene.cars)
-        masses.append([car.mass for car in scene.cars])
-    return SetData(sweep, data, index, np.array(masses).reshape(index.size, len(names)), names)
+    scenes = tuple(impact_scene_from_case(sweep.sample_case(sweep.sample(int(i))), sweep.base_dir) for i in index)
+    return SetData(sweep, data, index, scenes)
 
 
 # ------------------------------------------------------------------------------------ training
 
 
+def feature_settings(study: StudyFile, train: SetData) -> Any:
+    """The study's :class:`ann.features.FeatureSettings` for the set's records (rate) and cars (mass inputs)."""
+    from ann.features import FeatureSettings
+
+    extras = tuple(f"car_mass/{car}" for car in train.car_names) if study.car_masses else ()
+    f = study.features
+    return FeatureSettings(length=f.length, rate=train.data.record_rate, lowpass=f.lowpass, spectrum=f.spectrum, normalise=f.normalise, extras=extras)
+
+
 def train_networks(study: StudyFile, train: SetData, probes: list[str], out_dir: Path) -> list[TrainedNetwork]:
     """A pipeline and network per (source, network), saved with the femref network contract."""
     import ann.storage as storage
-    from ann.features import FeaturePipeline, FeatureSettings
+    from ann.features import FeaturePipeline
     from ann.splits import split_indices
 
     data = train.data
-    extras = tuple(f"car_mass/{car}" for car in train.car_names) if study.car_masses else ()
     masses = train.car_masses if study.car_masses else None
     fit_rows, validation_rows, _ = split_indices(train.index.size, (1.0 - study.validation_fraction, study.validation_fraction, 0.0), seed=0)
-    settings = FeatureSettings(
-        length=study.features.length, rate=data.record_rate, lowpass=study.features.lowpass,
-        spectrum=study.features.spectrum, normalise=study.features.normalise, extras=extras,
-    )
+    settings = feature_settings(study, train)
     (out_dir / "networks").mkdir(parents=True, exist_ok=True)
     trained = []
     for source in study.sets[TRAIN].models:
@@ -281,14 +290,12 @@ def evaluate_set(study: StudyFile, name: str, data: SetData, networks: list[Trai
 
 def inverse_estimates(study: StudyFile, data: SetData) -> dict[str, NDArray[np.float64]]:
     """Peak of each inverse estimator's force history, from the stored fixed-length fem records."""
-    from femref.impact.build import impact_scene_from_case
     from femref.impact.estimators import ESTIMATORS
 
     t = record_times(data.data.record_length, data.data.record_end)
     all_records = data.data.records["fem"]
     out = {name: np.empty(data.index.size) for name in INVERSE_ESTIMATORS}
-    for row, i in enumerate(data.index):
-        scene = impact_scene_from_case(data.sweep.sample_case(data.sweep.sample(int(i))), data.sweep.base_dir)
+    for row, (i, scene) in enumerate(zip(data.index, data.scenes)):
         records = {p: all_records[i, c] for c, p in enumerate(data.data.probes)}
         for name in INVERSE_ESTIMATORS:
             out[name][row] = float(np.max(ESTIMATORS[name](scene, t, records)[study.coupler]))
@@ -337,32 +344,25 @@ def write_study(outcome: StudyOutcome, path: Path) -> None:
     source, network, file, training samples and time, own-source validation errors. Written
     to a temporary name and renamed.
     """
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
-        with h5py.File(tmp, "w") as h5:
-            h5.attrs["femref_version"] = __version__
-            h5.attrs["study_yaml"] = yaml.safe_dump(outcome.study.model_dump(mode="json"), sort_keys=False)
-            for trained in outcome.networks:
-                group = h5.create_group(f"networks/{trained.name}")
-                group.attrs.update(
-                    source=trained.source, network=trained.network, file=str(trained.path), training_samples=trained.training_samples,
-                    training_time_s=trained.training_time_s, validation_mean_error=trained.validation.mean, validation_p95_error=trained.validation.p95,
-                )
-            for name, scores in outcome.sets.items():
-                group = h5.create_group(name)
-                group.create_dataset("reference", data=scores.reference).attrs["units"] = "N"
-                for estimator, estimate in scores.estimates.items():
-                    sub = group.create_group(estimator)
-                    sub.create_dataset("estimate", data=estimate).attrs["units"] = "N"
-                    summary = scores.summaries[estimator]
-                    sub.attrs.update(mean=summary.mean, p95=summary.p95, bias=summary.bias, samples=summary.samples)
-                    if estimator in scores.inference_time_s:
-                        sub.attrs["inference_time_s"] = scores.inference_time_s[estimator]
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_path(path) as tmp, h5py.File(tmp, "w") as h5:
+        h5.attrs["femref_version"] = __version__
+        h5.attrs["study_yaml"] = yaml.safe_dump(outcome.study.model_dump(mode="json"), sort_keys=False)
+        for trained in outcome.networks:
+            group = h5.create_group(f"networks/{trained.name}")
+            group.attrs.update(
+                source=trained.source, network=trained.network, file=str(trained.path), training_samples=trained.training_samples,
+                training_time_s=trained.training_time_s, validation_mean_error=trained.validation.mean, validation_p95_error=trained.validation.p95,
+            )
+        for name, scores in outcome.sets.items():
+            group = h5.create_group(name)
+            group.create_dataset("reference", data=scores.reference).attrs["units"] = "N"
+            for estimator, estimate in scores.estimates.items():
+                sub = group.create_group(estimator)
+                sub.create_dataset("estimate", data=estimate).attrs["units"] = "N"
+                summary = scores.summaries[estimator]
+                sub.attrs.update(mean=summary.mean, p95=summary.p95, bias=summary.bias, samples=summary.samples)
+                if estimator in scores.inference_time_s:
+                    sub.attrs["inference_time_s"] = scores.inference_time_s[estimator]
 
 
 __all__ = ["ErrorSummary", "StudyOutcome", "error_summary", "run_study"]

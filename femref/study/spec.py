@@ -39,19 +39,10 @@ from pydantic import BeforeValidator, Field, TypeAdapter, ValidationError, model
 
 from femref.case.errors import CaseError, Problem, problems_error, problems_from
 from femref.case.loader import read_yaml_file
-from femref.case.schema import CaseModel, TaggedSpec, _tagged_union
+from femref.case.schema import CaseModel, Count, TaggedSpec, _reject_bool, _tagged_union
 
 #: The training set's name; every other set is an evaluation set.
 TRAIN = "train"
-
-
-def _reject_bool(value: Any) -> Any:
-    if isinstance(value, bool):
-        raise ValueError("must be a number, not true/false")
-    return value
-
-
-Count = Annotated[int, BeforeValidator(_reject_bool), Field(ge=1)]
 
 
 class SetSpec(CaseModel):
