@@ -20,6 +20,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 from rich.table import Table
 
 from femref.case import CaseError, load_case, parse_case, resolved_yaml
+from femref.case.errors import Problem
 from femref.defaults import DEFAULT_SCENE_SOURCE, default_scene_data
 
 EXIT_BAD_INPUT = 2
@@ -53,8 +54,17 @@ def validate(case_path: Path | None) -> None:
 @main.command()
 @click.argument("case_path", metavar="CASE", required=False, type=click.Path(dir_okay=False, path_type=Path))
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), help="result file (default: CASE stem + .h5)")
-def run(case_path: Path | None, output: Path | None) -> None:
-    """Run CASE (no CASE: the built-in default scene) with every requested model; write HDF5 results."""
+@click.option(
+    "--tolerance",
+    type=click.FloatRange(min=0.0, max=1.0, min_open=True, max_open=True),
+    help="choose the cheapest model expected within this relative error (impact cases; overrides the case's tolerance.value)",
+)
+def run(case_path: Path | None, output: Path | None, tolerance: float | None) -> None:
+    """Run CASE (no CASE: the built-in default scene) with every requested model; write HDF5 results.
+
+    With a tolerance (--tolerance or the case's tolerance:) the run instead climbs the
+    ladder of impact models and resolutions and keeps the cheapest expected within it.
+    """
     from femref.results import write_results
     from femref.runner import run_scene
     from femref.scene_builder import scene_from_case
@@ -62,11 +72,15 @@ def run(case_path: Path | None, output: Path | None) -> None:
     console = Console(stderr=True)
     try:
         case, base_dir = _load(case_path)
+        case = _with_tolerance(case, tolerance, str(case_path) if case_path else DEFAULT_SCENE_SOURCE)
         scene = scene_from_case(case, base_dir)
     except CaseError as error:
         click.echo(f"error: {error}", err=True)
         sys.exit(EXIT_BAD_INPUT)
     output = output or Path(f"{case_path.stem if case_path else 'default'}.h5")
+    if getattr(case, "tolerance", None) is not None:
+        _run_choice(case, scene, output, console)
+        return
 
     with _progress(console) as progress_for:
         outcome = run_scene(scene, progress_for)
@@ -78,6 +92,41 @@ def run(case_path: Path | None, output: Path | None) -> None:
         click.echo(f"error: model {failed.model} failed: {failed.message}", err=True)
     if outcome.failed:
         sys.exit(EXIT_RUN_FAILURE)
+
+
+def _with_tolerance(case, tolerance: float | None, source: str):
+    """The case with ``--tolerance`` in its ``tolerance.value`` (kept in the resolved case of the result file)."""
+    if tolerance is None:
+        return case
+    if case.kind != "impact":
+        rule = "--tolerance: model choice serves impact cases (the ladder of impact models)"
+        raise CaseError(Problem(("kind",), rule, case.kind), source)
+    from femref.case.impact import ToleranceSpec
+
+    output = case.tolerance.output if case.tolerance is not None else "peak_coupler_force"
+    return case.model_copy(update={"tolerance": ToleranceSpec(value=tolerance, output=output)})
+
+
+def _run_choice(case, scene, output: Path, console: Console) -> None:
+    """Choose the model (femref.choice), write every run made and ``/choice``, print the ladder."""
+    from femref.choice import choose_model, run_rung
+    from femref.choice.output import choice_table, write_choice
+    from femref.results import write_results
+
+    if scene.estimators or scene.networks:
+        click.echo("note: with a tolerance the estimators are not run (they read the records of the models list's fem run)", err=True)
+    with _progress(console) as progress_for:
+        try:
+            choice = choose_model(scene, case.tolerance.value, case.tolerance.output, runner=lambda rung: run_rung(rung, progress_for(rung.label)))
+        except RuntimeError as error:
+            click.echo(f"error: {error}", err=True)
+            sys.exit(EXIT_RUN_FAILURE)
+    written = write_results(output, resolved_yaml(case), choice.results, extra=lambda h5: write_choice(h5, choice))
+    Console(width=max(150, Console().width)).print(choice_table(choice))
+    for path in written:
+        click.echo(f"wrote {path}")
+    if not choice.met:
+        click.echo(f"warning: no model on the ladder is expected within {choice.tolerance:g}; kept {choice.chosen}, the most accurate", err=True)
 
 
 @contextmanager

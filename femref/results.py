@@ -14,6 +14,7 @@ Layout::
     /<model>/measured/time, /<model>/measured/<probe>/acceleration   (measurement chain)
     /<model>/fields/x, /<model>/fields/u
     /scores/<model>/                 attrs: reference, one per metric
+    /choice/                         a model choice (femref run --tolerance; femref.choice.output)
 
 The file is written under a temporary name in the target folder and renamed when
 complete, so a crash never leaves a truncated file under the final name. Fields are
@@ -29,7 +30,7 @@ import shutil
 import tempfile
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -120,8 +121,12 @@ def write_results(
     case_yaml: str,
     results: list[ModelResult],
     scores: dict[str, dict[str, Any]] | None = None,
+    extra: Callable[[h5py.File], None] | None = None,
 ) -> list[Path]:
-    """Write the result file (and XDMF field files) atomically; return the paths written."""
+    """Write the result file (and XDMF field files) atomically; return the paths written.
+
+    ``extra(h5)`` adds groups of its own (e.g. ``/choice``) before the file is renamed.
+    """
     path = Path(path)
     written = []
     with atomic_path(path) as tmp_name, h5py.File(tmp_name, "w") as h5:
@@ -134,6 +139,8 @@ def write_results(
             group = h5.require_group(f"scores/{model}")
             for key, value in metrics.items():
                 group.attrs[key] = value
+        if extra is not None:
+            extra(h5)
     written.append(path)
     for result in results:
         if result.fields:

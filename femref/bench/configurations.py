@@ -114,13 +114,16 @@ def element_counts(elements: int) -> list[int]:
     return sorted({elements, *(max(MIN_ELEMENTS, round(elements * f)) for f in ELEMENT_FACTORS)})
 
 
-def mode_counts(scene: ImpactScene) -> list[int]:
-    """:data:`MODE_COUNTS` and the case's ``modal_modes`` that every car's fem mesh holds (``≤ ndof − 2``)."""
+def mode_counts(scene: ImpactScene, candidates: tuple[int, ...] | None = None) -> list[int]:
+    """The mode counts every car's fem mesh holds (``≤ ndof − 2``) among ``candidates``
+    (default: :data:`MODE_COUNTS` and the case's ``modal_modes``)."""
     ndof = min(
         (body_nodes(car.body.half_length, scene.fem.elements, car.body.jumps, scene.fem.grading).size - 1) * scene.fem.order + 1
         for car in scene.cars
     )
-    return sorted(k for k in {*MODE_COUNTS, scene.modal_modes} if 1 <= k <= ndof - 2)
+    if candidates is None:
+        candidates = (*MODE_COUNTS, scene.modal_modes)
+    return sorted(k for k in set(candidates) if 1 <= k <= ndof - 2)
 
 
 def _solve(family: str, scene: ImpactScene, setting: str = "", value: float = math.nan, dt_factor: float = 1.0) -> Configuration:

@@ -11,6 +11,8 @@ Layout of an impact case file::
     measurement: optional accelerometer model (rate, lowpass, noise, seed)
     estimators:  estimators run on the fem sensor records: an inverse estimator's name, or a
                  network {name: ann_<name>, network: file.npz} (a saved ann.storage network)
+    tolerance:   optional {value, output} (or a number): choose the cheapest model expected within
+                 it instead of running ``models`` (femref.choice)
 
 Validation follows :mod:`femref.case.schema`: each key on its own first (every failure
 reported), then the rules that relate keys — sensors against the car length, couplers
@@ -70,6 +72,7 @@ __all__ = [
     "ModalSettings",
     "ModelRunSpec",
     "TableLaw",
+    "ToleranceSpec",
 ]
 
 #: Models run when a case gives no ``models`` list.
@@ -495,6 +498,28 @@ class MeasurementSpec(CaseModel):
         return self
 
 
+#: Outputs a tolerance may be set on (femref.choice.estimates.OUTPUTS; kept here so the case needs no solver import).
+TOLERANCE_OUTPUTS: tuple[str, ...] = ("peak_coupler_force", "coupler_force")
+
+
+class ToleranceSpec(CaseModel):
+    """The accuracy the run must reach: ``femref run`` then chooses the cheapest model expected
+    to meet it (femref.choice). A bare number is ``{value: number}``."""
+
+    value: Annotated[float, BeforeValidator(_reject_bool), Field(gt=0.0, lt=1.0, allow_inf_nan=False)] = Field(
+        description="Largest acceptable relative error of the output, 0 < value < 1 (0.01 is 1 %). Required."
+    )
+    output: Literal[TOLERANCE_OUTPUTS] = Field(  # type: ignore[valid-type]
+        default="peak_coupler_force",
+        description="What the tolerance is on: peak_coupler_force (peak compression, worst coupler) or coupler_force (force history, rms). Default peak_coupler_force.",
+    )
+
+    @model_validator(mode="before")
+    @classmethod
+    def _bare_number(cls, data: Any) -> Any:
+        return {"value": data} if isinstance(data, (int, float)) and not isinstance(data, bool) else data
+
+
 def _known_estimator(name: str) -> str:
     """A plain ``estimators`` entry names a registered inverse estimator (``ESTIMATOR_NAMES``)."""
     if name not in ESTIMATOR_NAMES:
@@ -633,6 +658,13 @@ class ImpactCase(SceneCase):
         description=(
             f"Estimators run on the fem sensor records: an inverse estimator ({', '.join(ESTIMATOR_NAMES)}) or a network "
             "{name: ann_<name>, network: file.npz} (peak force of one coupler); unique names; they need a uniform fem run. Default []."
+        ),
+    )
+    tolerance: ToleranceSpec | None = Field(
+        default=None,
+        description=(
+            "Choose the model: the run climbs a ladder of models and resolutions and keeps the cheapest expected within this "
+            "relative error (a number, or {value, output}); it replaces the models list and skips the estimators. Default null: run the models list."
         ),
     )
 
