@@ -103,8 +103,8 @@ def _with_tolerance(case, tolerance: float | None, source: str):
         raise CaseError(Problem(("kind",), rule, case.kind), source)
     from femref.case.impact import ToleranceSpec
 
-    output = case.tolerance.output if case.tolerance is not None else "peak_coupler_force"
-    return case.model_copy(update={"tolerance": ToleranceSpec(value=tolerance, output=output)})
+    spec = ToleranceSpec(value=tolerance) if case.tolerance is None else ToleranceSpec(value=tolerance, output=case.tolerance.output)
+    return case.model_copy(update={"tolerance": spec})
 
 
 def _run_choice(case, scene, output: Path, console: Console) -> None:

@@ -408,3 +408,11 @@ def test_tolerance_on_every_impact_case(tmp_path, case):
     with h5py.File(out, "r") as h5:
         assert h5["choice"].attrs["met"] and h5["choice"].attrs["estimate"] <= 0.01
         assert h5[h5["choice"].attrs["chosen"]].attrs["status"] == "ok"
+
+
+def test_case_schema_and_estimates_know_the_same_outputs():
+    """The case keeps its own list of outputs (no solver import at validation); it must match the estimates'."""
+    from femref.case.impact import TOLERANCE_OUTPUTS
+    from femref.choice import OUTPUTS
+
+    assert set(TOLERANCE_OUTPUTS) == set(OUTPUTS)

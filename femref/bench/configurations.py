@@ -42,6 +42,7 @@ __all__ = [
     "bench_plan",
     "element_counts",
     "mode_counts",
+    "with_elements",
 ]
 
 ELEMENT_FACTORS: tuple[float, ...] = (0.25, 0.5, 1.0, 2.0)
@@ -134,7 +135,8 @@ def _solve(family: str, scene: ImpactScene, setting: str = "", value: float = ma
     return Configuration(family, SOLVE, setting, float(value), scene, run, dt * dt_factor, rule)
 
 
-def _with_elements(scene: ImpactScene, elements: int) -> ImpactScene:
+def with_elements(scene: ImpactScene, elements: int) -> ImpactScene:
+    """``scene`` with ``fem.elements`` per car replaced."""
     return dataclasses.replace(scene, fem=dataclasses.replace(scene.fem, elements=elements))
 
 
@@ -143,9 +145,9 @@ def bench_plan(scene: ImpactScene) -> BenchPlan:
     n = scene.fem.elements
     configurations: list[Configuration] = []
     for elements in element_counts(n):
-        configurations.append(_solve("fem", _with_elements(scene, elements), "elements", elements))
+        configurations.append(_solve("fem", with_elements(scene, elements), "elements", elements))
     records_from = next(i for i, c in enumerate(configurations) if c.value == n)
-    fem_scene = _with_elements(scene, n)
+    fem_scene = with_elements(scene, n)
     for factor in DT_FACTORS[1:]:
         configurations.append(_solve("fem", fem_scene, "dt_factor", factor, dt_factor=factor))
     for modes in mode_counts(scene):
@@ -155,7 +157,7 @@ def bench_plan(scene: ImpactScene) -> BenchPlan:
     for name in (*scene.estimators, *(network.name for network in scene.networks)):
         configurations.append(Configuration(name, ESTIMATOR))
     finest_dt = min(c.dt for c in configurations if c.kind == SOLVE)
-    reference_scene = _with_elements(scene, max(element_counts(n)))
+    reference_scene = with_elements(scene, max(element_counts(n)))
     reference = Configuration(
         "fem",
         SOLVE,

@@ -23,7 +23,6 @@ estimate, marked ``met = False``.
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass
 from typing import Callable
 
@@ -40,9 +39,8 @@ from femref.choice.estimates import (
     richardson_error,
 )
 from femref.choice.ladder import Ladder, Rung, model_ladder
-from femref.impact.runner import model_result
+from femref.impact.runner import run_model
 from femref.impact.scene import ImpactScene
-from femref.impact.solver import solve_impact
 from femref.results import ModelResult
 
 __all__ = ["DEFAULT_OUTPUT", "ModelChoice", "RungEstimate", "choose_model", "run_rung"]
@@ -90,13 +88,9 @@ class ModelChoice:
 
 def run_rung(rung: Rung, progress: Callable[[int, int], None] | None = None) -> ModelResult:
     """Step the rung's scene at its step; a failure is returned as a failed result, never raised."""
-    started = time.perf_counter()
-    try:
-        response, _ = solve_impact(rung.scene, rung.run, rung.dt, progress)
-        result = model_result(rung.scene, rung.run, response, rung.dt, rung.dt_rule)
-    except Exception as error:  # recorded; the climb goes on without this rung
-        return ModelResult.failed(rung.label, f"{type(error).__name__}: {error}", time.perf_counter() - started)
-    result.settings["rung"] = {"family": rung.family, "resolution": rung.resolution, "predicted_cost": rung.cost}
+    result = run_model(rung.scene, rung.run, rung.dt, rung.dt_rule, progress)
+    if result.ok:
+        result.settings["rung"] = {"family": rung.family, "resolution": rung.resolution, "predicted_cost": rung.cost}
     return result
 
 
@@ -133,6 +127,7 @@ class _Climb:
         self.rows = [RungEstimate(rung) for rung in ladder.rungs]
         self.by_label = {row.rung.label: row for row in self.rows}
         self.epsilon_load = math.nan
+        self.distances: dict[tuple[str, str], float] = {}
 
     def run(self, label: str) -> None:
         row = self.by_label[label]
@@ -142,7 +137,10 @@ class _Climb:
                 row.basis = f"failed: {row.result.message}"
 
     def distance(self, a: str, b: str) -> float:
-        return output_distance(self.by_label[a].result, self.by_label[b].result, self.output)
+        """``output_distance`` of run ``a`` from run ``b``, computed once per pair (runs never change)."""
+        if (a, b) not in self.distances:
+            self.distances[a, b] = output_distance(self.by_label[a].result, self.by_label[b].result, self.output)
+        return self.distances[a, b]
 
     def estimate(self) -> None:
         for row in self.rows:

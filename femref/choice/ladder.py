@@ -29,7 +29,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-from femref.bench.configurations import mode_counts
+from femref.bench.configurations import mode_counts, with_elements
 from femref.impact.runner import time_step_for
 from femref.impact.scene import ImpactScene, ModelRun
 from femref.scene import steps_to
@@ -65,12 +65,6 @@ class Rung:
     dt_rule: str
     cost: float
 
-    @property
-    def description(self) -> str:
-        """E.g. ``fem, 32 elements per car, dt = 0.0005 s``."""
-        detail = {"modal": f", {self.resolution} modes per car", "fem": f", {self.resolution} elements per car"}.get(self.family, "")
-        return f"{self.family}{detail}, dt = {self.dt:.3g} s"
-
 
 @dataclass(frozen=True)
 class Ladder:
@@ -103,12 +97,12 @@ def model_ladder(scene: ImpactScene) -> Ladder:
         rungs.append(_rung(f"modal_k{k}", "modal", k, dataclasses.replace(scene, modal_modes=k)))
     partners.update({f"modal_k{k}": f"modal_k{2 * k}" for k in modes if 2 * k in modes})
     elements = sorted({max(MIN_ELEMENTS, round(scene.fem.elements * 2.0**j)) for j in FEM_LEVELS})
-    coarsest = _with_elements(scene, elements[0])
+    coarsest = with_elements(scene, elements[0])
     dt0, rule0 = time_step_for(coarsest, _uniform_run("fem", scene))
     for n in elements:
         dt = dt0 * elements[0] / n
         rule = rule0 if n == elements[0] else f"{rule0} at {elements[0]} elements, × {elements[0]}/{n}"
-        rungs.append(_rung(f"fem_n{n}", "fem", n, _with_elements(scene, n), dt=dt, dt_rule=rule))
+        rungs.append(_rung(f"fem_n{n}", "fem", n, with_elements(scene, n), dt=dt, dt_rule=rule))
     partners.update({f"fem_n{a}": f"fem_n{b}" for a, b in zip(elements, elements[1:])})
     rungs.sort(key=lambda rung: rung.cost)
     return Ladder(tuple(rungs), partners)
@@ -116,10 +110,6 @@ def model_ladder(scene: ImpactScene) -> Ladder:
 
 def _uniform_run(family: str, scene: ImpactScene, label: str | None = None) -> ModelRun:
     return ModelRun(label or family, (family,) * len(scene.cars))
-
-
-def _with_elements(scene: ImpactScene, elements: int) -> ImpactScene:
-    return dataclasses.replace(scene, fem=dataclasses.replace(scene.fem, elements=elements))
 
 
 def _rung(label: str, family: str, resolution: int, scene: ImpactScene, dt: float | None = None, dt_rule: str = "") -> Rung:

@@ -92,20 +92,26 @@ def _public(settings: dict[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in settings.items() if not (isinstance(v, np.ndarray) and v.size > 16)}
 
 
+def run_model(
+    scene: ImpactScene, run: ModelRun, dt: float | None = None, dt_rule: str = "", progress: Callable[[int, int], None] | None = None
+) -> ModelResult:
+    """One model run stepped at ``dt`` (None: :func:`time_step_for`), as a result; a failure is
+    returned as a failed result, never raised, so the other runs still go."""
+    started = time.perf_counter()
+    try:
+        if dt is None:
+            dt, dt_rule = time_step_for(scene, run)
+        response, _ = solve_impact(scene, run, dt, progress)
+        return model_result(scene, run, response, dt, dt_rule)
+    except Exception as error:  # recorded as the model's status
+        return ModelResult.failed(run.name, f"{type(error).__name__}: {error}", time.perf_counter() - started)
+
+
 def run_impact_scene(scene: ImpactScene, progress_for: Callable[[str], Any] | None = None):
     """Every run of ``scene.runs``, then the inverse and network estimators, then the scores against ``fem``."""
     from femref.runner import RunOutcome
 
-    results: list[ModelResult] = []
-    for run in scene.runs:
-        started = time.perf_counter()
-        try:
-            dt, dt_rule = time_step_for(scene, run)
-            response, _ = solve_impact(scene, run, dt, progress_for(run.name) if progress_for else None)
-            result = model_result(scene, run, response, dt, dt_rule)
-        except Exception as error:  # recorded as the model's status; the other runs still go
-            result = ModelResult.failed(run.name, f"{type(error).__name__}: {error}", time.perf_counter() - started)
-        results.append(result)
+    results = [run_model(scene, run, progress=progress_for(run.name) if progress_for else None) for run in scene.runs]
     if scene.measurement is not None:
         for result in results:
             if result.ok:
