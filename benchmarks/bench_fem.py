@@ -20,8 +20,8 @@ import numpy as np
 
 from femref.fem import Integrator, Stepper, assemble_beam, assemble_rod, body_nodes, harmonic_response
 from femref.fem.banded import BandedCholesky
-from femref.profiles import Uniform
-from femref.signals import HalfSine
+from femref.core.profiles import Uniform
+from femref.core.signals import HalfSine
 
 L = 8.0
 

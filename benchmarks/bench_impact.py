@@ -17,11 +17,11 @@ import statistics
 import time
 
 from femref.case import parse_case
-from femref.defaults import DEFAULT_SCENE_SOURCE, default_scene_data
-from femref.impact.runner import time_step_for
-from femref.impact.scene import ModelRun
-from femref.impact.solver import solve_impact
-from femref.scene_builder import scene_from_case
+from femref.case.defaults import DEFAULT_SCENE_SOURCE, default_scene_data
+from femref.run.runner import step_cars
+from femref.run.timestep import impact_time_step
+from femref.scene import ModelRun
+from femref.scene.build import scene_from_case
 
 
 def default_scene():
@@ -31,11 +31,11 @@ def default_scene():
 def timed(scene, fidelity: str, repeats: int, dt: float | None = None) -> tuple[float, int]:
     """Median wall time of a uniform run (its automatic step unless ``dt``) and its step count."""
     run = ModelRun(fidelity, (fidelity,) * len(scene.cars))
-    dt = dt or time_step_for(scene, run)[0]
+    dt = dt or impact_time_step(scene, run)[0]
     times = []
     for _ in range(repeats):
         started = time.perf_counter()
-        response, _ = solve_impact(scene, run, dt)
+        response = step_cars(scene, run, dt)
         times.append(time.perf_counter() - started)
     return statistics.median(times), response.steps
 
@@ -48,7 +48,7 @@ def main() -> None:
     scene = default_scene()
     print(f"default scene: end = {scene.end} s, fem {scene.fem.elements} P{scene.fem.order} elements per car")
     costs, steps = {}, {}
-    fem_dt = time_step_for(scene, ModelRun("fem", ("fem",) * len(scene.cars)))[0]
+    fem_dt = impact_time_step(scene, ModelRun("fem", ("fem",) * len(scene.cars)))[0]
     for fidelity in ("fem", "modal", "quasi_rigid", "rigid"):
         costs[fidelity], steps[fidelity] = timed(scene, fidelity, repeats)
         costs[f"{fidelity} @fem dt"], steps[f"{fidelity} @fem dt"] = timed(scene, fidelity, repeats, fem_dt)

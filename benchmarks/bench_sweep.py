@@ -26,7 +26,7 @@ from concurrent.futures import ProcessPoolExecutor
 from multiprocessing import get_context
 from pathlib import Path
 
-from femref.defaults import DEFAULT_SCENE_SOURCE, default_scene_data
+from femref.case.defaults import DEFAULT_SCENE_SOURCE, default_scene_data
 from femref.sweep import parse_sweep, run_sweep
 from femref.sweep.worker import run_sample
 

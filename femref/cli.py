@@ -1,4 +1,4 @@
-"""The ``femref`` command: run and validate case files (DESIGN.md §5).
+"""The ``femref`` command: run and validate case files (docs/design.md §5).
 
 Exit codes: 0 success, 2 bad input (the message names the key path and the rule),
 1 a failure during the run (the result file still records which model failed and why).
@@ -21,7 +21,7 @@ from rich.table import Table
 
 from femref.case import CaseError, load_case, parse_case, resolved_yaml
 from femref.case.errors import Problem
-from femref.defaults import DEFAULT_SCENE_SOURCE, default_scene_data
+from femref.case.defaults import DEFAULT_SCENE_SOURCE, default_scene_data
 
 EXIT_BAD_INPUT = 2
 EXIT_RUN_FAILURE = 1
@@ -66,8 +66,8 @@ def run(case_path: Path | None, output: Path | None, tolerance: float | None) ->
     ladder of impact models and resolutions and keeps the cheapest expected within it.
     """
     from femref.results import write_results
-    from femref.runner import run_scene
-    from femref.scene_builder import scene_from_case
+    from femref.run import run_scene
+    from femref.scene.build import scene_from_case
 
     console = Console(stderr=True)
     try:
@@ -84,7 +84,7 @@ def run(case_path: Path | None, output: Path | None, tolerance: float | None) ->
 
     with _progress(console) as progress_for:
         outcome = run_scene(scene, progress_for)
-    written = write_results(output, resolved_yaml(case), outcome.results, outcome.scores)
+    written = write_results(output, resolved_yaml(case), outcome.results, outcome.scores, scene=scene.facts())
     Console(width=max(150, Console().width)).print(_summary(outcome))
     for path in written:
         click.echo(f"wrote {path}")
@@ -101,7 +101,7 @@ def _with_tolerance(case, tolerance: float | None, source: str):
     if case.kind != "impact":
         rule = "--tolerance: model choice serves impact cases (the ladder of impact models)"
         raise CaseError(Problem(("kind",), rule, case.kind), source)
-    from femref.case.impact import ToleranceSpec
+    from femref.case.runs import ToleranceSpec
 
     spec = ToleranceSpec(value=tolerance) if case.tolerance is None else ToleranceSpec(value=tolerance, output=case.tolerance.output)
     return case.model_copy(update={"tolerance": spec})
@@ -121,7 +121,7 @@ def _run_choice(case, scene, output: Path, console: Console) -> None:
         except RuntimeError as error:
             click.echo(f"error: {error}", err=True)
             sys.exit(EXIT_RUN_FAILURE)
-    written = write_results(output, resolved_yaml(case), choice.results, extra=lambda h5: write_choice(h5, choice))
+    written = write_results(output, resolved_yaml(case), choice.results, extra=lambda h5: write_choice(h5, choice), scene=scene.facts())
     Console(width=max(150, Console().width)).print(choice_table(choice))
     for path in written:
         click.echo(f"wrote {path}")
@@ -235,7 +235,7 @@ SHOWN_FAILURES = 5
 @click.option("--limit", type=click.IntRange(min=0), help="run at most N samples now (the file stays .partial)")
 @click.option("--retry-failed", is_flag=True, help="run the samples stored as failed again")
 def sweep(sweep_path: Path, scheduler: str | None, workers: int | None, output: Path | None, limit: int | None, retry_failed: bool) -> None:
-    """Run the samples of SWEEP not yet stored in the sweep file, on Dask; resumable (DESIGN.md §6)."""
+    """Run the samples of SWEEP not yet stored in the sweep file, on Dask; resumable (docs/design.md §6)."""
     from femref.sweep import SweepInterrupted, load_sweep, run_sweep
 
     if scheduler is not None and workers is not None:

@@ -1,9 +1,11 @@
-"""Model results and the HDF5 result file of DESIGN.md §4, written atomically.
+"""Model results and the HDF5 result file of docs/design.md §4, written atomically.
 
 Layout::
 
     /                                attrs: femref_version, case_yaml, created
-    /<model>/                        attrs: status, message, wall_time_s, settings (JSON)
+    /scene                           attrs: kind, epsilon, wave_travel_time, load_time (s), units (JSON)
+    /<model>/                        attrs: status, message, wall_time_s, settings (JSON); a failed impact
+                                     run keeps its histories up to the failing step (NaN after)
     /<model>/time | omega, lambda
     /<model>/probes/<probe>/acceleration, displacement (, axial_force)
     /<model>/couplers/<coupler>/force
@@ -39,6 +41,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from femref import __version__
+from femref.core.catalog import SCENE_GROUP
 
 UNITS = {
     "time": "s",
@@ -61,6 +64,9 @@ UNITS = {
     "total": "J",
     "closure": "m (compression positive)",
 }
+
+
+SCENE_UNITS = {"epsilon": "1", "wave_travel_time": "s", "load_time": "s"}
 
 
 @dataclass
@@ -97,7 +103,7 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     """A temporary path beside ``path`` to write; renamed to ``path`` when the block ends without error.
 
     On any error (or interrupt) the temporary file is removed, so nothing is ever left
-    under the final name half-written (DESIGN.md §4). The file gets the permissions of
+    under the final name half-written (docs/design.md §4). The file gets the permissions of
     a newly created file (umask), not ``mkstemp``'s private 0600. Creates the folder.
     """
     path = Path(path)
@@ -122,10 +128,13 @@ def write_results(
     results: list[ModelResult],
     scores: dict[str, dict[str, Any]] | None = None,
     extra: Callable[[h5py.File], None] | None = None,
+    scene: dict[str, Any] | None = None,
 ) -> list[Path]:
     """Write the result file (and XDMF field files) atomically; return the paths written.
 
-    ``extra(h5)`` adds groups of its own (e.g. ``/choice``) before the file is renamed.
+    ``scene`` holds the facts of the resolved scene the report shows (kind, ε and the times it
+    is made of: ``Scene.facts()``), written as attributes of ``/scene`` with units. ``extra(h5)``
+    adds groups of its own (e.g. ``/choice``) before the file is renamed.
     """
     path = Path(path)
     written = []
@@ -133,6 +142,11 @@ def write_results(
         h5.attrs["femref_version"] = __version__
         h5.attrs["case_yaml"] = case_yaml
         h5.attrs["created"] = datetime.now(timezone.utc).isoformat(timespec="seconds")
+        if scene:
+            group = h5.create_group(SCENE_GROUP)
+            for key, value in scene.items():
+                group.attrs[key] = value
+            group.attrs["units"] = json.dumps({key: SCENE_UNITS[key] for key in scene if key in SCENE_UNITS})
         for result in results:
             _write_model(h5.create_group(result.model), result)
         for model, metrics in (scores or {}).items():

@@ -2,7 +2,7 @@
 
 Each figure function computes its data with femref's own solvers, draws it with
 matplotlib (Agg) and returns the numbers it shows, so the test suite can assert what
-the pictures claim (``tests/test_verification.py``):
+the pictures claim (``tests/verification/test_verification.py``):
 
 * :func:`fem_convergence` — harmonic FEM error against the exact closed forms versus the
   element count: rod P1 (order 2), rod P2 (order 4), beam Hermite (order 4, deflection);
@@ -28,7 +28,7 @@ from numpy.typing import NDArray
 
 from femref.exact import Segments, beam_harmonic, rod_harmonic
 from femref.fem import assemble_beam, assemble_rod, body_nodes, harmonic_response
-from femref.profiles import Uniform
+from femref.core.profiles import Uniform
 
 L, MASS, EA, EI = 8.0, 6250.0, 2.0e9, 2.0e10
 T_ROD, T_BEAM = L * np.sqrt(MASS / EA), L**2 * np.sqrt(MASS / EI)

@@ -2,11 +2,11 @@
 
 * :func:`rigid_coupler_force` — rigid car, ``P = ±M a``.
 * :class:`CoupledImpactInversion` — quasi-rigid car body with accelerometers at both
-  ends (SOURCE-NOTES F): ``F1'' = k1 (a2 − a1) + k2 a1''`` with ``k1``, ``k2`` from the
+  ends (docs/formulas.md §F): ``F1'' = k1 (a2 − a1) + k2 a1''`` with ``k1``, ``k2`` from the
   profiles (uniform or variable ``m(x)``, ``EA(x)``) or fitted by least squares on
   data; the force is recovered by integration with stated initial conditions.
 
-Conventions (DESIGN.md §2): the car body occupies ``x ∈ [−l, l]``; ``F1 = F(−l)``,
+Conventions (docs/design.md §2): the car body occupies ``x ∈ [−l, l]``; ``F1 = F(−l)``,
 ``F2 = F(+l)`` are the internal axial forces at its ends, **tension positive**, so that
 ``M a = F2 − F1``; ``a1 = a(−l)``, ``a2 = a(+l)`` (m/s²). The coupler at the −l end
 pushes with the compression-positive coupler force ``P1 = −F1``; the coupler at the
@@ -15,7 +15,7 @@ pushes with the compression-positive coupler force ``P1 = −F1``; the coupler a
 Derivation of the variable-profile inversion (re-derived; the source printed it for
 variable density only). To leading order in ``ε`` the body moves rigidly and carries
 the inertia-balanced force ``F0(x) = F1 + (F2 − F1) μ(x)/M``, ``μ(x) = ∫_{−l}^{x} m``; the
-next term of the displacement is the static deformation under ``F0`` (DESIGN.md:
+next term of the displacement is the static deformation under ``F0`` (docs/formulas.md §X:
 "end deflection relative to the centre of mass = the static deformation under the
 inertia-balanced force"). The end-to-end elongation is therefore::
 
@@ -32,7 +32,7 @@ Uniform EA: ``k1 = EA/2l``, ``k2 = −(1/2l) ∫_{−l}^{l} ∫_{−l}^{x} m dx�
 variable-density form); homogeneous: ``k2 = −M/2`` (the source's uniform form). Even
 profiles give ``k2 = −M/2`` whatever their shape (``μ(x) + μ(−x) = M``). Checked
 numerically against a lumped rod with linear density (±60 %) and stiffness (∓40 %),
-written independently in ``tests/test_reduced_inverse.py``: time-harmonic, the
+written independently in ``tests/reduced/test_inverse.py``: time-harmonic, the
 relative error falls like λ² (fitted slope 2.00; 0.15 % at λ = 0.05, 2.5 % at
 λ = 0.2); transient sin² coupler pulses on a 17 m, 119 t car: 4.1 % (0.3 s), 0.97 %
 (0.6 s), 0.21 % (1.2 s) of the peak force, while the uniform formula stays 5–6 % off.
@@ -88,7 +88,7 @@ def _baseline(record: NDArray[np.float64], samples: int) -> float:
 
 @dataclass(frozen=True)
 class CoupledImpactInversion:
-    """``F1'' = k1 (a2 − a1) + k2 a1''`` (SOURCE-NOTES F; derivation in the module docstring).
+    """``F1'' = k1 (a2 − a1) + k2 a1''`` (docs/formulas.md §F; derivation in the module docstring).
 
     ``k1`` (N/m), ``k2`` (kg), ``total_mass`` M (kg, for the +l end force; None if
     unknown), ``fit_rms`` (N) the residual of a least-squares fit (None otherwise).
@@ -108,7 +108,7 @@ class CoupledImpactInversion:
 
     @classmethod
     def uniform(cls, total_mass: float, axial_stiffness: float, half_length: float) -> CoupledImpactInversion:
-        """Homogeneous rod: ``k1 = EA/(2l)``, ``k2 = −M/2`` (SOURCE-NOTES F, uniform form)."""
+        """Homogeneous rod: ``k1 = EA/(2l)``, ``k2 = −M/2`` (docs/formulas.md §F, uniform form)."""
         m = _checks.positive("total_mass", total_mass)
         ea = _checks.positive("axial_stiffness", axial_stiffness)
         l = _checks.positive("half_length", half_length)
@@ -136,7 +136,7 @@ class CoupledImpactInversion:
         ``[x1, x2]`` (``μ`` still counts from ``−l``): ``k1 = 1/∫_{x1}^{x2} dx/EA``,
         ``k2 = −∫_{x1}^{x2} μ/EA dx / ∫_{x1}^{x2} dx/EA``. Checked against the two-term
         quasi-rigid car with sensors at ±0.9 l: 0.6 % of the peak instead of 5 % with the
-        end coefficients (``tests/test_impact_estimators.py``).
+        end coefficients (``tests/models/test_inverse.py``).
         """
         l = _checks.positive("half_length", half_length)
         if not callable(mass_per_length) or not callable(axial_stiffness):

@@ -1,6 +1,6 @@
 """Two rigid cars through a nonlinear coupler: stiff ODE with contact and closure events.
 
-SOURCE-NOTES A3–A4. State ``y = (δ, δ̇, x_c, v_c, s, E_d, W_e)`` with the closure
+docs/formulas.md §A3–A4. State ``y = (δ, δ̇, x_c, v_c, s, E_d, W_e)`` with the closure
 ``δ = x1 − x2``, the centre of mass ``x_c``, the coupler law's internal state ``s``
 (the draft gear's ``x_g``), the dissipated energy ``E_d`` and the external work
 ``W_e``::
@@ -30,7 +30,7 @@ against a 0.1 s pulse; 8–30× fewer evaluations than ``Radau`` at the same
 accuracy here; ``Radau``/``BDF`` selectable), ``rtol = 1e-10`` and
 per-component absolute tolerances in :class:`IntegratorSettings` (scales of
 freight-car impacts: 1e-13 m on the closure, 1e-12 m/s on speeds, 1e-6 J on
-energies). Verified (``tests/test_reduced_nonlinear.py``): the power law with
+energies). Verified (``tests/reduced/test_nonlinear.py``): the power law with
 n = 1, N0 = 0 reproduces the closed form of :mod:`reduced.rigid` to 3e-11 of the
 peaks; the energy balance ``KE + stored + E_d − W_e = KE(0)`` closes to 5e-10 of
 ``KE(0)``; the gear closure time and force history match an independent
@@ -52,6 +52,7 @@ from scipy.optimize import brentq
 
 from reduced import _checks
 from reduced.couplers import Branch, Coupling, PowerLawGear
+from reduced.history import TwoMassHistory
 from reduced.rigid import ImpactPair
 
 ExternalForce = Callable[[float], tuple[float, float]]
@@ -100,26 +101,16 @@ class ImpactEvent:
 
 
 @dataclass(frozen=True, eq=False)
-class ImpactSimulation:
-    """Result of :func:`simulate_impact`; arrays have the shape of ``time``.
+class ImpactSimulation(TwoMassHistory):
+    """Result of :func:`simulate_impact`: the :class:`~reduced.history.TwoMassHistory`
+    (arrays of the shape of ``time``; ``separation_time`` is the first ``separation``
+    event) and what the ODE driver adds.
 
-    ``relative_displacement`` is ``x = x2 − x1`` (m); ``coupler_force`` N, compression
-    positive; ``coupler_state`` (Nt, n_state); energies in J. ``status`` is ``"ok"``
-    or ``"failed"`` with ``message``; samples after a failure are NaN. Work counters
+    ``coupler_state`` (Nt, n_state); energies in J. ``status`` is ``"ok"`` or
+    ``"failed"`` with ``message``; samples after a failure are NaN. Work counters
     ``nfev``, ``njev``, ``nlu``, ``segments``; ``wall_time_s``; ``settings`` as a dict.
     """
 
-    time: NDArray[np.float64]
-    relative_displacement: NDArray[np.float64]
-    relative_velocity: NDArray[np.float64]
-    relative_acceleration: NDArray[np.float64]
-    hammer_displacement: NDArray[np.float64]
-    hammer_velocity: NDArray[np.float64]
-    hammer_acceleration: NDArray[np.float64]
-    anvil_displacement: NDArray[np.float64]
-    anvil_velocity: NDArray[np.float64]
-    anvil_acceleration: NDArray[np.float64]
-    coupler_force: NDArray[np.float64]
     coupler_state: NDArray[np.float64]
     kinetic_energy: NDArray[np.float64]
     stored_energy: NDArray[np.float64]
@@ -143,12 +134,6 @@ class ImpactSimulation:
     def closure_time(self) -> float | None:
         """First gear closure (s), None if the gear never closed."""
         times = self.event_times("gear_closed")
-        return times[0] if times else None
-
-    @property
-    def separation_time(self) -> float | None:
-        """First separation of a compression-only contact (s), None if none."""
-        times = self.event_times("separation")
         return times[0] if times else None
 
     @property
@@ -387,6 +372,7 @@ def _collect(
     d, dd, xc, vc = y[0], y[1], y[2], y[3]
     m1, m2, mt = model.m1, model.m2, model.mt
     kinetic = 0.5 * mt * vc**2 + 0.5 * model.pair.reduced_mass * dd**2
+    separation = next((e.time for e in events if e.kind == "separation"), None)
     return ImpactSimulation(
         time=t_out,
         relative_displacement=-d,
@@ -399,6 +385,8 @@ def _collect(
         anvil_velocity=vc - (m1 / mt) * dd,
         anvil_acceleration=a2,
         coupler_force=force,
+        separation_time=separation,
+        model=f"nonlinear_ode[{type(model.law).__name__}, {model.coupling.contact}]",
         coupler_state=y[4 : 4 + n].T.copy(),
         kinetic_energy=kinetic,
         stored_energy=stored,
@@ -419,7 +407,7 @@ def _collect(
 def power_law_peak_estimate(pair: ImpactPair, law: PowerLawGear) -> tuple[float, float]:
     """Peak closure (m) and spring force there (N) of a power-law gear, first order in γ.
 
-    Energy form of SOURCE-NOTES A3 (``N = c δⁿ + N0``, ``Φ = c δ^{n+1}/(n+1) + N0 δ``)::
+    Energy form of docs/formulas.md §A3 (``N = c δⁿ + N0``, ``Φ = c δ^{n+1}/(n+1) + N0 δ``)::
 
         m* δ̇²/2 = m* w²/2 − Φ(δ) − ∫₀^δ γ(δ₁) δ̇ dδ₁
 

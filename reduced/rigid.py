@@ -1,6 +1,6 @@
 """Two rigid cars joined by a Kelvin-Voigt coupler: closed form and small-damping series.
 
-SOURCE-NOTES A1–A2. The hammer car (mass m1, speed v1) strikes the anvil car (m2,
+docs/formulas.md §A1–A2. The hammer car (mass m1, speed v1) strikes the anvil car (m2,
 speed v2, usually 0) at ``t = 0``; ``x1``, ``x2`` are their displacements from the
 positions at impact, ``x = x2 − x1`` the relative displacement (negative while the
 coupler is compressed), ``m* = m1 m2/(m1 + m2)``, closing speed ``w = v1 − v2``::
@@ -10,9 +10,9 @@ coupler is compressed), ``m* = m1 m2/(m1 + m2)``, closing speed ``w = v1 − v2`
     a1 = T/m1 = −P/m1,         a2 = −T/m2 = P/m2
 
 For ``t < 0`` the cars approach at their speeds and ``P = 0`` (records may start
-before the impact). Results are :class:`RigidImpactHistory` objects.
+before the impact). Results are :class:`reduced.history.TwoMassHistory` objects.
 
-Realistic defaults (DESIGN.md §8): :meth:`ImpactPair.source_study` is the study's
+Realistic defaults (docs/design.md §8): :meth:`ImpactPair.source_study` is the study's
 119 t hammer car at 2.2 m/s against the 100 t anvil car.
 """
 
@@ -26,6 +26,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from reduced import _checks
 from reduced.couplers import CONTACT_KINDS
+from reduced.history import TwoMassHistory
 
 
 @dataclass(frozen=True)
@@ -77,30 +78,6 @@ class ImpactPair:
         return 0.5 * self.reduced_mass * self.closing_speed**2
 
 
-@dataclass(frozen=True, eq=False)
-class RigidImpactHistory:
-    """Time histories of a rigid two-car impact (SI units, arrays of the shape of ``time``).
-
-    ``relative_displacement`` is ``x = x2 − x1`` (m), ``coupler_force`` is positive in
-    compression (N). ``separation_time`` (s) is set for a compression-only contact
-    that opened, else None. ``model`` names the model that produced it.
-    """
-
-    time: NDArray[np.float64]
-    relative_displacement: NDArray[np.float64]
-    relative_velocity: NDArray[np.float64]
-    relative_acceleration: NDArray[np.float64]
-    hammer_displacement: NDArray[np.float64]
-    hammer_velocity: NDArray[np.float64]
-    hammer_acceleration: NDArray[np.float64]
-    anvil_displacement: NDArray[np.float64]
-    anvil_velocity: NDArray[np.float64]
-    anvil_acceleration: NDArray[np.float64]
-    coupler_force: NDArray[np.float64]
-    separation_time: float | None
-    model: str
-
-
 def _with_pair(
     pair: ImpactPair,
     t: NDArray[np.float64],
@@ -110,11 +87,11 @@ def _with_pair(
     force: NDArray[np.float64],
     separation_time: float | None,
     model: str,
-) -> RigidImpactHistory:
+) -> TwoMassHistory:
     """Absolute motions from the relative motion and the centre of mass (no external force)."""
     m1, m2, mt = pair.hammer_mass, pair.anvil_mass, pair.total_mass
     vc = pair.centre_of_mass_speed
-    return RigidImpactHistory(
+    return TwoMassHistory(
         time=t,
         relative_displacement=x,
         relative_velocity=xd,
@@ -193,8 +170,8 @@ def kelvin_voigt_impact(
     damping: float,
     time: ArrayLike,
     contact: str = "bilateral",
-) -> RigidImpactHistory:
-    """Closed-form two-mass impact through a Kelvin-Voigt coupler (SOURCE-NOTES A1, corrected).
+) -> TwoMassHistory:
+    """Closed-form two-mass impact through a Kelvin-Voigt coupler (docs/formulas.md §A1, corrected).
 
     ``m* x'' + μ x' + c x = 0``, ``x(0) = 0``, ``x'(0) = −w``; with ``α = −μ/(2m*)`` and
     ``β = √(c/m* − α²)`` (the printed source mixes up ``m*`` and ``1/m*`` here)::
@@ -213,7 +190,7 @@ def kelvin_voigt_impact(
 
     Checked against ``solve_ivp`` (DOP853, rtol 1e-13): x, a1, a2 and P agree to
     4e-13 of their peaks (asserted 1e-8) for damping ratios 0.2, 1 and 3, both
-    contacts; continuous across ``ζ = 1 ± 1e-12`` (``tests/test_reduced_rigid.py``).
+    contacts; continuous across ``ζ = 1 ± 1e-12`` (``tests/reduced/test_rigid.py``).
 
     Parameters: ``stiffness`` c (N/m) > 0, ``damping`` μ (N·s/m) ≥ 0, ``time`` (s),
     1-D increasing; ``t < 0`` gives the approach before impact.
@@ -252,13 +229,13 @@ def kelvin_voigt_impact(
 
 
 def small_damping_parameter(pair: ImpactPair, stiffness: float, damping: float) -> float:
-    """``ε = μ/√(c m*)`` (twice the damping ratio) of SOURCE-NOTES A2."""
+    """``ε = μ/√(c m*)`` (twice the damping ratio) of docs/formulas.md §A2."""
     c, mu = _check_coupler(stiffness, damping)
     return mu / math.sqrt(c * pair.reduced_mass)
 
 
 def perturbation_terms(tau: ArrayLike, order: int = 3) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Terms ``X_k(τ)`` and ``X_k'(τ)``, k = 0…order ≤ 3, of ``X = Σ ε^k X_k`` (SOURCE-NOTES A2).
+    """Terms ``X_k(τ)`` and ``X_k'(τ)``, k = 0…order ≤ 3, of ``X = Σ ε^k X_k`` (docs/formulas.md §A2).
 
     ``X'' + ε X' + X = 0``, ``X(0) = 0``, ``X'(0) = −1`` (``x = V X`` with
     ``V = w √(m*/c)``, ``τ = t √(c/m*)``). Each order is a forced undamped oscillator,
@@ -272,7 +249,7 @@ def perturbation_terms(tau: ArrayLike, order: int = 3) -> tuple[NDArray[np.float
 
     (derived by hand and equal to the Taylor expansion of the exact
     ``−e^{−ετ/2} sin(Ωτ)/Ω``, ``Ω = √(1 − ε²/4)``; the truncation error of order k
-    falls like ``ε^{k+1}``, slope fitted in ``tests/test_reduced_rigid.py``).
+    falls like ``ε^{k+1}``, slope fitted in ``tests/reduced/test_rigid.py``).
     Returns arrays of shape ``(order + 1, len(τ))``.
     """
     if order not in (0, 1, 2, 3):
@@ -307,8 +284,8 @@ def kelvin_voigt_perturbation(
     damping: float,
     time: ArrayLike,
     order: int = 3,
-) -> RigidImpactHistory:
-    """Small-damping series of the bilateral Kelvin-Voigt impact to ``order`` (SOURCE-NOTES A2).
+) -> TwoMassHistory:
+    """Small-damping series of the bilateral Kelvin-Voigt impact to ``order`` (docs/formulas.md §A2).
 
     ``x = V Σ_{k≤order} ε^k X_k(τ)`` with ``τ = t√(c/m*)``, ``ε = μ/√(c m*)``,
     ``V = w√(m*/c)`` (:func:`perturbation_terms`); the acceleration and the force are
@@ -338,7 +315,6 @@ def kelvin_voigt_perturbation(
 
 __all__ = [
     "ImpactPair",
-    "RigidImpactHistory",
     "kelvin_voigt_impact",
     "kelvin_voigt_perturbation",
     "perturbation_terms",

@@ -1,4 +1,4 @@
-"""The speed–accuracy trade of the impact models (DESIGN.md §7, ``femref bench``).
+"""The speed–accuracy trade of the impact models (docs/design.md §7, ``femref bench``).
 
 The folder is the data flow: :mod:`~femref.bench.configurations` decides which runs to
 make and the reference, :mod:`~femref.bench.run` times and scores them,

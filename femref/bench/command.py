@@ -1,6 +1,6 @@
 """``femref bench [CASE] [-o FILE] [--repeats N] [--plot PNG]``: the speed–accuracy trade of one impact scene.
 
-DESIGN.md §7. Runs the configurations of :mod:`femref.bench.configurations` (fem at
+docs/design.md §7. Runs the configurations of :mod:`femref.bench.configurations` (fem at
 several element counts and steps, modal at several mode counts, quasi-rigid, rigid, the
 case's estimators), times each as the median of ``--repeats`` runs, scores each against
 the finest fem, writes the HDF5 table (:func:`femref.bench.output.write_bench_table`),
@@ -28,7 +28,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from femref.case import CaseError, load_case, parse_case, resolved_yaml
-from femref.defaults import DEFAULT_SCENE_SOURCE, default_scene_data
+from femref.case.defaults import DEFAULT_SCENE_SOURCE, default_scene_data
 
 __all__ = ["bench_command"]
 
@@ -46,7 +46,7 @@ def bench_command(case_path: Path | None, output: Path | None, repeats: int, plo
     """Time and score every model of CASE at several resolutions against the finest fem; table + Pareto plot."""
     from femref.bench.output import plot_pareto, write_bench_table
     from femref.bench.run import ReferenceFailed, run_bench
-    from femref.scene_builder import scene_from_case
+    from femref.scene.build import scene_from_case
 
     try:
         case = parse_case(default_scene_data(), source=DEFAULT_SCENE_SOURCE) if case_path is None else load_case(case_path)

@@ -1,15 +1,16 @@
 """Which runs ``femref bench`` makes of one impact scene, and the reference they are scored against.
 
-Rules (DESIGN.md §7: each model at several resolutions, scored against the finest fem):
+Rules (docs/design.md §7: each model at several resolutions, scored against the finest fem):
 
 * **fem**, every car a fem car: at ``N × {1/4, 1/2, 1, 2}`` elements (``N`` the case's
   ``fem.elements``; never fewer than :data:`MIN_ELEMENTS`; repeated counts made once),
-  each at its own step (:func:`femref.impact.runner.time_step_for`: the case's ``time.dt``
+  each at its own step (:func:`femref.run.timestep.impact_time_step`: the case's ``time.dt``
   or the automatic step, which shrinks with the mesh); and at ``N`` elements with
   ``dt × {2, 4}`` of that step (``dt × 1`` is the ``N``-element row).
-* **modal**, every car modal (mode shapes from the case's fem mesh): ``{1, 2, 4, 8}``
-  elastic modes and the case's ``modal.modes``, each at its own step; counts the mesh
-  cannot hold (more than ``ndof − 2`` of its smallest car) are left out.
+* **modal**, every car modal (mode shapes from the case's fem mesh):
+  :data:`femref.run.resolutions.MODE_COUNTS` elastic modes and the case's ``modal.modes``,
+  each at its own step; counts the mesh cannot hold (more than ``ndof − 2`` of its
+  smallest car) are left out.
 * **quasi_rigid** and **rigid**, every car so: one run each at its own step.
 * **estimators** the case lists (``estimators:``, inverse and network): one row each,
   reading the records of the fem run at the case's settings (``N`` elements, ``dt × 1``),
@@ -28,31 +29,23 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
-from femref.fem.mesh import body_nodes
-from femref.impact.runner import time_step_for
-from femref.impact.scene import ImpactScene, ModelRun
+from femref.run.resolutions import MIN_ELEMENTS, mode_counts, with_elements
+from femref.run.timestep import impact_time_step
+from femref.scene import ImpactScene, ModelRun
 
 __all__ = [
     "DT_FACTORS",
     "ELEMENT_FACTORS",
-    "MIN_ELEMENTS",
-    "MODE_COUNTS",
     "BenchPlan",
     "Configuration",
     "bench_plan",
     "element_counts",
-    "mode_counts",
-    "with_elements",
 ]
 
 ELEMENT_FACTORS: tuple[float, ...] = (0.25, 0.5, 1.0, 2.0)
 """fem element counts as multiples of the case's ``fem.elements``."""
 DT_FACTORS: tuple[float, ...] = (1.0, 2.0, 4.0)
 """fem steps at the case's element count, as multiples of its step."""
-MODE_COUNTS: tuple[int, ...] = (1, 2, 4, 8)
-"""Elastic modes per modal car (the case's ``modal.modes`` is added)."""
-MIN_ELEMENTS = 4
-"""Fewest fem elements per car a configuration uses."""
 REFERENCE_DT_FACTOR = 0.5
 
 #: Configuration kinds: a solve of the scene, or an estimator on the fem records.
@@ -115,29 +108,12 @@ def element_counts(elements: int) -> list[int]:
     return sorted({elements, *(max(MIN_ELEMENTS, round(elements * f)) for f in ELEMENT_FACTORS)})
 
 
-def mode_counts(scene: ImpactScene, candidates: tuple[int, ...] | None = None) -> list[int]:
-    """The mode counts every car's fem mesh holds (``≤ ndof − 2``) among ``candidates``
-    (default: :data:`MODE_COUNTS` and the case's ``modal_modes``)."""
-    ndof = min(
-        (body_nodes(car.body.half_length, scene.fem.elements, car.body.jumps, scene.fem.grading).size - 1) * scene.fem.order + 1
-        for car in scene.cars
-    )
-    if candidates is None:
-        candidates = (*MODE_COUNTS, scene.modal_modes)
-    return sorted(k for k in set(candidates) if 1 <= k <= ndof - 2)
-
-
 def _solve(family: str, scene: ImpactScene, setting: str = "", value: float = math.nan, dt_factor: float = 1.0) -> Configuration:
     run = ModelRun(family, (family,) * len(scene.cars))
-    dt, rule = time_step_for(scene, run)
+    dt, rule = impact_time_step(scene, run)
     if dt_factor != 1.0:
         rule = f"{dt_factor:g} × ({rule})"
     return Configuration(family, SOLVE, setting, float(value), scene, run, dt * dt_factor, rule)
-
-
-def with_elements(scene: ImpactScene, elements: int) -> ImpactScene:
-    """``scene`` with ``fem.elements`` per car replaced."""
-    return dataclasses.replace(scene, fem=dataclasses.replace(scene.fem, elements=elements))
 
 
 def bench_plan(scene: ImpactScene) -> BenchPlan:

@@ -1,15 +1,15 @@
 """Time and score every configuration of a bench plan (:mod:`femref.bench.configurations`).
 
-Rules (DESIGN.md §7):
+Rules (docs/design.md §7):
 
 * **Time** of a configuration: the median of ``repeats`` wall times. A solve's wall time
-  is :attr:`femref.impact.solver.ImpactResponse.wall_time` (building the cars — mesh,
-  factorisation, modes — and stepping); an estimator's is what ``femref run`` records for it
-  (:func:`femref.impact.runner.run_estimators` / ``run_networks``: the estimator on the
+  is :func:`femref.run.run_model`'s (building the cars — mesh, factorisation, modes — and
+  stepping); an estimator's is what ``femref run`` records for it
+  (:func:`femref.run.runner.run_estimators` / ``run_networks``: the estimator on the
   records already made, not the fem run that made them). Every time is also given as a
   ratio to the rigid model's median time of the same bench, ``t / t_rigid``: only such
   ratios compare across machines (absolute seconds are kept, never compared).
-* **Error** of a configuration: :func:`femref.impact.scoring.score_impact` against the
+* **Error** of a configuration: :func:`femref.run.scoring.score_impact` against the
   reference run — the primary error is ``coupler_force_peak_error_max`` (relative error of
   the peak compression, worst coupler), the secondary ``coupler_force_rms_error_max``
   (NaN for a network estimator, which gives a peak only). Solves are deterministic, so
@@ -32,11 +32,10 @@ import numpy as np
 
 from femref.bench.configurations import ESTIMATOR, BenchPlan, Configuration, bench_plan
 from femref.bench.pareto import pareto_mask
-from femref.impact.runner import add_measured_records, model_result, run_estimators, run_networks
-from femref.impact.scene import ImpactScene
-from femref.impact.scoring import score_impact
-from femref.impact.solver import solve_impact
 from femref.results import ModelResult
+from femref.run.runner import add_measured_records, run_estimators, run_model, run_networks
+from femref.run.scoring import score_impact
+from femref.scene import ImpactScene
 
 __all__ = ["PRIMARY_ERROR", "SECONDARY_ERROR", "BenchOutcome", "BenchRow", "ReferenceFailed", "run_bench", "run_plan"]
 
@@ -108,10 +107,9 @@ def run_plan(plan: BenchPlan, scene: ImpactScene, repeats: int = 3, progress: Pr
         raise ValueError(f"repeats must be at least 1, got {repeats}")
     if progress:
         progress("reference")
-    try:
-        reference, _ = _solve(plan.reference, repeats=1)
-    except Exception as error:
-        raise ReferenceFailed(f"the reference run ({plan.reference_description}) failed: {type(error).__name__}: {error}") from error
+    reference, _ = _solve(plan.reference, repeats=1)
+    if not reference.ok:
+        raise ReferenceFailed(f"the reference run ({plan.reference_description}) failed: {reference.message}")
     records: ModelResult | None = None
     rows: list[BenchRow] = []
     for index, configuration in enumerate(plan.configurations):
@@ -134,22 +132,26 @@ def run_plan(plan: BenchPlan, scene: ImpactScene, repeats: int = 3, progress: Pr
 
 
 def _solve(configuration: Configuration, repeats: int) -> tuple[ModelResult, tuple[float, ...]]:
-    """Step the configuration ``repeats`` times; the last response as a result, and every wall time (s)."""
+    """Run the configuration up to ``repeats`` times (:func:`femref.run.run_model`, never raising); the
+    last result and every wall time (s). A failed run ends the repeats."""
     assert configuration.scene is not None and configuration.run is not None  # internal contract: a solve
     times = []
     for _ in range(repeats):
-        response, _ = solve_impact(configuration.scene, configuration.run, configuration.dt)
-        times.append(response.wall_time)
-    result = model_result(configuration.scene, configuration.run, response, configuration.dt, configuration.dt_rule)
+        result = run_model(configuration.scene, configuration.run, configuration.dt, configuration.dt_rule)
+        if not result.ok:
+            break
+        times.append(result.wall_time_s)
     return result, tuple(times)
 
 
 def _solve_row(configuration: Configuration, reference: ModelResult, repeats: int) -> tuple[BenchRow, ModelResult | None]:
+    result, times = _solve(configuration, repeats)
+    if not result.ok:  # kept as a failed row; the other configurations still run
+        return BenchRow(configuration, status="failed", message=result.message), None
     try:
-        result, times = _solve(configuration, repeats)
         metrics = score_impact(reference, result)
-    except Exception as error:  # kept as a failed row; the other configurations still run
-        return BenchRow(configuration, status="failed", message=f"{type(error).__name__}: {error}"), None
+    except ValueError as error:
+        return BenchRow(configuration, status="failed", message=f"cannot score: {error}"), None
     row = BenchRow(
         configuration,
         steps=int(result.settings["steps"]),

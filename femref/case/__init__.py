@@ -1,4 +1,4 @@
-"""Case files (DESIGN.md §3): the YAML schema of a scene, its validation and its resolved form.
+"""Case files (docs/design.md §3): the YAML schema of a scene, its validation and its resolved form.
 
 >>> from femref.case import load_case, resolved_yaml
 >>> case = load_case("cases/rod_harmonic.yaml")          # doctest: +SKIP
@@ -8,11 +8,13 @@ Every bad input raises :class:`CaseError` (a ``ValueError``) naming the file, th
 path, the rule and the value; several problems come in one error, one per line.
 """
 
+from femref.case.bodies import BODY_TYPES, BeamBody, Body, RodBody
 from femref.case.capabilities import MODELS
 from femref.case.errors import CaseError, Problem
-from femref.case.loader import load_case, parse_case, resolved_yaml
 from femref.case.impact import ImpactCase
-from femref.case.schema import BODY_TYPES, CASE_KINDS, BeamBody, Body, Case, HarmonicCase, RodBody, TransientCase
+from femref.case.kinds import CASE_KINDS, Case
+from femref.case.loader import load_case, parse_case, resolved_yaml
+from femref.case.single import HarmonicCase, TransientCase
 
 __all__ = [
     "BODY_TYPES",

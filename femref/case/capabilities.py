@@ -1,55 +1,46 @@
-"""Which model can serve which scene: the registry the case schema and its messages share.
+"""Whether a model can serve a particular case: the reasons the case schema and its messages share.
 
-``MODELS`` maps each model name of a case's ``models:`` list to a function
-``case -> reason | None``: ``None`` when the model can serve the scene, otherwise the
-reason it cannot, worded to follow "<name> cannot serve this case: ". A model that
-cannot serve a scene is refused at validation (DESIGN.md §4), never skipped at run time.
+Which scene kinds a model serves at all is :data:`femref.core.catalog.MODELS`; this
+module adds the limits that depend on the case itself (``exact`` needs piecewise-constant
+profiles and, in the time domain, a rod; the quasi-rigid beam needs even profiles).
+:func:`refusal` returns ``None`` when the model can serve the case, otherwise the reason
+it cannot, worded to follow "<name> cannot serve this case: ". A model that cannot serve
+a scene is refused at validation (docs/design.md §4), never skipped at run time.
 
-Every function first looks at ``kind``: single-body cases have a ``body``, impact cases
-(:mod:`femref.case.impact`) have ``cars`` and no ``body``. For an impact case, ``fem``,
-``modal``, ``quasi_rigid`` and ``rigid`` serve (they are the per-car fidelities of
-``femref.impact.scene.FIDELITIES``); ``exact`` and ``ann`` are refused with the reason
-(a network estimator of an impact is an entry of ``estimators:``, not a model run).
+The functions read a validated case by duck typing (``kind``; ``body`` for single-body
+cases), so this module imports nothing of the schema.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
-if TYPE_CHECKING:  # pragma: no cover - typing only
-    from femref.case.schema import Case
+from femref.core import catalog
 
-Capability = Callable[["Case"], str | None]
-
-#: Case kinds with one body under end loads.
-SINGLE_BODY_KINDS = ("harmonic", "transient")
-#: Case kinds the impact-only models serve.
-IMPACT_KINDS = ("impact",)
+Capability = Callable[[Any], "str | None"]
 
 
-def _serves_every_scene(case: "Case") -> str | None:
-    """``fem`` and ``rigid`` serve every harmonic, transient and impact scene."""
-    return None
-
-
-def _impact_only(case: "Case") -> str | None:
-    if case.kind in IMPACT_KINDS:
+def _kind_served(model: str, case: Any) -> str | None:
+    """The catalog's rule: the model serves the case's kind (with the reason why not)."""
+    if catalog.serves(model, case.kind):
         return None
-    return f"it serves impact cases only (kind: impact), and this is a {case.kind} case"
+    kinds = catalog.MODELS[model].kinds
+    if kinds == catalog.IMPACT_KINDS:
+        return f"it serves impact cases only (kind: impact), and this is a {case.kind} case"
+    if case.kind in catalog.IMPACT_KINDS and model == "exact":
+        return "no exact solution is implemented for impact scenes (nonlinear contact); score against fem"
+    return f"it serves {', '.join(kinds)} cases, and this is a {case.kind} case"
 
 
-def _exact(case: "Case") -> str | None:
+def _exact(case: Any) -> str | None:
     """The exact solutions are transfer-matrix solutions over piecewise-constant profiles.
 
-    In the time domain (transient) they exist for rods only; impacts (nonlinear contact)
-    have none.
+    In the time domain (transient) they exist for rods only.
     """
-    if case.kind in IMPACT_KINDS:
-        return "no exact solution is implemented for impact scenes (nonlinear contact); score against fem"
-    body: Any = case.body
+    body = case.body
     if case.kind == "transient" and body.type != "rod":
         return f"the exact time-domain solution exists for rods only, and this body is a {body.type}"
     varying = [name for name, spec in body.profile_specs().items() if not spec.build(body.half_length).is_piecewise_constant]
@@ -59,16 +50,14 @@ def _exact(case: "Case") -> str | None:
     return None
 
 
-def _quasi_rigid(case: "Case") -> str | None:
+def _quasi_rigid(case: Any) -> str | None:
     """The quasi-rigid beam expands about the rigid modes of a symmetric body: even profiles only.
 
     Impact cars are rods, which the quasi-rigid rod serves with any profile.
     """
-    if case.kind in IMPACT_KINDS:
+    if case.kind in catalog.IMPACT_KINDS or case.body.type != "beam":
         return None
-    body: Any = case.body
-    if body.type != "beam":
-        return None
+    body = case.body
     x = np.linspace(0.0, body.half_length, 257)
     odd = [name for name, profile in body.profiles().items() if not np.allclose(profile(x), profile(-x), rtol=1e-12, atol=0.0)]
     if odd:
@@ -76,29 +65,31 @@ def _quasi_rigid(case: "Case") -> str | None:
     return None
 
 
-def _ann(case: "Case") -> str | None:
+def _ann(case: Any) -> str | None:
     """A network is an estimator on the fem sensor records, not a model run of the scene.
 
     Networks serve impacts only, as entries of ``estimators:`` (a mapping with the saved
-    network file, :class:`femref.case.impact.AnnEstimatorSpec`); as a ``models:`` entry
-    ``ann`` is refused for every case kind, with the reason pointing there.
+    network file); as a ``models:`` entry ``ann`` is refused for every case kind, with the
+    reason pointing there.
     """
-    if case.kind not in IMPACT_KINDS:
-        return _impact_only(case)
+    if case.kind not in catalog.IMPACT_KINDS:
+        return f"it serves impact cases only (kind: impact), and this is a {case.kind} case"
     return "a network is an estimator on the fem sensor records, not a model run; list it under estimators: as {name: ann_<name>, network: file.npz}"
 
 
-#: name → capability function, in the order the names are documented.
-MODELS: Mapping[str, Capability] = {
-    "fem": _serves_every_scene,
-    "exact": _exact,
-    "quasi_rigid": _quasi_rigid,
-    "rigid": _serves_every_scene,
-    "modal": _impact_only,
-    "ann": _ann,
-}
+#: The case-specific limits beyond the scene kind, by model name.
+LIMITS: Mapping[str, Capability] = {"exact": _exact, "quasi_rigid": _quasi_rigid, "ann": _ann}
+
+#: Every model name a case may list (the catalog's, in its order).
+MODELS: tuple[str, ...] = tuple(catalog.MODELS)
 
 
-def refusal(model: str, case: "Case") -> str | None:
-    """Why ``model`` cannot serve ``case``, or ``None`` when it can (``model`` must be registered)."""
-    return MODELS[model](case)
+def refusal(model: str, case: Any) -> str | None:
+    """Why ``model`` cannot serve ``case``, or ``None`` when it can (``model`` must be in the catalog)."""
+    if model == "ann":
+        return _ann(case)
+    reason = _kind_served(model, case)
+    if reason is not None:
+        return reason
+    limit = LIMITS.get(model)
+    return limit(case) if limit else None

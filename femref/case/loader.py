@@ -1,4 +1,4 @@
-"""Case files: YAML text → validated :data:`~femref.case.schema.Case`, and back.
+"""Case files: YAML text → validated :data:`~femref.case.kinds.Case`, and back.
 
 ``load_case`` and ``parse_case`` raise :class:`~femref.case.errors.CaseError` and
 nothing else for bad input (missing or unreadable file, YAML syntax, a document that
@@ -21,7 +21,7 @@ import yaml
 from pydantic import TypeAdapter, ValidationError
 
 from femref.case.errors import CaseError, Problem, problems_from
-from femref.case.schema import CASE_KINDS, Case
+from femref.case.kinds import CASE_KINDS, Case
 
 __all__ = ["load_case", "parse_case", "read_yaml_file", "resolved_yaml"]
 

@@ -39,9 +39,9 @@ from femref.choice.estimates import (
     richardson_error,
 )
 from femref.choice.ladder import Ladder, Rung, model_ladder
-from femref.impact.runner import run_model
-from femref.impact.scene import ImpactScene
 from femref.results import ModelResult
+from femref.run import run_model
+from femref.scene import ImpactScene
 
 __all__ = ["DEFAULT_OUTPUT", "ModelChoice", "RungEstimate", "choose_model", "run_rung"]
 

@@ -3,7 +3,7 @@
 **Outputs** (:data:`OUTPUTS`): ``peak_coupler_force``, the largest relative error of
 the peak compression over the couplers, ``max_c |max P_c − max P_c,ref| / max P_c,ref``;
 ``coupler_force``, the largest relative rms error of the force histories
-(:func:`femref.impact.scoring.score_impact`'s ``coupler_force_rms_error_max``).
+(:func:`femref.run.scoring.score_impact`'s ``coupler_force_rms_error_max``).
 :func:`output_distance` measures either between two runs.
 
 **Refinement (modal, fem).** A run whose error behaves like ``C h^p`` and the run with
@@ -44,7 +44,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from femref.impact.scoring import score_impact
+from femref.run.scoring import score_impact
 from femref.results import ModelResult
 
 __all__ = [

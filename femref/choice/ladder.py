@@ -2,10 +2,10 @@
 
 Rungs (for a case with ``fem.elements = N``):
 
-* ``rigid`` and ``quasi_rigid`` at their automatic step (:func:`femref.impact.runner.time_step_for`);
-* ``modal_k<k>`` for ``k`` in :data:`MODE_COUNTS` that the case's mesh holds
-  (:func:`femref.bench.configurations.mode_counts`), each at its own automatic step;
-* ``fem_n<n>`` for ``n = N·2^j`` (:data:`FEM_LEVELS`, at least :data:`MIN_ELEMENTS`),
+* ``rigid`` and ``quasi_rigid`` at their automatic step (:func:`femref.run.timestep.impact_time_step`);
+* ``modal_k<k>`` for ``k`` in :data:`femref.run.resolutions.MODE_COUNTS` that the case's mesh holds
+  (:func:`femref.run.resolutions.mode_counts`), each at its own automatic step;
+* ``fem_n<n>`` for ``n = N·2^j`` (:data:`FEM_LEVELS`, at least :data:`femref.run.resolutions.MIN_ELEMENTS`),
   refined **jointly in space and time**: the coarsest level steps at its automatic step
   ``dt₀`` (or the case's ``time.dt``) and level ``n`` at ``dt₀·n₀/n``. Refining the mesh
   alone would leave the time error of a step set by the contact time untouched, and
@@ -29,19 +29,15 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-from femref.bench.configurations import mode_counts, with_elements
-from femref.impact.runner import time_step_for
-from femref.impact.scene import ImpactScene, ModelRun
-from femref.scene import steps_to
+from femref.core.timegrid import steps_to
+from femref.run.resolutions import MIN_ELEMENTS, MODE_COUNTS, mode_counts, with_elements
+from femref.run.timestep import impact_time_step
+from femref.scene import ImpactScene, ModelRun
 
-__all__ = ["FEM_LEVELS", "MIN_ELEMENTS", "MODE_COUNTS", "STEP_WEIGHTS", "Ladder", "Rung", "model_ladder"]
+__all__ = ["FEM_LEVELS", "STEP_WEIGHTS", "Ladder", "Rung", "model_ladder"]
 
-MODE_COUNTS: tuple[int, ...] = (1, 2, 4, 8, 16)
-"""Elastic modes per car of the modal rungs (those the case's mesh holds)."""
 FEM_LEVELS: tuple[int, ...] = (-3, -2, -1, 0, 1)
 """fem rungs at ``N·2^j`` elements per car for these ``j`` (``N`` the case's ``fem.elements``)."""
-MIN_ELEMENTS = 4
-"""Fewest elements per car of a fem rung."""
 STEP_WEIGHTS: dict[str, float] = {"rigid": 1.0, "quasi_rigid": 1.5, "modal": 1.2, "fem": 1.3}
 """Cost of one step relative to a rigid step (module docstring)."""
 ELEMENT_COST = 1.0e-3
@@ -98,7 +94,7 @@ def model_ladder(scene: ImpactScene) -> Ladder:
     partners.update({f"modal_k{k}": f"modal_k{2 * k}" for k in modes if 2 * k in modes})
     elements = sorted({max(MIN_ELEMENTS, round(scene.fem.elements * 2.0**j)) for j in FEM_LEVELS})
     coarsest = with_elements(scene, elements[0])
-    dt0, rule0 = time_step_for(coarsest, _uniform_run("fem", scene))
+    dt0, rule0 = impact_time_step(coarsest, _uniform_run("fem", scene))
     for n in elements:
         dt = dt0 * elements[0] / n
         rule = rule0 if n == elements[0] else f"{rule0} at {elements[0]} elements, × {elements[0]}/{n}"
@@ -115,6 +111,6 @@ def _uniform_run(family: str, scene: ImpactScene, label: str | None = None) -> M
 def _rung(label: str, family: str, resolution: int, scene: ImpactScene, dt: float | None = None, dt_rule: str = "") -> Rung:
     run = _uniform_run(family, scene, label)
     if dt is None:
-        dt, dt_rule = time_step_for(scene, run)
+        dt, dt_rule = impact_time_step(scene, run)
     weight = STEP_WEIGHTS[family] * (1.0 + ELEMENT_COST * resolution if family == "fem" else 1.0)
     return Rung(label, family, resolution, scene, run, dt, dt_rule, steps_to(scene.end, dt) * weight)

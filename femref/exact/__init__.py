@@ -11,7 +11,7 @@
 * The Laplace-domain unit-load responses behind them: :func:`rod_unit_response`,
   :func:`beam_unit_response_closed_form`, :func:`beam_unit_response_transfer`.
 
-Conventions are those of DESIGN.md §2: end loads are the internal force (moment,
+Conventions are those of docs/design.md §2: end loads are the internal force (moment,
 shear) at the ends, tension positive; ``M a = F2 − F1`` for rods,
 ``M a_v = N1 − N2`` and ``J Ω = G2 − G1 − l(N1 + N2)`` for beams.
 """

@@ -1,6 +1,6 @@
 """Exact response of a free-free Kelvin-Voigt Euler-Bernoulli beam to end shears and moments.
 
-Equations (DESIGN.md §2), Laplace variable ``s`` (``s = −iω`` for the time factor
+Equations (docs/design.md §2), Laplace variable ``s`` (``s = −iω`` for the time factor
 ``e^{−iωt}``), zero initial state::
 
     G = K(s) w_xx,  K(s) = EI + s·cI     (N·m)
@@ -157,7 +157,7 @@ def beam_unit_response_closed_form(segments: Segments, s: ArrayLike, x: ArrayLik
     a time; ``λβ = ω cI/EI``). Checked: end values ``G(∓l), N(∓l)`` equal the loads;
     ``N_x = −m a``; the series above to O(q⁸) with exact rational coefficients;
     equality with the transfer-matrix solution to 1e-12; reciprocity
-    (tests/test_exact_beam.py).
+    (tests/exact/test_beam.py).
     """
     segments = segments.homogeneous()
     s = check_laplace(s)
@@ -207,7 +207,7 @@ def beam_unit_response_transfer(segments: Segments, s: ArrayLike, x: ArrayLike) 
     ``(a, θ)(−l) = Z(−l)⁻¹ (G1, N1)`` and ``(a, θ)_b = (Ψmm + Ψmf Z_b)⁻¹ (a, θ)_a``.
     Loads at the right end: the same on the mirrored beam (``x → −x``: ``a, G`` keep
     their sign, ``θ, N`` change it). Checked against the closed form (1e-12),
-    reciprocity and ``∫ m a dx = N1 − N2`` (tests/test_exact_beam.py).
+    reciprocity and ``∫ m a dx = N1 − N2`` (tests/exact/test_beam.py).
     """
     s = check_laplace(s)
     x = check_positions(segments, x)

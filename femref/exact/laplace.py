@@ -14,7 +14,7 @@ for kinks and ``âˆšt`` fronts, but a record holding more sharp features than ``â
 (e.g. many undamped wave fronts) is not resolved: Gibbs-like ringing.
 
 Numerical choices (measured on the Voigt rod against modal superposition,
-tests/test_exact_transient.py):
+tests/exact/test_transient.py):
 
 * The QD table runs in extended precision (``np.clongdouble``, 80-bit on x86-64) and the
   fraction is evaluated backwards (from its tail): the forward three-term recurrence and

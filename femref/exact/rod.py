@@ -1,6 +1,6 @@
 """Exact response of a free-free Kelvin-Voigt rod to end forces, in the Laplace / frequency domain.
 
-Equations (DESIGN.md §2), Laplace variable ``s`` (``s = −iω`` for the time factor
+Equations (docs/design.md §2), Laplace variable ``s`` (``s = −iω`` for the time factor
 ``e^{−iωt}``), zero initial state::
 
     F = K(s) u_x,   K(s) = EA + s·cA     (N)
@@ -108,7 +108,7 @@ def rod_unit_response_closed_form(segments: Segments, s: ArrayLike, x: ArrayLike
     Corrected from the source, which printed ``q/sinh q`` for this ``q`` (the hyperbolic
     form needs ``γl = −iq``). Checked: the boundary values ``F(∓l) = F1, F2`` and
     ``F_x = m a`` hold; the Taylor series above; equality with the transfer-matrix
-    solution to 1e-13 (tests/test_exact_rod.py).
+    solution to 1e-13 (tests/exact/test_rod.py).
 
     Evaluated with ``e^{−γ(…)}`` factors and ``expm1`` so that neither large ``Re γL``
     (Laplace inversion) nor small ``γL`` (low frequency) loses digits.
@@ -141,7 +141,7 @@ def rod_unit_response_transfer(segments: Segments, s: ArrayLike, x: ArrayLike) -
     ``F = ζ a``. At low frequency ``ζ(−l) → −M``, i.e. ``a → −F1/M``. The load at the right
     end is the same sweep on the mirrored body (``x → −x``: ``a → −a``, ``F → F``).
     Checked against the closed form (one segment, 1e-13), momentum ``∫ m a dx = F2 − F1``,
-    reciprocity, and the two-value-density asymptotics (tests/test_exact_rod.py).
+    reciprocity, and the two-value-density asymptotics (tests/exact/test_rod.py).
     """
     s = check_laplace(s)
     x = check_positions(segments, x)

@@ -1,6 +1,6 @@
 """Piecewise-constant bodies for the exact solutions, and input checks shared by them.
 
-A body occupies ``x ∈ [−l, l]`` (DESIGN.md §2) and is cut into ``n`` segments
+A body occupies ``x ∈ [−l, l]`` (docs/design.md §2) and is cut into ``n`` segments
 ``(edges[k], edges[k+1])`` on which the mass per length ``m`` (kg/m), the stiffness
 (``EA`` in N for rods, ``EI`` in N·m² for beams) and the Kelvin-Voigt viscosity
 (``cA`` in N·s, ``cI`` in N·m²·s) are constant.
@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from femref.profiles import Profile, common_edges, segment_values
+from femref.core.profiles import Profile, common_edges, segment_values
 
 #: Positions within this fraction of ``l`` outside the body are taken as its ends.
 POSITION_TOLERANCE = 1e-12
@@ -26,7 +26,7 @@ class Segments:
     ``mass_per_length[k]`` (kg/m), ``stiffness[k]`` (EA [N] or EI [N·m²]) and
     ``viscosity[k]`` (cA [N·s] or cI [N·m²·s]) hold on ``edges[k] < x < edges[k+1]``.
     The body must be centred (``edges[0] = −edges[-1]``) because the end loads and the
-    rigid-body laws of DESIGN.md §2 are written about ``x = 0``.
+    rigid-body laws of docs/design.md §2 are written about ``x = 0``.
     """
 
     edges: NDArray[np.float64]
@@ -81,7 +81,7 @@ class Segments:
     def from_profiles(
         cls, half_length: float, mass_per_length: Profile, stiffness: Profile, viscosity: Profile
     ) -> "Segments":
-        """Segments from piecewise-constant profiles (``femref.profiles``), cut at all their jumps."""
+        """Segments from piecewise-constant profiles (``femref.core.profiles``), cut at all their jumps."""
         if not half_length > 0.0:
             raise ValueError(f"half_length must be > 0, got {half_length}")
         profiles = (mass_per_length, stiffness, viscosity)

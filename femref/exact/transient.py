@@ -11,7 +11,7 @@ and the time histories come from the numerical inverse transform of de Hoog, Kni
 Stokes (``femref.exact.laplace``).
 
 Accuracy (measured against modal superposition of the homogeneous rod,
-tests/test_exact_transient.py, and ``∫ m a dx = F2 − F1`` on piecewise rods):
+tests/exact/test_transient.py, and ``∫ m a dx = F2 − F1`` on piecewise rods):
 
 * viscous rods, ``β = 0.01 … 1``, times up to 3 pulse lengths: acceleration and force
   errors 1e-10 … 1e-7 of their peak (the loaded end included); ``β = 0.01`` over 12
@@ -41,7 +41,7 @@ from numpy.typing import ArrayLike, NDArray
 from femref.exact.laplace import Transform, invert_laplace
 from femref.exact.rod import rod_unit_response
 from femref.exact.segments import Segments, check_positions
-from femref.signals import Constant, HalfSine, RampStep, Signal, Tabulated
+from femref.core.signals import Constant, HalfSine, RampStep, Signal, Tabulated
 
 
 @dataclass(frozen=True, eq=False)

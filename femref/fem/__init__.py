@@ -3,7 +3,7 @@
 from femref.fem.harmonic import HarmonicResponse, harmonic_response
 from femref.fem.mesh import body_nodes, graded_nodes
 from femref.fem.operators import Operators, assemble_beam, assemble_rod
-from femref.fem.transient import INTEGRATORS, Integrator, Stepper, TransientResponse, automatic_time_step
+from femref.fem.transient import INTEGRATORS, Integrator, Stepper, TransientResponse
 
 __all__ = [
     "HarmonicResponse",
@@ -14,7 +14,6 @@ __all__ = [
     "TransientResponse",
     "assemble_beam",
     "assemble_rod",
-    "automatic_time_step",
     "body_nodes",
     "graded_nodes",
     "harmonic_response",

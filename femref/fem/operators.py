@@ -11,7 +11,7 @@ Beam (Hermite cubics, assembled in element-local coordinates, see below):
 
 (integrate ``N_x + m w_tt = 0`` by parts twice with ``N = G_x``). With ``v = 1`` and
 ``v = x`` these give the rigid-body laws ``M a = F2 − F1`` (rod),
-``M a_v = N1 − N2`` and ``J Ω = G2 − G1 − l(N1 + N2)`` (beam) of DESIGN.md §2.
+``M a_v = N1 − N2`` and ``J Ω = G2 − G1 − l(N1 + N2)`` (beam) of docs/design.md §2.
 
 All DOFs are numbered in order of position, so the matrices are banded (half-bandwidth
 1 for P1, 2 for P2, 3 for Hermite) and :mod:`femref.fem.banded` factorises them in O(n).
@@ -34,7 +34,7 @@ from skfem import Basis, BilinearForm, ElementLineP1, ElementLineP2, MeshLine
 from skfem.helpers import grad
 
 from femref.fem.shapes import SHAPES
-from femref.profiles import Profile
+from femref.core.profiles import Profile
 
 ROD_LOADS = ("F1", "F2")
 BEAM_LOADS = ("N1", "N2", "G1", "G2")

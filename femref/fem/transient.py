@@ -36,8 +36,8 @@ from numpy.typing import NDArray
 
 from femref.fem.banded import BandedCholesky
 from femref.fem.operators import Operators
-from femref.scene import output_steps, steps_to
-from femref.signals import Signal
+from femref.core.timegrid import output_steps, steps_to
+from femref.core.signals import Signal
 
 
 @dataclass(frozen=True)
@@ -93,24 +93,6 @@ def load_history(ops: Operators, loads: dict[str, Signal], times: NDArray[np.flo
         if name in loads:
             history[:, j] = loads[name](times)
     return history
-
-
-def automatic_time_step(ops: Operators, load_time_scale: float, end: float) -> tuple[float, str]:
-    """Step size from the load's time scale and the mesh, with the rule that chose it.
-
-    ``dt = min(T_load/100, T_h, end/20)`` where ``T_h`` is the period scale of the
-    shortest wave the mesh resolves: ``h_min/c_max`` for rods (``c = √(EA/m)``),
-    ``h_min²·√(m/EI)`` for beams.
-    """
-    h_min = float(np.min(np.diff(ops.nodes)))
-    x = ops.nodes
-    if ops.kind == "rod":
-        t_mesh = h_min / float(np.max(np.sqrt(ops.stiffness_profile(x) / ops.mass_profile(x))))
-    else:
-        t_mesh = h_min**2 / float(np.max(np.sqrt(ops.stiffness_profile(x) / ops.mass_profile(x))))
-    candidates = {"load time scale / 100": load_time_scale / 100.0, "mesh wave period": t_mesh, "end time / 20": end / 20.0}
-    rule = min((v, k) for k, v in candidates.items() if math.isfinite(v))
-    return rule[0], rule[1]
 
 
 class DenseCholesky:

@@ -13,7 +13,7 @@ Every car model answers the same two questions each step (:class:`CarModel`):
 generalized-α (:class:`femref.fem.transient.StepOperators`): the FEM car (banded
 matrices), the modal car (a few dense modal DOFs with a static correction) and the
 rigid car (one DOF) are all instances. The quasi-rigid car wraps
-:class:`reduced.quasi_rigid.QuasiRigidStepper` (:mod:`femref.impact.quasi_rigid_car`).
+:class:`reduced.quasi_rigid.QuasiRigidStepper` (:mod:`femref.models.quasi_rigid`).
 
 Per step a LinearCar costs the three banded products and one pair of triangular solves
 of the transient stepper, plus O(n) vector updates: with ``Z = (1−αf) S⁻¹ B`` computed
@@ -31,9 +31,6 @@ from numpy.typing import NDArray
 
 from femref.fem.banded import BandedCholesky
 from femref.fem.transient import DenseCholesky, Integrator, StepOperators
-from femref.impact.scene import Car
-from femref.models.fem import build_operators
-from femref.scene import FemSettings
 
 
 @dataclass(frozen=True, eq=False)
@@ -227,45 +224,3 @@ class LinearCar:
     def field(self) -> NDArray[np.float64]:
         """The DOF displacement vector now (m)."""
         return self.u if self._translation is None else self.u + self.offset * self._translation
-
-
-def fem_car(car: Car, settings: FemSettings, integrator: Integrator, dt: float, loads: NDArray[np.float64]) -> LinearCar:
-    """The car body as scikit-fem rod elements (P1/P2), nodes on every profile jump."""
-    ops = build_operators(car.body, settings)
-    l = car.body.half_length
-    return LinearCar(
-        "fem",
-        ops.mass,
-        ops.damping,
-        ops.stiffness,
-        ops.load_matrix,
-        ops.interpolation(np.array([-l, l])),
-        ops.interpolation(car.sensor_x),
-        integrator,
-        dt,
-        car.velocity * ops.rigid_modes[:, 0],
-        loads,
-        translation=ops.rigid_modes[:, 0],
-        settings={"element": ops.element, "elements": ops.elements, "dofs": ops.ndof, "nodes": ops.nodes},
-    )
-
-
-def rigid_car(car: Car, integrator: Integrator, dt: float, loads: NDArray[np.float64]) -> LinearCar:
-    """The car as a point mass: ``M ü = F2 − F1``, every point moving together."""
-    mass = car.mass
-    ones = np.ones((1, 1))
-    return LinearCar(
-        "rigid",
-        mass * ones,
-        np.zeros((1, 1)),
-        np.zeros((1, 1)),
-        np.array([[-1.0, 1.0]]),
-        np.ones((2, 1)),
-        np.ones((len(car.sensors), 1)),
-        integrator,
-        dt,
-        np.array([car.velocity]),
-        loads,
-        translation=np.ones(1),
-        settings={"dofs": 1, "mass": mass},
-    )

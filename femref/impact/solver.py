@@ -1,69 +1,35 @@
-"""Coupled time stepping of an impact: cars stepped implicitly, Newton on the coupler forces.
+"""Coupled time stepping of an impact: built cars stepped implicitly, Newton on the coupler forces.
 
-Each step, every car predicts its end motion at ``t_{n+1}`` as an affine function of its
-end loads (:meth:`femref.impact.cars.CarModel.predict`). The coupler closures and rates
-are then affine in the coupler forces ``P``,
+:func:`solve_impact` receives the cars already built at their fidelities (the models
+build them, :mod:`femref.models`) and steps them from contact (t = 0) to the scene's end:
+each step every car predicts its end motion, :class:`femref.impact.couplers.CouplerSolve`
+finds the coupler forces, and each car advances with its final end loads. The car
+matrices are factorised once; a step costs each car its banded products and triangular
+solves, plus a Newton iteration on n_c + n_s unknowns.
 
-    δ = δ_free + D_u P,     δ̇ = δ̇_free + D_v P,
+Like ``scipy.integrate.solve_ivp``, the result carries a ``status`` (0 reached the end,
+−1 a step failed) and a ``message``: a step whose coupler iteration does not converge
+ends the run there, with the histories up to the failing step and NaN after.
 
-with ``D_u``, ``D_v`` (n_c × n_c, tridiagonal) assembled from the cars' 2 × 2 end gains —
-the Schur complement of the cars onto the coupler unknowns. Newton solves the few
-coupler equations with the couplers' internal states ``s`` (draft-gear compression):
-
-    P = T(δ, δ̇, s)                            (transmitted force, contact included)
-    s = s_n + dt/2 (ṡ_n + ṡ(δ, δ̇, s, P))      (trapezoidal state update)
-
-and each car then advances with its final end loads. The car matrices are factorised
-once; a step costs each car its banded products and triangular solves, plus a Newton
-iteration on n_c + n_s unknowns (semi-smooth across contact changes: the transmitted
-force is monotone in P, so the iteration settles the contact mode in a few passes).
-
-Energy bookkeeping every step: kinetic, strain and body-dissipated energy of the cars;
-stored and dissipated energy of the couplers. Coupler dissipation is the midpoint rule
-of the law's dissipation rate while the contact mode holds; on a step where the
-contact opens or closes it is the coupler's absorbed work ``P̄ Δδ`` less the change of
-its stored energy (a memoryless cushion separating while compressed loses its stored
-energy — the cushion's own relaxation). With average acceleration and Kelvin–Voigt
-couplers the identity is exact while the mode holds, so the balance error measures
-round-off and the contact-change steps only.
+Energy bookkeeping at the output steps: kinetic, strain and body-dissipated energy of
+the cars; stored and dissipated energy of the couplers. With average acceleration and
+Kelvin–Voigt couplers the identity is exact while the contact mode holds, so the balance
+error measures round-off and the contact-change steps only.
 """
 
 from __future__ import annotations
 
-import math
 import time as _time
 from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
-import scipy.optimize
 from numpy.typing import NDArray
 
-from femref.fem.transient import INTEGRATORS, Integrator
-from femref.impact.cars import CarModel, fem_car, rigid_car
-from femref.impact.modal import modal_car
-from femref.impact.quasi_rigid_car import quasi_rigid_car
-from femref.impact.scene import ImpactScene, ModelRun
-from femref.scene import output_steps, steps_to
-
-NEWTON_ITERATIONS = 12  # then the Gauss–Seidel fallback
-MAX_NEWTON_ITERATIONS = 40
-MAX_SWEEPS = 200
-STATE_TOLERANCE = 1e-13  # m of draft-gear travel
-
-
-def make_car(fidelity: str, index: int, scene: ImpactScene, integrator: Integrator, dt: float, loads: NDArray) -> CarModel:
-    """The car ``scene.cars[index]`` at the given fidelity, at rest in shape, with its initial velocity."""
-    car = scene.cars[index]
-    if fidelity == "fem":
-        return fem_car(car, scene.fem, integrator, dt, loads)
-    if fidelity == "rigid":
-        return rigid_car(car, integrator, dt, loads)
-    if fidelity == "modal":
-        return modal_car(car, scene.fem, scene.modal_modes, integrator, dt, loads)
-    if fidelity == "quasi_rigid":
-        return quasi_rigid_car(car, dt, loads)
-    raise ValueError(f"unknown car fidelity {fidelity!r}")
+from femref.core.timegrid import output_steps, steps_to
+from femref.impact.cars import CarModel
+from femref.impact.couplers import CouplerConvergenceError, CouplerSolve
+from femref.scene import ImpactScene
 
 
 @dataclass
@@ -73,7 +39,8 @@ class ImpactResponse:
     ``sensors[probe]`` holds ``displacement`` and ``acceleration`` (probe ``"<car>/<sensor>"``),
     ``couplers[name]`` ``force`` (N, compression positive) and ``closure`` (m), ``energy``
     the bookkeeping (J): ``kinetic``, ``strain``, ``body_dissipated``, ``coupler_stored``,
-    ``coupler_dissipated``, ``total``.
+    ``coupler_dissipated``, ``total``. ``status`` is 0 when the run reached the end time,
+    −1 when a step failed (``message`` says where; the histories are NaN after it).
     """
 
     time: NDArray[np.float64]
@@ -86,297 +53,97 @@ class ImpactResponse:
     contact_changes: int = 0
     wall_time: float = 0.0
     car_settings: list[dict] = field(default_factory=list)
+    status: int = 0
+    message: str = ""
+
+    @property
+    def ok(self) -> bool:
+        """The run reached the end time (``status == 0``)."""
+        return self.status == 0
 
     @property
     def energy_balance_error(self) -> float:
         """``max_t |E(t) − E(0)| / E(0)``, E the total of every energy account (0 when nothing moves)."""
         total = self.energy["total"]
-        scale = max(float(total[0]), float(np.max(self.energy["kinetic"])))
+        scale = max(float(total[0]), float(np.nanmax(self.energy["kinetic"])))
         if scale <= 0.0:
             return 0.0
-        return float(np.max(np.abs(total - total[0])) / scale)
+        return float(np.nanmax(np.abs(total - total[0])) / scale)
 
 
-class _Couplers:
-    """The couplers' forces, states and energy accounts, and the Newton iteration on them."""
+def initial_end_loads(scene: ImpactScene) -> NDArray[np.float64]:
+    """End loads ``(F1, F2)`` of every car at t = 0, ``(n_cars, 2)`` (N): the couplers' forces at zero
+    closure and the initial closure rates (a dashpot engaged at contact pushes from the start)."""
+    couplers = CouplerSolve(scene, dt=1.0)  # the step does not enter the forces at t = 0
+    couplers.start(_closure_rates(scene, couplers))
+    return couplers.loads(couplers.force)
 
-    def __init__(self, scene: ImpactScene, dt: float) -> None:
-        self.couplings = [c.coupling for c in scene.couplers]
-        self.rear = np.array([c.rear for c in scene.couplers])
-        self.front = self.rear + 1
-        n_cars = len(scene.cars)
-        # per car: index of its rear and front coupler (−1: none, reads the appended 0)
-        self.car_rear = np.full(n_cars, -1)
-        self.car_front = np.full(n_cars, -1)
-        for j, c in enumerate(scene.couplers):
-            self.car_front[c.rear] = j
-            self.car_rear[c.front] = j
-        self.dt = dt
-        self.state_slices = []
-        start = 0
-        for coupling in self.couplings:
-            self.state_slices.append(slice(start, start + coupling.law.state_size))
-            start += coupling.law.state_size
-        self.n = len(self.couplings)
-        self.n_state = start
-        self.state = np.concatenate([c.law.initial_state() for c in self.couplings] + [np.zeros(0)])
-        self.force = np.zeros(self.n)
-        self.closure = np.zeros(self.n)
-        self.rate = np.zeros(self.n)
-        self.modes = np.zeros(self.n, dtype=int)
-        self.state_rate = np.zeros(self.n_state)
-        self.stored = np.zeros(self.n)
-        self.dissipated = np.zeros(self.n)
-        self.gain_u: NDArray | None = None
-        self.gain_v: NDArray | None = None
-        velocity = np.array([car.velocity for car in scene.cars])
-        masses = np.array([car.mass for car in scene.cars])
-        scale = 0.0
-        for j, coupling in enumerate(self.couplings):
-            m_eff = masses[self.rear[j]] * masses[self.front[j]] / (masses[self.rear[j]] + masses[self.front[j]])
-            scale = max(scale, math.sqrt(coupling.law.reference_stiffness * m_eff) * float(np.ptp(velocity)))
-        self.force_tolerance = 1e-10 * max(scale, 1.0)  # N: the rigid peak force v√(k M_eff) sets the scale
 
-    def loads(self, forces: NDArray) -> NDArray:
-        """End loads ``(F1, F2)`` of every car, ``(n_cars, 2)``: a coupler pushing an end is ``F = −P``."""
-        padded = np.append(forces, 0.0)
-        return -np.stack([padded[self.car_rear], padded[self.car_front]], axis=1)
-
-    def start(self, closure_rate: NDArray) -> None:
-        """Forces at t = 0 from the law at zero closure and the initial closure rates."""
-        self.rate = closure_rate.copy()
-        for j, coupling in enumerate(self.couplings):
-            state = self.state[self.state_slices[j]]
-            response = coupling.evaluate(0.0, float(closure_rate[j]), state)
-            self.force[j], self.modes[j] = response.force, response.mode
-            if coupling.slack == 0.0 and closure_rate[j] > 0.0 and response.mode == 0:
-                # faces touching and closing: the contact is engaged from t = 0 (a dashpot's force jump)
-                engaged = coupling.transmitted_force(0.0, float(closure_rate[j]), state, 1)
-                if engaged > 0.0:
-                    self.force[j], self.modes[j] = engaged, 1
-            self.state_rate[self.state_slices[j]] = response.state_rate
-            self.stored[j] = self._stored(j, 0.0, state, int(self.modes[j]))
-
-    def _stored(self, j: int, closure: float, state: NDArray, mode: int) -> float:
-        coupling = self.couplings[j]
-        return coupling.law.stored_energy(coupling.effective_closure(closure, mode), state, mode != 0)
-
-    def assemble_gains(self, predictions: list) -> None:
-        """``D_u = ∂δ/∂P`` and ``D_v = ∂δ̇/∂P`` from the cars' end gains (fixed for a fixed step)."""
-        n = self.n
-        self.gain_u, self.gain_v = np.zeros((n, n)), np.zeros((n, n))
-        for j in range(n):
-            r, f = predictions[self.rear[j]], predictions[self.front[j]]
-            for gain, rear_gain, front_gain in ((self.gain_u, r.displacement_gain, f.displacement_gain), (self.gain_v, r.velocity_gain, f.velocity_gain)):
-                # δ_j = u_r(+l) − u_f(−l); u_r(+l) feels F1_r = −P_{rear coupler of r}, F2_r = −P_j;
-                # u_f(−l) feels F1_f = −P_j, F2_f = −P_{front coupler of f}
-                gain[j, j] += -rear_gain[1, 1] + front_gain[0, 0]
-                if self.car_rear[self.rear[j]] >= 0:
-                    gain[j, self.car_rear[self.rear[j]]] += -rear_gain[1, 0]
-                if self.car_front[self.front[j]] >= 0:
-                    gain[j, self.car_front[self.front[j]]] += front_gain[0, 1]
-
-    def solve(self, predictions: list) -> int:
-        """Newton on ``(P, s)`` at ``t_{n+1}``; updates forces, states, closures; returns the iteration count.
-
-        Converged when the contact modes repeat and the residuals are below round-off
-        scales (``1e-10`` of the rigid peak force; 1e-13 m of state). Linear pieces
-        converge in one step, so a step usually costs two law evaluations.
-        """
-        if self.gain_u is None:
-            self.assemble_gains(predictions)
-        rear = [predictions[i] for i in self.rear]
-        front = [predictions[i] for i in self.front]
-        closure_free = np.array([r.displacement[1] - f.displacement[0] for r, f in zip(rear, front)])
-        rate_free = np.array([r.velocity[1] - f.velocity[0] for r, f in zip(rear, front)])
-        n, ns, dt = self.n, self.n_state, self.dt
-        P, s = self.force.copy(), self.state.copy()
-        modes = self.modes
-        for iteration in range(1, NEWTON_ITERATIONS + 1):
-            closure, rate, responses, residual, state_rate = self._residual(closure_free, rate_free, P, s)
-            new_modes = np.array([r.mode for r in responses])
-            settled = np.array_equal(new_modes, modes)
-            modes = new_modes
-            if settled and self._converged(residual):
-                break
-            step = np.linalg.solve(self._jacobian(responses), -residual)
-            P += step[:n]
-            s += step[n:]
-        else:  # Newton cycles where a law is nearly discontinuous (a friction gear's switch band)
-            P, s, sweeps = self._gauss_seidel(closure_free, rate_free)
-            closure, rate, responses, residual, state_rate = self._residual(closure_free, rate_free, P, s)
-            iteration += sweeps
-        self._commit(P, s, closure, rate, state_rate, np.array([r.mode for r in responses]))
-        return iteration
-
-    def _residual(self, closure_free: NDArray, rate_free: NDArray, P: NDArray, s: NDArray) -> tuple:
-        """Closures, rates, the laws' responses, the residual ``(P − T, s − s_n − dt/2 (ṡ_n + ṡ))`` and ``ṡ``."""
-        closure = closure_free + self.gain_u @ P
-        rate = rate_free + self.gain_v @ P
-        responses = [
-            coupling.evaluate(float(closure[j]), float(rate[j]), s[self.state_slices[j]])
-            for j, coupling in enumerate(self.couplings)
-        ]
-        residual = np.empty(self.n + self.n_state)
-        residual[: self.n] = P - np.array([r.force for r in responses])
-        state_rate = np.concatenate([r.state_rate for r in responses]) if self.n_state else np.zeros(0)
-        residual[self.n :] = s - self.state - 0.5 * self.dt * (self.state_rate + state_rate)
-        return closure, rate, responses, residual, state_rate
-
-    def _converged(self, residual: NDArray) -> bool:
-        return bool(
-            np.max(np.abs(residual[: self.n])) <= self.force_tolerance
-            and np.max(np.abs(residual[self.n :]), initial=0.0) <= STATE_TOLERANCE
-        )
-
-    def _gauss_seidel(self, closure_free: NDArray, rate_free: NDArray) -> tuple[NDArray, NDArray, int]:
-        """Coupler by coupler, the others held: a bracketed scalar root for a memoryless law, Newton otherwise.
-
-        For a memoryless law ``f(P_j) = P_j − T(δ(P), δ̇(P))`` has slope ≥ 1 (T does not
-        decrease with closure or rate, and both fall as P_j pushes the ends apart), so
-        ``[P − f(P), P]`` (or its mirror) brackets the root and Brent's method finds it
-        however steep T is. The couplers interact only through the cars' end gains, so the
-        sweeps converge fast.
-        """
-        P, s = self.force.copy(), self.state.copy()
-        for sweep in range(1, MAX_SWEEPS + 1):
-            change = 0.0
-            for j in range(self.n):
-                previous = P[j]
-                if self.state_slices[j].stop == self.state_slices[j].start:
-                    P[j] = self._scalar_root(j, closure_free, rate_free, P, s)
-                else:
-                    self._coupler_newton(j, closure_free, rate_free, P, s)
-                change = max(change, abs(P[j] - previous))
-            if change <= self.force_tolerance:
-                return P, s, sweep
-        raise RuntimeError(f"coupler iteration did not converge: Newton cycled and {MAX_SWEEPS} Gauss–Seidel sweeps left a change of {change:.3g} N")
-
-    def _scalar_root(self, j: int, closure_free: NDArray, rate_free: NDArray, P: NDArray, s: NDArray) -> float:
-        coupling, state = self.couplings[j], s[self.state_slices[j]]
-
-        def excess(force: float) -> float:
-            P[j] = force
-            closure = closure_free[j] + self.gain_u[j] @ P
-            rate = rate_free[j] + self.gain_v[j] @ P
-            return force - coupling.evaluate(float(closure), float(rate), state).force
-
-        start = float(P[j])
-        f0 = excess(start)
-        if f0 == 0.0:
-            return start
-        low, high = sorted((start, start - f0))
-        return float(scipy.optimize.brentq(excess, low, high, xtol=self.force_tolerance))
-
-    def _coupler_newton(self, j: int, closure_free: NDArray, rate_free: NDArray, P: NDArray, s: NDArray) -> None:
-        """Newton on coupler j's force and state with the other forces held (in place)."""
-        sl = self.state_slices[j]
-        rows = np.r_[j, self.n + np.arange(sl.start, sl.stop)]
-        for _ in range(MAX_NEWTON_ITERATIONS):
-            _, _, responses, residual, _ = self._residual(closure_free, rate_free, P, s)
-            local = residual[rows]
-            if abs(local[0]) <= self.force_tolerance and np.max(np.abs(local[1:])) <= STATE_TOLERANCE:
-                return
-            step = np.linalg.solve(self._jacobian(responses)[np.ix_(rows, rows)], -local)
-            P[j] += step[0]
-            s[sl] += step[1:]
-        raise RuntimeError(f"coupler {j}: Newton on its force and state did not converge")
-
-    def _jacobian(self, responses: list) -> NDArray:
-        """∂(residual)/∂(P, s) from the laws' tangents and the cars' gains ``D_u``, ``D_v``."""
-        n, dt = self.n, self.dt
-        jacobian = np.eye(n + self.n_state)
-        for j, response in enumerate(responses):
-            t = response.tangent
-            jacobian[j, :n] -= t.force_closure * self.gain_u[j] + t.force_rate * self.gain_v[j]
-            sl = self.state_slices[j]
-            if sl.stop == sl.start:
-                continue
-            rows = slice(n + sl.start, n + sl.stop)
-            jacobian[j, rows] = -t.force_state
-            # ṡ is evaluated with the transmitted force T(δ, δ̇, s): chain through it
-            d_closure = t.rate_closure + t.rate_force * t.force_closure
-            d_rate = t.rate_rate + t.rate_force * t.force_rate
-            jacobian[rows, :n] = -0.5 * dt * (np.outer(d_closure, self.gain_u[j]) + np.outer(d_rate, self.gain_v[j]))
-            jacobian[rows, rows] -= 0.5 * dt * (t.rate_state + np.outer(t.rate_force, t.force_state))
-        return jacobian
-
-    def _commit(self, P: NDArray, s: NDArray, closure: NDArray, rate: NDArray, state_rate: NDArray, modes: NDArray) -> None:
-        """Book the step's coupler energy and take the new values."""
-        dt = self.dt
-        for j, coupling in enumerate(self.couplings):
-            sl = self.state_slices[j]
-            stored = self._stored(j, float(closure[j]), s[sl], int(modes[j]))
-            if modes[j] == self.modes[j]:
-                mid_closure = 0.5 * (closure[j] + self.closure[j])
-                mid = coupling.effective_closure(float(mid_closure), int(modes[j]))
-                rate_mid = 0.5 * (rate[j] + self.rate[j])
-                self.dissipated[j] += dt * coupling.law.dissipation_rate(
-                    mid, float(rate_mid), 0.5 * (s[sl] + self.state[sl]), 0.5 * (P[j] + self.force[j]), modes[j] != 0
-                )
-            else:  # the contact changed within the step: absorbed work less the change of stored energy
-                work = 0.5 * (P[j] + self.force[j]) * (closure[j] - self.closure[j])
-                self.dissipated[j] += work - (stored - self.stored[j])
-            self.stored[j] = stored
-        self.force, self.state, self.closure, self.rate = P, s, closure, rate
-        self.state_rate = state_rate
-        self.modes = modes
+def _closure_rates(scene: ImpactScene, couplers: CouplerSolve) -> NDArray[np.float64]:
+    velocity = np.array([car.velocity for car in scene.cars])
+    return velocity[couplers.rear] - velocity[couplers.front]
 
 
 def solve_impact(
-    scene: ImpactScene, run: ModelRun, dt: float, progress: Callable[[int, int], None] | None = None
-) -> tuple[ImpactResponse, list[CarModel]]:
-    """Step the scene's cars at the fidelities of ``run`` from contact (t = 0) to ``scene.end``."""
+    scene: ImpactScene, cars: list[CarModel], dt: float, progress: Callable[[int, int], None] | None = None
+) -> ImpactResponse:
+    """Step ``cars`` (line order, built with :func:`initial_end_loads` at step ``dt``) from contact
+    (t = 0) to ``scene.end``; a step that fails ends the run with ``status = −1`` (module docstring)."""
     started = _time.perf_counter()
-    integrator = INTEGRATORS[scene.integrator](scene.rho_inf)
-    couplers = _Couplers(scene, dt)
-    velocity = np.array([car.velocity for car in scene.cars])
-    couplers.start(velocity[couplers.rear] - velocity[couplers.front])
-    initial_loads = couplers.loads(couplers.force)
-    cars = [make_car(fidelity, i, scene, integrator, dt, initial_loads[i]) for i, fidelity in enumerate(run.fidelity)]
-
+    couplers = CouplerSolve(scene, dt)
+    couplers.start(_closure_rates(scene, couplers))
     steps = steps_to(scene.end, dt)
     outputs = output_steps(steps, scene.output_stride)
-    out = _Recorder(scene, outputs.size)
-    out.record(0, 0.0, cars, couplers)
+    out = _Recorder(scene, dt * outputs)
+    out.record(0, cars, couplers)
     k = 1
-    iterations = []
+    iterations = [0]
     changes = 0
+    status, message = 0, "reached the end time"
     for step in range(1, steps + 1):
         predictions = [car.predict() for car in cars]
         previous_modes = couplers.modes
-        iterations.append(couplers.solve(predictions))
+        try:
+            iterations.append(couplers.solve(predictions))
+        except CouplerConvergenceError as error:
+            name = scene.couplers[error.coupler].name
+            status = -1
+            message = f"coupler {name} did not converge at t = {step * dt:.6g} s (step {step} of {steps}): {error.detail}"
+            break
         changes += int(np.count_nonzero(couplers.modes != previous_modes))
         for car, loads in zip(cars, couplers.loads(couplers.force)):
             car.advance(loads)
         if k < outputs.size and step == outputs[k]:
-            out.record(k, step * dt, cars, couplers)
+            out.record(k, cars, couplers)
             k += 1
             if progress is not None:
                 progress(step, steps)
     response = out.response()
-    response.steps = steps
+    response.status, response.message = status, message
+    response.steps = step if status == 0 else step - 1
     response.newton_iterations = int(np.sum(iterations))
     response.newton_iterations_max = int(np.max(iterations))
     response.contact_changes = changes
     response.car_settings = [car.settings for car in cars]
     response.wall_time = _time.perf_counter() - started
-    return response, cars
+    return response
 
 
 class _Recorder:
-    """Preallocated output histories, filled at the output steps."""
+    """Preallocated output histories on the output ``times``, filled at the output steps (NaN until then)."""
 
-    def __init__(self, scene: ImpactScene, n_out: int) -> None:
+    def __init__(self, scene: ImpactScene, times: NDArray[np.float64]) -> None:
         self.scene = scene
-        self.time = np.zeros(n_out)
-        self.sensors = {p: {"displacement": np.zeros(n_out), "acceleration": np.zeros(n_out)} for p in scene.probes}
-        self.couplers = {c.name: {"force": np.zeros(n_out), "closure": np.zeros(n_out)} for c in scene.couplers}
+        self.time = np.asarray(times, dtype=float)
+        n_out = self.time.size
+        self.sensors = {p: {"displacement": np.full(n_out, np.nan), "acceleration": np.full(n_out, np.nan)} for p in scene.probes}
+        self.couplers = {c.name: {"force": np.full(n_out, np.nan), "closure": np.full(n_out, np.nan)} for c in scene.couplers}
         names = ("kinetic", "strain", "body_dissipated", "coupler_stored", "coupler_dissipated")
-        self.energy = {name: np.zeros(n_out) for name in names}
+        self.energy = {name: np.full(n_out, np.nan) for name in names}
 
-    def record(self, k: int, t: float, cars: list[CarModel], couplers: _Couplers) -> None:
-        self.time[k] = t
+    def record(self, k: int, cars: list[CarModel], couplers: CouplerSolve) -> None:
+        for name in self.energy:
+            self.energy[name][k] = 0.0
         for car_spec, car in zip(self.scene.cars, cars):
             displacement, acceleration, energy = car.observe()
             for s, name in enumerate(car_spec.sensors):

@@ -1,32 +1,31 @@
-"""Models that answer a scene: a name → model registry shared by the runner and the schema.
+"""Models that answer a scene, by name: the registry the runner reads.
 
-Every model follows one protocol: ``run(scene, progress)`` returns a
-:class:`femref.results.ModelResult`. Which model can serve which scene is decided at
-validation, by :mod:`femref.case.capabilities`.
+One module per model (:mod:`.fem`, :mod:`.exact`, :mod:`.quasi_rigid`, :mod:`.rigid`,
+:mod:`.modal`), each holding its single-body and car forms (:mod:`.base`), and the
+inverse estimators (:mod:`.inverse`). The names are those of
+:data:`femref.core.catalog.MODELS`; a model serves the scene kinds its catalog entry lists.
 """
 
-from __future__ import annotations
+from femref.core.catalog import MODELS as CATALOG
+from femref.models.base import FORMS, Model, Progress
+from femref.models.exact import ExactModel
+from femref.models.fem import FemModel
+from femref.models.modal import ModalModel
+from femref.models.quasi_rigid import QuasiRigidModel
+from femref.models.rigid import RigidModel
 
-from typing import Callable, Protocol
-
-from femref.results import ModelResult
-from femref.scene import Scene
-
-Progress = Callable[[int, int], None]
-
-
-class Model(Protocol):
-    name: str
-
-    def run(self, scene: Scene, progress: Progress | None = None) -> ModelResult: ...
+#: Model name → model, for every catalog name a model implements (``ann`` is an estimator, not a model).
+REGISTRY: dict[str, Model] = {m.name: m for m in (FemModel(), ExactModel(), QuasiRigidModel(), RigidModel(), ModalModel())}
 
 
-def registry() -> dict[str, Model]:
-    """All models by name (imported lazily so that ``femref validate`` stays light)."""
-    from femref.models.exact import ExactModel
-    from femref.models.fem import FemModel
-    from femref.models.quasi_rigid import QuasiRigidModel
-    from femref.models.rigid import RigidModel
+def model_form(name: str, kind: str):
+    """The method of model ``name`` that serves scenes of ``kind`` (``harmonic``, ``transient`` or ``car``).
 
-    models: list[Model] = [FemModel(), ExactModel(), QuasiRigidModel(), RigidModel()]
-    return {m.name: m for m in models}
+    Raises ValueError when the catalog says the model does not serve the kind.
+    """
+    if name not in REGISTRY or kind not in CATALOG[name].kinds:
+        raise ValueError(f"model {name!r} does not serve {kind} scenes")
+    return getattr(REGISTRY[name], FORMS[kind])
+
+
+__all__ = ["FORMS", "REGISTRY", "Model", "Progress", "model_form"]

@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import time
-
 from femref.exact import Segments, beam_harmonic, rod_harmonic, rod_transient
-from femref.models import Progress
-from femref.profiles import common_edges, segment_values
+from femref.models.base import Progress
+from femref.core.profiles import common_edges, segment_values
 from femref.results import ModelResult
-from femref.scene import Body, Scene
+from femref.core.body import Body
+from femref.scene.single import Scene
 
 
 def segments_of(body: Body) -> Segments:
@@ -25,29 +24,29 @@ def segments_of(body: Body) -> Segments:
 class ExactModel:
     name = "exact"
 
-    def run(self, scene: Scene, progress: Progress | None = None) -> ModelResult:
-        started = time.perf_counter()
+    def harmonic(self, scene: Scene) -> ModelResult:
         segments = segments_of(scene.body)
         x = scene.probe_x
         result = ModelResult(self.name, settings={"segments": int(segments.edges.size - 1)})
-        if scene.kind == "harmonic":
-            if scene.body.kind == "rod":
-                response = rod_harmonic(segments, scene.omega, x, **scene.loads)
-                outputs = {"displacement": response.displacement, "axial_force": response.axial_force}
-            else:
-                response = beam_harmonic(segments, scene.omega, x, **scene.loads)
-                outputs = {"displacement": response.deflection}
-            outputs["acceleration"] = response.acceleration
-            result.axes = {"omega": scene.omega, "lambda": scene.body.frequency_to_lambda(scene.omega)}
+        if scene.body.kind == "rod":
+            response = rod_harmonic(segments, scene.omega, x, **scene.loads)
+            outputs = {"displacement": response.displacement, "axial_force": response.axial_force}
         else:
-            times = scene.time_grid(scene.dt)
-            response = rod_transient(segments, times, x, scene.loads.get("F1"), scene.loads.get("F2"))
-            outputs = {
-                "displacement": response.displacement,
-                "acceleration": response.acceleration,
-                "axial_force": response.axial_force,
-            }
-            result.axes = {"time": times}
+            response = beam_harmonic(segments, scene.omega, x, **scene.loads)
+            outputs = {"displacement": response.deflection}
+        outputs["acceleration"] = response.acceleration
+        result.axes = {"omega": scene.omega, "lambda": scene.body.frequency_to_lambda(scene.omega)}
         result.set_probe_outputs(scene.probes, outputs)
-        result.wall_time_s = time.perf_counter() - started
+        return result
+
+    def transient(self, scene: Scene, progress: Progress | None = None) -> ModelResult:
+        """Rods only (inverse Laplace of the transfer-matrix solution)."""
+        segments = segments_of(scene.body)
+        result = ModelResult(self.name, settings={"segments": int(segments.edges.size - 1)})
+        times = scene.time_grid(scene.dt)
+        response = rod_transient(segments, times, scene.probe_x, scene.loads.get("F1"), scene.loads.get("F2"))
+        result.axes = {"time": times}
+        result.set_probe_outputs(
+            scene.probes, {"displacement": response.displacement, "acceleration": response.acceleration, "axial_force": response.axial_force}
+        )
         return result

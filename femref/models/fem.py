@@ -1,67 +1,91 @@
-"""The finite-element reference model (scikit-fem rods, Hermite beams)."""
+"""The finite-element reference model: scikit-fem rods (P1/P2) and Hermite beams.
+
+* single body, harmonic: one complex sparse solve per frequency, rigid modes split off
+  (:func:`femref.fem.harmonic_response`);
+* single body, transient: generalized-α / Newmark on ``M ü + C u̇ + K u = B f(t)``
+  (:class:`femref.fem.Stepper`), energies and optional fields;
+* impact car: the rod's operators stepped inside the coupled solve
+  (:class:`femref.impact.cars.LinearCar`).
+"""
 
 from __future__ import annotations
 
-import time
+import numpy as np
+from numpy.typing import NDArray
 
-from femref.fem import Integrator, Operators, Stepper, assemble_beam, assemble_rod, body_nodes, harmonic_response
-from femref.fem.transient import INTEGRATORS
-from femref.models import Progress
+from femref.fem import INTEGRATORS, Integrator, Stepper, harmonic_response
+from femref.fem.build import FemSettings, build_operators
+from femref.impact.cars import LinearCar
+from femref.models.base import Progress
 from femref.results import ModelResult
-from femref.scene import Body, FemSettings, Scene
-
-
-def build_operators(body: Body, settings: FemSettings) -> Operators:
-    """Mesh the body (nodes on every profile jump and kink) and assemble its operators."""
-    nodes = body_nodes(body.half_length, settings.elements, body.jumps, settings.grading)
-    if body.kind == "rod":
-        return assemble_rod(nodes, settings.order, body.mass_per_length, body.stiffness, body.viscosity)
-    return assemble_beam(nodes, body.mass_per_length, body.stiffness, body.viscosity)
-
-
-def integrator_for(scene: Scene) -> Integrator:
-    return INTEGRATORS[scene.integrator](scene.rho_inf)
+from femref.scene import Car, ImpactScene, Scene
 
 
 class FemModel:
     name = "fem"
 
-    def run(self, scene: Scene, progress: Progress | None = None) -> ModelResult:
-        started = time.perf_counter()
+    def harmonic(self, scene: Scene) -> ModelResult:
         ops = build_operators(scene.body, scene.fem)
-        settings = {
-            "element": ops.element,
-            "elements": ops.elements,
-            "dofs": ops.ndof,
-            "grading": scene.fem.grading,
-        }
-        x = scene.probe_x
-        result = ModelResult(self.name, settings=settings)
-        if scene.kind == "harmonic":
-            response = harmonic_response(ops, scene.omega, scene.loads, x)
-            settings["frequencies"] = int(scene.omega.size)
-            result.axes = {"omega": scene.omega, "lambda": scene.body.frequency_to_lambda(scene.omega)}
-        else:
-            integrator = integrator_for(scene)
-            stepper = Stepper(ops, integrator, scene.dt, scene.loads)
-            response = stepper.solve(
-                scene.end, x, scene.output_stride, fields=scene.fem.fields, energy=True, progress=progress
-            )
-            settings.update(integrator=integrator.name, dt=scene.dt, steps=response.steps, factorizations=2)
-            settings["energy_balance_error"] = response.energy_balance_error
-            result.axes = {"time": response.time}
-            result.energy = {
-                "kinetic": response.kinetic,
-                "strain": response.strain,
-                "dissipated": response.dissipated,
-                "external_work": response.external_work,
-            }
-            if response.fields is not None:
-                stride = scene.fem.field_stride
-                result.fields = {"x": ops.nodes, "u": response.fields[::stride], "time": response.time[::stride]}
-        outputs = {"displacement": response.displacement, "acceleration": response.acceleration}
-        if response.axial_force is not None:
-            outputs["axial_force"] = response.axial_force
-        result.set_probe_outputs(scene.probes, outputs)
-        result.wall_time_s = time.perf_counter() - started
+        result = ModelResult(self.name, settings=_mesh_settings(ops, scene))
+        response = harmonic_response(ops, scene.omega, scene.loads, scene.probe_x)
+        result.settings["frequencies"] = int(scene.omega.size)
+        result.axes = {"omega": scene.omega, "lambda": scene.body.frequency_to_lambda(scene.omega)}
+        _set_outputs(result, scene, response)
         return result
+
+    def transient(self, scene: Scene, progress: Progress | None = None) -> ModelResult:
+        ops = build_operators(scene.body, scene.fem)
+        result = ModelResult(self.name, settings=_mesh_settings(ops, scene))
+        integrator = INTEGRATORS[scene.integrator](scene.rho_inf)
+        stepper = Stepper(ops, integrator, scene.dt, scene.loads)
+        response = stepper.solve(scene.end, scene.probe_x, scene.output_stride, fields=scene.fem.fields, energy=True, progress=progress)
+        result.settings.update(integrator=integrator.name, dt=scene.dt, steps=response.steps, factorizations=2)
+        result.settings["energy_balance_error"] = response.energy_balance_error
+        result.axes = {"time": response.time}
+        result.energy = {
+            "kinetic": response.kinetic,
+            "strain": response.strain,
+            "dissipated": response.dissipated,
+            "external_work": response.external_work,
+        }
+        if response.fields is not None:
+            stride = scene.fem.field_stride
+            result.fields = {"x": ops.nodes, "u": response.fields[::stride], "time": response.time[::stride]}
+        _set_outputs(result, scene, response)
+        return result
+
+    def car(self, car: Car, scene: ImpactScene, integrator: Integrator, dt: float, loads: NDArray[np.float64]) -> LinearCar:
+        return fem_car(car, scene.fem, integrator, dt, loads)
+
+
+def fem_car(car: Car, settings: FemSettings, integrator: Integrator, dt: float, loads: NDArray[np.float64]) -> LinearCar:
+    """The car body as scikit-fem rod elements (P1/P2), nodes on every profile jump, at rest in shape
+    with its initial velocity and end loads."""
+    ops = build_operators(car.body, settings)
+    l = car.body.half_length
+    return LinearCar(
+        "fem",
+        ops.mass,
+        ops.damping,
+        ops.stiffness,
+        ops.load_matrix,
+        ops.interpolation(np.array([-l, l])),
+        ops.interpolation(car.sensor_x),
+        integrator,
+        dt,
+        car.velocity * ops.rigid_modes[:, 0],
+        loads,
+        translation=ops.rigid_modes[:, 0],
+        settings={"element": ops.element, "elements": ops.elements, "dofs": ops.ndof, "nodes": ops.nodes},
+    )
+
+
+def _mesh_settings(ops, scene: Scene) -> dict:
+    return {"element": ops.element, "elements": ops.elements, "dofs": ops.ndof, "grading": scene.fem.grading}
+
+
+def _set_outputs(result: ModelResult, scene: Scene, response) -> None:
+    outputs = {"displacement": response.displacement, "acceleration": response.acceleration}
+    if response.axial_force is not None:
+        outputs["axial_force"] = response.axial_force
+    result.set_probe_outputs(scene.probes, outputs)

@@ -1,4 +1,4 @@
-"""Rigid-body model of a free body under end loads.
+"""Rigid-body model: a free body under end loads, or a car as a point mass in an impact.
 
 The body moves as a rigid body: ``u(x, t) = q₀(t) + (x − x_c) q₁(t)`` (beam) with the
 generalised accelerations ``(ΦᵀMΦ) α = Φᵀ f``:
@@ -6,22 +6,24 @@ generalised accelerations ``(ΦᵀMΦ) α = Φᵀ f``:
 * rod: ``M a = F2 − F1``, and the internal force is the inertia-balanced
   ``F0(x) = F1 + (F2 − F1) ∫_{−l}^{x} m dx / M``;
 * beam: ``[M, S; S, J₀] [a_v; Ω] = [N1 − N2; G2 − G1 − l(N1 + N2)]`` about ``x = 0`` with
-  ``S = ∫ x m dx`` and ``J₀ = ∫ x² m dx`` (S = 0 for even profiles: DESIGN.md's laws).
+  ``S = ∫ x m dx`` and ``J₀ = ∫ x² m dx`` (S = 0 for even profiles: the laws of docs/design.md §2).
 
 Integrals by Gauss quadrature between the profiles' jumps (exact for the profile kinds).
 """
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 from numpy.typing import NDArray
 from scipy.integrate import cumulative_trapezoid
 
-from femref.models import Progress
+from femref.core.body import Body
+from femref.core.timegrid import output_steps, steps_to
+from femref.fem import Integrator
+from femref.impact.cars import LinearCar
+from femref.models.base import Progress
 from femref.results import ModelResult
-from femref.scene import Body, Scene, steps_to, output_steps
+from femref.scene import Car, ImpactScene, Scene
 
 
 def rigid_accelerations(body: Body, loads: NDArray, x: NDArray) -> NDArray:
@@ -51,32 +53,61 @@ def inertia_balanced_force(body: Body, loads: NDArray, x: NDArray) -> NDArray:
 class RigidModel:
     name = "rigid"
 
-    def run(self, scene: Scene, progress: Progress | None = None) -> ModelResult:
-        started = time.perf_counter()
-        names = ("F1", "F2") if scene.body.kind == "rod" else ("N1", "N2", "G1", "G2")
+    def harmonic(self, scene: Scene) -> ModelResult:
         x = scene.probe_x
+        loads = np.array([[complex(scene.loads.get(n, 0.0)) for n in _load_names(scene.body)]])
+        accel = np.repeat(rigid_accelerations(scene.body, loads, x), scene.omega.size, axis=0)
+        displacement = -accel / scene.omega[:, None] ** 2
+        force = inertia_balanced_force(scene.body, np.repeat(loads, scene.omega.size, axis=0), x)
         result = ModelResult(self.name)
-        if scene.kind == "harmonic":
-            loads = np.array([[complex(scene.loads.get(n, 0.0)) for n in names]])
-            accel = np.repeat(rigid_accelerations(scene.body, loads, x), scene.omega.size, axis=0)
-            displacement = -accel / scene.omega[:, None] ** 2
-            result.axes = {"omega": scene.omega, "lambda": scene.body.frequency_to_lambda(scene.omega)}
-            force = inertia_balanced_force(scene.body, np.repeat(loads, scene.omega.size, axis=0), x)
-        else:
-            steps = steps_to(scene.end, scene.dt)
-            t_all = scene.dt * np.arange(steps + 1)
-            loads = np.stack([scene.loads[n](t_all) if n in scene.loads else np.zeros_like(t_all) for n in names], axis=-1)
-            accel_all = rigid_accelerations(scene.body, loads, x)
-            velocity = cumulative_trapezoid(accel_all, t_all, axis=0, initial=0.0)
-            displacement_all = cumulative_trapezoid(velocity, t_all, axis=0, initial=0.0)
-            keep = output_steps(steps, scene.output_stride)
-            accel, displacement = accel_all[keep], displacement_all[keep]
-            result.axes = {"time": t_all[keep]}
-            result.settings = {"dt": scene.dt, "integration": "trapezoidal (displacement from acceleration)"}
-            force = inertia_balanced_force(scene.body, loads[keep], x)
-        outputs = {"acceleration": accel, "displacement": displacement}
-        if scene.body.kind == "rod":
-            outputs["axial_force"] = force
-        result.set_probe_outputs(scene.probes, outputs)
-        result.wall_time_s = time.perf_counter() - started
-        return result
+        result.axes = {"omega": scene.omega, "lambda": scene.body.frequency_to_lambda(scene.omega)}
+        return _with_outputs(result, scene, accel, displacement, force)
+
+    def transient(self, scene: Scene, progress: Progress | None = None) -> ModelResult:
+        x = scene.probe_x
+        steps = steps_to(scene.end, scene.dt)
+        t_all = scene.dt * np.arange(steps + 1)
+        loads = np.stack([scene.loads[n](t_all) if n in scene.loads else np.zeros_like(t_all) for n in _load_names(scene.body)], axis=-1)
+        accel_all = rigid_accelerations(scene.body, loads, x)
+        velocity = cumulative_trapezoid(accel_all, t_all, axis=0, initial=0.0)
+        displacement_all = cumulative_trapezoid(velocity, t_all, axis=0, initial=0.0)
+        keep = output_steps(steps, scene.output_stride)
+        result = ModelResult(self.name, settings={"dt": scene.dt, "integration": "trapezoidal (displacement from acceleration)"})
+        result.axes = {"time": t_all[keep]}
+        return _with_outputs(result, scene, accel_all[keep], displacement_all[keep], inertia_balanced_force(scene.body, loads[keep], x))
+
+    def car(self, car: Car, scene: ImpactScene, integrator: Integrator, dt: float, loads: NDArray[np.float64]) -> LinearCar:
+        return rigid_car(car, integrator, dt, loads)
+
+
+def rigid_car(car: Car, integrator: Integrator, dt: float, loads: NDArray[np.float64]) -> LinearCar:
+    """The car as a point mass: ``M ü = F2 − F1``, every point moving together."""
+    mass = car.mass
+    ones = np.ones((1, 1))
+    return LinearCar(
+        "rigid",
+        mass * ones,
+        np.zeros((1, 1)),
+        np.zeros((1, 1)),
+        np.array([[-1.0, 1.0]]),
+        np.ones((2, 1)),
+        np.ones((len(car.sensors), 1)),
+        integrator,
+        dt,
+        np.array([car.velocity]),
+        loads,
+        translation=np.ones(1),
+        settings={"dofs": 1, "mass": mass},
+    )
+
+
+def _load_names(body: Body) -> tuple[str, ...]:
+    return ("F1", "F2") if body.kind == "rod" else ("N1", "N2", "G1", "G2")
+
+
+def _with_outputs(result: ModelResult, scene: Scene, accel: NDArray, displacement: NDArray, force: NDArray) -> ModelResult:
+    outputs = {"acceleration": accel, "displacement": displacement}
+    if scene.body.kind == "rod":
+        outputs["axial_force"] = force
+    result.set_probe_outputs(scene.probes, outputs)
+    return result

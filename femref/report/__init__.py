@@ -1,4 +1,4 @@
-"""The ``femref report`` page (DESIGN.md §5): one self-contained HTML file of a result file.
+"""The ``femref report`` page (docs/design.md §5): one self-contained HTML file of a result file.
 
 :mod:`~femref.report.read` reads the HDF5 file into dataclasses,
 :mod:`~femref.report.figures` draws the matplotlib plots, :mod:`~femref.report.field_map`

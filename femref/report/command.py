@@ -1,6 +1,6 @@
 """``femref report RESULTS.h5 [-o REPORT.html]``: one self-contained HTML page of a result file.
 
-Exit codes (DESIGN.md §5): 0 written, 2 bad input (missing file, not HDF5, not a femref
+Exit codes (docs/design.md §5): 0 written, 2 bad input (missing file, not HDF5, not a femref
 result file, output naming the input). The page is assembled in memory and written under
 a temporary name in the target folder, then renamed: a failure leaves nothing under the
 final name.

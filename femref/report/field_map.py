@@ -1,6 +1,6 @@
 """A space–time map of a stored displacement field ``u(x, t)``, rendered off-screen with pyvista.
 
-Availability is decided by :func:`femref.render.offscreen_status` (probed in a
+Availability is decided by :func:`femref.report.render.offscreen_status` (probed in a
 subprocess, since a missing EGL crashes VTK instead of raising); when rendering is
 impossible the picture carries the one-line reason instead of a PNG.
 """
@@ -12,7 +12,7 @@ import io
 import numpy as np
 from numpy.typing import NDArray
 
-from femref.render import RenderUnavailable, offscreen_status
+from femref.report.render import RenderUnavailable, offscreen_status
 from femref.report.figures import Picture
 from femref.report.read import ModelData
 

@@ -32,12 +32,12 @@ pre { background: #f7f7f7; padding: 0.8em; overflow-x: auto; font-size: 0.85em; 
 LEADING_METRICS = ("reference", "wall_time_s", "speedup")
 
 
-def render_page(result: ResultFile, epsilon: Epsilon, plots: list[Picture], field_maps: list[Picture]) -> str:
+def render_page(result: ResultFile, plots: list[Picture], field_maps: list[Picture]) -> str:
     """The whole page as one string."""
     title = f"femref report — {result.path.name}"
     body = [
         f"<h1>{escape(title)}</h1>",
-        _facts(result, epsilon),
+        _facts(result, result.epsilon),
         "<h2>Scores</h2>",
         _score_table(result.scores),
         _models_section(result),

@@ -1,4 +1,4 @@
-"""A femref result file (DESIGN.md §4) read into plain dataclasses for the report.
+"""A femref result file (docs/design.md §4) read into plain dataclasses for the report.
 
 Everything the report shows is read here, once, so that the figure and page modules
 never touch HDF5. A file that is missing, is not HDF5, or is not a femref result file
@@ -17,7 +17,8 @@ import numpy as np
 import yaml
 from numpy.typing import NDArray
 
-SCORES_GROUP = "scores"
+from femref.core.catalog import SCENE_GROUP, SCORES_GROUP
+
 FAILED = "failed"
 
 
@@ -55,7 +56,7 @@ class ModelData:
 
 @dataclass(frozen=True)
 class Epsilon:
-    """The scene's small parameter ``ε = (T_wave/T_load)²`` recomputed from the case, or why not."""
+    """The scene's small parameter ``ε = (T_wave/T_load)²`` as the run stored it, or why it is not there."""
 
     value: float | None
     problem: str = ""
@@ -72,6 +73,7 @@ class ResultFile:
     kind: str
     models: dict[str, ModelData]
     scores: dict[str, dict[str, Any]]
+    epsilon: Epsilon
 
     @property
     def ok_models(self) -> list[ModelData]:
@@ -105,7 +107,7 @@ def _read_open_file(path: Path, h5: h5py.File) -> ResultFile:
     models = {
         name: _read_model(name, group)
         for name, group in h5.items()
-        if name != SCORES_GROUP and isinstance(group, h5py.Group)
+        if name not in (SCORES_GROUP, SCENE_GROUP) and isinstance(group, h5py.Group)
     }
     scores = {}
     if SCORES_GROUP in h5:
@@ -118,6 +120,7 @@ def _read_open_file(path: Path, h5: h5py.File) -> ResultFile:
         kind=_scene_kind(case_yaml, models),
         models=models,
         scores=scores,
+        epsilon=_epsilon(h5),
     )
 
 
@@ -170,22 +173,12 @@ def _scene_kind(case_yaml: str, models: dict[str, ModelData]) -> str:
     return "impact" if any(m.couplers for m in models.values()) else "transient"
 
 
-def scene_epsilon(result: ResultFile) -> Epsilon:
-    """``ε`` of the scene rebuilt from the stored case (relative CSV paths: next to the result file)."""
-    from femref.case import CaseError, parse_case
-    from femref.scene_builder import scene_from_case
-
-    base_dir = result.path.resolve().parent
-    try:
-        case = parse_case(yaml.safe_load(result.case_yaml), source=f"{result.path} (case_yaml)", base_dir=base_dir)
-        scene = scene_from_case(case, base_dir)
-        return Epsilon(float(scene.epsilon))
-    except CaseError as error:
-        first_line = (str(error).strip().splitlines() or ["invalid case"])[0]
-        return Epsilon(None, f"the stored case does not validate: {first_line}")
-    except Exception as error:  # noqa: BLE001 - ε is informative; a case from another version must not stop the report
-        first_line = (str(error).strip().splitlines() or [type(error).__name__])[0]
-        return Epsilon(None, f"the scene could not be rebuilt from the stored case: {first_line}")
+def _epsilon(h5: h5py.File) -> Epsilon:
+    """``ε`` as the run stored it in ``/scene`` (files written before it was stored have none)."""
+    facts = h5.get(SCENE_GROUP)
+    if not isinstance(facts, h5py.Group) or "epsilon" not in facts.attrs:
+        return Epsilon(None, "this result file does not record it (written by a femref without /scene)")
+    return Epsilon(float(facts.attrs["epsilon"]))
 
 
 def _text(value: Any) -> str:

@@ -8,9 +8,9 @@
    a feature pipeline fitted on ``s``'s records of the training split, the network trained
    on ``log`` of ``s``'s peak force (:mod:`ann.networks`), scored on the held-out
    validation split of its own source, saved as ``networks/<s>_<n>.npz`` with the
-   metadata contract of :mod:`femref.impact.ann_estimator` (so ``femref run`` can use it);
+   metadata contract of :mod:`femref.sensing.network` (so ``femref run`` can use it);
 3. on every evaluation set: each network and each inverse estimator
-   (:mod:`femref.impact.estimators`, on the same fixed-length fem records) against the fem
+   (:mod:`femref.models.inverse`, on the same fixed-length fem records) against the fem
    peak force, ``e = |P̂ − P_fem| / P_fem`` per sample, summarised by its mean and 95th
    percentile (:func:`error_summary`);
 4. ``study.h5`` (every per-sample estimate and error) and ``study.md`` (the table).
@@ -35,16 +35,12 @@ from numpy.typing import NDArray
 from femref import __version__
 from femref.case import load_case
 from femref.case.errors import CaseError, Problem
-from femref.impact.records import record_times
-from femref.impact.scene import ESTIMATOR_NAMES
+from femref.sensing.records import record_times
+from femref.core.catalog import ESTIMATORS as INVERSE_ESTIMATORS  # scored next to the networks: every one femref has
 from femref.results import atomic_path
 from femref.study.spec import TRAIN, StudyFile
 from femref.sweep import Sweep, SweepData, parse_sweep, read_sweep, run_sweep
-from femref.sweep.spec import assign_key_path
-
-#: The inverse estimators scored next to the networks (every one femref has).
-INVERSE_ESTIMATORS = ESTIMATOR_NAMES
-
+from femref.sweep.keypaths import assign_key_path
 
 @dataclass(frozen=True)
 class ErrorSummary:
@@ -197,11 +193,11 @@ class SetData:
 
 def read_set(sweep: Sweep, path: Path) -> SetData:
     """Read a set's sweep file and rebuild the scene of each ok sample (car masses, estimator geometry)."""
-    from femref.impact.build import impact_scene_from_case
+    from femref.scene.build import scene_from_case
 
     data = read_sweep(path)
     index = np.flatnonzero(data.ok)
-    scenes = tuple(impact_scene_from_case(sweep.sample_case(sweep.sample(int(i))), sweep.base_dir) for i in index)
+    scenes = tuple(scene_from_case(sweep.sample_case(sweep.sample(int(i))), sweep.base_dir) for i in index)
     return SetData(sweep, data, index, scenes)
 
 
@@ -290,7 +286,7 @@ def evaluate_set(study: StudyFile, name: str, data: SetData, networks: list[Trai
 
 def inverse_estimates(study: StudyFile, data: SetData) -> dict[str, NDArray[np.float64]]:
     """Peak of each inverse estimator's force history, from the stored fixed-length fem records."""
-    from femref.impact.estimators import ESTIMATORS
+    from femref.models.inverse import ESTIMATORS
 
     t = record_times(data.data.record_length, data.data.record_end)
     all_records = data.data.records["fem"]

@@ -2,13 +2,13 @@
 
 A study answers the source study's question with the FEM as ground truth: *can a network
 trained on simulated impacts estimate the peak coupler force from acceleration records,
-and does it matter which model generated the training data?* (issue 5, SOURCE-NOTES C).
+and does it matter which model generated the training data?* (issue 5, docs/formulas.md §C).
 
 .. code-block:: yaml
 
     base: impact_free_roll.yaml          # the impact case every sample starts from
     base_overrides: {fem.elements: 32}   # key path → value, applied to the base once
-    parameters:                          # the shared distribution (sweep syntax, femref.sweep.spec)
+    parameters:                          # the shared distribution (sweep syntax, femref.sweep.distributions)
       cars.0.velocity: {uniform: [0.5, 4.0]}
     sets:
       train: {samples: 1500, seed: 11, models: [fem, quasi_rigid, rigid]}
@@ -39,7 +39,7 @@ from pydantic import BeforeValidator, Field, TypeAdapter, ValidationError, model
 
 from femref.case.errors import CaseError, Problem, problems_error, problems_from
 from femref.case.loader import read_yaml_file
-from femref.case.schema import CaseModel, Count, TaggedSpec, _reject_bool, _tagged_union
+from femref.case.fields import CaseModel, Count, TaggedSpec, _reject_bool, _tagged_union
 
 #: The training set's name; every other set is an evaluation set.
 TRAIN = "train"

@@ -1,11 +1,13 @@
-"""Parameter sweeps (DESIGN.md §6): sweep files, their samples, runs on Dask, the HDF5 sweep file.
+"""Parameter sweeps (docs/design.md §6): sweep files, their samples, runs on Dask, the HDF5 sweep file.
 
 >>> from femref.sweep import load_sweep, run_sweep, read_sweep
 >>> sweep = load_sweep("cases/sweeps/free_roll_speeds.yaml")               # doctest: +SKIP
 >>> run_sweep(sweep, "speeds.h5", workers=2).runs_per_second              # doctest: +SKIP
 >>> data = read_sweep("speeds.h5"); data.records["fem"][data.ok].shape     # doctest: +SKIP
 
-* :mod:`femref.sweep.spec` — the sweep file, key paths, distributions, the sampling rule;
+* :mod:`femref.sweep.spec` — the sweep file and the sampling rule;
+* :mod:`femref.sweep.distributions` — the parameter distributions;
+* :mod:`femref.sweep.keypaths` — dotted key paths into a case;
 * :mod:`femref.sweep.worker` — one sample on a worker (case → fixed-length arrays);
 * :mod:`femref.sweep.store` — the HDF5 layout, resume, :func:`read_sweep`;
 * :mod:`femref.sweep.run` — the Dask orchestration, :func:`run_sweep`.
@@ -14,7 +16,8 @@ dask.distributed is imported when a sweep runs, not when a sweep file is read.
 """
 
 from femref.sweep.run import SweepInterrupted, SweepSummary, run_sweep
-from femref.sweep.spec import DISTRIBUTIONS, Sample, Sweep, load_sweep, parse_sweep
+from femref.sweep.distributions import DISTRIBUTIONS
+from femref.sweep.spec import Sample, Sweep, load_sweep, parse_sweep
 from femref.sweep.store import SweepData, read_sweep
 
 __all__ = [

@@ -1,4 +1,4 @@
-"""Sweep files (DESIGN.md §6): a base impact case, parameter distributions, and the samples they give.
+"""Sweep files (docs/design.md §6): a base impact case, parameter distributions, and the samples they give.
 
 Layout of a sweep file (YAML, read with the case files' loader)::
 
@@ -23,7 +23,7 @@ swept. Every part but the last must exist in the base case — or in a value of 
 sweep-file error. When an earlier choice removes a parent in some samples only, those
 samples fail (they are stored as failed samples, see :mod:`femref.sweep.store`).
 
-Distributions (registry :data:`DISTRIBUTIONS`): ``uniform: [low, high]``,
+Distributions (registry :data:`~femref.sweep.distributions.DISTRIBUTIONS`): ``uniform: [low, high]``,
 ``log_uniform: [low, high]`` (``log x`` uniform, ``low > 0``), ``normal: {mean, std,
 clip: [low, high]}`` (draw, then ``np.clip``; ``clip`` optional), ``choice: [v0, v1, …]``
 or ``choice: {values: […], weights: […]}`` (any YAML values), and ``grid: [v0, v1, …]``
@@ -44,7 +44,6 @@ sample ``i`` gets the noise seed ``int(SeedSequence([seed, i]).generate_state(1)
 
 from __future__ import annotations
 
-import copy
 import dataclasses
 import hashlib
 import json
@@ -52,30 +51,28 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated, Any, ClassVar
+from typing import Annotated, Any
 
 import numpy as np
 import yaml
-from pydantic import BeforeValidator, Field, TypeAdapter, ValidationError, field_validator, model_validator
+from pydantic import BeforeValidator, Field, TypeAdapter, ValidationError, model_validator
 
 from femref.case import CaseError, ImpactCase, Problem, load_case, parse_case
-from femref.case.errors import did_you_mean, problems_error, problems_from
+from femref.case.errors import problems_error, problems_from
+from femref.case.fields import CaseModel, Count, _reject_bool
 from femref.case.loader import read_yaml_file
-from femref.case.schema import CaseModel, Count, PositiveReal, Real, TaggedSpec, _reject_bool, _tagged_union
+from femref.sweep.distributions import AnyDistribution, Choice, Distribution, Grid
+from femref.sweep.keypaths import _assign, _parent, _parts, _PathError
 
 __all__ = [
-    "DISTRIBUTIONS",
-    "Choice",
-    "Distribution",
-    "Grid",
-    "LogUniform",
-    "Normal",
+    "FIXED_KEYS",
+    "FIXED_PATHS",
     "OutputSettings",
     "Sample",
     "Sweep",
     "SweepFile",
-    "Uniform",
     "load_sweep",
+    "noise_seed",
     "parse_sweep",
 ]
 
@@ -95,189 +92,6 @@ RESERVED_GROUPS = ("parameters", "samples")
 
 
 # ---------------------------------------------------------------------------------------------
-# Distributions (registry DISTRIBUTIONS)
-
-
-def _pair(data: Any, names: tuple[str, str]) -> Any:
-    """``[low, high]`` → ``{low: …, high: …}``; other input is left for the model to judge."""
-    if isinstance(data, (list, tuple)):
-        if len(data) != 2:
-            raise problems_error([Problem((), f"must be a list of two numbers [{', '.join(names)}]", list(data))])
-        return dict(zip(names, data))
-    return data
-
-
-class Distribution(TaggedSpec):
-    """A parameter's distribution: ``draw(rng)`` gives ``(value put in the case, value stored in the file)``."""
-
-    @classmethod
-    def _shorthand(cls, data: Any) -> Any:
-        return cls._list_form(super()._shorthand(data))
-
-    @classmethod
-    def _list_form(cls, data: Any) -> Any:
-        return data
-
-    def draw(self, rng: np.random.Generator) -> tuple[Any, float | int]:
-        raise NotImplementedError
-
-    def example(self) -> Any:
-        """A value the distribution can give (used to check a key path against the case schema)."""
-        raise NotImplementedError
-
-    def stored_values(self) -> list[Any] | None:
-        """The values the stored indices refer to; None when the file stores the values themselves."""
-        return None
-
-
-class _Bounded(Distribution):
-    low: Real = Field(description="Lower bound. Required.")
-    high: Real = Field(description="Upper bound, > low. Required.")
-
-    @classmethod
-    def _list_form(cls, data: Any) -> Any:
-        return _pair(data, ("low", "high"))
-
-    @model_validator(mode="after")
-    def _ordered(self) -> "_Bounded":
-        if not self.low < self.high:
-            raise problems_error([Problem((), "low must be < high", [self.low, self.high])])
-        return self
-
-    def example(self) -> float:
-        return self.low
-
-
-class Uniform(_Bounded):
-    """``x ~ U(low, high)``."""
-
-    tag: ClassVar[str] = "uniform"
-
-    def draw(self, rng: np.random.Generator) -> tuple[float, float]:
-        x = float(rng.uniform(self.low, self.high))
-        return x, x
-
-
-class LogUniform(_Bounded):
-    """``log x ~ U(log low, log high)``, ``0 < low < high``: equal odds per decade."""
-
-    tag: ClassVar[str] = "log_uniform"
-
-    @model_validator(mode="after")
-    def _positive(self) -> "LogUniform":
-        if self.low <= 0.0:
-            raise problems_error([Problem(("low",), "must be > 0 (log_uniform draws log x)", self.low)])
-        return self
-
-    def draw(self, rng: np.random.Generator) -> tuple[float, float]:
-        x = float(np.exp(rng.uniform(math.log(self.low), math.log(self.high))))
-        return x, x
-
-
-class Normal(Distribution):
-    """``x = clip(N(mean, std²), low, high)``: a normal draw, clipped when ``clip`` is given."""
-
-    tag: ClassVar[str] = "normal"
-    mean: Real = Field(description="Mean. Required.")
-    std: PositiveReal = Field(description="Standard deviation, > 0. Required.")
-    clip: tuple[Real, Real] | None = Field(default=None, description="[low, high], low < high: np.clip of the draw. Default null: no clip.")
-
-    @field_validator("clip", mode="after")
-    @classmethod
-    def _ordered(cls, clip: tuple[float, float] | None) -> tuple[float, float] | None:
-        if clip is not None and not clip[0] < clip[1]:
-            raise problems_error([Problem((), "must be [low, high] with low < high", list(clip))])
-        return clip
-
-    def example(self) -> float:
-        return self.mean
-
-    def draw(self, rng: np.random.Generator) -> tuple[float, float]:
-        x = float(rng.normal(self.mean, self.std))
-        if self.clip is not None:
-            x = float(np.clip(x, *self.clip))
-        return x, x
-
-
-def _values_form(data: Any) -> Any:
-    return {"values": list(data)} if isinstance(data, (list, tuple)) else data
-
-
-Values = Annotated[list[Any], Field(min_length=1)]
-
-
-class Choice(Distribution):
-    """One of ``values`` (any YAML values), with probabilities ``weights / sum(weights)`` (default equal)."""
-
-    tag: ClassVar[str] = "choice"
-    values: Values = Field(description="The values to choose from, at least one. Required.")
-    weights: list[Annotated[Real, Field(ge=0)]] | None = Field(default=None, description="Relative weights >= 0, one per value, summing > 0. Default equal.")
-
-    @classmethod
-    def _list_form(cls, data: Any) -> Any:
-        return _values_form(data)
-
-    @model_validator(mode="after")
-    def _weights_fit(self) -> "Choice":
-        if self.weights is None:
-            return self
-        if len(self.weights) != len(self.values):
-            rule = f"must give one weight per value ({len(self.values)} values)"
-            raise problems_error([Problem(("weights",), rule, self.weights)])
-        if not sum(self.weights) > 0.0:
-            raise problems_error([Problem(("weights",), "must sum to > 0", self.weights)])
-        return self
-
-    def example(self) -> Any:
-        return self.values[0]
-
-    def draw(self, rng: np.random.Generator) -> tuple[Any, int]:
-        p = None if self.weights is None else np.asarray(self.weights) / sum(self.weights)
-        k = int(rng.choice(len(self.values), p=p))
-        return self.values[k], k
-
-    def stored_values(self) -> list[Any]:
-        return self.values
-
-
-class Grid(Distribution):
-    """Every one of ``values``: an axis of the cartesian product of all grid parameters."""
-
-    tag: ClassVar[str] = "grid"
-    values: Values = Field(description="The grid values, at least one. Required.")
-
-    @classmethod
-    def _list_form(cls, data: Any) -> Any:
-        return _values_form(data)
-
-    @property
-    def numeric(self) -> bool:
-        """All values are numbers: the file stores them as float64, not as indices."""
-        return all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in self.values)
-
-    def example(self) -> Any:
-        return self.values[0]
-
-    def point(self, k: int) -> tuple[Any, float | int]:
-        value = self.values[k]
-        return value, (float(value) if self.numeric else k)
-
-    def stored_values(self) -> list[Any] | None:
-        return None if self.numeric else self.values
-
-
-#: Distributions by sweep-file name.
-DISTRIBUTIONS: Mapping[str, type[Distribution]] = {
-    "uniform": Uniform,
-    "log_uniform": LogUniform,
-    "normal": Normal,
-    "choice": Choice,
-    "grid": Grid,
-}
-AnyDistribution = _tagged_union(DISTRIBUTIONS, "distribution")
-
-
-# ---------------------------------------------------------------------------------------------
 # The sweep file
 
 
@@ -285,7 +99,7 @@ RecordLength = Annotated[int, BeforeValidator(_reject_bool), Field(ge=2)]
 
 
 class OutputSettings(CaseModel):
-    """Lengths of the fixed-length histories stored per sample (:mod:`femref.impact.records`)."""
+    """Lengths of the fixed-length histories stored per sample (:mod:`femref.sensing.records`)."""
 
     record_length: RecordLength = Field(default=200, description="Samples per acceleration record over [0, time.end], >= 2. Default 200.")
     force_length: RecordLength = Field(default=200, description="Samples per coupler force history over [0, time.end], >= 2. Default 200.")
@@ -319,63 +133,6 @@ class SweepFile(CaseModel):
 
 
 _SWEEP_ADAPTER: TypeAdapter[SweepFile] = TypeAdapter(SweepFile)
-
-
-# ---------------------------------------------------------------------------------------------
-# Key paths
-
-
-class _PathError(LookupError):
-    """A key path that does not lead anywhere; the message is the rule."""
-
-
-def _parts(path: str) -> tuple[str, ...]:
-    return tuple(path.split("."))
-
-
-def _child(node: Any, part: str, where: str) -> Any:
-    """``node[part]`` with integer parts indexing lists; raises :class:`_PathError` saying why not."""
-    if isinstance(node, list):
-        if not part.isdigit():
-            raise _PathError(f"{where or 'the case'} is a list; index it with an integer 0…{len(node) - 1}, not {part!r}")
-        if int(part) >= len(node):
-            raise _PathError(f"index {part} is out of range; {where} has {len(node)} entries")
-        return node[int(part)]
-    if isinstance(node, Mapping):
-        if part not in node:
-            keys = [str(k) for k in node]
-            raise _PathError(f"no key {part!r} under {where or 'the top level'}{did_you_mean(part, keys)}; keys there: {', '.join(keys)}")
-        return node[part]
-    raise _PathError(f"{where} is a single value ({node!r}), not a mapping or a list")
-
-
-def _parent(root: Any, parts: tuple[str, ...]) -> Any:
-    """The container that holds the last part of ``parts``, checking that the last part may go there."""
-    node = root
-    for k, part in enumerate(parts[:-1]):
-        node = _child(node, part, ".".join(parts[:k]))
-    where = ".".join(parts[:-1])
-    if isinstance(node, list):
-        _child(node, parts[-1], where)  # a list entry must exist to be replaced
-    elif not isinstance(node, Mapping):
-        raise _PathError(f"{where} is a single value ({node!r}), not a mapping or a list")
-    return node
-
-
-def _assign(root: Any, parts: tuple[str, ...], value: Any) -> None:
-    node = _parent(root, parts)
-    if isinstance(node, list):
-        node[int(parts[-1])] = copy.deepcopy(value)
-    else:
-        node[parts[-1]] = copy.deepcopy(value)
-
-
-def assign_key_path(data: Any, path: str, value: Any) -> None:
-    """Set ``value`` at the dotted key ``path`` of case data in place (the sweep's rule for key paths).
-
-    Raises LookupError saying why when the path does not lead anywhere.
-    """
-    _assign(data, _parts(path), value)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -37,7 +37,7 @@ from numpy.typing import NDArray
 
 from femref import __version__
 from femref.case import CaseError, Problem
-from femref.impact.records import record_rate
+from femref.sensing.records import record_rate
 from femref.results import UNITS
 from femref.sweep.spec import Sweep
 
@@ -73,7 +73,7 @@ class SweepLayout:
 
     @classmethod
     def of(cls, sweep: Sweep) -> "SweepLayout":
-        from femref.scene_builder import scene_from_case
+        from femref.scene.build import scene_from_case
 
         scene = scene_from_case(sweep.base_case, sweep.base_dir)
         measurement = sweep.base_case.measurement

@@ -7,7 +7,7 @@ sample never stops a sweep. The record is a plain dict (cheap to ship back to th
 
     error                       ""  or why the sample failed
     probes, couplers, models    channel, coupler and model-run names in scene order
-    <model>/records             (channels, record_length) m/s²   femref.impact.records (measured if the case has a measurement)
+    <model>/records             (channels, record_length) m/s²   femref.sensing.records (measured if the case has a measurement)
     <model>/coupler_force       (couplers, force_length) N, compression positive, np.interp onto record_times
     <model>/peak_coupler_force  (couplers,) N: max of the full force history (not of the resampled one)
     <model>/wall_time_s         () s
@@ -21,9 +21,9 @@ from typing import Any
 import numpy as np
 
 from femref.case import parse_case
-from femref.impact.records import acceleration_histories, fixed_length_records, record_times
-from femref.runner import run_scene
-from femref.scene_builder import scene_from_case
+from femref.sensing.records import acceleration_histories, fixed_length_records, record_times
+from femref.run import run_scene
+from femref.scene.build import scene_from_case
 
 __all__ = ["run_sample"]
 

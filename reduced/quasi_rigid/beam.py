@@ -1,6 +1,6 @@
 """Quasi-rigid Euler–Bernoulli beam with even profiles: rigid motion plus creep bending.
 
-Beam on ``x ∈ [−l, l]`` (DESIGN.md §2): ``G = EI w_xx + cI w_xxt`` (Voigt; any Prony
+Beam on ``x ∈ [−l, l]`` (docs/design.md §2): ``G = EI w_xx + cI w_xxt`` (Voigt; any Prony
 creep kernel), ``N = G_x``, ``N_x + m w_tt = 0``; end shears ``N(∓l) = N1, N2`` and
 moments ``G(∓l) = G1, G2``; m, EI, cI even in x.
 
@@ -22,7 +22,7 @@ inner product (``∫ m w₁ = ∫ m x w₁ = 0``):
 Homogeneous low-frequency constants it reproduces (``q⁴ = λ²/(1 − iλβ)``, tests):
 vertical, centre, ``a_v*``: ``1 + 3q⁴/40``; rotation ``α*``: ``1 + 11q⁴/840`` by end shears
 and ``1 + 13q⁴/280`` by end moments (3/40 for rotation was a misprint). Verified against
-the exact beam transfer functions (error ∝ λ⁴, tests/test_quasi_rigid_frequency.py).
+the exact beam transfer functions (error ∝ λ⁴, tests/reduced/quasi_rigid/test_frequency.py).
 """
 
 from __future__ import annotations
@@ -101,7 +101,7 @@ class QuasiRigidBeam(QuasiRigidBody):
         """Two-term response at ``e^{−iωt}`` to end shears (N) and moments (N·m) at positions x (m).
 
         ``rotation=True`` returns the section rotation ``∂w/∂x`` instead of the deflection
-        (its acceleration in rad/s²; at x = 0 divided by Ω it is the ``α*`` of DESIGN.md).
+        (its acceleration in rad/s²; at x = 0 divided by Ω it is the ``α*`` of docs/formulas.md §X).
         """
         return self._harmonic(omega, x, {"N1": N1, "N2": N2, "G1": G1, "G2": G2}, int(rotation))
 

@@ -30,8 +30,8 @@ equilibrium (filters at steady state); displacements count from that initial pos
 and shape (from rest and undeformed when ``L(t₀) = 0``). The last sample's differences
 use a quadratic extrapolation of the load.
 
-Verified: tests/test_quasi_rigid_frequency.py (closed forms, O(λ⁴) against the exact
-solutions), tests/test_quasi_rigid_time.py (filters against direct quadrature, limits,
+Verified: tests/reduced/quasi_rigid/test_frequency.py (closed forms, O(λ⁴) against the exact
+solutions), tests/reduced/quasi_rigid/test_time.py (filters against direct quadrature, limits,
 O(ε²) against exact transients for smooth pulses, O(dt²) of the sampled L̈).
 """
 
@@ -82,7 +82,7 @@ class HarmonicResponse:
 
     @property
     def ratio(self) -> NDArray[np.complex128]:
-        """``a/a_rigid`` (the ``a*`` of DESIGN.md; NaN where the rigid acceleration is 0)."""
+        """``a/a_rigid`` (the ``a*`` of docs/formulas.md §X; NaN where the rigid acceleration is 0)."""
         rigid = np.broadcast_to(self.rigid_acceleration, self.acceleration.shape)
         out = np.full(self.acceleration.shape, np.nan, dtype=complex)
         np.divide(self.acceleration, rigid, out=out, where=rigid != 0.0)
@@ -148,7 +148,7 @@ class QuasiRigidBody:
     @property
     def wave_travel_time(self) -> float:
         """``T_wave = lⁿ √(m̄ ⟨1/k⟩)`` (s): n = 1 rod, 2 beam; m̄ = M/2l, ⟨1/k⟩ the mean compliance
-        (series-spring average). Homogeneous: ``l√(m/EA)`` and ``l²√(m/EI)`` as in DESIGN.md §2."""
+        (series-spring average). Homogeneous: ``l√(m/EA)`` and ``l²√(m/EI)`` as in docs/design.md §2."""
         q = self.quadrature
         return q.half_length**self.order * math.sqrt(q.mean_mass * q.mean_compliance)
 
@@ -173,7 +173,7 @@ class QuasiRigidBody:
         return harmonic_factor(omega[:, None], self.tau_groups[None, :]) @ self.correction.group_compliance
 
     def epsilon(self, omega: ArrayLike) -> NDArray[np.float64]:
-        """Small parameter ``ε(ω) = (ω T_wave)² |h(ω)|`` (DESIGN.md §2 with ``T_load = 1/ω``, viscosity included)."""
+        """Small parameter ``ε(ω) = (ω T_wave)² |h(ω)|`` (docs/design.md §2 with ``T_load = 1/ω``, viscosity included)."""
         omega = np.atleast_1d(np.asarray(omega, dtype=float))
         return (omega * self.wave_travel_time) ** 2 * np.abs(self.creep_factor(omega))
 

@@ -26,7 +26,7 @@ body's segments are grouped exactly; a continuously varying τ is represented by
 barycentric interpolation in log τ on Chebyshev points (``max_tau_groups`` of them);
 measured for τ varying 100-fold along a rod, the relative error of the correction
 against direct adaptive quadrature is 4e-6 with 16 points, 1e-8 with 24 (the
-default) and 4e-11 with 32, at λ = 0.1 … 100 (tests/test_quasi_rigid_frequency.py).
+default) and 4e-11 with 32, at λ = 0.1 … 100 (tests/reduced/quasi_rigid/test_frequency.py).
 """
 
 from __future__ import annotations

@@ -33,12 +33,12 @@ filters (an elastic body takes it at once, in the first step). Only the displace
 sees that jump; the rate filters (of L̇, L̈) count the load's change after t = 0, so the
 velocity misses the decaying ``C L₀ e^{−t/τ}/τ`` of the jump (unbounded as τ → 0).
 
-Verified (tests/test_quasi_rigid_coupled.py): displacements equal the time-domain model
+Verified (tests/reduced/quasi_rigid/test_coupled.py): displacements equal the time-domain model
 to 1e-12; momentum ``∫ m v dx = M v₀ + ∫(F2 − F1) dt`` to 1e-12; the harmonic steady
 state; the exact response to O(ε²); rigid cars with a Kelvin–Voigt coupler reproduce the
-two-mass closed form (SOURCE-NOTES A1) to 2e-5 at dt = 2e-4 s. The undeformed start
+two-mass closed form (docs/formulas.md §A1) to 2e-5 at dt = 2e-4 s. The undeformed start
 differs from the equilibrium start by exactly ``C L₀ (1 − e^{−t/τ})`` (1e-12,
-tests/test_impact_cars.py).
+tests/models/test_cars.py).
 """
 
 from __future__ import annotations

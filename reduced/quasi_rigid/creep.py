@@ -1,6 +1,6 @@
 """Creep kernels and O(1)-per-step recursive hereditary integrals.
 
-Strain law (SOURCE-NOTES D), with γ(x) = EA(x)/cA(x) (rod) or EI/cI (beam):
+Strain law (docs/formulas.md §D), with γ(x) = EA(x)/cA(x) (rod) or EI/cI (beam):
 
     e(t) = (F(t) − ∫₀ᵗ K(γ (t − t₁)) F'(t₁) dt₁) / EA.
 
@@ -19,10 +19,10 @@ Each filter is advanced by the exact exponential update for an input that is lin
 between samples (:func:`update_coefficients`), so a record of Nt samples costs O(Nt)
 (:func:`filter_piecewise_linear`, one ``scipy.signal.lfilter`` call), never O(Nt²).
 
-Verified (tests/test_quasi_rigid_time.py): the recursion equals an adaptive quadrature of
+Verified (tests/reduced/quasi_rigid/test_time.py): the recursion equals an adaptive quadrature of
 the hereditary integral to 1e-13 for τ from 0.1 to 1e4 steps; τ = 0 and τ = ∞ are exact;
 the small-step series meets the direct formula continuously. A Zener kernel reproduces
-the complex-modulus closed form (tests/test_quasi_rigid_frequency.py).
+the complex-modulus closed form (tests/reduced/quasi_rigid/test_frequency.py).
 """
 
 from __future__ import annotations

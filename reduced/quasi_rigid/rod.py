@@ -1,6 +1,6 @@
 """Quasi-rigid rod: rigid-body motion plus the creep deformation under inertia-balanced load.
 
-Rod on ``x ∈ [−l, l]`` (DESIGN.md §2): ``F = EA u_x + cA u_xt`` (Voigt; any Prony creep
+Rod on ``x ∈ [−l, l]`` (docs/design.md §2): ``F = EA u_x + cA u_xt`` (Voigt; any Prony creep
 kernel, :mod:`.creep`), ``F_x = m u_tt``, internal end forces ``F(−l) = F1``,
 ``F(+l) = F2`` (tension positive).
 
@@ -29,8 +29,8 @@ Frequency domain (``e^{−iωt}``): ``e = F₀/(EA − iω cA)`` and
   (printed weights 7/48, 1/48 were wrong).
 
 Verified: the error against the exact transfer-matrix solution falls like λ⁴ for
-homogeneous and two-segment bodies (tests/test_quasi_rigid_frequency.py); the time
-response against the exact transient (tests/test_quasi_rigid_time.py).
+homogeneous and two-segment bodies (tests/reduced/quasi_rigid/test_frequency.py); the time
+response against the exact transient (tests/reduced/quasi_rigid/test_time.py).
 """
 
 from __future__ import annotations

@@ -9,14 +9,14 @@ from click.testing import CliRunner
 from femref.case import ImpactCase, load_case, parse_case, resolved_yaml
 from femref.case.capabilities import MODELS, refusal
 from femref.cli import main
-from femref.impact.build import impact_scene_from_case
-from femref.impact.scene import FIDELITIES, ImpactScene, Measurement, ModelRun
-from femref.scene import FemSettings
-from femref.scene_builder import scene_from_case
+from femref.scene.build import scene_from_case
+from femref.core.catalog import FIDELITIES
+from femref.scene.impact import ImpactScene, Measurement, ModelRun
+from femref.fem.build import FemSettings
 from reduced.couplers import COUPLER_LAWS, Coupling, KelvinVoigt, StandardLinearDraftGear
 from support.case_helpers import write_case
 
-#: The free-to-roll example of DESIGN.md §3, verbatim.
+#: The free-to-roll example of docs/design.md §3, verbatim.
 DESIGN_EXAMPLE = """\
 kind: impact
 cars:
@@ -256,7 +256,7 @@ def test_design_example_builds_the_impact_scene(design_case: ImpactCase) -> None
 
 
 def test_three_car_case_builds_the_impact_scene(three_cars: ImpactCase) -> None:
-    scene = impact_scene_from_case(three_cars)
+    scene = scene_from_case(three_cars)
     assert [car.name for car in scene.cars] == ["hammer", "anvil", "wagon"]
     assert [car.velocity for car in scene.cars] == [2.2, 0.0, -0.5]
     assert scene.cars[1].sensors == {"rear": -7.5, "center": 0.0, "front": 7.5}

@@ -8,9 +8,9 @@ import pytest
 import yaml
 from pydantic import ValidationError
 
-from femref import profiles, signals
+from femref.core import profiles, signals
 from femref.case import HarmonicCase, TransientCase, load_case, parse_case, resolved_yaml
-from femref.case.schema import length_average
+from femref.case.profiles import length_average
 from support.case_helpers import write_case
 
 ROD_HARMONIC = """\

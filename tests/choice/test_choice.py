@@ -26,9 +26,9 @@ from femref.choice.estimates import (
 )
 from femref.choice.ladder import Rung
 from femref.cli import main
-from femref.defaults import default_scene_data
-from femref.impact.scoring import score_impact
-from femref.scene_builder import scene_from_case
+from femref.case.defaults import default_scene_data
+from femref.run.scoring import score_impact
+from femref.scene.build import scene_from_case
 
 PEAK = "peak_coupler_force"
 from support.paths import CASES
@@ -284,7 +284,7 @@ def test_cli_tolerance_writes_every_run_and_the_choice(tmp_path):
         labels = [s.decode() for s in group["label"][()]]
         ran = group["ran"][()]
         assert chosen in labels and ran[labels.index(chosen)]
-        assert {label for label, r in zip(labels, ran) if r} == {k for k in h5 if k != "choice"}
+        assert {label for label, r in zip(labels, ran) if r} == {k for k in h5 if k not in ("choice", "scene")}
         assert h5[chosen].attrs["status"] == "ok" and f"{chosen}/couplers/c1/force" in h5
         assert yaml.safe_load(h5.attrs["case_yaml"])["tolerance"] == {"value": 0.01, "output": PEAK}
         assert np.all(np.diff(group["predicted_cost"][()]) >= 0)
@@ -413,7 +413,7 @@ def test_tolerance_on_every_impact_case(tmp_path, case):
 
 def test_case_schema_and_estimates_know_the_same_outputs():
     """The case keeps its own list of outputs (no solver import at validation); it must match the estimates'."""
-    from femref.case.impact import TOLERANCE_OUTPUTS
+    from femref.case.runs import TOLERANCE_OUTPUTS
     from femref.choice import OUTPUTS
 
     assert set(TOLERANCE_OUTPUTS) == set(OUTPUTS)

@@ -101,7 +101,7 @@ def test_failed_model_is_recorded_and_exits_1(runner, tmp_path, monkeypatch):
     def explode(self, scene, progress=None):
         raise FloatingPointError("synthetic failure")
 
-    monkeypatch.setattr(rigid.RigidModel, "run", explode)
+    monkeypatch.setattr(rigid.RigidModel, "transient", explode)
     output = tmp_path / "out.h5"
     result = runner.invoke(main, ["run", str(write_case(tmp_path, small_transient())), "-o", str(output)])
     assert result.exit_code == 1
@@ -110,6 +110,34 @@ def test_failed_model_is_recorded_and_exits_1(runner, tmp_path, monkeypatch):
         assert h5["rigid"].attrs["status"] == "failed"
         assert "synthetic failure" in h5["rigid"].attrs["message"]
         assert h5["fem"].attrs["status"] == "ok"
+
+
+def test_impact_run_that_fails_mid_way_exits_1_saying_where(runner, tmp_path, monkeypatch):
+    """A coupler iteration that fails mid-run: exit 1, the message names the coupler and the time,
+    and the result file keeps that run's histories up to the failing step (NaN after)."""
+    from femref.impact import couplers as couplers_module
+
+    solve = couplers_module.CouplerSolve.solve
+    calls = {"n": 0}
+
+    def fails_at_step_30(self, predictions):
+        calls["n"] += 1
+        if calls["n"] == 30:
+            raise couplers_module.CouplerConvergenceError(0, "synthetic: Newton cycled")
+        return solve(self, predictions)
+
+    monkeypatch.setattr(couplers_module.CouplerSolve, "solve", fails_at_step_30)
+    case = yaml.safe_load((CASES / "impact_free_roll.yaml").read_text())
+    case.update(models=["rigid"], estimators=[])
+    case.pop("measurement", None)
+    output = tmp_path / "out.h5"
+    result = runner.invoke(main, ["run", str(write_case(tmp_path, case)), "-o", str(output)])
+    assert result.exit_code == 1
+    assert "error: model rigid failed: coupler c1 did not converge at t = " in result.output
+    with h5py.File(output) as h5:
+        assert h5["rigid"].attrs["status"] == "failed"
+        force = h5["rigid/couplers/c1/force"][()]
+        assert np.all(np.isfinite(force[:30])) and np.all(np.isnan(force[30:]))
 
 
 def test_crash_while_writing_leaves_no_file(runner, tmp_path, monkeypatch):

@@ -93,7 +93,7 @@ def centre_ratios(body: Segments, lam):
 
 def test_series_constants_match_the_corrected_source():
     """The exact rational series start 1 + 3w/40, 1 + 11w/840, 1 + 13w/280 (w = q⁴): the
-    constants DESIGN.md and SOURCE-NOTES §E quote (3/40 for rotation is the misprint)."""
+    constants docs/formulas.md §E and §X quote (3/40 for rotation is the misprint)."""
     assert VERTICAL[:2] == [1, Fraction(3, 40)]
     assert ROTATION_SHEAR[:2] == [1, Fraction(11, 840)]
     assert ROTATION_MOMENT[:2] == [1, Fraction(13, 280)]

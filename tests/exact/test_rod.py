@@ -239,7 +239,7 @@ def test_bad_segments_are_rejected(args, message):
 
 def test_segments_properties():
     """Segments.uniform(2l, m, EA, cA): M = 2lm, J = 2ml³/3, l; from_profiles cuts at the jumps."""
-    from femref.profiles import Piecewise, Uniform
+    from femref.core.profiles import Piecewise, Uniform
 
     body = Segments.uniform(2 * L_HALF, MASS, STIFFNESS, 1e6)
     assert body.half_length == L_HALF and body.n_segments == 1

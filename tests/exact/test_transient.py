@@ -13,7 +13,7 @@ import pytest
 from scipy.special import polygamma
 
 from femref.exact import Segments, invert_laplace, rod_transient
-from femref.signals import Constant, HalfSine, RampStep, Tabulated
+from femref.core.signals import Constant, HalfSine, RampStep, Tabulated
 
 L_HALF, MASS, STIFFNESS = 1.0, 1.0, 1.0  # wave travel time l√(m/EA) = 1 s
 MODES = 3000

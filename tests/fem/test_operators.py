@@ -9,7 +9,7 @@ from skfem.helpers import dd
 
 from femref.fem import assemble_beam, assemble_rod, body_nodes, graded_nodes
 from femref.fem.banded import BandedCholesky, half_bandwidth
-from femref.profiles import Linear, Piecewise, Table, Uniform
+from femref.core.profiles import Linear, Piecewise, Table, Uniform
 
 L = 8.0
 MASS = Piecewise(breaks=(-3.0, 2.5), values=(3000.0, 9000.0, 4000.0))
@@ -75,7 +75,7 @@ def test_local_hermite_matches_scikit_fem_on_small_mesh():
 def test_local_hermite_keeps_digits_on_fine_mesh():
     """Every element of a 1e4-element mesh on [−1, 1] has the analytic stiffness EI/h³·[12, 6h, −12, 6h; …].
 
-    skfem's global-monomial Hermite loses about half its digits here (DESIGN.md);
+    skfem's global-monomial Hermite loses about half its digits here (docs/formulas.md §X);
     the element-local assembly is translation invariant and keeps them.
     """
     nodes = np.linspace(-1.0, 1.0, 10_001)

@@ -5,8 +5,8 @@ import pytest
 import scipy.linalg
 
 from femref.fem import Integrator, Stepper, assemble_beam, assemble_rod, body_nodes
-from femref.profiles import Piecewise, Uniform
-from femref.signals import HalfSine, RampStep
+from femref.core.profiles import Piecewise, Uniform
+from femref.core.signals import HalfSine, RampStep
 from support.convergence import observed_order
 
 L, MASS, EA = 8.0, 6250.0, 2.0e9

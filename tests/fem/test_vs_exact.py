@@ -1,6 +1,6 @@
 """FEM against the exact solutions: agreement over λ and β, convergence orders, extremes.
 
-Problems: free Voigt rods and beams on [−l, l] loaded at their ends (DESIGN.md §2),
+Problems: free Voigt rods and beams on [−l, l] loaded at their ends (docs/design.md §2),
 harmonic (factor e^{−iωt}) and transient. The exact answers come from femref.exact
 (closed forms for one segment, transfer matrices for several, inverse Laplace in time).
 """
@@ -10,8 +10,8 @@ import pytest
 
 from femref.exact import Segments, beam_harmonic, rod_harmonic, rod_transient
 from femref.fem import Integrator, Stepper, assemble_beam, assemble_rod, body_nodes, harmonic_response
-from femref.profiles import Piecewise, Uniform
-from femref.signals import HalfSine
+from femref.core.profiles import Piecewise, Uniform
+from femref.core.signals import HalfSine
 from support.convergence import observed_order
 
 L = 8.0

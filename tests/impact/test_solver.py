@@ -7,10 +7,13 @@ import math
 import numpy as np
 import pytest
 
-from femref.impact.scene import Car, Coupler, ImpactScene, ModelRun
-from femref.impact.solver import solve_impact
-from femref.profiles import Uniform
-from femref.scene import Body, FemSettings
+from femref.scene.impact import Car, Coupler, ImpactScene, ModelRun
+from femref.fem import INTEGRATORS
+from femref.impact import initial_end_loads, solve_impact
+from femref.models import model_form
+from femref.core.profiles import Uniform
+from femref.core.body import Body
+from femref.fem.build import FemSettings
 from reduced.couplers import Coupling, KelvinVoigt
 from reduced.rigid import ImpactPair, kelvin_voigt_impact
 
@@ -53,7 +56,12 @@ def two_cars(
 
 
 def run(scene: ImpactScene, dt: float):
-    return solve_impact(scene, scene.runs[0], dt)
+    """Build the cars of the scene's first run by their models and step them: ``(response, cars)``."""
+    integrator = INTEGRATORS[scene.integrator](scene.rho_inf)
+    loads = initial_end_loads(scene)
+    fidelities = scene.runs[0].fidelity
+    cars = [model_form(f, "impact")(car, scene, integrator, dt, loads[i]) for i, (car, f) in enumerate(zip(scene.cars, fidelities))]
+    return solve_impact(scene, cars, dt), cars
 
 
 def observed_orders(errors: list[float]) -> np.ndarray:
@@ -68,7 +76,7 @@ def rms(x: np.ndarray) -> float:
 
 @pytest.mark.parametrize("contact", ["bilateral", "compression_only"])
 def test_rigid_cars_converge_to_the_two_mass_closed_form_at_second_order(contact):
-    """Rigid cars + Kelvin–Voigt coupler = SOURCE-NOTES A1 (reduced.rigid): error ∝ dt², 8e-4 at dt = 2 ms."""
+    """Rigid cars + Kelvin–Voigt coupler = docs/formulas.md §A1 (reduced.rigid): error ∝ dt², 8e-4 at dt = 2 ms."""
     pair = ImpactPair(HAMMER_M * LENGTH, ANVIL_M * LENGTH, 2.2)
     errors = []
     for dt in (2e-3, 1e-3, 5e-4):
@@ -195,3 +203,30 @@ def test_extremes_stay_finite_and_physical(case, fidelity):
     bound = speed * math.sqrt(k * m1 * m2 / (m1 + m2))
     assert 0.0 < np.max(force) < 1.1 * bound + case.get("damping", 3.0e5) * speed
 
+
+
+def test_a_step_that_does_not_converge_ends_the_run_with_its_history(monkeypatch):
+    """Like solve_ivp: a coupler iteration that fails at step 40 gives status −1, a message naming the
+    coupler and the time, the histories up to step 39 and NaN after, on the full time axis."""
+    from femref.impact import couplers as couplers_module
+
+    solve = couplers_module.CouplerSolve.solve
+    calls = {"n": 0}
+
+    def fails_at_step_40(self, predictions):
+        calls["n"] += 1
+        if calls["n"] == 40:
+            raise couplers_module.CouplerConvergenceError(0, "synthetic: Newton cycled")
+        return solve(self, predictions)
+
+    monkeypatch.setattr(couplers_module.CouplerSolve, "solve", fails_at_step_40)
+    dt = 1e-3
+    response, _ = run(two_cars("rigid", end=0.1), dt)
+    assert response.status == -1 and not response.ok
+    assert response.message == "coupler c1 did not converge at t = 0.04 s (step 40 of 100): synthetic: Newton cycled"
+    assert response.steps == 39
+    assert response.time.size == 101 and response.time[-1] == pytest.approx(0.1)
+    force = response.couplers["c1"]["force"]
+    assert np.all(np.isfinite(force[:40])) and np.all(np.isnan(force[40:]))
+    assert np.all(np.isnan(response.sensors["anvil/center"]["acceleration"][40:]))
+    assert math.isfinite(response.energy_balance_error)

@@ -110,7 +110,7 @@ def test_rigid_force_is_mass_times_acceleration() -> None:
 
 
 def test_profile_coefficients_reduce_to_the_uniform_and_even_cases() -> None:
-    """Uniform m, EA: k1 = EA/2l, k2 = −M/2 (SOURCE-NOTES F). Any even profile (here a
+    """Uniform m, EA: k1 = EA/2l, k2 = −M/2 (docs/formulas.md §F). Any even profile (here a
     loaded hopper: 4 t/m outside |x| < l/2, 10 t/m inside, with jumps passed as breakpoints)
     also gives k2 = −M/2, since μ(x) + μ(−x) = M. Linear m and EA: k1 = 1/∫dx/EA and
     k2 = −∫μ/EA dx/∫dx/EA in closed form. All to 1e-10."""
@@ -207,7 +207,7 @@ def test_transient_inversion_with_seeded_noise() -> None:
 
 
 def test_calibrated_fit() -> None:
-    """Least-squares k1, k2 (SOURCE-NOTES F, calibrated form).
+    """Least-squares k1, k2 (docs/formulas.md §F, calibrated form).
 
     (1) Smooth synthetic records (a1: a sin⁴ pulse of 0.3 s; a2 − a1: a smaller, shifted one;
     1 kHz) and F1 = k1 ∬(a2 − a1) + k2 a1 with known k1 = 1.7e8 N/m, k2 = −5.6e4 kg: the

@@ -18,7 +18,7 @@ from reduced.rigid import (
 from support.convergence import observed_order
 
 PAIR = ImpactPair.source_study()  # 119 t at 2.2 m/s against 100 t at rest
-STIFFNESS = 4.0e7  # N/m (DESIGN.md example coupler)
+STIFFNESS = 4.0e7  # N/m (the example coupler of docs/design.md §3)
 
 
 def _damping(zeta: float, pair: ImpactPair = PAIR, stiffness: float = STIFFNESS) -> float:

@@ -44,7 +44,7 @@ def _impact_records(rng: np.random.Generator, n: int, noise: float) -> list[tupl
 
 
 def test_classification_is_right_on_40_noisy_rigid_records() -> None:
-    """SOURCE-NOTES B: 20 free-to-roll and 20 coupled impacts from the rigid models, 2 % noise
+    """docs/formulas.md §B: 20 free-to-roll and 20 coupled impacts from the rigid models, 2 % noise
     (seeded), plus 4 coupled cars at rest hit through the hammer by a third car (a 1 MN,
     0.1 s half-sine) — coupled before and after.
 
@@ -93,7 +93,7 @@ def _gear_closure_record():
 
 
 def test_closure_force_recovered_from_gear_record() -> None:
-    """SOURCE-NOTES A5 on a synthetic gear-closure record (1 kHz; exact answer: the force at
+    """docs/formulas.md §A5 on a synthetic gear-closure record (1 kHz; exact answer: the force at
     the ODE's closure event, 3.24 MN at 31.4 ms; peak 6.4 MN).
 
     Noise-free: within 4 % (measured 3.1 %; closure time 0.8 ms late, asserted 2 ms). With

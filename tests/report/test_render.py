@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from femref.render import RenderUnavailable, offscreen_status, render_space_time
+from femref.report.render import RenderUnavailable, offscreen_status, render_space_time
 
 
 def test_space_time_map_renders_or_degrades_clearly(tmp_path):

@@ -22,12 +22,12 @@ import pytest
 from click.testing import CliRunner
 
 from femref.case import load_case, parse_case, resolved_yaml
-from femref.render import offscreen_status
+from femref.report.render import offscreen_status
 from femref.report import report_command
 from femref.report.html import format_metric
 from femref.results import ModelResult, write_results
-from femref.runner import run_scene
-from femref.scene_builder import scene_from_case
+from femref.run import run_scene
+from femref.scene.build import scene_from_case
 
 from support.paths import CASES
 VOID = {"meta", "img", "br", "hr", "link", "input", "wbr", "col", "area", "base", "source"}
@@ -37,7 +37,7 @@ IMPACT_SENSORS = 5  # hammer: center, front; anvil: rear, center, front
 
 def _run_and_write(case, base_dir: Path, output: Path, extra: list[ModelResult] = ()) -> Path:
     outcome = run_scene(scene_from_case(case, base_dir))
-    write_results(output, resolved_yaml(case), [*outcome.results, *extra], outcome.scores)
+    write_results(output, resolved_yaml(case), [*outcome.results, *extra], outcome.scores, scene=outcome.scene.facts())
     return output
 
 
@@ -171,7 +171,9 @@ def test_impact_page(files, pages):
     assert _score_cell(files["impact"], "ann_fem_mlp", "coupler_force_peak_error_c1") in page
     assert "peak only" in page
     assert "<strong>modal</strong>: FloatingPointError: synthetic failure &lt;in the solver&gt;" in page
-    assert re.search(r"<th>ε</th><td>\d", page)  # recomputed from the stored case
+    with h5py.File(files["impact"]) as h5:
+        epsilon = float(h5["scene"].attrs["epsilon"])
+    assert f"<th>ε</th><td>{epsilon:.3g} " in page  # as the run stored it
     assert "kind: impact" in page and "femref version" in page
 
 
@@ -206,17 +208,31 @@ def test_default_output_next_to_results(files, tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run1.h5", "run1.html"]
 
 
-def test_unbuildable_case_is_reported_not_fatal(files, tmp_path):
-    """A stored case that no longer builds a scene: the page says so instead of ε."""
+def test_report_reads_the_file_and_never_the_case(files, tmp_path):
+    """The page shows the ε the run stored in /scene: a stored case that would no longer validate
+    does not matter (the report never rebuilds the scene)."""
     results = tmp_path / "old.h5"
     shutil.copy(files["harmonic"], results)
     with h5py.File(results, "a") as h5:
         h5.attrs["case_yaml"] = "kind: harmonic\nbody: {type: rod, length: -1.0}\n"
+        epsilon = float(h5["scene"].attrs["epsilon"])
     outcome = CliRunner().invoke(report_command, [str(results)])
     assert outcome.exit_code == 0, outcome.output
     page = (tmp_path / "old.html").read_text(encoding="utf-8")
-    assert re.search(r"<th>ε</th><td>not available: the stored case does not validate: [^<]*body", page)
+    assert f"<th>ε</th><td>{epsilon:.3g} " in page
     _assert_pngs(_images(page), 3)
+
+
+def test_file_without_scene_facts_says_so(files, tmp_path):
+    """A result file without /scene (written before femref stored it): the page says ε is not recorded."""
+    results = tmp_path / "older.h5"
+    shutil.copy(files["harmonic"], results)
+    with h5py.File(results, "a") as h5:
+        del h5["scene"]
+    outcome = CliRunner().invoke(report_command, [str(results)])
+    assert outcome.exit_code == 0, outcome.output
+    page = (tmp_path / "older.html").read_text(encoding="utf-8")
+    assert re.search(r"<th>ε</th><td>not available: this result file does not record it", page)
 
 
 def _not_hdf5(folder: Path) -> Path:

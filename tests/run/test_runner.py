@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from femref.case import parse_case
-from femref.runner import run_scene
-from femref.scene_builder import scene_from_case
+from femref.run import run_scene
+from femref.scene.build import scene_from_case
 
 
 def harmonic_rod(lambdas, models):
@@ -29,7 +29,7 @@ def test_scores_rank_the_models_at_low_frequency():
     rigid, quasi, fem = (scores[m]["acceleration_error_max"] for m in ("rigid", "quasi_rigid", "fem"))
     assert fem < 1e-6
     assert quasi < 1e-3 and quasi < rigid / 10
-    assert rigid == pytest.approx(0.2**2 * 8 / 6, rel=0.05)  # loaded end: M a(l)/F2 = 1 + 8q²/6 + … (DESIGN.md)
+    assert rigid == pytest.approx(0.2**2 * 8 / 6, rel=0.05)  # loaded end: M a(l)/F2 = 1 + 8q²/6 + … (docs/formulas.md §X)
 
 
 def test_fem_is_the_reference_without_exact():

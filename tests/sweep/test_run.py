@@ -18,9 +18,9 @@ from click.testing import CliRunner
 
 from femref.case import CaseError, parse_case
 from femref.cli import main
-from femref.impact.records import acceleration_histories, fixed_length_records, record_times
-from femref.runner import run_scene
-from femref.scene_builder import scene_from_case
+from femref.sensing.records import acceleration_histories, fixed_length_records, record_times
+from femref.run import run_scene
+from femref.scene.build import scene_from_case
 from femref.sweep import SweepInterrupted, load_sweep, parse_sweep, read_sweep, run_sweep
 from femref.sweep import worker
 from femref.sweep.store import FAILED, NOT_RUN, OK, partial_path
@@ -260,16 +260,16 @@ def test_worker_records_run_time_failures(monkeypatch):
     assert worker.run_sample(case_data, str(sweep.base_dir), 20, 20) == {"error": "RuntimeError: the stepper diverged"}
     monkeypatch.undo()
 
-    import femref.impact.runner
+    import femref.run.runner
 
-    solve = femref.impact.runner.solve_impact
+    step = femref.run.runner.step_cars
 
     def fem_fails(scene, run, *args, **kwargs):
         if run.name == "fem":
             raise FloatingPointError("non-finite acceleration")
-        return solve(scene, run, *args, **kwargs)
+        return step(scene, run, *args, **kwargs)
 
-    monkeypatch.setattr(femref.impact.runner, "solve_impact", fem_fails)
+    monkeypatch.setattr(femref.run.runner, "step_cars", fem_fails)
     assert worker.run_sample(case_data, str(sweep.base_dir), 20, 20) == {"error": "model fem failed: FloatingPointError: non-finite acceleration"}
     bad = dict(case_data, time={"end": -1.0})
     assert worker.run_sample(bad, str(sweep.base_dir), 20, 20)["error"].startswith("CaseError: <sample>: time.end: must be > 0")

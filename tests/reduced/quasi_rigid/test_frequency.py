@@ -1,6 +1,6 @@
 """Quasi-rigid models in the frequency domain against closed forms and the exact solutions.
 
-Problems: free Voigt rods and beams on [−l, l] loaded at their ends (DESIGN.md §2),
+Problems: free Voigt rods and beams on [−l, l] loaded at their ends (docs/design.md §2),
 factor e^{−iωt}. The two-term model must (i) reproduce the printed-and-corrected
 low-frequency constants exactly and (ii) differ from the exact response by O(λ⁴)
 (rod: q⁴ with q² = λ²/(1 − iλβ); beam: q⁸ with q⁴ = λ²/(1 − iλβ), i.e. λ⁴ too).

@@ -1,6 +1,6 @@
 """Quasi-rigid models in the time domain: recursive filters, limits, and errors against exact responses.
 
-Problems: free Voigt rods and beams on [−l, l] (DESIGN.md §2) from rest, loaded at their
+Problems: free Voigt rods and beams on [−l, l] (docs/design.md §2) from rest, loaded at their
 ends by pulses. ε = (T_wave/T_load)²·|h(1/T_load)| with T_load = π·rms(F)/rms(Ḟ) (the
 pulse length for a half-sine). References: femref.exact.rod_transient (half-sines) and
 FFT synthesis of the exact frequency responses of damped bodies (smooth pulses).
@@ -160,7 +160,7 @@ def test_half_sine_rod_error_rates_are_limited_by_the_kinks():
     ε^0.6 (window 0.4–0.8; measured 0.59), max displacement error / (A T²/M) like ε^1.5
     (window 1.3–1.8; measured 1.57). The returned ε is ``(T_wave/T)²/|1 − iτ/T|`` to 2 %."""
     Segments, _, _, rod_transient = exact_api()
-    from femref.signals import HalfSine
+    from femref.core.signals import HalfSine
 
     cA = 0.3 * L * np.sqrt(M_ROD * EA)
     segments = Segments(np.array([-L, L]), M_ROD, EA, cA)

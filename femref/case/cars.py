@@ -1,0 +1,71 @@
+"""The ``cars`` of an impact case: rods in line order, their initial velocities and accelerometers.
+
+Each car has a unique name (probes are named ``<car>/<sensor>``), a rod body exactly as
+in transient cases (:mod:`femref.case.bodies`) and sensors on the car; an impact needs
+at least two cars.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from typing import Annotated, Any
+
+from pydantic import AfterValidator, Field, ValidationInfo, field_validator
+from pydantic_core import PydanticCustomError
+
+from femref.case.bodies import RodBody
+from femref.case.errors import Problem, problems_error
+from femref.case.fields import CaseModel, ProbeName, Real, _duplicates, _name_rule
+
+__all__ = ["CarName", "CarSpec"]
+
+
+CarName = Annotated[str, AfterValidator(_name_rule("car"))]
+
+
+class CarSpec(CaseModel):
+    """One car: a rod body (longitudinal impact), its initial velocity and its accelerometers."""
+
+    name: CarName = Field(description="Car name, unique; letters, digits, '_', '-', '.'. Probes are named <car>/<sensor>. Required.")
+    body: RodBody = Field(description="The car body: a rod (type: rod) exactly as in transient cases, any profiles. Required.")
+    velocity: Real = Field(description="Initial velocity (m/s), finite, positive toward the front of the line (+x). Required.")
+    sensors: dict[ProbeName, Real] = Field(
+        default_factory=lambda: {"center": 0.0},
+        description="Accelerometers: name → position x (m) within [−l, l]; at least one. Default {center: 0}.",
+    )
+
+    @field_validator("body", mode="wrap")
+    @classmethod
+    def _a_rod(cls, value: Any, handler: Callable[[Any], Any]) -> Any:
+        """Refuse beams before checking their keys: an impact car is loaded along its axis."""
+        if isinstance(value, Mapping):
+            if "type" not in value:
+                raise problems_error([Problem(("type",), "required key is missing; impact cars are rods (type: rod)")])
+            if value["type"] == "beam":
+                raise problems_error([Problem(("type",), "impact cars are rods (longitudinal impact)", "beam")])
+        return handler(value)
+
+    @field_validator("sensors", mode="after")
+    @classmethod
+    def _sensors_on_the_car(cls, value: dict[str, float], info: ValidationInfo) -> dict[str, float]:
+        if not value:
+            raise PydanticCustomError("sensors_empty", "must name at least one sensor (or be left out for {default})", {"default": "{center: 0}"})
+        body = info.data.get("body")
+        if body is None:
+            return value
+        l = body.half_length  # noqa: E741
+        rule = f"must lie on the car, |x| <= l = {l} m (within [{-l}, {l}])"
+        problems = [Problem((name,), rule, x) for name, x in value.items() if abs(x) > l]
+        if problems:
+            raise problems_error(problems)
+        return value
+
+
+def _cars_rule(cars: tuple[CarSpec, ...]) -> tuple[CarSpec, ...]:
+    """At least two cars, unique names."""
+    if len(cars) < 2:
+        raise problems_error([Problem((), f"an impact needs at least 2 cars, in line order (rear to front); got {len(cars)}")])
+    problems = _duplicates([car.name for car in cars], "car", lambda i: (i, "name"))
+    if problems:
+        raise problems_error(problems)
+    return cars

@@ -1,0 +1,242 @@
+"""The sensor records of an impact case and what reads them: ``measurement`` and ``estimators``.
+
+``measurement`` (:class:`MeasurementSpec`) makes accelerometer records from the model's
+sensor accelerations. An ``estimators`` entry is an inverse estimator's name
+(``femref.core.catalog.ESTIMATORS``) or a saved network ``{name: ann_<name>, network:
+file.npz}`` (:class:`AnnEstimatorSpec`, read when the case is loaded). The checks of
+the estimators against the scene — sensors of ``inverse_quasi_rigid``, a network's
+contract against the couplers, probes, ``time.end`` and measurement — are here too;
+the case runs them once the keys they relate are valid.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Annotated, Any, Union
+
+from pydantic import AfterValidator, BeforeValidator, Discriminator, Field, PrivateAttr, Tag, ValidationInfo, field_validator, model_validator
+from pydantic_core import PydanticCustomError
+
+from femref.case.cars import CarSpec
+from femref.case.couplers import CouplerSpec
+from femref.case.errors import Problem, did_you_mean, problems_error
+from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, _name_rule, _reject_bool, resolve_case_path
+from femref.core.catalog import ESTIMATORS as ESTIMATOR_NAMES
+from femref.sensing.network import NetworkContract, NetworkFileError, read_network
+
+__all__ = ["QUASI_RIGID_INVERSE_SENSORS", "AnnEstimatorSpec", "EstimatorEntry", "MeasurementSpec"]
+
+#: Minimum sensors on the front car of every coupler that ``inverse_quasi_rigid`` needs.
+QUASI_RIGID_INVERSE_SENSORS = 2
+
+
+# ---------------------------------------------------------------------------------------------
+# Measurement
+
+
+class MeasurementSpec(CaseModel):
+    """How accelerometer records are made from the model's sensor accelerations:
+    anti-alias low-pass, resampling at ``rate``, then white noise."""
+
+    rate: PositiveReal | None = Field(default=None, description="Sampling rate of the records (Hz), > 0. Default null: the model's time grid.")
+    lowpass: PositiveReal | None = Field(
+        default=None, description="Low-pass corner frequency (Hz), > 0 and below rate/2 (Nyquist) when rate is given. Default null: no filter."
+    )
+    noise: NonNegativeReal = Field(default=0.0, description="Standard deviation of added white noise (m/s²), >= 0. Default 0.")
+    seed: Annotated[int, BeforeValidator(_reject_bool), Field(ge=0)] = Field(
+        default=0, description="Seed of the noise generator, an integer >= 0. Default 0."
+    )
+
+    @model_validator(mode="after")
+    def _below_nyquist(self) -> "MeasurementSpec":
+        if self.rate is not None and self.lowpass is not None and self.lowpass >= 0.5 * self.rate:
+            rule = f"must be below the Nyquist frequency rate/2 = {0.5 * self.rate:g} Hz"
+            raise problems_error([Problem(("lowpass",), rule, self.lowpass)])
+        return self
+
+
+# ---------------------------------------------------------------------------------------------
+# Estimators
+
+
+def _known_estimator(name: str) -> str:
+    """A plain ``estimators`` entry names a registered inverse estimator (``ESTIMATOR_NAMES``)."""
+    if name not in ESTIMATOR_NAMES:
+        hint = did_you_mean(name, ESTIMATOR_NAMES)
+        if not hint and _is_network_name(name):
+            hint = f" (a network estimator is a mapping {{name: {name}, network: file.npz}})"
+        raise PydanticCustomError(
+            "estimator_name",
+            "unknown estimator{hint}; known estimators: {known}, or a network {network}",
+            {"hint": hint, "known": ", ".join(ESTIMATOR_NAMES), "network": "{name: ann_<name>, network: file.npz}"},
+        )
+    return name
+
+
+def _is_network_name(name: str) -> bool:
+    return name == "ann" or name.startswith("ann_")
+
+
+def _network_name(name: str) -> str:
+    """A network estimator's result-group name: ``ann`` or ``ann_<name>`` (docs/design.md §4)."""
+    _name_rule("estimator")(name)
+    if not _is_network_name(name) or name == "ann_":
+        raise PydanticCustomError("network_name", "network estimators are named ann or ann_<name> (docs/design.md §4)")
+    return name
+
+
+class AnnEstimatorSpec(CaseModel):
+    """A trained network (an ``ann.storage`` file) that estimates one coupler's peak force from the fem
+    sensor records (:mod:`femref.sensing.network`).
+
+    The file is read and its metadata contract checked when the case is loaded; the
+    case then checks the contract against the scene (coupler, probes, time.end,
+    measurement). A relative ``network`` path is relative to the case file's directory
+    and is stored resolved (absolute), so the resolved case reads the same file from anywhere.
+    """
+
+    name: Annotated[str, AfterValidator(_network_name)] = Field(description="Result-group name: ann or ann_<name>, unique. Required.")
+    network: Path = Field(description="Network file (ann.storage .npz), relative to the case file's directory. Required.")
+    _contract: NetworkContract | None = PrivateAttr(default=None)
+
+    @field_validator("network", mode="after")
+    @classmethod
+    def _resolve(cls, path: Path, info: ValidationInfo) -> Path:
+        return resolve_case_path(path, info)
+
+    @model_validator(mode="after")
+    def _readable(self) -> "AnnEstimatorSpec":
+        try:
+            _, self._contract = read_network(self.network)
+        except NetworkFileError as error:
+            raise problems_error([Problem(("network",), str(error))]) from None
+        return self
+
+    @property
+    def contract(self) -> NetworkContract:
+        """The network file's contract, as read at validation."""
+        assert self._contract is not None  # set by the validator
+        return self._contract
+
+
+def _estimator_kind(value: Any) -> str | None:
+    """The union tag of an ``estimators`` entry: an inverse estimator's name or a network mapping."""
+    if isinstance(value, str):
+        return "inverse"
+    if isinstance(value, (Mapping, AnnEstimatorSpec)):
+        return "ann"  # a tag no mapping has as a key: error key paths drop union tags absent from the input
+    return None
+
+
+def _estimator_shape(value: Any) -> Any:
+    if _estimator_kind(value) is None:
+        raise PydanticCustomError("estimator_shape", "must be an estimator name or a network {shape}", {"shape": "{name: ann_<name>, network: file.npz}"})
+    return value
+
+
+#: One entry of ``estimators``: an inverse estimator's name or an :class:`AnnEstimatorSpec`.
+EstimatorEntry = Annotated[
+    Union[Annotated[Annotated[str, AfterValidator(_known_estimator)], Tag("inverse")], Annotated[AnnEstimatorSpec, Tag("ann")]],  # noqa: UP007
+    Discriminator(_estimator_kind),
+    BeforeValidator(_estimator_shape),
+]
+
+
+def _estimator_name(entry: str | AnnEstimatorSpec) -> str:
+    """The result-group name of an estimator."""
+    return entry if isinstance(entry, str) else entry.name
+
+
+def _estimators_rule(entries: tuple[str | AnnEstimatorSpec, ...]) -> tuple[str | AnnEstimatorSpec, ...]:
+    """Each estimator once: names unique (a name listed twice, or two networks of one name)."""
+    problems = []
+    names = [_estimator_name(entry) for entry in entries]
+    for i, (entry, name) in enumerate(zip(entries, names)):
+        if name not in names[:i]:
+            continue
+        if isinstance(entry, str):
+            problems.append(Problem((i,), "is listed twice", name))
+        else:
+            problems.append(Problem((i, "name"), f"duplicate estimator name; {name!r} is already used at index {names.index(name)}", name))
+    if problems:
+        raise problems_error(problems)
+    return entries
+
+
+# ---------------------------------------------------------------------------------------------
+# Estimators against the scene
+
+
+def _quasi_rigid_sensor_problems(at: int, cars: tuple[CarSpec, ...], couplers: tuple[CouplerSpec, ...]) -> list[Problem]:
+    """``inverse_quasi_rigid`` differentiates the acceleration along the front car of each coupler."""
+    by_name = {car.name: car for car in cars}
+    problems = []
+    for coupler in couplers:
+        front = by_name[coupler.between[1]]
+        if len(front.sensors) < QUASI_RIGID_INVERSE_SENSORS:
+            rule = (
+                f"inverse_quasi_rigid needs >= {QUASI_RIGID_INVERSE_SENSORS} sensors on the front car of every coupler; "
+                f"car {front.name!r} (front of coupler {coupler.name}) has {len(front.sensors)}: {', '.join(front.sensors)}"
+            )
+            problems.append(Problem((at,), rule, "inverse_quasi_rigid"))
+    return problems
+
+
+def _network_problems(contract: NetworkContract, cars: tuple[CarSpec, ...], couplers: tuple[CouplerSpec, ...] | None, data: Mapping[str, Any]) -> list[Problem]:
+    """A network's contract against the scene: its coupler and probes exist, its records fit in
+    ``time.end``, and the case measures the records as the training records were measured
+    (same chain rate and low-pass; noise and seed may differ — testing on noisier records is legitimate).
+
+    ``data`` holds the case keys validated so far; a key that failed is not compared.
+    """
+    problems = []
+    coupler_names = [c.name for c in couplers or ()]
+    if couplers is not None and contract.coupler not in coupler_names:
+        rule = f"the network estimates coupler {contract.coupler!r}, which this case does not have; couplers: {', '.join(coupler_names)}"
+        problems.append(Problem((), rule))
+    probes = [f"{car.name}/{sensor}" for car in cars for sensor in car.sensors]
+    missing = [p for p in contract.probes if p not in probes]
+    if missing:
+        rule = f"the network reads probe(s) {', '.join(missing)}, which are not sensors of this case; probes: {', '.join(probes)}"
+        problems.append(Problem((), rule))
+    car_names = [car.name for car in cars]
+    unknown_cars = [car for car in contract.mass_inputs if car not in car_names]
+    if unknown_cars:
+        rule = f"the network takes the mass of car(s) {', '.join(unknown_cars)}, which this case does not have; cars: {', '.join(car_names)}"
+        problems.append(Problem((), rule))
+    time = data.get("time")
+    if time is not None and contract.record_end > time.end:
+        problems.append(Problem((), f"the network reads records over [0, {contract.record_end:g}] s, beyond time.end = {time.end:g} s"))
+    if "measurement" in data:
+        problem = _chain_problem(contract, data["measurement"])
+        if problem is not None:
+            problems.append(Problem((), problem))
+    return problems
+
+
+def _chain_problem(contract: NetworkContract, measurement: MeasurementSpec | None) -> str | None:
+    """Why the case's records are not measured like the network's training records, or None."""
+    trained = contract.measurement
+    if trained is None:
+        if measurement is not None:
+            return "the network was trained on the model's own sensor accelerations (record_source model); this case measures them (measurement:) — remove measurement or use a network trained on measured records"
+        return None
+    chain = f"rate {_hz(trained.rate)}, lowpass {_hz(trained.lowpass)}"
+    if measurement is None:
+        return f"the network was trained on measured records ({chain}); add that measurement: to the case"
+    if not (_same(measurement.rate, trained.rate) and _same(measurement.lowpass, trained.lowpass)):
+        return (
+            f"the network was trained on records measured at {chain}; this case measures at rate {_hz(measurement.rate)}, "
+            f"lowpass {_hz(measurement.lowpass)} (rate and lowpass must match; noise and seed may differ)"
+        )
+    return None
+
+
+def _same(a: float | None, b: float | None) -> bool:
+    return a is None and b is None or (a is not None and b is not None and math.isclose(a, b, rel_tol=1e-9))
+
+
+def _hz(value: float | None) -> str:
+    return "null" if value is None else f"{value:g} Hz"

@@ -1,0 +1,25 @@
+"""The case kinds: the ``kind:`` key of a case file, the one module that knows every kind.
+
+* ``harmonic``, ``transient``: one body under end loads (:mod:`femref.case.single`);
+* ``impact``: cars in a line joined by couplers (:mod:`femref.case.impact`).
+
+:data:`Case` is their union, discriminated on ``kind``; the loader validates a case
+file into it.
+"""
+
+from collections.abc import Mapping
+from typing import Annotated, Union
+
+from pydantic import Field
+
+from femref.case.base import SceneCase
+from femref.case.impact import ImpactCase
+from femref.case.single import HarmonicCase, TransientCase
+
+__all__ = ["CASE_KINDS", "Case"]
+
+#: Case kinds by case-file name.
+CASE_KINDS: Mapping[str, type[SceneCase]] = {"harmonic": HarmonicCase, "transient": TransientCase, "impact": ImpactCase}
+
+#: Any case, discriminated on ``kind``.
+Case = Annotated[Union[HarmonicCase, TransientCase, ImpactCase], Field(discriminator="kind")]  # noqa: UP007

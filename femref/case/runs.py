@@ -1,0 +1,172 @@
+"""The model runs of an impact case: ``models``, ``modal`` and ``tolerance``.
+
+A ``models`` entry is a model name (a uniform run: every car at that fidelity) or a
+mixed-fidelity run ``{name, fidelity, cars: {car: fidelity}}`` (:class:`ModelRunSpec`);
+the fidelities are the models that serve impacts (``femref.core.catalog.FIDELITIES``).
+``modal`` sets the modal car model; ``tolerance`` (:class:`ToleranceSpec`) asks for the
+cheapest model expected within it instead of the ``models`` list (femref.choice).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Annotated, Any, Literal, Union
+
+from pydantic import AfterValidator, BeforeValidator, Discriminator, Field, Tag, model_validator
+from pydantic_core import PydanticCustomError
+
+from femref.case.capabilities import MODELS
+from femref.case.errors import Problem, did_you_mean, problems_error
+from femref.case.fields import CaseModel, _duplicates, _name_rule, _reject_bool
+from femref.core.catalog import ESTIMATORS as ESTIMATOR_NAMES
+from femref.core.catalog import FIDELITIES, SCORES_GROUP
+
+__all__ = [
+    "DEFAULT_MODELS",
+    "RESERVED_RUN_NAMES",
+    "TOLERANCE_OUTPUTS",
+    "Fidelity",
+    "ModalSettings",
+    "ModelRunEntry",
+    "ModelRunSpec",
+    "RunName",
+    "ToleranceSpec",
+]
+
+#: Models run when a case gives no ``models`` list.
+DEFAULT_MODELS: tuple[str, ...] = ("fem", "quasi_rigid", "rigid")
+#: Result-group names a mixed run may not take (docs/design.md §4: model names, ``ann_<name>``, scores).
+RESERVED_RUN_NAMES: tuple[str, ...] = (*MODELS, *ESTIMATOR_NAMES, SCORES_GROUP)
+
+RunName = Annotated[str, AfterValidator(_name_rule("run"))]
+
+
+def _fidelity(name: str) -> str:
+    """A per-car fidelity, with a hint for misspellings."""
+    if name not in FIDELITIES:
+        raise PydanticCustomError(
+            "fidelity", "unknown fidelity{hint}; a car is one of {known}", {"hint": did_you_mean(name, FIDELITIES), "known": ", ".join(FIDELITIES)}
+        )
+    return name
+
+
+#: How one car is modelled within a run: one of ``femref.core.catalog.FIDELITIES``.
+Fidelity = Annotated[str, AfterValidator(_fidelity)]
+
+
+# ---------------------------------------------------------------------------------------------
+# Model runs
+
+
+class ModelRunSpec(CaseModel):
+    """A mixed-fidelity model run: each car modelled at ``fidelity`` unless overridden in ``cars``."""
+
+    name: RunName = Field(description="Result-group name, unique among the runs; not a model or estimator name (unless this is that model's uniform run). Required.")
+    fidelity: Fidelity = Field(description=f"Fidelity of every car not in cars: one of {', '.join(FIDELITIES)}. Required.")
+    cars: dict[str, Fidelity] = Field(default_factory=dict, description="Per-car overrides: car name → fidelity. Default {} (no overrides).")
+
+    @model_validator(mode="after")
+    def _not_a_reserved_name(self) -> "ModelRunSpec":
+        if self.name in RESERVED_RUN_NAMES and not self._is_uniform_run_of(self.name):
+            if self.name in FIDELITIES:
+                rule = f"{self.name!r} names the uniform {self.name} run; give a mixed run another name (e.g. {self.fidelity}_with_...)"
+            else:
+                rule = f"{self.name!r} is a reserved result-group name ({', '.join(RESERVED_RUN_NAMES)}); choose another"
+            raise problems_error([Problem(("name",), rule, self.name)])
+        if self.name.startswith("ann_"):
+            raise problems_error([Problem(("name",), "names starting with 'ann_' are reserved for network estimators (ann_<name>)", self.name)])
+        return self
+
+    def _is_uniform_run_of(self, fidelity: str) -> bool:
+        return self.fidelity == fidelity and all(f == fidelity for f in self.cars.values())
+
+    def fidelities(self, car_names: list[str]) -> tuple[str, ...]:
+        """The fidelity of each car, in line order."""
+        return tuple(self.cars.get(name, self.fidelity) for name in car_names)
+
+
+def _known_model(name: str) -> str:
+    """A plain ``models`` entry names a registered model (whether it can serve is checked on the whole case)."""
+    if name not in MODELS:
+        raise PydanticCustomError(
+            "model_name", "unknown model{hint}; known models: {known}", {"hint": did_you_mean(name, MODELS), "known": ", ".join(MODELS)}
+        )
+    return name
+
+
+def _run_kind(value: Any) -> str | None:
+    """The union tag of a ``models`` entry: a plain model name or a mixed-run mapping."""
+    if isinstance(value, str):
+        return "plain"
+    if isinstance(value, (Mapping, ModelRunSpec)):
+        return "mixed"
+    return None
+
+
+def _run_shape(value: Any) -> Any:
+    """Refuse an entry that is neither (pydantic would report a missing tag instead)."""
+    if _run_kind(value) is None:
+        raise PydanticCustomError("run_shape", "must be a model name or a mapping {shape}", {"shape": "{name, fidelity, cars}"})
+    return value
+
+
+#: One entry of ``models``: a model name (a uniform run) or a :class:`ModelRunSpec`.
+ModelRunEntry = Annotated[
+    Union[Annotated[Annotated[str, AfterValidator(_known_model)], Tag("plain")], Annotated[ModelRunSpec, Tag("mixed")]],  # noqa: UP007
+    Discriminator(_run_kind),
+    BeforeValidator(_run_shape),
+]
+
+
+def _run_name(entry: str | ModelRunSpec) -> str:
+    """The result-group name of a run: the model name of a uniform run, the given name of a mixed one."""
+    return entry if isinstance(entry, str) else entry.name
+
+
+def _runs_rule(runs: tuple[str | ModelRunSpec, ...]) -> tuple[str | ModelRunSpec, ...]:
+    """At least one run; run names unique."""
+    if not runs:
+        raise PydanticCustomError("models_empty", "must list at least one model run ({known})", {"known": ", ".join(FIDELITIES)})
+    problems = _duplicates([_run_name(run) for run in runs], "run", lambda i: (i,))
+    if problems:
+        raise problems_error(problems)
+    return runs
+
+
+def _fidelities(run: str | ModelRunSpec, car_names: list[str]) -> tuple[str, ...]:
+    """Per-car fidelities of a run; a plain model name models every car alike."""
+    return (run,) * len(car_names) if isinstance(run, str) else run.fidelities(car_names)
+
+
+# ---------------------------------------------------------------------------------------------
+# Modal settings, tolerance
+
+
+class ModalSettings(CaseModel):
+    """The modal car model: rigid mode, ``modes`` free-free elastic modes and a static correction."""
+
+    modes: Annotated[int, BeforeValidator(_reject_bool), Field(ge=1)] = Field(
+        default=4, description="Elastic modes kept per modal car, an integer >= 1. Default 4."
+    )
+
+
+#: Outputs a tolerance may be set on (femref.choice.estimates.OUTPUTS; kept here so the case needs no solver import).
+TOLERANCE_OUTPUTS: tuple[str, ...] = ("peak_coupler_force", "coupler_force")
+
+
+class ToleranceSpec(CaseModel):
+    """The accuracy the run must reach: ``femref run`` then chooses the cheapest model expected
+    to meet it (femref.choice). A bare number is ``{value: number}``."""
+
+    value: Annotated[float, BeforeValidator(_reject_bool), Field(gt=0.0, lt=1.0, allow_inf_nan=False)] = Field(
+        description="Largest acceptable relative error of the output, 0 < value < 1 (0.01 is 1 %). Required."
+    )
+    output: Literal[TOLERANCE_OUTPUTS] = Field(  # type: ignore[valid-type]
+        default="peak_coupler_force",
+        description="What the tolerance is on: peak_coupler_force (peak compression, worst coupler) or coupler_force (force history, rms). Default peak_coupler_force.",
+    )
+
+    @model_validator(mode="before")
+    @classmethod
+    def _bare_number(cls, data: Any) -> Any:
+        return {"value": data} if isinstance(data, (int, float)) and not isinstance(data, bool) else data

@@ -1,0 +1,169 @@
+"""End-load histories of a transient case: a number or ``{half_sine|ramp_step|csv: …}``.
+
+Registry :data:`SIGNALS`; each spec has ``build(base_dir) -> femref.core.signals``
+object. A CSV file is read and checked when the case is loaded, so a missing or broken
+file is a case error; its relative path resolves against the case file's directory
+(:func:`~femref.case.fields.resolve_case_path`).
+"""
+
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Annotated, Any, ClassVar
+
+import numpy as np
+from pydantic import Field, PlainValidator, ValidationInfo, field_validator, model_serializer, model_validator
+from pydantic_core import PydanticCustomError
+
+from femref.case.errors import Problem, problems_error
+from femref.case.fields import NonNegativeReal, PositiveReal, Real, TaggedSpec, _is_number, _tagged_union, resolve_case_path
+from femref.core import signals
+
+__all__ = [
+    "SIGNALS",
+    "AnySignal",
+    "ConstantSignal",
+    "CsvSignal",
+    "HalfSineSignal",
+    "RampStepSignal",
+    "SignalSpec",
+]
+
+
+class SignalSpec(TaggedSpec):
+    """An end-load history ``f(t)`` (N or N·m), built into a ``femref.core.signals`` object."""
+
+    def build(self, base_dir: Path | None = None) -> signals.Signal:
+        """The signal object; ``base_dir`` resolves a relative CSV path (default: working directory)."""
+        raise NotImplementedError
+
+    @property
+    def is_zero(self) -> bool:
+        """True when the history is zero at all times (as far as known without reading files)."""
+        return False
+
+
+class ConstantSignal(SignalSpec):
+    """A constant load switched on at ``t = 0`` (a step); written as a plain number."""
+
+    tag: ClassVar[str] = "constant"
+    value: Real = Field(description="Load after t = 0 (N or N·m). Required.")
+
+    @classmethod
+    def _shorthand(cls, data: Any) -> Any:
+        return {"value": data} if _is_number(data) else data
+
+    @model_serializer(mode="wrap")
+    def _serialize(self, handler: Callable[[Any], Any]) -> Any:
+        return self.value
+
+    def build(self, base_dir: Path | None = None) -> signals.Signal:
+        return signals.Constant(self.value)
+
+    @property
+    def is_zero(self) -> bool:
+        return self.value == 0.0
+
+
+class HalfSineSignal(SignalSpec):
+    """``A sin(π (t − start)/duration)`` during the pulse, zero elsewhere."""
+
+    tag: ClassVar[str] = "half_sine"
+    amplitude: Real = Field(description="Peak load A (N or N·m). Required.")
+    duration: PositiveReal = Field(description="Pulse length (s), > 0. Required.")
+    start: NonNegativeReal = Field(default=0.0, description="Pulse start (s), >= 0. Default 0.")
+
+    def build(self, base_dir: Path | None = None) -> signals.Signal:
+        return signals.HalfSine(self.amplitude, self.duration, self.start)
+
+    @property
+    def is_zero(self) -> bool:
+        return self.amplitude == 0.0
+
+
+class RampStepSignal(SignalSpec):
+    """A linear rise from 0 at ``start`` to ``amplitude`` at ``start + rise``, then held."""
+
+    tag: ClassVar[str] = "ramp_step"
+    amplitude: Real = Field(description="Held load (N or N·m). Required.")
+    rise: NonNegativeReal = Field(description="Rise time (s), >= 0 (0 is a step). Required.")
+    start: NonNegativeReal = Field(default=0.0, description="Start of the rise (s), >= 0. Default 0.")
+
+    def build(self, base_dir: Path | None = None) -> signals.Signal:
+        return signals.RampStep(self.amplitude, self.rise, self.start)
+
+    @property
+    def is_zero(self) -> bool:
+        return self.amplitude == 0.0
+
+
+def _csv_column(value: Any) -> int | str:
+    if isinstance(value, int) and not isinstance(value, bool) and value >= 0:
+        return value
+    if isinstance(value, str) and value.strip():
+        return value
+    raise PydanticCustomError("csv_column", "must be a column name or a 0-based column index")
+
+
+CsvColumn = Annotated[int | str, PlainValidator(_csv_column)]
+
+
+class CsvSignal(SignalSpec):
+    """Samples from a CSV file, interpolated linearly, zero outside the recorded times.
+
+    The file is read and checked when the case is loaded. A relative ``path`` is
+    relative to the case file's directory and is stored resolved (absolute), so the
+    resolved case reads the same file from anywhere.
+    """
+
+    tag: ClassVar[str] = "csv"
+    path: Path = Field(description="CSV file, relative to the case file's directory. Required.")
+    time_column: CsvColumn = Field(default=0, description="Time column (s): header name or 0-based index. Default 0.")
+    value_column: CsvColumn = Field(default=1, description="Load column (N or N·m): header name or 0-based index. Default 1.")
+
+    @field_validator("path", mode="after")
+    @classmethod
+    def _resolve(cls, path: Path, info: ValidationInfo) -> Path:
+        return resolve_case_path(path, info)
+
+    @model_validator(mode="after")
+    def _readable(self) -> "CsvSignal":
+        problem = self._file_problem()
+        if problem is not None:
+            raise problems_error([Problem(("path",), problem)])
+        return self
+
+    def _file_problem(self) -> str | None:
+        try:
+            times, values = signals.read_csv_columns(self.path, self.time_column, self.value_column)
+        except FileNotFoundError:
+            return f"CSV file {self.path} does not exist"
+        except OSError as error:
+            return f"cannot read CSV file {self.path}: {error.strerror or error}"
+        except ValueError as error:  # empty, missing column, a cell that is not a number
+            return str(error)
+        if times.size < 2:
+            return f"CSV file {self.path} needs two or more samples, has {times.size}"
+        for name, column in (("time", times), ("value", values)):
+            bad = np.flatnonzero(~np.isfinite(column))
+            if bad.size:
+                return f"CSV file {self.path}: {name} in data row {bad[0] + 1} is not a finite number ({column[bad[0]]})"
+        steps = np.flatnonzero(np.diff(times) <= 0.0)
+        if steps.size:
+            k = steps[0]
+            return f"CSV file {self.path}: time must increase strictly; data row {k + 2} has t = {times[k + 1]} after t = {times[k]}"
+        return None
+
+    def build(self, base_dir: Path | None = None) -> signals.Signal:
+        path = self.path if self.path.is_absolute() else Path(base_dir or Path.cwd()) / self.path
+        return signals.Tabulated.from_csv(path, self.time_column, self.value_column)
+
+
+#: Load-signal kinds by case-file name ("constant" is written as a plain number).
+SIGNALS: Mapping[str, type[SignalSpec]] = {
+    "constant": ConstantSignal,
+    "half_sine": HalfSineSignal,
+    "ramp_step": RampStepSignal,
+    "csv": CsvSignal,
+}
+
+AnySignal = _tagged_union(SIGNALS, "signal kind", number_tag="constant")

@@ -1,0 +1,13 @@
+"""The one runner, and what every caller of it shares.
+
+* :mod:`.runner` — :func:`run_scene` (every model of a scene, estimators, scores) and
+  :func:`run_model` (one impact run at a given step);
+* :mod:`.capture` — the never-raising call that times a model and records its failure;
+* :mod:`.timestep` — every automatic time-step rule;
+* :mod:`.scoring` — every score against the reference, one naming;
+* :mod:`.resolutions` — the element and mode ladders the bench and the model choice climb.
+"""
+
+from femref.run.runner import RunOutcome, run_model, run_scene
+
+__all__ = ["RunOutcome", "run_model", "run_scene"]

@@ -1,0 +1,190 @@
+"""The one runner: every model of a scene, of any kind, then the estimators, then the scores.
+
+:func:`run_scene` serves ``femref run``, sweeps and studies; :func:`run_model` runs one
+model (one impact run at a given step) for the choice ladder and the bench. Every model
+goes through :func:`femref.run.capture.capture`: a failure is recorded as the model's
+status with its message, and the other models still run.
+
+* **Single body** (harmonic, transient): every model on the same axis — the frequencies,
+  or the time grid of the one resolved step (:func:`femref.run.timestep.single_body_time_step`)
+  — so the scores compare sample by sample; the reference is ``exact`` where it runs, else ``fem``.
+* **Impact**: each run's cars are built by their models (:func:`femref.models.model_form`)
+  and stepped together (:func:`femref.impact.solve_impact`), each run at the step its own
+  cars need (:func:`femref.run.timestep.impact_time_step`); a run whose coupler iteration
+  fails keeps its histories up to the failing step and is recorded as failed with the time.
+  Sensor records go through the measurement chain (:mod:`femref.sensing.measurement`) when
+  the scene has one; the estimators read the fem run's records — measured if so — as a
+  railroad's accelerometers would deliver them: the inverse estimators
+  (:mod:`femref.models.inverse`) give coupler force histories, the network estimators
+  (:class:`femref.sensing.network.AnnEstimator`) the peak force of one coupler.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import numpy as np
+
+from femref.core import catalog
+from femref.fem import INTEGRATORS
+from femref.impact import ImpactResponse, initial_end_loads, solve_impact
+from femref.models import Progress, model_form
+from femref.models.inverse import ESTIMATORS
+from femref.results import ModelResult
+from femref.run.capture import capture
+from femref.run.scoring import score_results
+from femref.run.timestep import impact_time_step, single_body_time_step
+from femref.scene import ImpactScene, ModelRun, Scene
+from femref.sensing.measurement import measure
+from femref.sensing.records import acceleration_histories
+
+ProgressFor = Callable[[str], "Progress | None"]
+
+
+@dataclass
+class RunOutcome:
+    """The scene as run (its step resolved), every result in run order, and the scores against the reference."""
+
+    scene: Scene | ImpactScene
+    results: list[ModelResult]
+    scores: dict[str, dict[str, Any]]
+
+    @property
+    def failed(self) -> list[ModelResult]:
+        return [r for r in self.results if not r.ok]
+
+
+def run_scene(scene: Scene | ImpactScene, progress_for: ProgressFor | None = None) -> RunOutcome:
+    """Run every model of ``scene`` in order (then, for impacts, the estimators) and score them;
+    ``progress_for(model)`` may supply a progress callback."""
+    def progress(name: str) -> Progress | None:
+        return progress_for(name) if progress_for else None
+
+    if isinstance(scene, ImpactScene):
+        results = [run_model(scene, run, progress=progress(run.name)) for run in scene.runs]
+        if scene.measurement is not None:
+            for result in results:
+                if result.ok:
+                    add_measured_records(scene, result)
+        reference = next((r for r in results if r.model == catalog.REFERENCES["impact"][0] and r.ok), None)
+        if reference is not None:
+            results.extend(run_estimators(scene, reference))
+            results.extend(run_networks(scene, reference))
+        return RunOutcome(scene, results, score_results(scene.kind, results))
+    dt, dt_rule = single_body_time_step(scene) if scene.kind == "transient" else (None, None)
+    scene = dataclasses.replace(scene, dt=dt) if dt is not None else scene
+    results = []
+    for name in scene.models:
+        result = run_single_body_model(scene, name, progress(name))
+        if dt_rule and result.ok:
+            result.settings.setdefault("dt", scene.dt)
+            result.settings["dt_rule"] = dt_rule
+        results.append(result)
+    return RunOutcome(scene, results, score_results(scene.kind, results))
+
+
+def run_single_body_model(scene: Scene, name: str, progress: Progress | None = None) -> ModelResult:
+    """Model ``name`` on a single-body scene whose step is resolved; never raises."""
+    form = model_form(name, scene.kind)
+    if scene.kind == "harmonic":
+        return capture(name, lambda: form(scene))
+    return capture(name, lambda: form(scene, progress))
+
+
+def run_model(scene: ImpactScene, run: ModelRun, dt: float | None = None, dt_rule: str = "", progress: Progress | None = None) -> ModelResult:
+    """One impact run stepped at ``dt`` (None: :func:`impact_time_step`), as a result; never raises."""
+
+    def work() -> ModelResult:
+        step, rule = (dt, dt_rule) if dt is not None else impact_time_step(scene, run)
+        return model_result(scene, run, step_cars(scene, run, step, progress), step, rule)
+
+    return capture(run.name, work)
+
+
+def step_cars(scene: ImpactScene, run: ModelRun, dt: float, progress: Progress | None = None) -> ImpactResponse:
+    """Build every car at its fidelity in ``run`` (its model's car form) and step them together."""
+    integrator = INTEGRATORS[scene.integrator](scene.rho_inf)
+    loads = initial_end_loads(scene)
+    cars = [model_form(fidelity, "impact")(car, scene, integrator, dt, loads[i]) for i, (car, fidelity) in enumerate(zip(scene.cars, run.fidelity))]
+    return solve_impact(scene, cars, dt, progress)
+
+
+def model_result(scene: ImpactScene, run: ModelRun, response: ImpactResponse, dt: float, dt_rule: str) -> ModelResult:
+    """The response as the result file's model group (docs/design.md §4); a failed step makes a failed
+    result that keeps its histories (NaN after the failing step)."""
+    settings: dict[str, Any] = {
+        "fidelity": dict(zip((car.name for car in scene.cars), run.fidelity)),
+        "dt": dt,
+        "dt_rule": dt_rule,
+        "integrator": scene.integrator,
+        "rho_inf": scene.rho_inf,
+        "steps": response.steps,
+        "newton_iterations": response.newton_iterations,
+        "newton_iterations_max": response.newton_iterations_max,
+        "contact_changes": response.contact_changes,
+        "energy_balance_error": response.energy_balance_error,
+        "cars": {car.name: _public(s) for car, s in zip(scene.cars, response.car_settings)},
+    }
+    result = ModelResult(run.name, settings=settings)
+    if not response.ok:
+        result.status, result.message = "failed", response.message
+    result.axes = {"time": response.time}
+    result.probes = response.sensors
+    result.couplers = response.couplers
+    result.energy = response.energy
+    return result
+
+
+def _public(settings: dict[str, Any]) -> dict[str, Any]:
+    """Car settings without bulky arrays (node coordinates)."""
+    return {k: v for k, v in settings.items() if not (isinstance(v, np.ndarray) and v.size > 16)}
+
+
+def add_measured_records(scene: ImpactScene, result: ModelResult) -> None:
+    """Sensor accelerations as the measurement chain delivers them, under ``result.measured``."""
+    probes = list(result.probes)
+    accelerations = np.column_stack([result.probes[p]["acceleration"] for p in probes])
+    t, records = measure(result.axes["time"], accelerations, scene.measurement)
+    result.measured = {"time": t, **{p: records[:, k] for k, p in enumerate(probes)}}
+
+
+def run_estimators(scene: ImpactScene, reference: ModelResult) -> list[ModelResult]:
+    """Each inverse estimator on the fem run's (measured) records, as a result with coupler forces only."""
+    t, records = acceleration_histories(reference)
+
+    def estimate(name: str) -> ModelResult:
+        result = ModelResult(name, settings={"records": _records_source(reference)})
+        result.axes = {"time": t}
+        result.couplers = {c: {"force": f} for c, f in ESTIMATORS[name](scene, t, records).items()}
+        return result
+
+    return [capture(name, lambda name=name: estimate(name)) for name in scene.estimators]
+
+
+def run_networks(scene: ImpactScene, reference: ModelResult) -> list[ModelResult]:
+    """Each network estimator on the fem run's (measured) records: a result holding only the peak
+    force of its coupler, ``couplers[c]["peak_force"]`` (0-d, N), and no time axis.
+
+    The records are made as the sweep files that trained it store them
+    (:meth:`femref.sensing.network.AnnEstimator.peak_force`); the wall time covers making
+    them and the prediction.
+    """
+    t, records = acceleration_histories(reference)
+    masses = {car.name: car.mass for car in scene.cars}
+
+    def estimate(network) -> ModelResult:
+        peak = network.peak_force(t, records, masses)
+        result = ModelResult(network.name, settings={"records": _records_source(reference), **network.settings})
+        result.couplers = {network.coupler: {"peak_force": np.array(peak)}}
+        return result
+
+    return [capture(network.name, lambda network=network: estimate(network)) for network in scene.networks]
+
+
+def _records_source(reference: ModelResult) -> str:
+    return f"{reference.model} ({'measured' if reference.measured else 'model'})"
+
+
+__all__ = ["RunOutcome", "add_measured_records", "model_result", "run_estimators", "run_model", "run_networks", "run_scene", "step_cars"]

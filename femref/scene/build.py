@@ -1,0 +1,132 @@
+"""From a validated case (:mod:`femref.case`) to the resolved scene: the one case → scene builder.
+
+Single-body cases (harmonic, transient) become a :class:`femref.scene.single.Scene`, impact
+cases a :class:`femref.scene.impact.ImpactScene`. The case has already checked every rule;
+this module only converts: body specs to :class:`femref.core.body.Body` (the same way
+for a single body and for a car), coupler specs to :class:`reduced.couplers.Coupling`,
+runs to per-car fidelity tuples in line order, network estimator specs to loaded
+:class:`femref.sensing.network.AnnEstimator` networks.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from femref.case import Case, CaseError, ImpactCase
+from femref.case.bodies import Body as BodySpec
+from femref.case.cars import CarSpec
+from femref.case.couplers import CouplerSpec
+from femref.case.estimators import AnnEstimatorSpec, MeasurementSpec
+from femref.case.settings import FemSettings as FemSpec
+from femref.core.body import Body
+from femref.fem.build import FemSettings
+from femref.scene.impact import Car, Coupler, ImpactScene, ModelRun
+from femref.scene.single import Scene
+from femref.sensing.measurement import Measurement
+from femref.sensing.network import AnnEstimator, NetworkFileError
+from reduced.couplers import Coupling
+
+__all__ = ["body_from_spec", "scene_from_case"]
+
+
+def scene_from_case(case: Case, base_dir: Path | None = None) -> Scene | ImpactScene:
+    """Resolve a case: profiles, signals, the frequency axis and settings (CSV paths relative to ``base_dir``)."""
+    if case.kind == "impact":
+        return impact_scene_from_case(case)
+    common = dict(body=body_from_spec(case.body), probes=dict(case.probes), models=tuple(case.models), fem=fem_settings_of(case.fem))
+    if case.kind == "harmonic":
+        loads = {name: complex(value) for name, value in case.load_amplitudes().items() if value != 0}
+        return Scene(kind="harmonic", loads=loads, omega=np.asarray(case.omega(), dtype=float), **common)
+    return Scene(
+        kind="transient",
+        loads=case.load_signals(base_dir),
+        end=case.time.end,
+        dt=case.time.dt,
+        output_stride=case.time.output_stride,
+        integrator=case.integrator.scheme,
+        rho_inf=case.integrator.rho_inf if case.integrator.rho_inf is not None else 1.0,
+        **common,
+    )
+
+
+def body_from_spec(spec: BodySpec) -> Body:
+    """The resolved body of a body spec: built profiles and the wave travel time."""
+    built = spec.profiles()
+    return Body(
+        kind=spec.type,
+        half_length=spec.half_length,
+        mass_per_length=built["mass_per_length"],
+        stiffness=built["stiffness"],
+        viscosity=built["viscosity"],
+        wave_travel_time=spec.wave_time(),
+    )
+
+
+def fem_settings_of(fem: FemSpec) -> FemSettings:
+    """The resolved finite-element settings (the case has filled in the element order)."""
+    return FemSettings(elements=fem.elements, order=fem.order, grading=fem.grading, fields=fem.fields, field_stride=fem.field_stride)
+
+
+def impact_scene_from_case(case: ImpactCase) -> ImpactScene:
+    """Resolve the cars, couplers, model runs and settings of an impact case.
+
+    The network files of ``estimators`` were resolved (absolute) when the case was loaded.
+    Raises :class:`CaseError` when :mod:`reduced.couplers` lacks a law the case names or
+    refuses its parameters by a rule the schema does not check, or when a network file
+    can no longer be read as it was at validation.
+    """
+    index = {name: i for i, name in enumerate(case.car_names)}
+    integrator = case.integrator
+    return ImpactScene(
+        cars=tuple(_car_of(spec) for spec in case.cars),
+        couplers=tuple(_coupler_of(k, spec, index) for k, spec in enumerate(case.couplers)),
+        runs=tuple(ModelRun(name, fidelity) for name, fidelity in case.run_fidelities().items()),
+        end=case.time.end,
+        dt=case.time.dt,
+        output_stride=case.time.output_stride,
+        integrator=integrator.scheme,
+        rho_inf=integrator.rho_inf if integrator.rho_inf is not None else 1.0,
+        fem=fem_settings_of(case.fem),
+        modal_modes=case.modal.modes,
+        measurement=_measurement_of(case.measurement),
+        estimators=tuple(entry for entry in case.estimators if isinstance(entry, str)),
+        networks=tuple(_network_of(i, spec) for i, spec in enumerate(case.estimators) if isinstance(spec, AnnEstimatorSpec)),
+    )
+
+
+def _car_of(spec: CarSpec) -> Car:
+    return Car(name=spec.name, body=body_from_spec(spec.body), velocity=spec.velocity, sensors=dict(spec.sensors))
+
+
+def _coupler_of(k: int, spec: CouplerSpec, index: dict[str, int]) -> Coupler:
+    """Coupler ``k``: its rear car is the first of ``between`` (the case checked the line order)."""
+    where = f"couplers[{k}].law.{spec.law.tag}"
+    try:
+        law = spec.law.build()
+    except LookupError as error:
+        raise CaseError.at(where, f"this coupler law is not available: {error}") from None
+    except ValueError as error:  # a rule of reduced.couplers the schema does not know (yet)
+        raise CaseError.at(where, str(error)) from None
+    coupling = Coupling(law, contact=spec.contact, slack=spec.slack, tension_slack=spec.tension_slack)
+    assert spec.name is not None  # the case fills in default names
+    return Coupler(name=spec.name, rear=index[spec.between[0]], coupling=coupling)
+
+
+def _network_of(i: int, spec: AnnEstimatorSpec) -> AnnEstimator:
+    """Load network estimator ``estimators[i]``; the file must still hold what the case validated."""
+    where = f"estimators[{i}].network"
+    try:
+        network = AnnEstimator.load(spec.name, spec.network)
+    except NetworkFileError as error:
+        raise CaseError.at(where, str(error)) from None
+    if network.contract != spec.contract:
+        raise CaseError.at(where, f"network file {spec.network} changed since the case was validated; load the case again")
+    return network
+
+
+def _measurement_of(spec: MeasurementSpec | None) -> Measurement | None:
+    if spec is None:
+        return None
+    return Measurement(rate=spec.rate, lowpass=spec.lowpass, noise=spec.noise, seed=spec.seed)

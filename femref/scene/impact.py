@@ -1,0 +1,138 @@
+"""A resolved impact scene: cars in a line, couplers between neighbours, model runs.
+
+The case schema (:mod:`femref.case`) validates what the user wrote;
+:func:`femref.scene.build_impact.impact_scene_from_case` turns it into these frozen objects,
+so the solver never sees YAML or pydantic.
+
+Geometry and signs (docs/design.md §2, §3): cars are listed in line order; coupler ``j``
+joins the front (``x = +l``) of car ``rear`` to the back (``x = −l``) of car
+``rear + 1``. Its closure ``δ = u_rear(+l) − u_front(−l)`` is positive when the
+coupler is compressed, and its force ``P`` is positive in compression (buff): the
+rear car carries the end load ``F2 = −P``, the front car ``F1 = −P`` (internal axial
+force at the end, tension positive).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from femref.core.body import Body
+from femref.fem.build import FemSettings
+from femref.sensing.measurement import Measurement
+from femref.sensing.network import AnnEstimator
+from reduced.couplers import Coupling
+
+
+@dataclass(frozen=True, eq=False)
+class Car:
+    """One car body (a rod on ``x ∈ [−l, l]``), its initial velocity (m/s) and sensors (name → x, m)."""
+
+    name: str
+    body: Body
+    velocity: float
+    sensors: dict[str, float]
+
+    @property
+    def mass(self) -> float:
+        """Total mass ``M = ∫ m dx`` (kg)."""
+        return self.body.total_mass
+
+    @property
+    def sensor_x(self) -> np.ndarray:
+        return np.array(list(self.sensors.values()), dtype=float)
+
+
+@dataclass(frozen=True, eq=False)
+class Coupler:
+    """Coupler ``name`` between car ``rear`` (its +l end) and car ``rear + 1`` (its −l end)."""
+
+    name: str
+    rear: int
+    coupling: Coupling
+
+    @property
+    def front(self) -> int:
+        return self.rear + 1
+
+
+@dataclass(frozen=True)
+class ModelRun:
+    """One model run of the scene: its result-group name and the fidelity of each car (line order)."""
+
+    name: str
+    fidelity: tuple[str, ...]
+
+    @property
+    def uniform(self) -> str | None:
+        """The fidelity shared by every car, or None for a mixed run."""
+        return self.fidelity[0] if len(set(self.fidelity)) == 1 else None
+
+
+@dataclass(frozen=True, eq=False)
+class ImpactScene:
+    """A resolved impact scene (``kind == "impact"``).
+
+    ``dt`` is None when the runner is to choose it. ``modal_modes`` is the number of
+    elastic modes per car a ``modal`` car keeps (plus its rigid mode and a static
+    correction). ``estimators`` are the inverse estimators run on the fem sensor records
+    (names of :data:`femref.core.catalog.ESTIMATORS`), ``networks`` the network estimators
+    (:class:`femref.sensing.network.AnnEstimator`, loaded) run on the same records.
+    """
+
+    cars: tuple[Car, ...]
+    couplers: tuple[Coupler, ...]
+    runs: tuple[ModelRun, ...]
+    end: float
+    dt: float | None = None
+    output_stride: int = 1
+    integrator: str = "generalized_alpha"
+    rho_inf: float = 0.8
+    fem: FemSettings = field(default_factory=FemSettings)
+    modal_modes: int = 4
+    measurement: Measurement | None = None
+    estimators: tuple[str, ...] = ()
+    networks: tuple[AnnEstimator, ...] = ()
+
+    kind = "impact"
+
+    @property
+    def models(self) -> tuple[str, ...]:
+        return tuple(run.name for run in self.runs)
+
+    @property
+    def probes(self) -> dict[str, tuple[int, float]]:
+        """``"<car>/<sensor>"`` → (car index, x)."""
+        return {f"{car.name}/{name}": (i, x) for i, car in enumerate(self.cars) for name, x in car.sensors.items()}
+
+    def contact_time(self) -> float:
+        """Shortest rigid-body contact half-period ``π √(M_eff / k)`` over the couplers (s).
+
+        ``M_eff = M_rear M_front / (M_rear + M_front)`` and ``k`` the coupler law's reference
+        stiffness: the time scale of the coupler force pulse, used for ε and for the
+        automatic time step.
+        """
+        times = []
+        for c in self.couplers:
+            m1, m2 = self.cars[c.rear].mass, self.cars[c.front].mass
+            times.append(math.pi * math.sqrt(m1 * m2 / (m1 + m2) / c.coupling.law.reference_stiffness))
+        return min(times, default=math.inf)
+
+    @property
+    def epsilon(self) -> float:
+        """``ε = (T_wave / T_load)²`` of the softest car, ``T_load`` the contact time (the pulse length)."""
+        t_load = self.contact_time()
+        return max((car.body.wave_travel_time / t_load) ** 2 for car in self.cars)
+
+    def facts(self) -> dict[str, float | str]:
+        """What the result file records of the scene (``/scene`` attributes, docs/design.md §4): the kind,
+        ``epsilon``, the softest car's ``wave_travel_time`` and the ``load_time`` (s) it is divided by,
+        the couplers' shortest rigid-body contact time."""
+        return {
+            "kind": self.kind,
+            "epsilon": float(self.epsilon),
+            "wave_travel_time": max(car.body.wave_travel_time for car in self.cars),
+            "load_time": self.contact_time(),
+        }

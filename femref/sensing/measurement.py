@@ -1,0 +1,147 @@
+"""The measurement chain: what an accelerometer record made from a model's sensor accelerations looks like.
+
+Three steps, in the order a data-acquisition system applies them, each optional
+(:class:`Measurement`):
+
+1. **anti-alias low-pass** at ``lowpass`` Hz: causal Butterworth of order 4
+   (``scipy.signal.butter(4, lowpass, fs=1/dt, output='sos')`` and ``sosfilt``, from
+   rest — the records start before the impact), applied at the model's sampling rate
+   ``1/dt``. Its magnitude is that of the bilinear-transformed analogue prototype,
+   ``|H(f)| = 1/√(1 + (tan(πf dt)/tan(π f_c dt))^8)``, and it delays the signal (group
+   delay 2.61/(2π f_c) ≈ 0.42/f_c at low frequencies), as a real anti-alias filter does;
+2. **resampling** at ``rate`` Hz: the samples ``t_k = k/rate`` (integer k) that lie in
+   ``[time[0], time[-1]]``, linear interpolation of the filtered record;
+3. **white noise** of standard deviation ``noise`` (m/s²), Gaussian, from
+   ``numpy.random.default_rng(seed)`` (reproducible; one draw per sample and sensor).
+
+``lowpass = None`` and ``rate = None`` skip their steps, ``noise = 0`` skips the noise.
+The filter must lie below the model's Nyquist frequency ``1/(2 dt)`` (the case schema
+also keeps it below the record's Nyquist ``rate/2``, where it does its anti-alias job).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.signal import butter, sosfilt
+
+
+@dataclass(frozen=True)
+class Measurement:
+    """How the accelerometer records are made from the model's sensor accelerations.
+
+    ``lowpass`` (Hz) anti-alias filter corner (None: no filter); ``rate`` (Hz) the sampling
+    rate of the records (None: the model's time grid); ``noise`` (m/s², standard deviation
+    of white noise added after filtering) with ``seed``.
+    """
+
+    rate: float | None = None
+    lowpass: float | None = None
+    noise: float = 0.0
+    seed: int = 0
+
+
+FILTER_ORDER = 4
+"""Order of the anti-alias Butterworth low-pass."""
+
+
+def measure(
+    time: ArrayLike, acceleration: ArrayLike, measurement: Measurement
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Records ``(t_meas (Nm,), a_meas (Nm, S))`` from sensor accelerations ``(Nt, S)`` on a uniform ``time`` (s).
+
+    Low-pass (at the model's rate), resample, add noise — module docstring. A 1-D
+    ``acceleration`` (one sensor) gives a 1-D record. With every step skipped the
+    input comes back (as a copy). Raises ValueError for a non-uniform or
+    non-increasing time axis, mismatched shapes, non-finite values, a low-pass at or
+    above the model's Nyquist frequency, or settings out of range.
+    """
+    t, a, dt = _checked_input(time, acceleration)
+    lowpass, rate, noise = _checked_settings(measurement, dt)
+    if lowpass is not None:
+        a = lowpass_filter(a, dt, lowpass)
+    if rate is not None:
+        t, a = resample(t, a, rate)
+    if noise > 0.0:
+        a = a + np.random.default_rng(measurement.seed).normal(0.0, noise, size=a.shape)
+    return t.copy(), a.copy()
+
+
+def lowpass_filter(acceleration: NDArray[np.float64], dt: float, corner: float) -> NDArray[np.float64]:
+    """Causal order-4 Butterworth low-pass with corner ``corner`` (Hz) along axis 0, from rest.
+
+    ``|H(f)| = 1/√(1 + (tan(πf dt)/tan(π f_c dt))^8)`` (checked against the steady-state
+    amplitude of filtered tones in ``tests/sensing/test_measurement.py``).
+    """
+    sos = butter(FILTER_ORDER, corner, btype="low", fs=1.0 / dt, output="sos")
+    return sosfilt(sos, acceleration, axis=0)
+
+
+def resample(time: NDArray[np.float64], values: NDArray[np.float64], rate: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Samples at ``t_k = k/rate`` within ``[time[0], time[-1]]`` by linear interpolation along axis 0.
+
+    Instants within 1e-9 of a sample period outside the record (rounding of ``k/rate``)
+    are kept and clipped to its ends. Needs at least two samples.
+    """
+    first = math.ceil(time[0] * rate - 1e-9)
+    last = math.floor(time[-1] * rate + 1e-9)
+    if last - first + 1 < 2:
+        raise ValueError(
+            f"rate {rate!r} Hz gives fewer than 2 samples within the record [{time[0]!r}, {time[-1]!r}] s"
+        )
+    t_new = np.clip(np.arange(first, last + 1) / rate, time[0], time[-1])
+    if values.ndim == 1:
+        return t_new, np.interp(t_new, time, values)
+    return t_new, np.column_stack([np.interp(t_new, time, column) for column in values.T])
+
+
+def _checked_input(time: ArrayLike, acceleration: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+    """The time axis (uniform, increasing), the accelerations and the step ``dt`` (s)."""
+    t = np.asarray(time, dtype=float)
+    a = np.asarray(acceleration, dtype=float)
+    if t.ndim != 1 or t.size < 2:
+        raise ValueError(f"time must be a 1-D array of at least 2 samples, got shape {t.shape}")
+    if a.ndim not in (1, 2) or a.shape[0] != t.size:
+        raise ValueError(f"acceleration must have shape (Nt,) or (Nt, S) with Nt = {t.size} samples, got {a.shape}")
+    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(a))):
+        raise ValueError("time and acceleration must be finite (no NaN or inf)")
+    steps = np.diff(t)
+    if np.any(steps <= 0.0):
+        raise ValueError("time must increase strictly")
+    dt = float(steps.mean())
+    if np.max(np.abs(steps - dt)) > 1e-6 * dt:
+        raise ValueError(
+            f"time must be uniformly sampled for the measurement chain (steps between {steps.min():.6g} and {steps.max():.6g} s)"
+        )
+    return t, a, dt
+
+
+def _checked_settings(measurement: Measurement, dt: float) -> tuple[float | None, float | None, float]:
+    """``(lowpass, rate, noise)`` checked against the model's step ``dt``."""
+    lowpass = None if measurement.lowpass is None else _positive("lowpass", measurement.lowpass, "Hz")
+    rate = None if measurement.rate is None else _positive("rate", measurement.rate, "Hz")
+    noise = float(measurement.noise)
+    if not (math.isfinite(noise) and noise >= 0.0):
+        raise ValueError(f"measurement noise must be finite and >= 0 (m/s^2), got {measurement.noise!r}")
+    if noise > 0.0 and (isinstance(measurement.seed, bool) or int(measurement.seed) != measurement.seed):
+        raise ValueError(f"measurement seed must be an integer, got {measurement.seed!r}")
+    nyquist = 0.5 / dt
+    if lowpass is not None and lowpass >= nyquist:
+        raise ValueError(
+            f"measurement lowpass {lowpass:g} Hz must be below the model's Nyquist frequency 1/(2 dt) = {nyquist:g} Hz "
+            "(the filter runs at the model's sampling rate): lower it or refine the time step"
+        )
+    return lowpass, rate, noise
+
+
+def _positive(name: str, value: float, unit: str) -> float:
+    x = float(value)
+    if not (math.isfinite(x) and x > 0.0):
+        raise ValueError(f"measurement {name} must be finite and > 0 ({unit}); use None to skip the step, got {value!r}")
+    return x
+
+
+__all__ = ["FILTER_ORDER", "lowpass_filter", "measure", "resample"]

@@ -1,0 +1,35 @@
+"""Coupler force laws as small frozen value objects, and the contact that wraps them.
+
+Closure ``δ = x1 − x2`` (m, compression positive), force ``P`` (N, compression
+positive); every law has the interface of :class:`CouplerLaw`. Modules:
+
+* :mod:`.base` — :class:`CouplerTangent`, the :class:`CouplerLaw` protocol, ``Branch``;
+* :mod:`.kelvin_voigt` — :class:`KelvinVoigt`, ``P = c δ + μ δ̇``;
+* :mod:`.power_law` — :class:`PowerLawGear`, ``P = sgn(δ) (c |δ|ⁿ + N0) + γ(δ) δ̇``;
+* :mod:`.draft_gear` — :class:`StandardLinearDraftGear`, series springs and a gear with a stroke;
+* :mod:`.table` — :class:`HystereticTable`, tabulated loading/unloading curves;
+* :mod:`.coupling` — :class:`Coupling` (contact, slack), :class:`CouplerResponse`,
+  :data:`CONTACT_KINDS`, the registry :data:`COUPLER_LAWS` and :func:`coupling_from_name`.
+"""
+
+from .base import Branch, CouplerLaw, CouplerTangent
+from .coupling import CONTACT_KINDS, COUPLER_LAWS, CouplerResponse, Coupling, coupling_from_name
+from .draft_gear import StandardLinearDraftGear
+from .kelvin_voigt import KelvinVoigt
+from .power_law import PowerLawGear
+from .table import HystereticTable
+
+__all__ = [
+    "Branch",
+    "CONTACT_KINDS",
+    "COUPLER_LAWS",
+    "CouplerLaw",
+    "CouplerResponse",
+    "CouplerTangent",
+    "Coupling",
+    "HystereticTable",
+    "KelvinVoigt",
+    "PowerLawGear",
+    "StandardLinearDraftGear",
+    "coupling_from_name",
+]

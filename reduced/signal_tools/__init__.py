@@ -1,0 +1,40 @@
+"""Signal tools for acceleration and force records: smoothing, differentiation,
+integration, impact-type classification, closure-force detection, resampling and
+normalisation of network features.
+
+All records are uniformly sampled 1-D arrays with sampling interval ``dt`` (s);
+every setting is an explicit argument or a field of a small frozen class. Modules:
+
+* :mod:`.smoothing` — :class:`SavitzkyGolay`, :class:`SpectralLowPass`,
+  :class:`GaussianKernel` (registry :data:`SMOOTHERS`, protocol :class:`Smoother`)
+  and :func:`integrate_twice`;
+* :mod:`.classification` — :func:`zero_frequency_ratio`, :func:`classify_impact`,
+  :class:`ImpactClassification` (free to roll vs coupled, docs/formulas.md §B);
+* :mod:`.closure_force` — :func:`detect_closure_force`, :class:`ClosureForceEstimate`
+  (docs/formulas.md §A5);
+* :mod:`.records` — :func:`resample_record`, :func:`peak_normalise`, :class:`FeatureScaler`.
+"""
+
+from .classification import IMPACT_KINDS, ImpactClassification, classify_impact, zero_frequency_ratio
+from .closure_force import ClosureForceEstimate, detect_closure_force
+from .records import SCALER_KINDS, FeatureScaler, peak_normalise, resample_record
+from .smoothing import SMOOTHERS, GaussianKernel, SavitzkyGolay, Smoother, SpectralLowPass, integrate_twice
+
+__all__ = [
+    "IMPACT_KINDS",
+    "SCALER_KINDS",
+    "SMOOTHERS",
+    "ClosureForceEstimate",
+    "FeatureScaler",
+    "GaussianKernel",
+    "ImpactClassification",
+    "SavitzkyGolay",
+    "Smoother",
+    "SpectralLowPass",
+    "classify_impact",
+    "detect_closure_force",
+    "integrate_twice",
+    "peak_normalise",
+    "resample_record",
+    "zero_frequency_ratio",
+]
