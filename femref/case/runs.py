@@ -19,7 +19,7 @@ from femref.case.capabilities import MODELS
 from femref.case.errors import Problem, did_you_mean, problems_error
 from femref.case.fields import CaseModel, _duplicates, _name_rule, _reject_bool
 from femref.core.catalog import ESTIMATORS as ESTIMATOR_NAMES
-from femref.core.catalog import FIDELITIES, SCORES_GROUP
+from femref.core.catalog import CHOICE_GROUP, FIDELITIES, SCENE_GROUP, SCORES_GROUP
 
 __all__ = [
     "DEFAULT_MODELS",
@@ -36,7 +36,7 @@ __all__ = [
 #: Models run when a case gives no ``models`` list.
 DEFAULT_MODELS: tuple[str, ...] = ("fem", "quasi_rigid", "rigid")
 #: Result-group names a mixed run may not take (docs/design.md §4: model names, ``ann_<name>``, scores).
-RESERVED_RUN_NAMES: tuple[str, ...] = (*MODELS, *ESTIMATOR_NAMES, SCORES_GROUP)
+RESERVED_RUN_NAMES: tuple[str, ...] = (*MODELS, *ESTIMATOR_NAMES, SCORES_GROUP, SCENE_GROUP, CHOICE_GROUP)
 
 RunName = Annotated[str, AfterValidator(_name_rule("run"))]
 

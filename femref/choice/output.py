@@ -26,13 +26,14 @@ from rich.table import Table
 
 from femref.choice.choose import ModelChoice, RungEstimate
 from femref.choice.estimates import OUTPUTS
+from femref.core.catalog import CHOICE_GROUP
 
 __all__ = ["choice_table", "write_choice"]
 
 
 def write_choice(h5: h5py.File, choice: ModelChoice) -> None:
     """The ``/choice`` group (module docstring)."""
-    group = h5.create_group("choice")
+    group = h5.create_group(CHOICE_GROUP)
     chosen = choice.chosen_row
     group.attrs.update(
         {

@@ -56,9 +56,11 @@ ESTIMATORS: tuple[str, ...] = ("inverse_rigid", "inverse_quasi_rigid")
 #: Result-group prefix of a network estimator: ``ann_<name>`` (a saved network file).
 NETWORK_PREFIX = "ann_"
 
-#: Result-file groups beside the model groups (so no run may take their names): the scores, the scene's facts.
+#: Result-file groups beside the model groups (so no run may take their names): the scores, the scene's
+#: facts, a model choice.
 SCORES_GROUP = "scores"
 SCENE_GROUP = "scene"
+CHOICE_GROUP = "choice"
 
 #: Reference model of each scene kind, first available wins.
 REFERENCES: dict[str, tuple[str, ...]] = {"harmonic": ("exact", "fem"), "transient": ("exact", "fem"), "impact": ("fem",)}

@@ -17,7 +17,7 @@ import numpy as np
 import yaml
 from numpy.typing import NDArray
 
-from femref.core.catalog import SCENE_GROUP, SCORES_GROUP
+from femref.core.catalog import CHOICE_GROUP, SCENE_GROUP, SCORES_GROUP
 
 FAILED = "failed"
 
@@ -107,7 +107,7 @@ def _read_open_file(path: Path, h5: h5py.File) -> ResultFile:
     models = {
         name: _read_model(name, group)
         for name, group in h5.items()
-        if name not in (SCORES_GROUP, SCENE_GROUP) and isinstance(group, h5py.Group)
+        if name not in (SCORES_GROUP, SCENE_GROUP, CHOICE_GROUP) and isinstance(group, h5py.Group)
     }
     scores = {}
     if SCORES_GROUP in h5:

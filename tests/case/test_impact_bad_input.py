@@ -169,6 +169,7 @@ RULES = {
         "'rigid' names the uniform rigid run; give a mixed run another name",
     ),
     "run named exact": ({"models": ["fem", {"name": "exact", "fidelity": "fem"}]}, "models[1].name", "'exact' is a reserved result-group name"),
+    "run named scene": ({"models": ["fem", {"name": "scene", "fidelity": "fem"}]}, "models[1].name", "'scene' is a reserved result-group name"),
     "run named ann_": ({"models": ["fem", {"name": "ann_mlp", "fidelity": "fem"}]}, "models[1].name", "names starting with 'ann_' are reserved"),
     "run without a name": ({"models": ["fem", {"fidelity": "rigid"}]}, "models[1].name", "required key is missing"),
     "run neither name nor mapping": ({"models": ["fem", 3]}, "models[1]", r"must be a model name or a mapping \{name, fidelity, cars\}"),

@@ -25,6 +25,7 @@ from femref.case import load_case, parse_case, resolved_yaml
 from femref.report.render import offscreen_status
 from femref.report import report_command
 from femref.report.html import format_metric
+from femref.report.read import read_result_file
 from femref.results import ModelResult, write_results
 from femref.run import run_scene
 from femref.scene.build import scene_from_case
@@ -221,6 +222,16 @@ def test_report_reads_the_file_and_never_the_case(files, tmp_path):
     page = (tmp_path / "old.html").read_text(encoding="utf-8")
     assert f"<th>ε</th><td>{epsilon:.3g} " in page
     _assert_pngs(_images(page), 3)
+
+
+def test_groups_beside_the_models_are_not_models(files, tmp_path):
+    """/scores, /scene and a tolerance run's /choice are read as what they are, never listed as models."""
+    results = tmp_path / "choice.h5"
+    shutil.copy(files["harmonic"], results)
+    with h5py.File(results, "a") as h5:
+        models = sorted(name for name in h5 if "status" in h5[name].attrs)
+        h5.create_group("choice").attrs["chosen"] = "fem"
+    assert models and sorted(read_result_file(results).models) == models
 
 
 def test_file_without_scene_facts_says_so(files, tmp_path):
