@@ -3,8 +3,8 @@
 The folder is the data flow: :mod:`~femref.bench.configurations` decides which runs to
 make and the reference, :mod:`~femref.bench.run` times and scores them,
 :mod:`~femref.bench.pareto` finds the configurations no other beats on both time and
-error, :mod:`~femref.bench.output` writes the HDF5 table and the plot, and
-:mod:`~femref.bench.command` is the click command (registered in :mod:`femref.cli`).
+error, :mod:`~femref.bench.output` writes the HDF5 table and the plot; the command is
+:mod:`femref.cli.bench`.
 """
 
 from femref.bench.configurations import BenchPlan, Configuration, bench_plan

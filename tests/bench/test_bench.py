@@ -19,7 +19,7 @@ import yaml
 from click.testing import CliRunner
 
 from support.paths import CASES
-from femref.bench.command import IMPACT_ONLY, bench_command
+from femref.cli.bench import IMPACT_ONLY, bench_command
 from femref.bench.configurations import Configuration, element_counts
 from femref.bench.output import COLUMNS, plot_pareto
 from femref.bench.pareto import pareto_mask

@@ -23,7 +23,7 @@ from click.testing import CliRunner
 
 from femref.case import load_case, parse_case, resolved_yaml
 from femref.report.render import offscreen_status
-from femref.report import report_command
+from femref.cli.report import report_command
 from femref.report.html import format_metric
 from femref.report.read import read_result_file
 from femref.results import ModelResult, write_results

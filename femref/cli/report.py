@@ -13,11 +13,9 @@ from pathlib import Path
 
 import click
 
-from femref.report.build import build_report
-from femref.report.read import ReportInputError
+from femref.cli.common import EXIT_BAD_INPUT
+from femref.report import ReportInputError, build_report
 from femref.results import atomic_path
-
-EXIT_BAD_INPUT = 2
 
 
 def default_output(results: Path) -> Path:

@@ -1,0 +1,108 @@
+"""``femref validate [CASE]`` and ``femref run [CASE] [-o FILE] [--tolerance T]`` (docs/design.md §5).
+
+``run`` runs every model of the case (:func:`femref.run.run_scene`), writes the result
+file atomically with the scene's facts and scores, prints the summary and exits 1 when
+a model failed (its message says where). With a tolerance it climbs the ladder of impact
+models instead (:mod:`femref.choice`) and keeps the cheapest expected within it.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import click
+from rich.console import Console
+
+from femref.case import CaseError, Problem, resolved_yaml
+from femref.case.runs import ToleranceSpec
+from femref.cli.common import EXIT_BAD_INPUT, EXIT_RUN_FAILURE, load_case_or_default, model_progress, print_table, source_name
+from femref.cli.tables import run_table
+
+
+@click.command("validate")
+@click.argument("case_path", metavar="CASE", required=False, type=click.Path(dir_okay=False, path_type=Path))
+def validate_command(case_path: Path | None) -> None:
+    """Check CASE and print the resolved case (every default filled in)."""
+    try:
+        case, _ = load_case_or_default(case_path)
+    except CaseError as error:
+        click.echo(f"error: {error}", err=True)
+        sys.exit(EXIT_BAD_INPUT)
+    click.echo(resolved_yaml(case), nl=False)
+
+
+@click.command("run")
+@click.argument("case_path", metavar="CASE", required=False, type=click.Path(dir_okay=False, path_type=Path))
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), help="result file (default: CASE stem + .h5)")
+@click.option(
+    "--tolerance",
+    type=click.FloatRange(min=0.0, max=1.0, min_open=True, max_open=True),
+    help="choose the cheapest model expected within this relative error (impact cases; overrides the case's tolerance.value)",
+)
+def run_command(case_path: Path | None, output: Path | None, tolerance: float | None) -> None:
+    """Run CASE (no CASE: the built-in default scene) with every requested model; write HDF5 results.
+
+    With a tolerance (--tolerance or the case's tolerance:) the run instead climbs the
+    ladder of impact models and resolutions and keeps the cheapest expected within it.
+    """
+    from femref.results import write_results
+    from femref.run import run_scene
+    from femref.scene.build import scene_from_case
+
+    console = Console(stderr=True)
+    try:
+        case, base_dir = load_case_or_default(case_path)
+        case = _with_tolerance(case, tolerance, source_name(case_path))
+        scene = scene_from_case(case, base_dir)
+    except CaseError as error:
+        click.echo(f"error: {error}", err=True)
+        sys.exit(EXIT_BAD_INPUT)
+    output = output or Path(f"{case_path.stem if case_path else 'default'}.h5")
+    if getattr(case, "tolerance", None) is not None:
+        _run_choice(case, scene, output, console)
+        return
+
+    with model_progress(console) as progress_for:
+        outcome = run_scene(scene, progress_for)
+    written = write_results(output, resolved_yaml(case), outcome.results, outcome.scores, scene=scene.facts())
+    print_table(run_table(outcome))
+    for path in written:
+        click.echo(f"wrote {path}")
+    for failed in outcome.failed:
+        click.echo(f"error: model {failed.model} failed: {failed.message}", err=True)
+    if outcome.failed:
+        sys.exit(EXIT_RUN_FAILURE)
+
+
+def _with_tolerance(case, tolerance: float | None, source: str):
+    """The case with ``--tolerance`` in its ``tolerance.value`` (kept in the resolved case of the result file)."""
+    if tolerance is None:
+        return case
+    if case.kind != "impact":
+        rule = "--tolerance: model choice serves impact cases (the ladder of impact models)"
+        raise CaseError(Problem(("kind",), rule, case.kind), source)
+    spec = ToleranceSpec(value=tolerance) if case.tolerance is None else ToleranceSpec(value=tolerance, output=case.tolerance.output)
+    return case.model_copy(update={"tolerance": spec})
+
+
+def _run_choice(case, scene, output: Path, console: Console) -> None:
+    """Choose the model (femref.choice), write every run made and ``/choice``, print the ladder."""
+    from femref.choice import choose_model, run_rung
+    from femref.choice.output import choice_table, write_choice
+    from femref.results import write_results
+
+    if scene.estimators or scene.networks:
+        click.echo("note: with a tolerance the estimators are not run (they read the records of the models list's fem run)", err=True)
+    with model_progress(console) as progress_for:
+        try:
+            choice = choose_model(scene, case.tolerance.value, case.tolerance.output, runner=lambda rung: run_rung(rung, progress_for(rung.label)))
+        except RuntimeError as error:
+            click.echo(f"error: {error}", err=True)
+            sys.exit(EXIT_RUN_FAILURE)
+    written = write_results(output, resolved_yaml(case), choice.results, extra=lambda h5: write_choice(h5, choice), scene=scene.facts())
+    print_table(choice_table(choice))
+    for path in written:
+        click.echo(f"wrote {path}")
+    if not choice.met:
+        click.echo(f"warning: no model on the ladder is expected within {choice.tolerance:g}; kept {choice.chosen}, the most accurate", err=True)

@@ -1,0 +1,103 @@
+"""``femref sweep SWEEP`` and ``femref study STUDY`` (docs/design.md §5, §6): runs on Dask, resumable.
+
+``femref sweep`` exits 0 when the sweep ran, even with failed samples (the sweep file
+records them), 1 when the sweep machinery fails, 130 when interrupted (stored samples
+kept; the same command resumes).
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import click
+from rich.console import Console
+
+from femref.case import CaseError
+from femref.cli.common import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_RUN_FAILURE, print_table, sample_progress
+from femref.cli.tables import study_table
+
+#: Failed samples listed after a sweep (the file holds every error).
+SHOWN_FAILURES = 5
+
+
+@click.command("sweep")
+@click.argument("sweep_path", metavar="SWEEP", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--scheduler", metavar="tcp://HOST:PORT", help="run on this Dask scheduler (default: a local cluster)")
+@click.option("--workers", type=click.IntRange(min=1), help="local cluster worker processes (default: one per CPU)")
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), help="sweep file (default: SWEEP stem + .h5)")
+@click.option("--limit", type=click.IntRange(min=0), help="run at most N samples now (the file stays .partial)")
+@click.option("--retry-failed", is_flag=True, help="run the samples stored as failed again")
+def sweep_command(sweep_path: Path, scheduler: str | None, workers: int | None, output: Path | None, limit: int | None, retry_failed: bool) -> None:
+    """Run the samples of SWEEP not yet stored in the sweep file, on Dask; resumable (docs/design.md §6)."""
+    from femref.sweep import SweepInterrupted, load_sweep, run_sweep
+
+    if scheduler is not None and workers is not None:
+        raise click.UsageError("--workers sizes the local cluster; the cluster behind --scheduler has its own workers")
+    console = Console(stderr=True)
+    try:
+        loaded = load_sweep(sweep_path)
+        output = output or Path(f"{sweep_path.stem}.h5")
+        with sample_progress(console) as progress:
+            summary = run_sweep(loaded, output, scheduler=scheduler, workers=workers, limit=limit, retry_failed=retry_failed, progress=progress)
+    except CaseError as error:
+        click.echo(f"error: {error}", err=True)
+        sys.exit(EXIT_BAD_INPUT)
+    except SweepInterrupted as interrupted:
+        _sweep_report(interrupted.summary)
+        click.echo(f"interrupted: {interrupted.summary.run} samples stored in this call; run again to resume", err=True)
+        sys.exit(EXIT_INTERRUPTED)
+    except Exception as error:  # the sweep machinery (scheduler, workers, file system), not a sample
+        click.echo(f"error: sweep failed: {type(error).__name__}: {error}", err=True)
+        sys.exit(EXIT_RUN_FAILURE)
+    _sweep_report(summary)
+
+
+def _sweep_report(summary) -> None:
+    """One line of counts and speed, the first failures, and where the samples are."""
+    if summary.run == 0 and summary.complete:
+        failed = f" ({summary.stored_failed} failed; --retry-failed runs them again)" if summary.stored_failed else ""
+        click.echo(f"all {summary.total} samples already stored in {summary.path}{failed}")
+        return
+    failed = f"{summary.failed} failed" + (f" ({summary.stored_failed} stored as failed in all)" if summary.stored_failed != summary.failed else "")
+    click.echo(
+        f"samples: {summary.total} total, {summary.run} run now, {summary.skipped} skipped (already stored), {failed}; "
+        f"wall time {summary.wall_time_s:.1f} s, {summary.runs_per_second:.2f} runs/s"
+    )
+    for index, error in summary.failures[:SHOWN_FAILURES]:
+        click.echo(f"  sample {index} failed: {error}", err=True)
+    if summary.failed > SHOWN_FAILURES:
+        click.echo(f"  … and {summary.failed - SHOWN_FAILURES} more (samples/error in the file)", err=True)
+    click.echo(f"wrote {summary.path}" + ("" if summary.complete else " (incomplete: run again to resume)"))
+
+
+@click.command("study")
+@click.argument("study_path", metavar="STUDY", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("-o", "--output", "out_dir", type=click.Path(file_okay=False, path_type=Path), help="study folder (default: STUDY stem)")
+@click.option("--scheduler", metavar="tcp://HOST:PORT", help="run the sweeps on this Dask scheduler (default: a local cluster)")
+@click.option("--workers", type=click.IntRange(min=1), help="local cluster worker processes (default: one per CPU)")
+@click.option("--scale", type=click.FloatRange(min=0.0, min_open=True, max=1.0), default=1.0, help="run every set at this fraction of its samples")
+def study_command(study_path: Path, out_dir: Path | None, scheduler: str | None, workers: int | None, scale: float) -> None:
+    """Run the network study STUDY: sweeps, networks per training source, scores against fem (issue 5)."""
+    from femref.study.run import run_study
+    from femref.study.spec import load_study
+    from femref.sweep import SweepInterrupted
+
+    if scheduler is not None and workers is not None:
+        raise click.UsageError("--workers sizes the local cluster; the cluster behind --scheduler has its own workers")
+    console = Console(stderr=True)
+    try:
+        spec, study_dir = load_study(study_path)
+        if scale != 1.0:
+            spec = spec.scaled(scale)
+        out_dir = out_dir or Path(study_path.stem)
+        with sample_progress(console) as progress:
+            outcome = run_study(spec, study_dir, out_dir, source=str(study_path), scheduler=scheduler, workers=workers, progress=progress)
+    except CaseError as error:
+        click.echo(f"error: {error}", err=True)
+        sys.exit(EXIT_BAD_INPUT)
+    except SweepInterrupted:
+        click.echo("interrupted: the sweeps keep what they stored; run again to resume", err=True)
+        sys.exit(EXIT_INTERRUPTED)
+    print_table(study_table(outcome))
+    click.echo(f"wrote {out_dir / 'study.h5'}, {out_dir / 'study.md'} and {len(outcome.networks)} networks in {out_dir / 'networks'}")
