@@ -23,7 +23,7 @@ def run_table(outcome) -> Table:
             work = f"{result.settings['frequencies']} freqs"
         score = outcome.scores.get(result.model, {})
         error = (
-            f"{score['acceleration_error_max']:.2g} / {score['acceleration_rms_error_max']:.2g} vs {score['reference']}"
+            f"{_fmt(score.get('acceleration_max_error_max'), '{:.2g}')} / {_fmt(score.get('acceleration_rms_error_max'), '{:.2g}')} vs {score['reference']}"
             if score
             else "reference" if result.ok else ""
         )

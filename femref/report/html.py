@@ -30,6 +30,8 @@ pre { background: #f7f7f7; padding: 0.8em; overflow-x: auto; font-size: 0.85em; 
 """.strip()
 
 LEADING_METRICS = ("reference", "wall_time_s", "speedup")
+#: The scores' attribute naming each undefined (NaN) metric and why (femref.run.scoring.undefined_reasons).
+UNDEFINED = "undefined"
 
 
 def render_page(result: ResultFile, plots: list[Picture], field_maps: list[Picture]) -> str:
@@ -69,7 +71,7 @@ def _facts(result: ResultFile, epsilon: Epsilon) -> str:
 
 def metric_columns(scores: dict[str, dict[str, Any]]) -> list[str]:
     """Score attributes as columns: reference, wall time, speed-up, the ``_max`` aggregates, then the rest."""
-    names = {name for metrics in scores.values() for name in metrics}
+    names = {name for metrics in scores.values() for name in metrics} - {UNDEFINED}
     leading = [n for n in LEADING_METRICS if n in names]
     aggregates = sorted(n for n in names if n.endswith("_max") and n not in leading)
     rest = sorted(names - set(leading) - set(aggregates))
@@ -100,16 +102,28 @@ def _score_table(scores: dict[str, dict[str, Any]]) -> str:
     header = "<th>model</th>" + "".join(f'<th title="{escape(c)}">{escape(c.replace("_", " "))}</th>' for c in columns)
     rows = []
     for model, metrics in scores.items():
-        cells = "".join(
-            f'<td class="num">{escape(format_metric(c, metrics[c]))}</td>' if c in metrics else '<td class="num">–</td>'
-            for c in columns
-        )
+        reasons = undefined_reasons(metrics)
+        cells = "".join(_score_cell(c, metrics, reasons) for c in columns)
         rows.append(f"<tr><th>{escape(model)}</th>{cells}</tr>")
     note = (
         "<p>Relative errors in %; peak-time errors signed, in ms; speed-up = reference wall time / model wall time; "
-        "n/a = undefined (the reference signal vanishes).</p>"
+        "n/a = undefined: the reference signal vanishes (hover for the reason).</p>"
     )
     return f'{note}<div class="wide"><table class="scores"><thead><tr>{header}</tr></thead><tbody>{"".join(rows)}</tbody></table></div>'
+
+
+def undefined_reasons(metrics: dict[str, Any]) -> dict[str, str]:
+    """Metric → why it is undefined, from the scores' ``undefined`` attribute (``name: reason; …``)."""
+    text = metrics.get(UNDEFINED, "")
+    return dict(item.split(": ", 1) for item in text.split("; ") if ": " in item) if isinstance(text, str) else {}
+
+
+def _score_cell(column: str, metrics: dict[str, Any], reasons: dict[str, str]) -> str:
+    if column not in metrics:
+        return '<td class="num">–</td>'
+    reason = reasons.get(column)
+    title = f' title="{escape(reason)}"' if reason else ""
+    return f'<td class="num"{title}>{escape(format_metric(column, metrics[column]))}</td>'
 
 
 def _models_section(result: ResultFile) -> str:

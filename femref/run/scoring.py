@@ -1,34 +1,45 @@
-"""Scores of an impact model (or inverse estimator) result against the reference (fem) result.
+"""Every score of a model against the reference: one naming, one policy for a vanishing reference.
 
-Both results carry ``axes["time"]`` (s), ``couplers[c]["force"]`` (N, compression
-positive) and ``probes["<car>/<sensor>"]["acceleration"]`` (m/s²). The time axes may
-differ (an estimator on records measured at another rate): the comparison runs on the
-result's samples inside the common interval ``[max(t0, t0_ref), min(t1, t1_ref)]``,
-with the reference linearly interpolated there (``np.interp``). A peak the result's
-grid does not sample is then missed by both alike.
+Names are ``<quantity>_<statistic>_error_<item>`` (floats; they become HDF5 attributes of
+``/scores/<model>``), with ``<quantity>_<statistic>_error_max`` the maximum over the items:
 
-Metrics (floats; names fixed, they become HDF5 attributes of ``/scores/<model>``)::
+    statistic    meaning                                               used for
+    max          max|q − q_ref| / scale (pointwise, over the axis)     single body: acceleration, axial force
+    rms          rms(q − q_ref) / rms(q_ref)                           both: acceleration, axial force, coupler force
+    peak         |max q − max q_ref| / max q_ref (coupler: compression;  impact: coupler force, acceleration
+                 acceleration: magnitudes)
+    peak_time    t(max q) − t(max q_ref)  (s, signed)                  impact: coupler force
 
-    coupler_force_peak_error_<c>       |max P − max P_ref| / max P_ref           (peak compression)
-    coupler_force_peak_time_error_<c>  t(max P) − t(max P_ref)                   (s, signed)
-    coupler_force_rms_error_<c>        rms(P − P_ref) / rms(P_ref)
-    acceleration_rms_error_<p>         rms(a − a_ref) / rms(a_ref)
-    acceleration_peak_error_<p>        |max|a| − max|a_ref|| / max|a_ref|
-    coupler_force_peak_error_max, coupler_force_rms_error_max, acceleration_rms_error_max
+**Single body** (:func:`score_single_body`; reference ``exact`` where it ran, else ``fem``;
+every model on the reference's axis, frequencies or times): per probe
+``acceleration_max_error_<p>``, ``acceleration_rms_error_<p>`` and, on rods, the same for
+``axial_force``; the ``max`` statistic is normalised by the reference's peak over all
+probes (a free end's force is zero); aggregates ``acceleration_max_error_max``,
+``acceleration_rms_error_max``.
 
-for every coupler and probe present in both results.
+**Impact** (:func:`score_impact`; reference ``fem``): both results carry ``axes["time"]``
+(s), ``couplers[c]["force"]`` (N, compression positive) and
+``probes["<car>/<sensor>"]["acceleration"]`` (m/s²). The time axes may differ (each run
+steps at its own step; an estimator reads records at another rate): the comparison runs
+on the result's samples inside the common interval ``[max(t0, t0_ref), min(t1, t1_ref)]``,
+with the reference linearly interpolated there (``np.interp``); a peak the result's grid
+does not sample is missed by both alike. Per coupler ``coupler_force_peak_error_<c>``,
+``coupler_force_peak_time_error_<c>``, ``coupler_force_rms_error_<c>``; per probe
+``acceleration_rms_error_<p>``, ``acceleration_peak_error_<p>``; aggregates
+``coupler_force_peak_error_max``, ``coupler_force_rms_error_max``,
+``acceleration_rms_error_max``; with a measurement chain the same again on the measured
+records, prefixed ``measured_``. A result of peak estimates only — a network estimator,
+``couplers[c]["peak_force"]`` and no time axis — is scored on those peaks alone
+(:func:`score_peak_estimates`).
 
-A result that estimates peaks only — a network estimator, ``couplers[c]["peak_force"]``
-(N, one value) and no time axis — is scored on those peaks alone
-(:func:`score_peak_estimates`): ``coupler_force_peak_error_<c> = |P̂ − max P_ref| / max P_ref``
-with ``max P_ref`` over the whole reference history, and ``coupler_force_peak_error_max``.
-It has no histories, so no peak-time, rms or acceleration metrics. A relative metric whose
-reference scale vanishes — ``max P_ref ≤ 0`` (the coupler never compressed; then the
-peak time is undefined too), ``rms(P_ref) = 0``, ``max|a_ref| = 0`` — is **NaN**: the
-relative error of a signal that is not there is undefined, and NaN cannot be mistaken
-for a good score. It is decided before dividing, so no RuntimeWarning is raised. The
-aggregates are the maxima over the finite per-item values, and are left out when
-there is none. Checked on shifted and scaled synthetic pulses with known errors
+**A vanishing reference** — a peak, rms or overall scale of zero, or a coupler that never
+compresses (then its peak time is undefined too) — makes the relative metric **NaN**,
+decided before dividing (no RuntimeWarning), and ``undefined`` names each NaN metric with
+its reason (:func:`undefined_reasons`): the relative error of a signal that is not there
+is undefined, and NaN cannot be mistaken for a good score. Aggregates are maxima over the
+finite items and are left out when there is none. Every score also carries
+``reference``, ``wall_time_s`` and ``speedup`` (reference wall time / model wall time).
+Checked on shifted and scaled synthetic signals with known errors
 (``tests/run/test_scoring.py``).
 """
 
@@ -132,18 +143,19 @@ def acceleration_errors(name: str, acceleration: NDArray[np.float64], reference:
     }
 
 
-def _relative_rms(values: NDArray[np.float64], reference: NDArray[np.float64]) -> float:
-    """``rms(v − r)/rms(r)``, NaN when ``rms(r) = 0``."""
-    scale = float(np.sqrt(np.mean(reference**2)))
+def _relative_rms(values: NDArray, reference: NDArray) -> float:
+    """``rms(v − r)/rms(r)`` (moduli of complex amplitudes), NaN when ``rms(r) = 0``."""
+    scale = float(np.sqrt(np.mean(np.abs(reference) ** 2)))
     if not scale > 0.0:
         return math.nan
-    return float(np.sqrt(np.mean((values - reference) ** 2))) / scale
+    return float(np.sqrt(np.mean(np.abs(values - reference) ** 2))) / scale
 
 
 AGGREGATES: dict[str, str] = {
     "coupler_force_peak_error_max": "coupler_force_peak_error_",
     "coupler_force_rms_error_max": "coupler_force_rms_error_",
     "acceleration_rms_error_max": "acceleration_rms_error_",
+    "acceleration_max_error_max": "acceleration_max_error_",
 }
 """Aggregate metric → prefix of the per-item metrics it is the maximum of."""
 
@@ -202,13 +214,18 @@ def score_results(kind: str, results: list[ModelResult]) -> dict[str, dict[str, 
 
 
 def score_single_body(kind: str, results: list[ModelResult]) -> dict[str, dict[str, Any]]:
-    """Relative errors of each model against the reference, per probe and overall.
+    """Relative errors of each single-body model against the reference, per probe and overall.
 
-    ``acceleration_error_<probe> = max|a − a_ref| / max|a_ref|`` over the axis (time or
-    frequency), normalised by the reference's peak over all probes (a free end's force is
-    zero); ``…_rms_error_<probe>`` is ``rms(a − a_ref)/rms(a_ref)``; the same for the rod's
-    axial force; ``speedup`` = reference wall time /
-    model wall time.
+    For ``q`` the acceleration and, on rods, the axial force, over the axis (time or
+    frequency; complex amplitudes by modulus)::
+
+        <q>_max_error_<probe> = max|q − q_ref| / max_probes max|q_ref|   (normalised by the reference's
+                                                                          peak over all probes: a free
+                                                                          end's force is zero)
+        <q>_rms_error_<probe> = rms(q − q_ref) / rms(q_ref)
+
+    and the aggregates ``acceleration_max_error_max``, ``acceleration_rms_error_max``.
+    A vanishing reference scale gives NaN with a reason (module docstring).
     """
     by_name = {r.model: r for r in results if r.ok}
     reference = next((by_name[name] for name in REFERENCES[kind] if name in by_name), None)
@@ -218,30 +235,16 @@ def score_single_body(kind: str, results: list[ModelResult]) -> dict[str, dict[s
     for result in by_name.values():
         if result is reference:
             continue
-        metrics: dict[str, Any] = {"reference": reference.model, "wall_time_s": result.wall_time_s}
-        if result.wall_time_s > 0.0:
-            metrics["speedup"] = reference.wall_time_s / result.wall_time_s
-        worst = worst_rms = 0.0
-        scale = {
-            quantity: max((float(np.max(np.abs(out[quantity]))) for out in reference.probes.values() if quantity in out), default=0.0)
-            for quantity in ("acceleration", "axial_force")
-        }
-        for probe, outputs in reference.probes.items():
-            for quantity in ("acceleration", "axial_force"):
+        metrics: Metrics = {}
+        for quantity in ("acceleration", "axial_force"):
+            scale = max((float(np.max(np.abs(out[quantity]))) for out in reference.probes.values() if quantity in out), default=0.0)
+            for probe, outputs in reference.probes.items():
                 if quantity in outputs and quantity in result.probes.get(probe, {}):
-                    ref = outputs[quantity]
-                    error = float(np.max(np.abs(result.probes[probe][quantity] - ref)) / max(scale[quantity], 1e-300))
-                    metrics[f"{quantity}_error_{probe}"] = error
-                    difference = result.probes[probe][quantity] - ref
-                    metrics[f"{quantity}_rms_error_{probe}"] = float(
-                        np.sqrt(np.mean(np.abs(difference) ** 2) / max(np.mean(np.abs(ref) ** 2), 1e-300))
-                    )
-                    if quantity == "acceleration":
-                        worst = max(worst, error)
-                        worst_rms = max(worst_rms, metrics[f"acceleration_rms_error_{probe}"])
-        metrics["acceleration_error_max"] = worst
-        metrics["acceleration_rms_error_max"] = worst_rms
-        scores[result.model] = metrics
+                    ref, mine = outputs[quantity], result.probes[probe][quantity]
+                    worst = float(np.max(np.abs(mine - ref)))
+                    metrics[f"{quantity}_max_error_{probe}"] = worst / scale if scale > 0.0 else math.nan
+                    metrics[f"{quantity}_rms_error_{probe}"] = _relative_rms(mine, ref)
+        scores[result.model] = _with_context(metrics, reference, result)
     return scores
 
 
@@ -267,15 +270,45 @@ def score_impact_results(results: list[ModelResult]) -> dict[str, dict[str, Any]
     for result in results:
         if result is reference or not result.ok:
             continue
-        metrics: dict[str, Any] = {"reference": reference.model, "wall_time_s": result.wall_time_s}
-        metrics.update(score_impact(reference, result))
+        metrics = score_impact(reference, result)
         if reference.measured and result.measured:
             measured = score_impact(_measured_view(reference), _measured_view(result))
             metrics.update({f"measured_{name}": value for name, value in measured.items()})
-        if result.wall_time_s > 0.0:
-            metrics["speedup"] = reference.wall_time_s / result.wall_time_s
-        scores[result.model] = metrics
+        scores[result.model] = _with_context(metrics, reference, result)
     return scores
 
 
-__all__ = ["AGGREGATES", "acceleration_errors", "coupler_force_errors", "score_impact", "score_peak_estimates", "score_results"]
+def _with_context(metrics: Metrics, reference: ModelResult, result: ModelResult) -> dict[str, Any]:
+    """``reference``, ``wall_time_s``, ``speedup``, the metrics with their aggregates, and ``undefined``:
+    why each NaN metric is undefined (absent when none is)."""
+    scores: dict[str, Any] = {"reference": reference.model, "wall_time_s": result.wall_time_s}
+    if result.wall_time_s > 0.0:
+        scores["speedup"] = reference.wall_time_s / result.wall_time_s
+    scores.update(metrics)
+    scores.update(_aggregates(metrics))
+    reasons = undefined_reasons(scores)
+    if reasons:
+        scores["undefined"] = "; ".join(f"{name}: {reason}" for name, reason in reasons.items())
+    return scores
+
+
+#: Why a relative metric is undefined, by the part of its name that says what it divides by.
+UNDEFINED_BECAUSE: tuple[tuple[str, str], ...] = (
+    ("_peak_time_error_", "the reference never compresses (its peak is not positive)"),
+    ("coupler_force_peak_error_", "the reference never compresses (its peak is not positive)"),
+    ("_peak_error_", "the reference's peak magnitude is zero"),
+    ("_rms_error_", "the reference's rms is zero"),
+    ("_max_error_", "the reference is zero at every probe"),
+)
+
+
+def undefined_reasons(metrics: dict[str, Any]) -> dict[str, str]:
+    """The NaN metrics among ``metrics`` and why each is undefined (its reference scale vanishes)."""
+    reasons = {}
+    for name, value in metrics.items():
+        if isinstance(value, float) and math.isnan(value):
+            reasons[name] = next((why for part, why in UNDEFINED_BECAUSE if part in name), "undefined")
+    return reasons
+
+
+__all__ = ["AGGREGATES", "acceleration_errors", "coupler_force_errors", "score_impact", "score_peak_estimates", "score_results", "undefined_reasons"]

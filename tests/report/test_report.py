@@ -187,7 +187,7 @@ def test_transient_page_with_field_map(files, pages):
     assert "FEM field" in page
     if not ok:
         assert '<p class="problem">no field picture:' in page
-    assert _score_cell(files["transient"], "rigid", "acceleration_error_max") in page
+    assert _score_cell(files["transient"], "rigid", "acceleration_max_error_max") in page
     assert "exact (reference)" not in page  # legends live in the images, not the page text
 
 

@@ -1,4 +1,4 @@
-"""Impact scores (femref.run.scoring) on synthetic results whose errors are known exactly."""
+"""Scores (femref.run.scoring) on synthetic results whose errors are known exactly: impact and single body."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import warnings
 import numpy as np
 import pytest
 
-from femref.run.scoring import score_impact
+from femref.run.scoring import score_impact, score_results, undefined_reasons
 from femref.results import ModelResult
 
 DT = 1.0e-4
@@ -163,3 +163,56 @@ def test_bad_input() -> None:
         score_impact(ref, result("short", t, {"c1": np.zeros(50)}))
     with pytest.raises(ValueError, match="strictly increasing"):
         score_impact(ref, result("backwards", t[::-1], {"c1": pulse(t)}))
+
+
+def single_body(model: str, t: np.ndarray, acceleration: dict, axial_force: dict) -> ModelResult:
+    r = ModelResult(model)
+    r.axes = {"time": t}
+    r.probes = {p: {"acceleration": acceleration[p], "axial_force": axial_force[p]} for p in acceleration}
+    return r
+
+
+def test_single_body_scores_on_known_errors_and_nan_for_a_zero_reference() -> None:
+    """A rod loaded at +l, free at −l: the reference's axial force at ``left`` is exactly zero.
+
+    With a = 1.1 a_ref everywhere: ``acceleration_max_error_<p>`` = 0.1 max|a_ref(p)| / max over
+    probes, ``acceleration_rms_error_<p>`` = 0.1. The force at the free end scores NaN with the
+    reason (never a huge number from a floored denominator), and the aggregates take the finite
+    items only.
+    """
+    t = np.linspace(0.0, 0.5, 501)
+    shape = pulse(t) / 1.5e6
+    ref_a = {"left": 2.0 * shape, "right": 4.0 * shape}
+    ref_f = {"left": np.zeros_like(t), "right": 1.0e6 * shape}
+    mine_f = {"left": 1.0e3 * shape, "right": 0.9e6 * shape}
+    reference = single_body("exact", t, ref_a, ref_f)
+    model = single_body("rigid", t, {p: 1.1 * a for p, a in ref_a.items()}, mine_f)
+    reference.wall_time_s, model.wall_time_s = 2.0, 0.5
+    scores = score_results("transient", [reference, model])["rigid"]
+    assert scores["reference"] == "exact" and scores["speedup"] == pytest.approx(4.0)
+    assert scores["acceleration_max_error_left"] == pytest.approx(0.1 * 2.0 / 4.0, rel=1e-12)
+    assert scores["acceleration_max_error_right"] == pytest.approx(0.1, rel=1e-12)
+    assert scores["acceleration_rms_error_left"] == pytest.approx(0.1, rel=1e-12)
+    assert scores["acceleration_max_error_max"] == pytest.approx(0.1, rel=1e-12)
+    assert scores["axial_force_rms_error_right"] == pytest.approx(0.1, rel=1e-12)
+    assert math.isnan(scores["axial_force_rms_error_left"])
+    assert scores["axial_force_max_error_left"] == pytest.approx(1.0e3 / 1.0e6, rel=1e-12)  # scale: the peak over probes
+    assert undefined_reasons(scores) == {"axial_force_rms_error_left": "the reference's rms is zero"}
+    assert scores["undefined"] == "axial_force_rms_error_left: the reference's rms is zero"
+
+
+def test_undefined_names_every_nan_impact_metric() -> None:
+    """A coupler that never compresses: its peak, peak-time and rms errors are NaN, each with its reason."""
+    t = np.arange(2001) * DT
+    reference = result("fem", t, {"c1": np.zeros_like(t), "c2": pulse(t)})
+    model = result("rigid", t, {"c1": pulse(t), "c2": pulse(t)})
+    scores = score_results("impact", [reference, model])["rigid"]
+    reasons = undefined_reasons(scores)
+    never = "the reference never compresses (its peak is not positive)"
+    assert reasons == {
+        "coupler_force_peak_error_c1": never,
+        "coupler_force_peak_time_error_c1": never,
+        "coupler_force_rms_error_c1": "the reference's rms is zero",
+    }
+    assert scores["coupler_force_peak_error_max"] == 0.0
+
