@@ -1,12 +1,18 @@
 """Every automatic time-step rule: the step a run takes when the case leaves ``time.dt`` open.
 
+One mesh rule serves both: ``T_h``, the wave transit time of an average element
+(:func:`mesh_transit_time`), ``h/c_max`` for a rod (``c = √(EA/m)``) and ``h²/c_max`` for a
+beam (``c = √(EI/m)``, so ``h²·√(m/EI)``), with ``h = 2l/elements`` and ``c_max`` the
+largest wave speed at the mesh nodes. An element shortened to put a node on a profile
+jump, or by grading toward the ends, resolves no shorter waves than its neighbours: the
+shortest element would only cost steps.
+
 Single body (harmonic scenes have no step): every model of a transient scene runs on
 the same grid, so the step is the fem mesh's,
 
     dt = min(T_load/100, T_h, end/20),
 
-``T_load`` the loads' shortest time scale and ``T_h`` the period scale of the shortest
-wave the mesh resolves: ``h/c_max`` for rods (``c = √(EA/m)``), ``h²·√(m/EI)`` for beams.
+``T_load`` the loads' shortest time scale.
 
 Impact: each model run steps at what its own cars need,
 
@@ -26,10 +32,12 @@ import math
 import numpy as np
 
 from femref.core.body import Body
+from femref.fem.build import FemSettings
 from femref.fem.mesh import body_nodes
 from femref.scene import ImpactScene, ModelRun, Scene
 
 GIVEN = "given in the case"
+MESH_RULE = "mesh wave transit time"
 
 
 def _smallest(candidates: dict[str, float]) -> tuple[float, str]:
@@ -37,21 +45,24 @@ def _smallest(candidates: dict[str, float]) -> tuple[float, str]:
     return value, rule
 
 
-def _wave_speed(body: Body, nodes: np.ndarray) -> float:
-    """``c_max = max √(stiffness/m)`` over the mesh nodes (m/s for a rod; √(EI/m) for a beam)."""
+def _wave_speed(body: Body, fem: FemSettings) -> float:
+    """``c_max = max √(stiffness/m)`` over the mesh nodes (m/s for a rod; m²/s, √(EI/m), for a beam)."""
+    nodes = body_nodes(body.half_length, fem.elements, body.jumps, fem.grading)
     return float(np.max(np.sqrt(body.stiffness(nodes) / body.mass_per_length(nodes))))
+
+
+def mesh_transit_time(body: Body, fem: FemSettings) -> float:
+    """``T_h = h/c_max`` (rod) or ``h²/c_max`` (beam), ``h = 2l/elements`` (s; module docstring)."""
+    h = 2.0 * body.half_length / fem.elements
+    return (h if body.kind == "rod" else h * h) / _wave_speed(body, fem)
 
 
 def single_body_time_step(scene: Scene) -> tuple[float, str]:
     """The step of a transient scene: ``scene.dt`` if the case gives it, else the automatic rule (module docstring)."""
     if scene.dt is not None:
         return scene.dt, GIVEN
-    body, fem = scene.body, scene.fem
-    nodes = body_nodes(body.half_length, fem.elements, body.jumps, fem.grading)
-    h_min = float(np.min(np.diff(nodes)))
-    speed = _wave_speed(body, nodes)
-    t_mesh = h_min / speed if body.kind == "rod" else h_min**2 / speed
-    candidates = {"load time scale / 100": scene.load_time_scale / 100.0, "mesh wave period": t_mesh, "end time / 20": scene.end / 20.0}
+    t_mesh = mesh_transit_time(scene.body, scene.fem)
+    candidates = {"load time scale / 100": scene.load_time_scale / 100.0, MESH_RULE: t_mesh, "end time / 20": scene.end / 20.0}
     dt, rule = _smallest(candidates)
     return dt, f"automatic: {rule}"
 
@@ -59,9 +70,7 @@ def single_body_time_step(scene: Scene) -> tuple[float, str]:
 def impact_time_step(scene: ImpactScene, run: ModelRun) -> tuple[float, str]:
     """The step of one impact run: the case's ``time.dt`` for every run, or the step its own cars need.
 
-    A fem car adds ``T_h = h/c_max`` with ``h = 2l/elements``, the wave transit time of an
-    average element: an element shortened to put a node on a profile jump resolves no
-    shorter waves than its neighbours. A modal car adds a twentieth of the period of its
+    A fem car adds :func:`mesh_transit_time`; a modal car a twentieth of the period of its
     highest kept mode, ``4l/(k c_max)`` for a free rod.
     """
     if scene.dt is not None:
@@ -71,14 +80,13 @@ def impact_time_step(scene: ImpactScene, run: ModelRun) -> tuple[float, str]:
         if fidelity not in ("fem", "modal"):
             continue
         body = scene.cars[i].body
-        speed = _wave_speed(body, body_nodes(body.half_length, scene.fem.elements, body.jumps, scene.fem.grading))
         if fidelity == "fem":
-            rule, value = "mesh wave period", 2.0 * body.half_length / scene.fem.elements / speed
+            rule, value = MESH_RULE, mesh_transit_time(body, scene.fem)
         else:
-            rule, value = "highest modal period / 20", 4.0 * body.half_length / (scene.modal_modes * speed) / 20.0
+            rule, value = "highest modal period / 20", 4.0 * body.half_length / (scene.modal_modes * _wave_speed(body, scene.fem)) / 20.0
         candidates[rule] = min(candidates.get(rule, math.inf), value)
     dt, rule = _smallest(candidates)
     return dt, f"automatic: {rule}"
 
 
-__all__ = ["GIVEN", "impact_time_step", "single_body_time_step"]
+__all__ = ["GIVEN", "MESH_RULE", "impact_time_step", "mesh_transit_time", "single_body_time_step"]
