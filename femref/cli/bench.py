@@ -24,7 +24,7 @@ from rich.console import Console
 
 from femref.case import CaseError, resolved_yaml
 from femref.case.defaults import DEFAULT_SCENE_SOURCE
-from femref.cli.common import EXIT_BAD_INPUT, EXIT_RUN_FAILURE, configuration_progress, load_case_or_default, print_table
+from femref.cli.common import EXIT_BAD_INPUT, EXIT_RUN_FAILURE, configuration_progress, finish, load_case_or_default, print_table
 from femref.cli.tables import bench_table
 
 IMPACT_ONLY = "femref bench serves impact cases"
@@ -65,9 +65,4 @@ def bench_command(case_path: Path | None, output: Path | None, repeats: int, plo
     click.echo("Pareto-optimal (fastest first): " + ", ".join(row.configuration.label for row in outcome.pareto_rows))
     for note in outcome.notes:
         click.echo(f"note: {note}")
-    for path in written:
-        click.echo(f"wrote {path}")
-    for row in outcome.failed:
-        click.echo(f"error: configuration {row.configuration.label} failed: {row.message}", err=True)
-    if outcome.failed:
-        sys.exit(EXIT_RUN_FAILURE)
+    finish(written, [(f"configuration {row.configuration.label}", row.message) for row in outcome.failed])

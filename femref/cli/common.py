@@ -7,10 +7,12 @@ keep what they stored).
 
 from __future__ import annotations
 
+import sys
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterator
+from typing import Iterable, Iterator
 
+import click
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
@@ -33,6 +35,16 @@ def load_case_or_default(case_path: Path | None):
 def source_name(case_path: Path | None) -> str:
     """How messages name the case: its path, or the default scene."""
     return str(case_path) if case_path else DEFAULT_SCENE_SOURCE
+
+
+def finish(written: Iterable[Path], failures: list[tuple[str, str]]) -> None:
+    """Say what was written, then each failure (``what``, ``message``) on stderr; exit 1 if any failed."""
+    for path in written:
+        click.echo(f"wrote {path}")
+    for what, message in failures:
+        click.echo(f"error: {what} failed: {message}", err=True)
+    if failures:
+        sys.exit(EXIT_RUN_FAILURE)
 
 
 def print_table(table: Table) -> None:

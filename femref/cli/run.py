@@ -16,7 +16,7 @@ from rich.console import Console
 
 from femref.case import CaseError, Problem, resolved_yaml
 from femref.case.runs import ToleranceSpec
-from femref.cli.common import EXIT_BAD_INPUT, EXIT_RUN_FAILURE, load_case_or_default, model_progress, print_table, source_name
+from femref.cli.common import EXIT_BAD_INPUT, EXIT_RUN_FAILURE, finish, load_case_or_default, model_progress, print_table, source_name
 from femref.cli.tables import run_table
 
 
@@ -67,12 +67,7 @@ def run_command(case_path: Path | None, output: Path | None, tolerance: float | 
         outcome = run_scene(scene, progress_for)
     written = write_results(output, resolved_yaml(case), outcome.results, outcome.scores, scene=scene.facts())
     print_table(run_table(outcome))
-    for path in written:
-        click.echo(f"wrote {path}")
-    for failed in outcome.failed:
-        click.echo(f"error: model {failed.model} failed: {failed.message}", err=True)
-    if outcome.failed:
-        sys.exit(EXIT_RUN_FAILURE)
+    finish(written, [(f"model {failed.model}", failed.message) for failed in outcome.failed])
 
 
 def _with_tolerance(case, tolerance: float | None, source: str):
@@ -102,7 +97,6 @@ def _run_choice(case, scene, output: Path, console: Console) -> None:
             sys.exit(EXIT_RUN_FAILURE)
     written = write_results(output, resolved_yaml(case), choice.results, extra=lambda h5: write_choice(h5, choice), scene=scene.facts())
     print_table(choice_table(choice))
-    for path in written:
-        click.echo(f"wrote {path}")
     if not choice.met:
         click.echo(f"warning: no model on the ladder is expected within {choice.tolerance:g}; kept {choice.chosen}, the most accurate", err=True)
+    finish(written, [])

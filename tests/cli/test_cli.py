@@ -12,6 +12,7 @@ from click.testing import CliRunner
 import femref.results
 from femref.cli import main
 
+from support.failures import coupler_iteration_fails_at
 from support.paths import CASES
 
 
@@ -115,18 +116,7 @@ def test_failed_model_is_recorded_and_exits_1(runner, tmp_path, monkeypatch):
 def test_impact_run_that_fails_mid_way_exits_1_saying_where(runner, tmp_path, monkeypatch):
     """A coupler iteration that fails mid-run: exit 1, the message names the coupler and the time,
     and the result file keeps that run's histories up to the failing step (NaN after)."""
-    from femref.impact import couplers as couplers_module
-
-    solve = couplers_module.CouplerSolve.solve
-    calls = {"n": 0}
-
-    def fails_at_step_30(self, predictions):
-        calls["n"] += 1
-        if calls["n"] == 30:
-            raise couplers_module.CouplerConvergenceError(0, "synthetic: Newton cycled")
-        return solve(self, predictions)
-
-    monkeypatch.setattr(couplers_module.CouplerSolve, "solve", fails_at_step_30)
+    coupler_iteration_fails_at(monkeypatch, 30)
     case = yaml.safe_load((CASES / "impact_free_roll.yaml").read_text())
     case.update(models=["rigid"], estimators=[])
     case.pop("measurement", None)

@@ -16,6 +16,7 @@ from femref.core.body import Body
 from femref.fem.build import FemSettings
 from reduced.couplers import Coupling, KelvinVoigt
 from reduced.rigid import ImpactPair, kelvin_voigt_impact
+from support.failures import coupler_iteration_fails_at
 
 HAMMER_M, ANVIL_M, LENGTH = 7000.0, 5882.0, 17.0
 
@@ -208,18 +209,7 @@ def test_extremes_stay_finite_and_physical(case, fidelity):
 def test_a_step_that_does_not_converge_ends_the_run_with_its_history(monkeypatch):
     """Like solve_ivp: a coupler iteration that fails at step 40 gives status −1, a message naming the
     coupler and the time, the histories up to step 39 and NaN after, on the full time axis."""
-    from femref.impact import couplers as couplers_module
-
-    solve = couplers_module.CouplerSolve.solve
-    calls = {"n": 0}
-
-    def fails_at_step_40(self, predictions):
-        calls["n"] += 1
-        if calls["n"] == 40:
-            raise couplers_module.CouplerConvergenceError(0, "synthetic: Newton cycled")
-        return solve(self, predictions)
-
-    monkeypatch.setattr(couplers_module.CouplerSolve, "solve", fails_at_step_40)
+    coupler_iteration_fails_at(monkeypatch, 40)
     dt = 1e-3
     response, _ = run(two_cars("rigid", end=0.1), dt)
     assert response.status == -1 and not response.ok
