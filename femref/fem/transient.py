@@ -117,7 +117,7 @@ class StepOperators:
 
     ``effective`` is S factorised once; :meth:`history_terms` is the load-free right-hand
     side ``−K u_n − (C + (1−αf) dt K) v_n − (αm M + …) a_n`` (three banded products);
-    :meth:`advance` updates ``u``, ``v`` in place from ``a_n`` and ``a_{n+1}``. Sparse
+    :meth:`step` makes one step. Sparse
     matrices are factorised banded and multiplied in DIA storage; dense ones (a few
     modal or rigid DOFs) with LAPACK Cholesky and dense products.
     """
@@ -147,13 +147,27 @@ class StepOperators:
         rhs += self._on_a @ a
         return rhs
 
-    def advance(self, u: NDArray, v: NDArray, a: NDArray, a_new: NDArray) -> None:
-        """``u += dt v + dt²((½−β) a + β a_new)``, ``v += dt((1−γ) a + γ a_new)``, in place."""
-        u += self.dt * v
-        u += self.cu * a
-        u += self.ca * a_new
-        v += self.cv_old * a
-        v += self.cv_new * a_new
+    def step(self, u: NDArray, v: NDArray, a: NDArray, load: NDArray | None = None) -> tuple[NDArray, NDArray, NDArray]:
+        """One step from ``(u_n, v_n, a_n)`` with the generalized load term ``load`` of the right-hand
+        side (``f_{n+1−αf}``; None: no load): ``(a_{n+1}, u_{n+1}, v_{n+1})``, new arrays.
+
+        ``S a_{n+1} = load + history_terms``, ``u_{n+1} = u_n + dt v_n + dt²((½−β) a_n + β a_{n+1})``,
+        ``v_{n+1} = v_n + dt((1−γ) a_n + γ a_{n+1})``. The single-body stepper (:class:`Stepper`) and
+        the impact cars (``femref.impact.cars.LinearCar``, whose step is affine in its end loads)
+        both step through here.
+        """
+        rhs = self.history_terms(u, v, a)
+        if load is not None:
+            rhs += load
+        a_new = self.effective.solve(rhs)
+        u_new = self.dt * v  # built in place: as few temporaries as an in-place update of u
+        u_new += u
+        u_new += self.cu * a
+        u_new += self.ca * a_new
+        v_new = self.cv_old * a
+        v_new += v
+        v_new += self.cv_new * a_new
+        return a_new, u_new, v_new
 
 
 @dataclass(frozen=True, eq=False)
@@ -175,7 +189,7 @@ class Stepper:
         return BandedCholesky(self.ops.mass)
 
     def iterate(self, steps: int, u0: NDArray | None = None, v0: NDArray | None = None) -> Iterator[State]:
-        """Yield the state at steps ``0 … steps`` (the same arrays are updated: copy what you keep)."""
+        """Yield the state at steps ``0 … steps`` (the state object is reused; its arrays are new each step)."""
         ops, it, dt = self.ops, self.integrator, self.dt
         n = ops.ndof
         M, C, K = ops.mass, ops.damping, ops.stiffness
@@ -195,12 +209,10 @@ class Stepper:
         step_ops = StepOperators(M, C, K, it, dt)
         af = it.alpha_f
         loads_alpha = (1.0 - af) * history[1:] + af * history[:-1]
+        load = np.zeros(n)
         for step in range(1, steps + 1):
-            rhs = step_ops.history_terms(u, v, a)
-            rhs[load_rows] += load_signs * loads_alpha[step - 1, load_cols]  # one load per DOF
-            a_new = step_ops.effective.solve(rhs)
-            step_ops.advance(u, v, a, a_new)
-            a = a_new
+            load[load_rows] = load_signs * loads_alpha[step - 1, load_cols]  # one load per DOF
+            a, u, v = step_ops.step(u, v, a, load)
             state.step, state.time = step, float(times[step])
             state.u, state.v, state.a = u, v, a
             yield state

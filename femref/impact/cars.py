@@ -156,13 +156,9 @@ class LinearCar:
         return self._mass_factor.solve(self._B @ self.loads - self._damping @ self.v - stiffness_u)
 
     def predict(self) -> EndPrediction:
-        step = self._step
-        rhs = step.history_terms(self.u, self.v, self.a)
-        if self._alpha_f:
-            rhs += self._alpha_f * (self._B @ self.loads)
-        a_free = step.effective.solve(rhs)
-        u_free = self.u + self.dt * self.v + step.cu * self.a + step.ca * a_free
-        v_free = self.v + step.cv_old * self.a + step.cv_new * a_free
+        # the step with the new end loads left out: S a = αf B L_n + history; the loads' part is Z L_{n+1}
+        load = self._alpha_f * (self._B @ self.loads) if self._alpha_f else None
+        a_free, u_free, v_free = self._step.step(self.u, self.v, self.a, load)
         self._free = (a_free, u_free, v_free)
         return EndPrediction(
             displacement=self._E @ u_free + self.offset,

@@ -8,7 +8,7 @@ masses and body profiles — and returns the compression-positive force of every
 
 ``records`` are the fem run's sensor accelerations (m/s²), possibly passed through the
 measurement chain (:mod:`femref.sensing.measurement`); the runner scores the estimates
-against the fem coupler forces (:mod:`femref.impact.scoring`).
+against the fem coupler forces (:mod:`femref.run.scoring`).
 
 Signs and geometry (:mod:`femref.scene.impact`): cars in line order, coupler ``j``
 between the front (+l) of car ``j = Coupler.rear`` and the back (−l) of car ``j + 1``.

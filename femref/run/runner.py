@@ -87,10 +87,9 @@ def run_scene(scene: Scene | ImpactScene, progress_for: ProgressFor | None = Non
 
 def run_single_body_model(scene: Scene, name: str, progress: Progress | None = None) -> ModelResult:
     """Model ``name`` on a single-body scene whose step is resolved; never raises."""
-    form = model_form(name, scene.kind)
     if scene.kind == "harmonic":
-        return capture(name, lambda: form(scene))
-    return capture(name, lambda: form(scene, progress))
+        return capture(name, lambda: model_form(name, scene.kind)(scene))
+    return capture(name, lambda: model_form(name, scene.kind)(scene, progress))
 
 
 def run_model(scene: ImpactScene, run: ModelRun, dt: float | None = None, dt_rule: str = "", progress: Progress | None = None) -> ModelResult:
