@@ -59,22 +59,34 @@ class RunOutcome:
 def run_scene(scene: Scene | ImpactScene, progress_for: ProgressFor | None = None) -> RunOutcome:
     """Run every model of ``scene`` in order (then, for impacts, the estimators) and score them;
     ``progress_for(model)`` may supply a progress callback."""
+
     def progress(name: str) -> Progress | None:
         return progress_for(name) if progress_for else None
 
     if isinstance(scene, ImpactScene):
-        results = [run_model(scene, run, progress=progress(run.name)) for run in scene.runs]
-        if scene.measurement is not None:
-            for result in results:
-                if result.ok:
-                    add_measured_records(scene, result)
-        reference = next((r for r in results if r.model == catalog.REFERENCES["impact"][0] and r.ok), None)
-        if reference is not None:
-            results.extend(run_estimators(scene, reference))
-            results.extend(run_networks(scene, reference))
-        return RunOutcome(scene, results, score_results(scene.kind, results))
-    dt, dt_rule = single_body_time_step(scene) if scene.kind == "transient" else (None, None)
-    scene = dataclasses.replace(scene, dt=dt) if dt is not None else scene
+        return _run_impact(scene, progress)
+    return _run_single_body(scene, progress)
+
+
+def _run_impact(scene: ImpactScene, progress: Callable[[str], Progress | None]) -> RunOutcome:
+    results = [run_model(scene, run, progress=progress(run.name)) for run in scene.runs]
+    if scene.measurement is not None:
+        for result in results:
+            if result.ok:
+                add_measured_records(scene, result)
+    reference = next((r for r in results if r.model == catalog.REFERENCES["impact"][0] and r.ok), None)
+    if reference is not None:
+        results.extend(run_estimators(scene, reference))
+        results.extend(run_networks(scene, reference))
+    return RunOutcome(scene, results, score_results(scene.kind, results))
+
+
+def _run_single_body(scene: Scene, progress: Callable[[str], Progress | None]) -> RunOutcome:
+    """Every model on one axis: a transient scene's step is resolved once and recorded with its rule."""
+    dt_rule = None
+    if scene.kind == "transient":
+        dt, dt_rule = single_body_time_step(scene)
+        scene = dataclasses.replace(scene, dt=dt)
     results = []
     for name in scene.models:
         result = run_single_body_model(scene, name, progress(name))
