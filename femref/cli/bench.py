@@ -22,8 +22,6 @@ from pathlib import Path
 import click
 from rich.console import Console
 
-from femref.case import CaseError, resolved_yaml
-from femref.case.defaults import DEFAULT_SCENE_SOURCE
 from femref.cli.common import EXIT_BAD_INPUT, EXIT_RUN_FAILURE, configuration_progress, finish, load_case_or_default, print_table
 from femref.cli.tables import bench_table
 
@@ -38,6 +36,8 @@ IMPACT_ONLY = "femref bench serves impact cases"
 def bench_command(case_path: Path | None, output: Path | None, repeats: int, plot_path: Path | None) -> None:
     """Time and score every model of CASE at several resolutions against the finest fem; table + Pareto plot."""
     from femref.bench.output import plot_pareto, write_bench_table
+    from femref.case import CaseError, resolved_yaml
+    from femref.case.defaults import DEFAULT_SCENE_SOURCE
     from femref.bench.run import ReferenceFailed, run_bench
     from femref.scene.build import scene_from_case
 

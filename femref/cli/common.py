@@ -1,5 +1,8 @@
 """What every command shares: exit codes, loading a case (or the default scene), progress bars, wide tables.
 
+Nothing of femref is imported at module level here or in the command modules: each command
+imports what it drives when it runs, so ``femref --help`` stays light.
+
 Exit codes (docs/design.md §5): 0 success, 2 bad input (the message names the key path and
 the rule; nothing is written), 1 a failure during the run, 130 interrupted (sweeps and studies
 keep what they stored).
@@ -17,9 +20,6 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
 
-from femref.case import load_case, parse_case
-from femref.case.defaults import DEFAULT_SCENE_SOURCE, default_scene_data
-
 EXIT_BAD_INPUT = 2
 EXIT_RUN_FAILURE = 1
 EXIT_INTERRUPTED = 130
@@ -27,6 +27,9 @@ EXIT_INTERRUPTED = 130
 
 def load_case_or_default(case_path: Path | None):
     """The case at ``case_path`` and its folder, or the built-in default scene and the working folder."""
+    from femref.case import load_case, parse_case
+    from femref.case.defaults import DEFAULT_SCENE_SOURCE, default_scene_data
+
     if case_path is None:
         return parse_case(default_scene_data(), source=DEFAULT_SCENE_SOURCE), Path.cwd()
     return load_case(case_path), case_path.resolve().parent
@@ -34,6 +37,8 @@ def load_case_or_default(case_path: Path | None):
 
 def source_name(case_path: Path | None) -> str:
     """How messages name the case: its path, or the default scene."""
+    from femref.case.defaults import DEFAULT_SCENE_SOURCE
+
     return str(case_path) if case_path else DEFAULT_SCENE_SOURCE
 
 

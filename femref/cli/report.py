@@ -14,8 +14,6 @@ from pathlib import Path
 import click
 
 from femref.cli.common import EXIT_BAD_INPUT
-from femref.report import ReportInputError, build_report
-from femref.results import atomic_path
 
 
 def default_output(results: Path) -> Path:
@@ -25,6 +23,8 @@ def default_output(results: Path) -> Path:
 
 def write_atomically(path: Path, text: str) -> None:
     """Write ``text`` (UTF-8) to a temporary file beside ``path`` and rename it into place."""
+    from femref.results import atomic_path
+
     with atomic_path(path) as tmp:
         tmp.write_text(text, encoding="utf-8")
 
@@ -34,6 +34,8 @@ def write_atomically(path: Path, text: str) -> None:
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), help="HTML file (default: RESULTS stem + .html, next to RESULTS)")
 def report_command(results: Path, output: Path | None) -> None:
     """Write one self-contained HTML page (scores, plots, field map, case) from a femref result file."""
+    from femref.report import ReportInputError, build_report
+
     output = output or default_output(results)
     try:
         if output.resolve() == results.resolve():

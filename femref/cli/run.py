@@ -14,8 +14,6 @@ from pathlib import Path
 import click
 from rich.console import Console
 
-from femref.case import CaseError, Problem, resolved_yaml
-from femref.case.runs import ToleranceSpec
 from femref.cli.common import EXIT_BAD_INPUT, EXIT_RUN_FAILURE, finish, load_case_or_default, model_progress, print_table, source_name
 from femref.cli.tables import run_table
 
@@ -24,6 +22,8 @@ from femref.cli.tables import run_table
 @click.argument("case_path", metavar="CASE", required=False, type=click.Path(dir_okay=False, path_type=Path))
 def validate_command(case_path: Path | None) -> None:
     """Check CASE and print the resolved case (every default filled in)."""
+    from femref.case import CaseError, resolved_yaml
+
     try:
         case, _ = load_case_or_default(case_path)
     except CaseError as error:
@@ -46,6 +46,7 @@ def run_command(case_path: Path | None, output: Path | None, tolerance: float | 
     With a tolerance (--tolerance or the case's tolerance:) the run instead climbs the
     ladder of impact models and resolutions and keeps the cheapest expected within it.
     """
+    from femref.case import CaseError, resolved_yaml
     from femref.results import write_results
     from femref.run import run_scene
     from femref.scene.build import scene_from_case
@@ -72,6 +73,9 @@ def run_command(case_path: Path | None, output: Path | None, tolerance: float | 
 
 def _with_tolerance(case, tolerance: float | None, source: str):
     """The case with ``--tolerance`` in its ``tolerance.value`` (kept in the resolved case of the result file)."""
+    from femref.case import CaseError, Problem
+    from femref.case.runs import ToleranceSpec
+
     if tolerance is None:
         return case
     if case.kind != "impact":
@@ -83,6 +87,7 @@ def _with_tolerance(case, tolerance: float | None, source: str):
 
 def _run_choice(case, scene, output: Path, console: Console) -> None:
     """Choose the model (femref.choice), write every run made and ``/choice``, print the ladder."""
+    from femref.case import resolved_yaml
     from femref.choice import choose_model, run_rung
     from femref.choice.output import choice_table, write_choice
     from femref.results import write_results

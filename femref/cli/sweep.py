@@ -13,7 +13,6 @@ from pathlib import Path
 import click
 from rich.console import Console
 
-from femref.case import CaseError
 from femref.cli.common import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_RUN_FAILURE, print_table, sample_progress
 from femref.cli.tables import study_table
 
@@ -30,6 +29,7 @@ SHOWN_FAILURES = 5
 @click.option("--retry-failed", is_flag=True, help="run the samples stored as failed again")
 def sweep_command(sweep_path: Path, scheduler: str | None, workers: int | None, output: Path | None, limit: int | None, retry_failed: bool) -> None:
     """Run the samples of SWEEP not yet stored in the sweep file, on Dask; resumable (docs/design.md §6)."""
+    from femref.case import CaseError
     from femref.sweep import SweepInterrupted, load_sweep, run_sweep
 
     if scheduler is not None and workers is not None:
@@ -79,6 +79,7 @@ def _sweep_report(summary) -> None:
 @click.option("--scale", type=click.FloatRange(min=0.0, min_open=True, max=1.0), default=1.0, help="run every set at this fraction of its samples")
 def study_command(study_path: Path, out_dir: Path | None, scheduler: str | None, workers: int | None, scale: float) -> None:
     """Run the network study STUDY: sweeps, networks per training source, scores against fem (issue 5)."""
+    from femref.case import CaseError
     from femref.study.run import run_study
     from femref.study.spec import load_study
     from femref.sweep import SweepInterrupted

@@ -26,7 +26,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.signal import butter, sosfilt
 
 
 @dataclass(frozen=True)
@@ -76,6 +75,8 @@ def lowpass_filter(acceleration: NDArray[np.float64], dt: float, corner: float) 
     ``|H(f)| = 1/√(1 + (tan(πf dt)/tan(π f_c dt))^8)`` (checked against the steady-state
     amplitude of filtered tones in ``tests/sensing/test_measurement.py``).
     """
+    from scipy.signal import butter, sosfilt  # scipy.signal costs ~1 s to import: only where a record is filtered
+
     sos = butter(FILTER_ORDER, corner, btype="low", fs=1.0 / dt, output="sos")
     return sosfilt(sos, acceleration, axis=0)
 

@@ -156,3 +156,15 @@ def test_default_scene_runs_without_case(runner, tmp_path, monkeypatch):
         assert h5["scores/rigid"].attrs["reference"] == "fem"
         assert "coupler_force_peak_error_c1" in h5["scores/quasi_rigid"].attrs
         assert h5["fem/energy"].attrs["balance_error"] < 1e-3
+
+
+def test_the_command_imports_no_machinery_before_a_command_runs():
+    """``femref --help`` must stay light: importing the command loads no case schema (pydantic), no
+    solver, no plotting and no scipy.signal; each command imports what it drives when it runs."""
+    import subprocess
+    import sys
+
+    heavy = ("pydantic", "femref.case", "femref.run", "femref.fem", "matplotlib", "scipy.signal", "dask", "skfem")
+    code = "import sys, femref.cli; print(' '.join(m for m in " + repr(heavy) + " if m in sys.modules))"
+    loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    assert loaded == []
