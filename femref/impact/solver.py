@@ -39,7 +39,9 @@ class ImpactResponse:
     ``sensors[probe]`` holds ``displacement`` and ``acceleration`` (probe ``"<car>/<sensor>"``),
     ``couplers[name]`` ``force`` (N, compression positive) and ``closure`` (m), ``energy``
     the bookkeeping (J): ``kinetic``, ``strain``, ``body_dissipated``, ``coupler_stored``,
-    ``coupler_dissipated``, ``total``. ``status`` is 0 when the run reached the end time,
+    ``coupler_dissipated``, ``total``. ``wall_time`` is the stepping (s); ``setup_time`` the
+    building of the cars (mesh, factorisations, modes), filled in by whoever built them.
+    ``status`` is 0 when the run reached the end time,
     −1 when a step failed (``message`` says where; the histories are NaN after it).
     """
 
@@ -52,6 +54,7 @@ class ImpactResponse:
     newton_iterations_max: int = 0
     contact_changes: int = 0
     wall_time: float = 0.0
+    setup_time: float = 0.0
     car_settings: list[dict] = field(default_factory=list)
     status: int = 0
     message: str = ""

@@ -22,6 +22,7 @@ status with its message, and the other models still run.
 from __future__ import annotations
 
 import dataclasses
+import time
 from dataclasses import dataclass
 from typing import Any, Callable
 
@@ -115,11 +116,16 @@ def run_model(scene: ImpactScene, run: ModelRun, dt: float | None = None, dt_rul
 
 
 def step_cars(scene: ImpactScene, run: ModelRun, dt: float, progress: Progress | None = None) -> ImpactResponse:
-    """Build every car at its fidelity in ``run`` (its model's car form) and step them together."""
+    """Build every car at its fidelity in ``run`` (its model's car form) and step them together;
+    the response carries both times, building (``setup_time``) and stepping (``wall_time``)."""
+    started = time.perf_counter()
     integrator = INTEGRATORS[scene.integrator](scene.rho_inf)
     loads = initial_end_loads(scene)
     cars = [model_form(fidelity, "impact")(car, scene, integrator, dt, loads[i]) for i, (car, fidelity) in enumerate(zip(scene.cars, run.fidelity))]
-    return solve_impact(scene, cars, dt, progress)
+    setup_time = time.perf_counter() - started
+    response = solve_impact(scene, cars, dt, progress)
+    response.setup_time = setup_time
+    return response
 
 
 def model_result(scene: ImpactScene, run: ModelRun, response: ImpactResponse, dt: float, dt_rule: str) -> ModelResult:
@@ -132,6 +138,8 @@ def model_result(scene: ImpactScene, run: ModelRun, response: ImpactResponse, dt
         "integrator": scene.integrator,
         "rho_inf": scene.rho_inf,
         "steps": response.steps,
+        "setup_time_s": response.setup_time,
+        "stepping_time_s": response.wall_time,
         "newton_iterations": response.newton_iterations,
         "newton_iterations_max": response.newton_iterations_max,
         "contact_changes": response.contact_changes,

@@ -89,3 +89,15 @@ def test_default_scene_is_the_free_roll_case():
     assert default.couplers[0].coupling == case.couplers[0].coupling
     assert default.measurement == case.measurement and default.estimators == case.estimators
     assert default.models == case.models
+
+
+def test_every_impact_run_records_its_set_up_and_stepping_times():
+    """Settings hold the building of the cars and the stepping apart (s), both positive, and
+    together no more than the run's wall time; the steps taken beside them."""
+    outcome = run_scene(pair())
+    for result in outcome.results:
+        if "fidelity" not in result.settings:
+            continue  # an estimator: no cars, no steps
+        setup, stepping = result.settings["setup_time_s"], result.settings["stepping_time_s"]
+        assert setup > 0.0 and stepping > 0.0 and setup + stepping <= result.wall_time_s
+        assert result.settings["steps"] > 0
