@@ -30,16 +30,16 @@ def _kind_served(model: str, case: Any) -> str | None:
     kinds = catalog.MODELS[model].kinds
     if kinds == catalog.IMPACT_KINDS:
         return f"it serves impact cases only (kind: impact), and this is a {case.kind} case"
-    if case.kind in catalog.IMPACT_KINDS and model == "exact":
-        return "no exact solution is implemented for impact scenes (nonlinear contact); score against fem"
     return f"it serves {', '.join(kinds)} cases, and this is a {case.kind} case"
 
 
 def _exact(case: Any) -> str | None:
     """The exact solutions are transfer-matrix solutions over piecewise-constant profiles.
 
-    In the time domain (transient) they exist for rods only.
+    In the time domain (transient) they exist for rods only; impacts (nonlinear contact) have none.
     """
+    if case.kind in catalog.IMPACT_KINDS:
+        return "no exact solution is implemented for impact scenes (nonlinear contact); score against fem"
     body = case.body
     if case.kind == "transient" and body.type != "rod":
         return f"the exact time-domain solution exists for rods only, and this body is a {body.type}"
@@ -77,7 +77,7 @@ def _ann(case: Any) -> str | None:
     return "a network is an estimator on the fem sensor records, not a model run; list it under estimators: as {name: ann_<name>, network: file.npz}"
 
 
-#: The case-specific limits beyond the scene kind, by model name.
+#: The case-specific limits, by model name: each reads any case kind and gives the more specific reason.
 LIMITS: Mapping[str, Capability] = {"exact": _exact, "quasi_rigid": _quasi_rigid, "ann": _ann}
 
 #: Every model name a case may list (the catalog's, in its order).
@@ -86,10 +86,5 @@ MODELS: tuple[str, ...] = tuple(catalog.MODELS)
 
 def refusal(model: str, case: Any) -> str | None:
     """Why ``model`` cannot serve ``case``, or ``None`` when it can (``model`` must be in the catalog)."""
-    if model == "ann":
-        return _ann(case)
-    reason = _kind_served(model, case)
-    if reason is not None:
-        return reason
     limit = LIMITS.get(model)
-    return limit(case) if limit else None
+    return (limit(case) if limit else None) or _kind_served(model, case)

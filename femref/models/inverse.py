@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from femref.core import catalog
-from femref.scene import Car, Coupler, ImpactScene
+from femref.scene import Car, ImpactScene
 from reduced.inverse import CoupledImpactInversion, rigid_coupler_force
 
 Records = dict[str, NDArray[np.float64]]

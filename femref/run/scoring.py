@@ -244,7 +244,7 @@ def score_single_body(kind: str, results: list[ModelResult]) -> dict[str, dict[s
                     worst = float(np.max(np.abs(mine - ref)))
                     metrics[f"{quantity}_max_error_{probe}"] = worst / scale if scale > 0.0 else math.nan
                     metrics[f"{quantity}_rms_error_{probe}"] = _relative_rms(mine, ref)
-        scores[result.model] = _with_context(metrics, reference, result)
+        scores[result.model] = _with_context({**metrics, **_aggregates(metrics)}, reference, result)
     return scores
 
 
@@ -279,13 +279,12 @@ def score_impact_results(results: list[ModelResult]) -> dict[str, dict[str, Any]
 
 
 def _with_context(metrics: Metrics, reference: ModelResult, result: ModelResult) -> dict[str, Any]:
-    """``reference``, ``wall_time_s``, ``speedup``, the metrics with their aggregates, and ``undefined``:
+    """``reference``, ``wall_time_s``, ``speedup``, the metrics (with their aggregates), and ``undefined``:
     why each NaN metric is undefined (absent when none is)."""
     scores: dict[str, Any] = {"reference": reference.model, "wall_time_s": result.wall_time_s}
     if result.wall_time_s > 0.0:
         scores["speedup"] = reference.wall_time_s / result.wall_time_s
     scores.update(metrics)
-    scores.update(_aggregates(metrics))
     reasons = undefined_reasons(scores)
     if reasons:
         scores["undefined"] = "; ".join(f"{name}: {reason}" for name, reason in reasons.items())

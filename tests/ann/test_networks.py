@@ -16,7 +16,7 @@ from ann.features import FeaturePipeline, FeatureSettings
 from ann.networks import MLPForceRegressor, RBFNetwork
 from ann.splits import split_indices
 
-from support.ann_data import RATE, SAMPLES, pulse_problem
+from support.ann_data import RATE, pulse_problem
 
 TOLERANCE = 0.02  # mean relative error on held-out samples
 
