@@ -66,6 +66,8 @@ UNITS = {
 }
 
 
+#: The scores' attribute naming each undefined (NaN) metric and why: ``"<metric>: <reason>; …"``.
+UNDEFINED = "undefined"
 SCENE_UNITS = {"epsilon": "1", "wave_travel_time": "s", "load_time": "s"}
 
 

@@ -13,6 +13,7 @@ from typing import Any, Iterable
 
 from femref.report.figures import Picture
 from femref.report.read import Epsilon, ResultFile
+from femref.results import UNDEFINED
 
 STYLE = """
 body { font-family: system-ui, sans-serif; margin: 1.5em auto; max-width: 1100px; padding: 0 1em; color: #222; }
@@ -30,8 +31,6 @@ pre { background: #f7f7f7; padding: 0.8em; overflow-x: auto; font-size: 0.85em; 
 """.strip()
 
 LEADING_METRICS = ("reference", "wall_time_s", "speedup")
-#: The scores' attribute naming each undefined (NaN) metric and why (femref.run.scoring.undefined_reasons).
-UNDEFINED = "undefined"
 
 
 def render_page(result: ResultFile, plots: list[Picture], field_maps: list[Picture]) -> str:

@@ -52,7 +52,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from femref.core.catalog import REFERENCES
-from femref.results import ModelResult
+from femref.results import UNDEFINED, ModelResult
 
 Metrics = dict[str, float]
 
@@ -287,7 +287,7 @@ def _with_context(metrics: Metrics, reference: ModelResult, result: ModelResult)
     scores.update(metrics)
     reasons = undefined_reasons(scores)
     if reasons:
-        scores["undefined"] = "; ".join(f"{name}: {reason}" for name, reason in reasons.items())
+        scores[UNDEFINED] = "; ".join(f"{name}: {reason}" for name, reason in reasons.items())
     return scores
 
 
