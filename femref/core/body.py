@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from femref.core.profiles import Profile
+from femref.core.quadrature import gauss_legendre
 
 
 @dataclass(frozen=True, eq=False)
@@ -52,7 +53,7 @@ class Body:
         l = self.half_length
         edges = np.unique(np.concatenate([np.linspace(-l, l, panels + 1), self.jumps]))
         edges = edges[(edges >= -l) & (edges <= l)]
-        xg, wg = np.polynomial.legendre.leggauss(5)
+        xg, wg = gauss_legendre(5)
         mid, half = 0.5 * (edges[1:] + edges[:-1]), 0.5 * np.diff(edges)
         return (mid[:, None] + half[:, None] * xg).ravel(), (half[:, None] * wg).ravel()
 

@@ -11,18 +11,24 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
-from scipy.linalg import lapack
+from scipy.linalg import blas, lapack
+
+
+def _coo(matrix: sp.spmatrix) -> sp.coo_matrix:
+    """The matrix in COO form (itself if it is one)."""
+    return matrix.tocoo() if sp.issparse(matrix) else sp.coo_matrix(matrix)
 
 
 def half_bandwidth(matrix: sp.spmatrix) -> int:
-    coo = sp.coo_matrix(matrix)
+    coo = _coo(matrix)
     return int(np.max(np.abs(coo.row - coo.col))) if coo.nnz else 0
 
 
-def upper_banded(matrix: sp.spmatrix, bandwidth: int | None = None) -> NDArray[np.float64]:
-    """LAPACK upper band storage: ``ab[b + i − j, j] = A[i, j]`` for ``j − b ≤ i ≤ j``."""
-    coo = sp.coo_matrix(matrix)
-    b = half_bandwidth(coo) if bandwidth is None else bandwidth
+def upper_banded(matrix: sp.spmatrix, bandwidth: int | None = None, *, minimum: int = 0) -> NDArray[np.float64]:
+    """LAPACK upper band storage: ``ab[b + i − j, j] = A[i, j]`` for ``j − b ≤ i ≤ j``, b the matrix's
+    half-bandwidth (or ``bandwidth``), at least ``minimum``."""
+    coo = _coo(matrix)
+    b = max(minimum, half_bandwidth(coo) if bandwidth is None else bandwidth)
     keep = coo.row <= coo.col
     ab = np.zeros((b + 1, coo.shape[0]))
     np.add.at(ab, (b + coo.row[keep] - coo.col[keep], coo.col[keep]), coo.data[keep])
@@ -37,9 +43,19 @@ class BandedCholesky:
     """
 
     def __init__(self, matrix: sp.spmatrix) -> None:
-        self.shape = matrix.shape
-        self.bandwidth = max(1, half_bandwidth(matrix))
-        ab = upper_banded(matrix, self.bandwidth)
+        self._factorise(upper_banded(matrix, minimum=1))
+
+    @classmethod
+    def from_bands(cls, ab: NDArray[np.float64]) -> "BandedCholesky":
+        """The factorisation of the matrix in upper band storage ``ab`` (:func:`upper_banded`, at least one
+        superdiagonal; ``ab`` is overwritten)."""
+        factorisation = cls.__new__(cls)
+        factorisation._factorise(ab)
+        return factorisation
+
+    def _factorise(self, ab: NDArray[np.float64]) -> None:
+        self.shape = (ab.shape[1], ab.shape[1])
+        self.bandwidth = ab.shape[0] - 1
         if self.bandwidth == 1:  # tridiagonal (P1): LDLᵀ with dpttrf/dpttrs, about twice as fast
             d, e, info = lapack.dpttrf(ab[1], ab[0, 1:])
             self._factor = (d, e)
@@ -55,4 +71,29 @@ class BandedCholesky:
             x, info = lapack.dpbtrs(self._factor, rhs, lower=0)
         if info != 0:  # pragma: no cover - the solves only fail on bad arguments
             raise ValueError(f"banded solve: illegal argument {-info}")
+        return x
+
+
+class CholeskyFactor:
+    """The upper-triangular banded factor ``U`` of a symmetric positive definite ``A = UᵀU`` (LAPACK ``dpbtrf``)
+    and solves with it, ``U⁻¹ b`` and ``U⁻ᵀ b`` (``dtbsv`` for a vector, ``dtbtrs`` for columns), O(n b) each.
+
+    What the change of variables ``χ = U φ`` needs, which turns ``B φ = μ A φ`` into the
+    standard ``U⁻ᵀ B U⁻¹ χ = μ χ`` (:func:`femref.fem.modes.free_free_modes`).
+    """
+
+    def __init__(self, matrix: sp.spmatrix) -> None:
+        ab = upper_banded(matrix, minimum=1)
+        self.bandwidth = ab.shape[0] - 1
+        self._factor, info = lapack.dpbtrf(ab, lower=0, overwrite_ab=1)
+        if info != 0:
+            raise np.linalg.LinAlgError(f"banded Cholesky failed: leading minor {info} is not positive definite")
+
+    def solve(self, rhs: NDArray[np.float64], transpose: bool = False) -> NDArray[np.float64]:
+        """``U⁻¹ rhs`` (``U⁻ᵀ rhs`` with ``transpose``) for a vector or the columns of a matrix."""
+        if rhs.ndim == 1:
+            return blas.dtbsv(self.bandwidth, self._factor, rhs, trans=int(transpose))
+        x, info = lapack.dtbtrs(self._factor, rhs, trans="T" if transpose else "N")
+        if info != 0:  # pragma: no cover - U from a successful dpbtrf is nonsingular
+            raise ValueError(f"banded triangular solve: info {info}")
         return x

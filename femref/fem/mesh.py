@@ -48,6 +48,6 @@ def body_nodes(
         size = min(nodes[i] - nodes[i - 1], nodes[i + 1] - nodes[i]) if interior else 0.0
         if interior and abs(nodes[i] - jump) < size / 3.0 and nodes[i] not in inner:
             nodes[i] = jump
-        elif not np.any(np.isclose(nodes, jump, rtol=0.0, atol=1e-12 * half_length)):
+        elif not np.any(np.abs(nodes - jump) <= 1e-12 * half_length):
             nodes = np.sort(np.append(nodes, jump))
     return nodes

@@ -17,7 +17,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from numpy.typing import NDArray
 
-from femref.fem.banded import BandedCholesky
+from femref.fem.banded import BandedCholesky, CholeskyFactor, upper_banded
 from femref.fem.operators import Operators
 
 
@@ -25,12 +25,14 @@ def free_free_modes(ops: Operators, modes: int, wave_travel_time: float) -> tupl
     """The rigid translation and the ``modes`` lowest elastic modes of ``K φ = ω² M φ``.
 
     Returns ``(Φ, ω²)`` with ``Φ`` (ndof × (modes + 1)) mass-normalised, ``Φᵀ M Φ = I``,
-    rigid mode first (exactly ``1/√M_tot``, ``ω² = 0``). K is singular (free-free), so
-    ``eigsh`` runs in shift-invert mode about ``σ = −10⁻² ω_est²``, below the spectrum
-    (``K − σM`` is positive definite), with ``ω_est = π/(2 T_wave)`` the first elastic
-    frequency of a homogeneous rod. The elastic vectors are then M-orthogonalised to the
-    rigid mode and cleaned by a Rayleigh–Ritz step on their span (``Φᵀ K Φ`` diagonal to
-    rounding). Signs: ``φ_i(+l) ≥ 0``.
+    rigid mode first (exactly ``1/√M_tot``, ``ω² = 0``). K is singular (free-free), so the
+    pencil is shifted by ``σ = −10⁻² ω_est²``, below the spectrum (``K − σM`` is positive
+    definite), with ``ω_est = π/(2 T_wave)`` the first elastic frequency of a homogeneous rod,
+    and brought to standard form by the banded Cholesky factor ``K − σM = UᵀU``: the lowest
+    modes are the largest eigenvalues ``1/(ω² − σ)`` of ``U⁻ᵀ M U⁻¹`` (Lanczos, ``eigsh``; a
+    step is two banded triangular solves and a sparse product), ``φ = U⁻¹χ``. The vectors are
+    then M-orthogonalised to the rigid mode and the elastic ones M-normalised and cleaned by a
+    Rayleigh–Ritz step on their span (``Φᵀ K Φ`` diagonal to rounding). Signs: ``φ_i(+l) ≥ 0``.
     """
     ndof = ops.ndof
     if not 0 <= modes <= ndof - 2:
@@ -40,8 +42,14 @@ def free_free_modes(ops: Operators, modes: int, wave_travel_time: float) -> tupl
     if modes == 0:
         return rigid[:, None], np.zeros(1)
     sigma = -1e-2 * (math.pi / (2.0 * wave_travel_time)) ** 2
+    shifted = CholeskyFactor(sp.csr_matrix(K - sigma * M))
+
+    def inverted(chi: NDArray[np.float64]) -> NDArray[np.float64]:
+        return shifted.solve(M @ shifted.solve(chi), transpose=True)
+
     start = np.exp(np.linspace(0.0, 1.0, ndof))  # fixed, neither even nor odd: no hidden RNG
-    _, vectors = spla.eigsh(K.tocsc(), k=modes + 1, M=M.tocsc(), sigma=sigma, which="LM", v0=start)
+    _, chi = spla.eigsh(spla.LinearOperator((ndof, ndof), matvec=inverted, dtype=float), k=modes + 1, which="LA", v0=start)
+    vectors = shifted.solve(chi)
     vectors = vectors - np.outer(rigid, rigid @ (M @ vectors))
     # the rigid vector is now (numerically) zero: keep the `modes` directions of most mass
     mass_norm = np.einsum("ij,ij->j", vectors, M @ vectors)
@@ -73,8 +81,9 @@ def inertia_relief_flexibility(ops: Operators, rhs: NDArray[np.float64]) -> NDAr
     rigid = ops.rigid_modes[:, 0] / math.sqrt(ops.total_mass)
     m_rigid = M @ rigid
     balanced = rhs - np.outer(m_rigid, rigid @ rhs)
-    ground = sp.csr_matrix(([K[0, 0]], ([0], [0])), shape=K.shape)
-    u = BandedCholesky(sp.csr_matrix(K + ground)).solve(balanced)
+    grounded = upper_banded(K, minimum=1)
+    grounded[-1, 0] *= 2.0  # K₀₀ + K₀₀
+    u = BandedCholesky.from_bands(grounded).solve(balanced)
     return u - np.outer(rigid, m_rigid @ u)
 
 

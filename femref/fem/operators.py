@@ -35,6 +35,7 @@ from skfem.helpers import grad
 
 from femref.fem.shapes import SHAPES
 from femref.core.profiles import Profile
+from femref.core.quadrature import gauss_legendre
 
 ROD_LOADS = ("F1", "F2")
 BEAM_LOADS = ("N1", "N2", "G1", "G2")
@@ -91,17 +92,16 @@ class Operators:
         h = self.nodes[e + 1] - self.nodes[e]
         xi = np.clip((x - self.nodes[e]) / h, 0.0, 1.0)
         values = SHAPES[self.element](xi, h, derivative)  # (nb, npoints)
-        rows = np.repeat(np.arange(x.size), values.shape[0])
-        cols = self.element_dofs[e].ravel()
-        return sp.csr_matrix((values.T.ravel(), (rows, cols)), shape=(x.size, self.ndof))
+        row_starts = np.arange(0, values.size + 1, values.shape[0])  # row k: the nb DOFs of its element
+        return sp.csr_matrix((values.T.ravel(), self.element_dofs[e].ravel(), row_starts), shape=(x.size, self.ndof))
 
 
 
-def _coefficient_form(profile: Profile, derivative: bool) -> BilinearForm:
-    """``∫ c(x) u v dx`` or ``∫ c(x) u_x v_x dx`` with ``c`` evaluated at quadrature points."""
-    if derivative:
-        return BilinearForm(lambda u, v, w: profile(w.x[0]) * grad(u)[0] * grad(v)[0])
-    return BilinearForm(lambda u, v, w: profile(w.x[0]) * u * v)
+#: ``∫ c u v dx`` and ``∫ c u_x v_x dx``, the coefficient ``c`` given at the quadrature points.
+_COEFFICIENT_FORMS = {
+    False: BilinearForm(lambda u, v, w: w.c * u * v),
+    True: BilinearForm(lambda u, v, w: w.c * grad(u)[0] * grad(v)[0]),
+}
 
 
 def assemble_rod(
@@ -113,22 +113,29 @@ def assemble_rod(
 ) -> Operators:
     """Rod operators with scikit-fem P1 or P2 elements on the given (sorted) nodes.
 
-    ``M = ∫ m φᵢ φⱼ``, ``K = ∫ EA φᵢ' φⱼ'``, ``C = ∫ cA φᵢ' φⱼ'``; quadrature exact for
-    linear coefficients (degree ``2·order + 1``); tabulated profiles have nodes on their
-    kinks, piecewise profiles on their jumps (see :func:`femref.fem.mesh.body_nodes`).
+    ``M = ∫ m φᵢ φⱼ``, ``K = ∫ EA φᵢ' φⱼ'``, ``C = ∫ cA φᵢ' φⱼ'``; ``order + 2`` Gauss points
+    per element, exact for linear coefficients (degree ``2·order + 1``); tabulated profiles
+    have nodes on their kinks, piecewise profiles on their jumps (see
+    :func:`femref.fem.mesh.body_nodes`). Each profile is evaluated once at the quadrature
+    points, and scikit-fem's element matrices are summed straight into the position numbering.
     """
     element = {1: ElementLineP1, 2: ElementLineP2}.get(order)
     if element is None:
         raise ValueError(f"rod elements are P1 or P2, got order {order}")
     mesh = MeshLine(np.asarray(nodes, dtype=float))
-    basis = Basis(mesh, element(), intorder=2 * order + 2)
+    xi, wi = gauss_legendre(order + 2)
+    basis = Basis(mesh, element(), quadrature=(0.5 * xi[None, :] + 0.5, 0.5 * wi))  # on the reference [0, 1]
     perm = np.argsort(basis.doflocs[0], kind="stable")
     renumber = np.empty_like(perm)
     renumber[perm] = np.arange(perm.size)
+    x = basis.global_coordinates()[0]  # (elements, points)
 
     def assemble(profile: Profile, derivative: bool) -> sp.csr_matrix:
-        matrix = _coefficient_form(profile, derivative).assemble(basis)
-        return sp.csr_matrix(matrix[perm][:, perm])
+        local = _COEFFICIENT_FORMS[derivative].coo_data(basis, c=profile(x))
+        rows, cols = renumber[local.indices]
+        matrix = sp.coo_matrix((local.data, (rows, cols)), shape=local.shape)
+        matrix.eliminate_zeros()
+        return matrix.tocsr()
 
     ndof = basis.N
     left, right = 0, ndof - 1  # after sorting by position
@@ -152,7 +159,7 @@ def assemble_rod(
 
 def _hermite_matrix(nodes: NDArray, coefficient: Profile, derivative: int, points: int = 5) -> sp.csr_matrix:
     """``∫ c(x) dᵏφᵢ dᵏφⱼ dx`` over all elements at once (Gauss–Legendre, element-local)."""
-    xg, wg = np.polynomial.legendre.leggauss(points)
+    xg, wg = gauss_legendre(points)
     xi, wq = 0.5 * (xg + 1.0), 0.5 * wg
     h = np.diff(nodes)[:, None]  # (ne, 1)
     c = coefficient(nodes[:-1, None] + h * xi[None, :])  # (ne, nq)

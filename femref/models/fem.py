@@ -11,7 +11,6 @@
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import NDArray
 
 from femref.fem import INTEGRATORS, Stepper, harmonic_response
 from femref.fem.build import FemSettings, build_operators
@@ -68,21 +67,18 @@ def fem_car(car: Car, settings: FemSettings) -> SecondOrderSystem:
 def _fem_system(car: Car, settings: FemSettings) -> SecondOrderSystem:
     ops = build_operators(car.body, settings)
     l = car.body.half_length
+    outputs = ops.interpolation(np.concatenate([[-l, l], car.sensor_x])).toarray()  # the ends, then the sensors
     return SecondOrderSystem(
         "fem",
         ops.mass,
         ops.damping,
         ops.stiffness,
         ops.load_matrix.toarray(),
-        _dense(ops.interpolation(np.array([-l, l]))),
-        _dense(ops.interpolation(car.sensor_x)),
+        outputs[:2],
+        outputs[2:],
         translation=np.asarray(ops.rigid_modes[:, 0], dtype=float),
         settings={"element": ops.element, "elements": ops.elements, "dofs": ops.ndof, "nodes": ops.nodes},
     )
-
-
-def _dense(matrix) -> NDArray[np.float64]:
-    return np.asarray(matrix.toarray() if hasattr(matrix, "toarray") else matrix, dtype=float)
 
 
 def _mesh_settings(ops, scene: Scene) -> dict:

@@ -75,13 +75,15 @@ def _modal_system(car: Car, settings: FemSettings, modes: int, static_correction
     ops = build_operators(car.body, settings)
     phi, omega2 = free_free_modes(ops, modes, car.body.wave_travel_time)
     l = car.body.half_length
-    at_ends, at_sensors = ops.interpolation(np.array([-l, l])), ops.interpolation(car.sensor_x)
+    outputs = ops.interpolation(np.concatenate([[-l, l], car.sensor_x]))  # the ends, then the sensors
+    at_outputs = np.asarray(outputs @ phi)
     feedthrough = {}
     if static_correction:
         R = residual_flexibility(ops, phi, omega2)
+        R_outputs = np.asarray(outputs @ R)
         feedthrough = dict(
-            end_feedthrough=np.asarray(at_ends @ R),
-            sensor_feedthrough=np.asarray(at_sensors @ R),
+            end_feedthrough=R_outputs[:2],
+            sensor_feedthrough=R_outputs[2:],
             feedthrough_energy=_symmetric(ops.load_matrix.T @ R),
         )
     frequencies = np.sqrt(np.maximum(omega2[1:], 0.0)) / (2.0 * math.pi)
@@ -91,8 +93,8 @@ def _modal_system(car: Car, settings: FemSettings, modes: int, static_correction
         _symmetric(phi.T @ (ops.damping @ phi)),
         np.diag(omega2),
         phi.T @ ops.load_matrix.toarray(),
-        np.asarray(at_ends @ phi),
-        np.asarray(at_sensors @ phi),
+        at_outputs[:2],
+        at_outputs[2:],
         translation=_rigid_translation(phi.shape[1], ops.total_mass),
         **feedthrough,
         settings={

@@ -90,16 +90,17 @@ def quasi_rigid_rod(car: Car) -> QuasiRigidRod:
 def _energy_forms(rod: QuasiRigidRod) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """``(∫ m C Cᵀ, ∫ m C, ∫ EA C' C'ᵀ)`` over the body's Gauss rule; C flattened as ``(g, j)``.
 
-    ``C[x, j, g]`` (:meth:`QuasiRigidRod.coefficients`) and its x-derivative, the strain per
-    unit filtered load, at the quadrature nodes (panels end on every profile jump).
+    ``C[x, j, g]`` (:meth:`CreepCorrection.node_coefficients`) and its x-derivative ψ, the strain
+    per unit filtered load (:attr:`CreepCorrection.psi_at_nodes`), at the quadrature nodes
+    (panels end on every profile jump).
     """
-    q = rod.quadrature
-    x = q.nodes.ravel()
+    q, correction = rod.quadrature, rod.correction
 
     def flat(table: NDArray[np.float64]) -> NDArray[np.float64]:
-        return table.transpose(0, 2, 1).reshape(x.size, -1)
+        return table.transpose(0, 2, 1).reshape(q.nodes.size, -1)
 
-    C, D = flat(rod.coefficients(x)), flat(rod.coefficients(x, derivative=1))
+    C = flat(correction.node_coefficients())
+    D = flat(correction.psi_at_nodes.reshape(q.nodes.size, *correction.psi_at_nodes.shape[2:]))
     mass, stiffness = (q.weights * q.mass).ravel(), (q.weights * q.stiffness).ravel()
     return C.T @ (mass[:, None] * C), mass @ C, D.T @ (stiffness[:, None] * D)
 

@@ -30,6 +30,7 @@ from typing import Any, Callable
 import numpy as np
 
 from femref.core import catalog
+from femref.core.threads import one_blas_thread
 from femref.impact import ImpactResponse, solve_impact
 from femref.models import Progress, model_form
 from femref.models.inverse import ESTIMATORS
@@ -100,10 +101,12 @@ def _run_single_body(scene: Scene, progress: Callable[[str], Progress | None]) -
 
 
 def run_single_body_model(scene: Scene, name: str, progress: Progress | None = None) -> ModelResult:
-    """Model ``name`` on a single-body scene whose step is resolved; never raises."""
+    """Model ``name`` on a single-body scene whose step is resolved (a transient one stepped on one BLAS
+    thread); never raises."""
     if scene.kind == "harmonic":
         return capture(name, lambda: model_form(name, scene.kind)(scene))
-    return capture(name, lambda: model_form(name, scene.kind)(scene, progress))
+    with one_blas_thread():
+        return capture(name, lambda: model_form(name, scene.kind)(scene, progress))
 
 
 def run_model(scene: ImpactScene, run: ModelRun, dt: float | None = None, dt_rule: str = "", progress: Progress | None = None) -> ModelResult:
@@ -118,23 +121,32 @@ def run_model(scene: ImpactScene, run: ModelRun, dt: float | None = None, dt_rul
 
 def step_cars(scene: ImpactScene, run: ModelRun, dt: float, progress: Progress | None = None, *, compiled: bool = True) -> ImpactResponse:
     """Build every car at its fidelity in ``run`` (its model's car form, reused across runs of the same
-    geometry) and step them together; the response carries both times, building (``setup_time``) and
-    stepping (``wall_time``). ``compiled=False`` steps them with the readable reference loop."""
-    started = time.perf_counter()
-    systems = [model_form(fidelity, "impact")(car, scene, dt) for car, fidelity in zip(scene.cars, run.fidelity)]
-    setup_time = time.perf_counter() - started
-    response = solve_impact(scene, systems, dt, progress, compiled=compiled)
+    geometry) and step them together, on one BLAS thread; the response carries both times, building
+    (``setup_time``) and stepping (``wall_time``). ``compiled=False`` steps them with the readable reference loop."""
+    with one_blas_thread():  # the builds too: their small BLAS calls pay a thread hand-off with two
+        started = time.perf_counter()
+        systems = [model_form(fidelity, "impact")(car, scene, dt) for car, fidelity in zip(scene.cars, run.fidelity)]
+        setup_time = time.perf_counter() - started
+        response = solve_impact(scene, systems, dt, progress, compiled=compiled)
     response.setup_time += setup_time
     return response
 
 
+_loop_loaded = False
+
+
 def load_compiled_loop(scene: ImpactScene) -> None:
-    """Load the compiled impact loop for a line of ``scene``'s cars (compiling it, the first time after
-    an install) by stepping the cars once as rigid bodies, so that no model's timing pays the
-    one-off loading (about a second per process). Callers that time runs call it first."""
+    """Load the compiled impact loop (compiling it, the first time after an install) by stepping
+    ``scene``'s cars once as rigid bodies, so that no model's timing pays the one-off loading (about
+    a second per process). Callers that time runs call it first; after the first call in a process
+    (the loop's argument types are the same for every scene) it does nothing."""
+    global _loop_loaded
+    if _loop_loaded:
+        return
     dt = scene.contact_time() / 100.0 if math.isfinite(scene.contact_time()) else 1e-3
     one_step = dataclasses.replace(scene, end=dt, output_stride=1)
     step_cars(one_step, ModelRun("load", ("rigid",) * len(scene.cars)), dt)
+    _loop_loaded = True
 
 
 def model_result(scene: ImpactScene, run: ModelRun, response: ImpactResponse, dt: float, dt_rule: str) -> ModelResult:

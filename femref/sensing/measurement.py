@@ -21,6 +21,7 @@ also keeps it below the record's Nyquist ``rate/2``, where it does its anti-alia
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -75,10 +76,18 @@ def lowpass_filter(acceleration: NDArray[np.float64], dt: float, corner: float) 
     ``|H(f)| = 1/√(1 + (tan(πf dt)/tan(π f_c dt))^8)`` (checked against the steady-state
     amplitude of filtered tones in ``tests/sensing/test_measurement.py``).
     """
-    from scipy.signal import butter, sosfilt  # scipy.signal costs ~1 s to import: only where a record is filtered
+    from scipy.signal import sosfilt  # scipy.signal costs ~1 s to import: only where a record is filtered
 
-    sos = butter(FILTER_ORDER, corner, btype="low", fs=1.0 / dt, output="sos")
-    return sosfilt(sos, acceleration, axis=0)
+    return sosfilt(np.array(_butterworth(corner, 1.0 / dt)), acceleration, axis=0)
+
+
+@functools.lru_cache(maxsize=64)
+def _butterworth(corner: float, rate: float) -> tuple[tuple[float, ...], ...]:
+    """Second-order sections of the low-pass, designed once per corner and rate (a sweep's samples
+    share them, and the design costs about a millisecond)."""
+    from scipy.signal import butter
+
+    return tuple(map(tuple, butter(FILTER_ORDER, corner, btype="low", fs=rate, output="sos")))
 
 
 def resample(time: NDArray[np.float64], values: NDArray[np.float64], rate: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .creep import CreepKernel
-from .profiles import BodyQuadrature
+from .profiles import BodyQuadrature, viscous_time
 
 ShapeFunctions = Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]]
 
@@ -47,7 +47,10 @@ class CreepCorrection:
 
     ``shapes(s, S)`` returns ``φ_j(s)`` on a new last axis from positions ``s`` and the
     cumulative moments ``S = (S₀, S₁, S₂)(s)`` on the last axis. ``order`` is 1 (rod)
-    or 2 (beam).
+    or 2 (beam). ``psi_at_nodes`` is ``ψ_{j,g} = φ_j λ_g / k`` (:meth:`_psi`, the creep strain
+    per unit filtered load: ``∂C/∂x`` of the rod) at the quadrature nodes, ``(P, n, J, G)``;
+    the integrals over whole panels are its Gauss sums, those over the partial panel
+    ``[e_p, x]`` the rule mapped onto it (:meth:`BodyQuadrature.partial_rule`), with ψ there.
     """
 
     def __init__(
@@ -67,43 +70,42 @@ class CreepCorrection:
         self.order = order
         self.shapes = shapes
         self.kernel = kernel
-        self._choose_groups(max_tau_groups)
+        weights, taus = kernel.time_constants(q.viscous_time)             # (P, n, I)
+        self._choose_groups(taus, max_tau_groups)
+        lam = np.einsum("...i,...ig->...g", weights, self._membership(taus))   # (P, n, G)
 
-        psi = self._psi(q.nodes, q.node_moments, q.stiffness, q.viscosity_function(q.nodes))      # (P, n, J, G)
+        psi = self._psi(q.nodes, q.node_moments, q.stiffness, lam)      # (P, n, J, G)
         # keep only the groups that carry weight somewhere (τ = 0 and τ = ∞ are often empty)
         self._keep = np.any(psi != 0.0, axis=(0, 1, 2))
         self._keep[1:-1] |= self.interpolated
         self.tau_groups = self.tau_groups[self._keep]
         psi = psi[..., self._keep]
-        w = q.weights[..., None, None]
-        self._cum0 = np.concatenate([np.zeros((1, *psi.shape[2:])), np.cumsum(np.sum(w * psi, axis=1), axis=0)])
-        self._cum1 = np.concatenate([np.zeros((1, *psi.shape[2:])),
-                                     np.cumsum(np.sum(w * q.nodes[..., None, None] * psi, axis=1), axis=0)])
+        self.psi_at_nodes = psi
+        self._panel_group_weights = lam[:, 0, self._keep]                # (P, G): λ_g on each panel when exact
+        self._cum0 = _cumulative_panels(q.weights, psi)
         M, S1l, J = q.total_mass, q.first_moment, q.second_moment
         s, S = q.nodes, q.node_moments
         if order == 1:
             a = M - S[..., 0]
             self._proj0 = q.integrate(a[..., None, None] * psi) / M
-            self._proj1 = np.zeros_like(self._proj0)
         else:
+            self._cum1 = _cumulative_panels(q.weights * q.nodes, psi)
             a = (S1l - S[..., 1]) - s * (M - S[..., 0])
             b = (J - S[..., 2]) - s * (S1l - S[..., 1])
             self._proj0 = q.integrate(a[..., None, None] * psi) / M
             self._proj1 = q.integrate(b[..., None, None] * psi) / J
         self.n_loads = psi.shape[2]
         # compliance share of each group, ∫ Σ_i k_i ℓ_g(τ_i)/k dx ÷ ∫ dx/k (for ε and the creep factor)
-        weights, taus = kernel.time_constants(q.viscous_time)
-        lam = np.einsum("...i,...ig->...g", weights, self._membership(taus))[..., self._keep]
-        self.group_compliance = q.integrate(lam / q.stiffness[..., None]) / q.integrate(1.0 / q.stiffness)
+        self.group_compliance = q.integrate(lam[..., self._keep] / q.stiffness[..., None]) / q.integrate(1.0 / q.stiffness)
 
     # -- time-constant groups -------------------------------------------------------
-    def _choose_groups(self, max_groups: int) -> None:
+    def _choose_groups(self, taus: NDArray[np.float64], max_groups: int) -> None:
+        """The groups for the time constants ``taus`` at the nodes, ``(P, n, I)``."""
         q = self.quadrature
-        _, taus = self.kernel.time_constants(q.viscous_time)            # (P, n, I)
         positive = taus[(taus > 0.0) & np.isfinite(taus)]
-        # piecewise constant on the segments → exact groups
-        per_segment = [taus[q.panel_segment == k] for k in range(q.segment_edges.size - 1)]
-        piecewise = all(np.allclose(t, t.reshape(-1, t.shape[-1])[0], rtol=1e-10, atol=0.0) for t in per_segment)
+        # piecewise constant on the segments (every node's as its segment's first node's) → exact groups
+        segment_start = np.searchsorted(q.panel_segment, q.panel_segment)  # each panel's segment's first panel
+        piecewise = bool(np.all(np.isclose(taus, taus[segment_start, :1], rtol=1e-10, atol=0.0)))
         distinct = _distinct(positive)
         self.interpolated = distinct.size > 1 and not (piecewise and distinct.size <= max_groups)
         if self.interpolated:
@@ -148,14 +150,29 @@ class CreepCorrection:
             out[mid, 1 : G - 1] = ell
         return out
 
-    def _psi(self, s, S, stiffness, viscosity) -> NDArray[np.float64]:
-        """``ψ_{j,g}(s) = φ_j(s)/k(s) · Σ_i k_i ℓ_g(τ_i(s))`` with shape ``(..., J, G)``."""
-        with np.errstate(divide="ignore", invalid="ignore"):
-            tau = np.where(viscosity == 0.0, 0.0, viscosity / stiffness)
+    def _group_weights(self, tau: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``λ_g = Σ_i k_i ℓ_g(τ_i)`` at points of viscous time ``τ = c/k``, shape ``(..., G)``."""
         weights, taus = self.kernel.time_constants(tau)                   # (..., I)
-        lam = np.einsum("...i,...ig->...g", weights, self._membership(taus))
+        return np.einsum("...i,...ig->...g", weights, self._membership(taus))
+
+    def _psi(self, s, S, stiffness, lam) -> NDArray[np.float64]:
+        """``ψ_{j,g}(s) = φ_j(s)/k(s) · λ_g(s)`` (:meth:`_group_weights`) with shape ``(..., J, G)``."""
         phi = self.shapes(s, S)                                           # (..., J)
         return (phi / stiffness[..., None])[..., :, None] * lam[..., None, :]
+
+    def _psi_at(self, s: NDArray[np.float64], S: NDArray[np.float64], panel: NDArray[np.intp]) -> NDArray[np.float64]:
+        """ψ of the kept groups at positions s, with the moments S there and the panel of each (shaped like s).
+
+        Time constants grouped exactly are constant on each segment, so λ_g is the panel's
+        (its nodes'); interpolated ones are evaluated at s.
+        """
+        q = self.quadrature
+        stiffness = q.stiffness_function(s)
+        if self.interpolated:
+            lam = self._group_weights(viscous_time(stiffness, q.viscosity_function(s)))[..., self._keep]
+        else:
+            lam = self._panel_group_weights[panel]
+        return self._psi(s, S, stiffness, lam)
 
     # -- coefficients ----------------------------------------------------------------
     def coefficients(self, x: ArrayLike, derivative: int = 0) -> NDArray[np.float64]:
@@ -168,13 +185,25 @@ class CreepCorrection:
             raise ValueError("derivative must be 0 or 1")
         q = self.quadrature
         x = np.atleast_1d(np.asarray(x, dtype=float))
-        p, nodes, weights = q.partial_rule(x)
-        xb = x[:, None, None]
         if self.order == 1 and derivative == 1:
-            S = q.moments(x)
-            return self._psi(x, S, q.stiffness_function(x), q.viscosity_function(x))[..., self._keep]
-        S = q.moments(nodes)
-        psi = self._psi(nodes, S, q.stiffness_function(nodes), q.viscosity_function(nodes))[..., self._keep]
+            return self._psi_at(x, q.moments(x), q.panel_of(x))
+        p, points, weights = q.partial_rule(x)
+        psi = self._psi_at(points, q.moments(points), np.broadcast_to(p[:, None], points.shape))
+        return self._from_partial_rule(x, derivative, p, points, weights, psi)
+
+    def node_coefficients(self) -> NDArray[np.float64]:
+        """:meth:`coefficients` at the quadrature nodes, ``(P·n, J, G)`` in the order of ``nodes.ravel()``
+        (the moments at the partial rules' points from :meth:`BodyQuadrature.node_partial_rules`)."""
+        q = self.quadrature
+        p, points, weights, S = q.node_partial_rules()
+        psi = self._psi_at(points, S, np.broadcast_to(p[:, None], points.shape))
+        return self._from_partial_rule(q.nodes.ravel(), 0, p, points, weights, psi)
+
+    def _from_partial_rule(self, x: NDArray[np.float64], derivative: int, p: NDArray[np.intp], nodes: NDArray[np.float64],
+                           weights: NDArray[np.float64], psi: NDArray[np.float64]) -> NDArray[np.float64]:
+        """C (or its x-derivative) at x from a rule for ``∫_{e_p}^{x}`` over each point's partial panel
+        (panel p, nodes and weights ``(X, n)``, ψ there ``(X, n, J, G)``) and the full panels left of it."""
+        xb = x[:, None, None]
         if self.order == 1:
             full = self._cum0[p]
             partial = np.einsum("xn,xnjg->xjg", weights, psi)
@@ -194,11 +223,17 @@ class CreepCorrection:
         """
         q = self.quadrature
         weights = np.ones(self.tau_groups.size) if group_weights is None else np.asarray(group_weights)
-        C = self.coefficients(q.nodes.ravel()) @ weights
+        C = self.node_coefficients() @ weights
         C = C.reshape(*q.nodes.shape, C.shape[-1])
         mean0 = q.integrate(q.mass[..., None] * C)
         mean1 = q.integrate((q.mass * q.nodes)[..., None] * C)
         return np.stack([mean0, mean1])
+
+
+def _cumulative_panels(weights: NDArray[np.float64], values: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``Σ`` of ``weights · values`` over the panels left of each panel edge, ``(P + 1, …)``: the full panels of ``∫_{−l}^{x}``."""
+    panels = np.einsum("pn,pn...->p...", weights, values)
+    return np.concatenate([np.zeros((1, *panels.shape[1:])), np.cumsum(panels, axis=0)])
 
 
 def _distinct(values: NDArray[np.float64], rtol: float = 1e-10) -> NDArray[np.float64]:

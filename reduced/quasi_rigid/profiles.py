@@ -10,12 +10,16 @@ Gauss–Legendre rule, so no node sits on a jump and each integrand is smooth on
 rule to first order).
 
 The cumulative mass moments ``S_p(y) = ∫_{−l}^{y} s^p m(s) ds`` (p = 0, 1, 2) at any
-point come from the full panels to the left plus the rule mapped onto the partial
-panel ``[e_p, y]``.
+point come from the full panels to the left plus the integral over the partial panel
+``[e_p, y]`` of the interpolant of ``s^p m`` through the panel's n nodes (exact, like the
+rule, for a mass polynomial of degree ≤ n − 3 on the panel — every profile kind of
+``femref.profiles``; spectrally accurate for a smooth one), so m is evaluated at the
+nodes only.
 """
 
 from __future__ import annotations
 
+import functools
 from typing import Any, Callable, Iterable
 
 import numpy as np
@@ -28,7 +32,8 @@ def as_callable(profile: ProfileLike, name: str) -> Callable[[NDArray[np.float64
     """A vectorised callable for a number or a callable profile (broadcast to the input's shape)."""
     if callable(profile):
         def evaluate(x: NDArray[np.float64]) -> NDArray[np.float64]:
-            return np.broadcast_to(np.asarray(profile(x), dtype=float), np.shape(x)).astype(float)
+            values = np.array(profile(x), dtype=float)
+            return values if values.shape == np.shape(x) else np.broadcast_to(values, np.shape(x)).copy()
         return evaluate
     try:
         value = float(profile)  # type: ignore[arg-type]
@@ -38,6 +43,92 @@ def as_callable(profile: ProfileLike, name: str) -> Callable[[NDArray[np.float64
     def constant(x: NDArray[np.float64]) -> NDArray[np.float64]:
         return np.full(np.shape(x), value)
     return constant
+
+
+@functools.cache
+def gauss_legendre(points: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Nodes ``ξ`` and weights of the ``points``-point Gauss–Legendre rule ``∫_{−1}^{1} f ≈ Σ wᵢ f(ξᵢ)``.
+
+    Computed once per order (``leggauss`` costs a companion-matrix eigensolve); read-only, shared.
+    """
+    nodes, weights = np.polynomial.legendre.leggauss(points)
+    nodes.flags.writeable = weights.flags.writeable = False
+    return nodes, weights
+
+
+@functools.cache
+def _antiderivative_table(points: int) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """The n + 1 Chebyshev points ``ζᵢ``, their barycentric weights and ``Aⱼ(ζᵢ)`` (once per order; read-only).
+
+    ``ℓⱼ = wⱼ Σ_{m<n} (m + ½) Pₘ(ξⱼ) Pₘ`` (the rule integrates ``ℓⱼ Pₘ`` exactly) and
+    ``∫_{−1}^{η} Pₘ = (P_{m+1} − P_{m−1})(η)/(2m + 1)`` (``η + 1`` for m = 0) give
+    ``Aⱼ(η) = wⱼ [(η + 1)/2 + Σ_{1≤m<n} Pₘ(ξⱼ) (P_{m+1} − P_{m−1})(η)/2]``, a polynomial of degree n.
+    """
+    xi, wi = gauss_legendre(points)
+    angles = np.pi * (np.arange(points + 1) + 0.5) / (points + 1)
+    zeta = np.cos(angles)
+    bary = (-1.0) ** np.arange(points + 1) * np.sin(angles)
+    legendre = np.polynomial.legendre.legvander(np.concatenate([xi, zeta]), points)   # P₀ … Pₙ
+    at_nodes, at_zeta = legendre[:points, :points], legendre[points:]
+    integrals = np.concatenate([at_zeta[:, 1:2] + 1.0, at_zeta[:, 2:] - at_zeta[:, :-2]], axis=1)
+    values = 0.5 * (integrals @ at_nodes.T) * wi
+    for array in (zeta, bary, values):
+        array.flags.writeable = False
+    return zeta, bary, values
+
+
+def lagrange_antiderivatives(eta: ArrayLike, points: int) -> NDArray[np.float64]:
+    """``Aⱼ(η) = ∫_{−1}^{η} ℓⱼ(ξ) dξ`` for the Lagrange basis ``ℓⱼ`` on the ``points`` Gauss nodes, on a new last axis.
+
+    ``Aⱼ(1) = wⱼ``; ``Σⱼ Aⱼ(η) f(ξⱼ)`` integrates the interpolant of f. A polynomial of degree
+    n, evaluated by the barycentric formula on n + 1 Chebyshev points (stable, no recurrence
+    per point; values there from :func:`_antiderivative_table`).
+    """
+    zeta, bary, values = _antiderivative_table(points)
+    difference = np.asarray(eta, dtype=float)[..., None] - zeta
+    with np.errstate(divide="ignore", invalid="ignore"):
+        terms = bary / difference
+        interpolation = terms / terms.sum(axis=-1, keepdims=True)
+    exact = difference == 0.0
+    if np.any(exact):
+        rows = np.any(exact, axis=-1)
+        interpolation[rows] = exact[rows]
+    return interpolation @ values
+
+
+@functools.cache
+def integration_matrix(points: int) -> NDArray[np.float64]:
+    """``Q[k, j] = Aⱼ(ξₖ)`` (:func:`lagrange_antiderivatives` at the nodes themselves, once per order):
+    ``Σⱼ Q[k, j] f(ξⱼ) = ∫_{−1}^{ξₖ} f̃``. Read-only."""
+    matrix = lagrange_antiderivatives(gauss_legendre(points)[0], points)
+    matrix.flags.writeable = False
+    return matrix
+
+
+@functools.cache
+def nested_antiderivatives(points: int) -> NDArray[np.float64]:
+    """``Aⱼ(η_km)`` at the nodes ``η_km = (1 + ξₖ)(1 + ξₘ)/2 − 1`` of the rule mapped onto ``[−1, ξₖ]``,
+    ``(k, m, j)`` (once per order; read-only): the moments at :meth:`BodyQuadrature.node_partial_rules`."""
+    xi, _ = gauss_legendre(points)
+    table = lagrange_antiderivatives(0.5 * np.multiply.outer(1.0 + xi, 1.0 + xi) - 1.0, points)
+    table.flags.writeable = False
+    return table
+
+
+def _check_profile(name: str, values: NDArray[np.float64], positive: bool) -> None:
+    """Raise unless the values are finite and > 0 (``positive``) or ≥ 0, ∞ allowed (a viscosity)."""
+    low = values.min()  # NaN if any is NaN
+    if (low > 0.0 and values.max() < np.inf) if positive else low >= 0.0:
+        return
+    if np.any(np.isnan(values)) or (positive and not np.all(np.isfinite(values))):
+        raise ValueError(f"{name} must be finite along the body")
+    raise ValueError(f"{name} must be {'> 0' if positive else '≥ 0'} along the body")
+
+
+def viscous_time(stiffness: NDArray[np.float64], viscosity: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``τ = c/k`` (s), 0 where ``c = 0`` (elastic, whatever k)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(viscosity == 0.0, 0.0, viscosity / stiffness)
 
 
 def declared_breakpoints(profiles: Iterable[Any]) -> list[float]:
@@ -53,7 +144,8 @@ class BodyQuadrature:
     """Composite Gauss–Legendre rule on ``[−l, l]`` with the section properties at its nodes.
 
     Attributes (arrays of shape ``(P, n)`` over P panels and n nodes each):
-    ``nodes``, ``weights``, ``mass``, ``stiffness``, ``viscosity``. Scalars:
+    ``nodes``, ``weights``, ``mass``, ``stiffness``, ``viscosity``, ``viscous_time``;
+    ``node_moments`` ``(P, n, 3)``, the moments at the nodes (:meth:`moments`). Scalars:
     ``total_mass`` ``M = S₀(l)``, ``first_moment`` ``S₁(l)``, ``second_moment``
     ``J = S₂(l)`` (about x = 0), ``mean_mass`` ``M/2l``, ``mean_compliance``
     ``⟨1/k⟩ = (1/2l)∫ dx/k`` and ``mean_viscous_time`` ``∫(c/k)/k dx / ∫ dx/k``.
@@ -86,38 +178,34 @@ class BodyQuadrature:
         if np.any(np.diff(segment_edges) <= 1e-12 * l):
             segment_edges = np.unique(np.round(segment_edges / (1e-12 * l)) * (1e-12 * l))
         self.segment_edges = segment_edges
-        panel_edges = [segment_edges[0]]
-        for a, b in zip(segment_edges[:-1], segment_edges[1:]):
-            panel_edges.extend(np.linspace(a, b, panels_per_segment + 1)[1:])
-        self.panel_edges = np.asarray(panel_edges)
+        a, b = segment_edges[:-1, None], segment_edges[1:, None]
+        inside = a + (b - a) * (np.arange(1, panels_per_segment) / panels_per_segment)
+        self.panel_edges = np.concatenate([np.hstack([a, inside]).ravel(), segment_edges[-1:]])
         self.panel_segment = np.repeat(np.arange(segment_edges.size - 1), panels_per_segment)
 
-        xi, wi = np.polynomial.legendre.leggauss(gauss_points)
+        xi, wi = gauss_legendre(gauss_points)
         self._xi, self._wi = xi, wi
         a, b = self.panel_edges[:-1], self.panel_edges[1:]
-        half = 0.5 * (b - a)
+        self._half_widths = half = 0.5 * (b - a)
         self.nodes = (0.5 * (a + b))[:, None] + half[:, None] * xi
         self.weights = half[:, None] * wi
 
         self.mass = self.mass_function(self.nodes)
         self.stiffness = self.stiffness_function(self.nodes)
         self.viscosity = self.viscosity_function(self.nodes)
-        for name, values, positive in (("mass_per_length", self.mass, True), ("stiffness", self.stiffness, True),
-                                       ("viscosity", self.viscosity, False)):
-            if np.any(np.isnan(values)) or (name != "viscosity" and not np.all(np.isfinite(values))):
-                raise ValueError(f"{name} must be finite along the body")
-            if (positive and np.any(values <= 0.0)) or np.any(values < 0.0):
-                raise ValueError(f"{name} must be {'> 0' if positive else '≥ 0'} along the body")
+        _check_profile("mass_per_length", self.mass, positive=True)
+        _check_profile("stiffness", self.stiffness, positive=True)
+        _check_profile("viscosity", self.viscosity, positive=False)
 
-        powers = self.nodes[..., None] ** np.arange(3)                  # (P, n, 3)
-        panel_moments = np.einsum("pn,pn,pnk->pk", self.weights, self.mass, powers)
+        # (1, s, s²) m at the nodes, (P, n, 3): the integrands of the moments
+        self._moment_density = self.mass[..., None] * np.stack([np.ones_like(self.nodes), self.nodes, self.nodes * self.nodes], axis=-1)
+        panel_moments = np.einsum("pn,pnk->pk", self.weights, self._moment_density)
         self._cumulative = np.vstack([np.zeros(3), np.cumsum(panel_moments, axis=0)])
         self.total_mass, self.first_moment, self.second_moment = (float(v) for v in self._cumulative[-1])
-        self.node_moments = self.moments(self.nodes)                     # (P, n, 3)
+        # the moments at the nodes, :meth:`interpolant_rule` at the nodes themselves
+        self.node_moments = self._cumulative[:-1, None] + half[:, None, None] * (integration_matrix(gauss_points) @ self._moment_density)
 
-        with np.errstate(divide="ignore", invalid="ignore"):
-            tau = np.where(self.viscosity == 0.0, 0.0, self.viscosity / self.stiffness)
-        self.viscous_time = tau
+        self.viscous_time = tau = viscous_time(self.stiffness, self.viscosity)
         compliance = self.integrate(1.0 / self.stiffness)
         self.mean_mass = self.total_mass / (2.0 * l)
         self.mean_compliance = compliance / (2.0 * l)
@@ -128,29 +216,57 @@ class BodyQuadrature:
 
     def integrate(self, values_at_nodes: NDArray[np.float64]) -> Any:
         """``∫_{−l}^{l} f dx`` from values at :attr:`nodes` (leading axes ``(P, n)``)."""
-        return np.tensordot(self.weights, values_at_nodes, axes=([0, 1], [0, 1]))
+        return np.einsum("pn,pn...->...", self.weights, values_at_nodes)
 
     def panel_of(self, y: NDArray[np.float64]) -> NDArray[np.intp]:
-        """Index of the panel holding each point (the last panel for y = l)."""
-        return np.clip(np.searchsorted(self.panel_edges, y, side="right") - 1, 0, self.panel_edges.size - 2)
+        """Index of the panel holding each point (the right one on an edge, the last one for y = l)."""
+        return np.searchsorted(self.panel_edges[1:-1], y, side="right")
 
-    def partial_rule(self, y: ArrayLike) -> tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64]]:
-        """Panel index, nodes and weights of the rule on ``[e_p, y]`` for each point y: ``(…), (…, n), (…, n)``."""
+    def _checked_panel(self, y: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
         y = np.asarray(y, dtype=float)
         l = self.half_length
         if np.any(np.abs(y) > l * (1 + 1e-12)):
             raise ValueError(f"positions must lie in [−l, l] = [{-l}, {l}]")
-        p = self.panel_of(y)
+        return y, self.panel_of(y)
+
+    def partial_rule(self, y: ArrayLike) -> tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64]]:
+        """Panel index, nodes and weights of the rule on ``[e_p, y]`` for each point y: ``(…), (…, n), (…, n)``."""
+        y, p = self._checked_panel(y)
         start = self.panel_edges[p]
         half = 0.5 * (y - start)
         nodes = (start + half)[..., None] + half[..., None] * self._xi
         return p, nodes, half[..., None] * self._wi
 
+    def interpolant_rule(self, y: ArrayLike) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
+        """Panel index p of each point y and weights ``h Aⱼ(η)`` on that panel's nodes ``nodes[p]``: ``(…), (…, n)``.
+
+        ``Σⱼ h Aⱼ(η) f(sⱼ) = ∫_{e_p}^{y} f̃`` with f̃ the interpolant of f through the panel's nodes
+        (half-width h, y at the local coordinate η; :func:`lagrange_antiderivatives`): exact for f
+        polynomial of degree < n on the panel, and f is wanted at the nodes only.
+        """
+        y, p = self._checked_panel(y)
+        half = self._half_widths[p]
+        eta = (y - self.panel_edges[p]) / half - 1.0
+        return p, half[..., None] * lagrange_antiderivatives(eta, self._xi.size)
+
+    def node_partial_rules(self) -> tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """:meth:`partial_rule` at every node (in the order of ``nodes.ravel()``) and the moments at the rule's
+        points: panel index ``(P·n,)``, points and weights ``(P·n, n)``, moments ``(P·n, n, 3)``.
+
+        The points sit at the same local coordinates ``η_km = (1 + ξₖ)(1 + ξₘ)/2 − 1`` on every
+        panel, so :meth:`moments` there takes one table per order (:func:`nested_antiderivatives`).
+        """
+        P, n = self.nodes.shape
+        p, points, weights = self.partial_rule(self.nodes.ravel())
+        partial = self._half_widths[:, None, None] * (nested_antiderivatives(n).reshape(n * n, n) @ self._moment_density)
+        moments = self._cumulative[:-1, None] + partial                                   # (P, n·n, 3)
+        return p, points, weights, moments.reshape(P * n, n, 3)
+
     def moments(self, y: ArrayLike) -> NDArray[np.float64]:
-        """``(S₀, S₁, S₂)(y) = ∫_{−l}^{y} (1, s, s²) m(s) ds`` on the last axis."""
-        p, nodes, weights = self.partial_rule(y)
-        partial = np.einsum("...n,...n,...nk->...k", weights, self.mass_function(nodes), nodes[..., None] ** np.arange(3))
-        return self._cumulative[p] + partial
+        """``(S₀, S₁, S₂)(y) = ∫_{−l}^{y} (1, s, s²) m(s) ds`` on the last axis: the full panels to the left
+        plus :meth:`interpolant_rule` on ``[e_p, y]``."""
+        p, weights = self.interpolant_rule(y)
+        return self._cumulative[p] + np.einsum("...j,...jk->...k", weights, self._moment_density[p])
 
     def is_even(self, rtol: float = 1e-9) -> bool:
         """Whether the mass, stiffness and viscosity are even in x (checked at the nodes)."""

@@ -1,13 +1,21 @@
-"""The cars of the compiled loop: both car descriptions as arrays, and their step in numba.
+"""The cars of the compiled loop: the line's car descriptions as one array pool, and their step in numba.
 
-:func:`pack_car` turns a :class:`~femref.impact.systems.SecondOrderSystem` or a
-:class:`~femref.impact.systems.StateSpaceSystem` into one :class:`CarArrays` record (the
-same record type for every car, so a run's cars are one homogeneous tuple the loop can
-index), and :func:`prepare` factorises and precomputes in compiled code. Each step the
-loop calls :func:`predict` (the free step, read at the end outputs) and :func:`advance`
-(add the response to the new end loads); :func:`observe` reads sensors and energies at the
-output steps only. The arithmetic is that of the readable steppers of
-:mod:`femref.impact.cars` (tests hold the two together to 1e-9):
+:func:`pack_cars` lays every car of a run — a :class:`~femref.impact.systems.SecondOrderSystem`
+or a :class:`~femref.impact.systems.StateSpaceSystem` — into one :class:`CarPool`: a float
+pool ``values`` holding every car's matrices and state, and an integer ``layout`` with one
+row per car (its sizes, then the offset in ``values`` of each of its fields). The kernels
+take ``(layout, values, c)`` and index the pool directly. This is a performance contract,
+not a style: numba increments and decrements the reference count of every array a
+function receives (about 20 ns each, measured) wherever its control flow keeps the counts
+from being pruned, so a car passed as a record of some fifty arrays cost about a
+microsecond per call — more than a rigid car's whole step. Two arrays cost nothing
+measurable.
+
+:func:`prepare` factorises and precomputes in compiled code. Each step the loop calls
+:func:`predict` (the free step, read at the end outputs) and :func:`advance` (add the
+response to the new end loads); :func:`observe` reads sensors and energies at the output
+steps only. The arithmetic is that of the readable steppers of :mod:`femref.impact.cars`
+(tests hold the two together to 1e-9):
 
 * **second order** (kind 0), generalized-α on ``M ü + C u̇ + K u = B L`` with
   ``S a_{n+1} = −K u_n − (C + (1−αf) dt K) v_n − (αm M + (1−αf)(1−γ) dt C + (1−αf)(½−β) dt² K) a_n
@@ -19,14 +27,15 @@ output steps only. The arithmetic is that of the readable steppers of
 * **state space** (kind 1), ``x_{n+1} = A x_n + B L_{n+1}``: one dense product per step; the
   work of the end loads ``L̄ᵀ W Δy`` is booked every step for its dissipated energy.
 
-Banded storage, ``bands[k, i] = A[i, i + k − p]`` (p the half-bandwidth), and Cholesky factor
-``low[k, j] = L[j + k, j]``.
+Storage in the pool: dense matrices row-major; banded ones ``bands[k, i] = A[i, i + k − p]``
+(p the half-bandwidth, 2p + 1 rows of n) and Cholesky factors ``low[k, j] = L[j + k, j]``
+(p + 1 rows of n, the diagonal row holding ``1 / L[j, j]``), also row-major.
 """
 
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
@@ -38,71 +47,71 @@ from femref.impact.systems import CarSystem, SecondOrderSystem, StateSpaceSystem
 
 SECOND_ORDER, STATE_SPACE = 0, 1
 
-# entries of CarArrays.coefficients
+# columns of CarPool.layout: the car's sizes ...
+KIND, DOFS, BAND, PIVOT, SENSOR_START, LOAD_COUNT, END_COUNT, SENSOR_COUNT, COUPLER_COUNT = range(9)
+# ... then the offset in CarPool.values of each field (shapes in FIELD_SHAPES)
+FIELDS = (
+    "coefficients",          # (7,) DT … EQUILIBRIUM
+    "history_u",             # second order, banded: −K
+    "history_v",             # −(C + (1−αf) dt K)
+    "history_a",             # −(αm M + (1−αf)(1−γ) dt C + (1−αf)(½−β) dt² K)
+    "damping", "stiffness", "mass",
+    "effective_factor",      # Cholesky factor of S (factorised in place by prepare)
+    "mass_factor",           # of M
+    "load",                  # (n, J) B: loads to generalized forces, or the state-space input
+    "response",              # (n, J) Z = (1−αf) S⁻¹ B
+    "translation",           # (n,)
+    "transition",            # state space: (n, n) A
+    "kinetic_form", "strain_form",  # (n, n)
+    "work_map",              # (J, Y)
+    "end_outputs",           # (Y, n) E, or the state-space end displacement map
+    "end_rates",             # (Y, n) state-space end velocity map
+    "sensor_outputs",        # (S, n) O, or the state-space sensor displacement map
+    "sensor_accelerations",  # (S, n) state-space sensor acceleration map
+    "end_feedthrough",       # (Y, J)
+    "sensor_feedthrough",    # (S, J)
+    "feedthrough_energy",    # (J, J)
+    "gain_u",                # (Y, J) ∂(end outputs)/∂L over one step
+    "gain_v",                # (Y, J) ∂(end rates)/∂L
+    "coupler_loads",         # (J, n_c) L = coupler_loads @ P
+    "coupler_outputs",       # (n_c, Y) closure contributions
+    # the state, updated in place
+    "u", "v", "a",           # second order: displacement (less the rigid travel), velocity, acceleration
+    "u_free", "v_free", "a_free",  # and the free step
+    "x", "x_free",           # state space: the state and its free step
+    "loads",                 # (J,) L_n
+    "new_loads",             # (J,) L_{n+1}, set by the loop
+    "end_free",              # (Y,) free end outputs of the step being solved
+    "end_rate_free",         # (Y,) and their rates
+    "end_now",               # (Y,) end outputs now (state space: for the work)
+    "scalars",               # (5,) OFFSET … INITIAL_ENERGY
+    "work1", "work2", "work3",  # (n,) scratch
+)
+(COEFFICIENTS, HISTORY_U, HISTORY_V, HISTORY_A, DAMPING, STIFFNESS, MASS, EFFECTIVE_FACTOR, MASS_FACTOR,
+ LOAD, RESPONSE, TRANSLATION, TRANSITION, KINETIC_FORM, STRAIN_FORM, WORK_MAP, END_OUTPUTS, END_RATES,
+ SENSOR_OUTPUTS, SENSOR_ACCELERATIONS, END_FEEDTHROUGH, SENSOR_FEEDTHROUGH, FEEDTHROUGH_ENERGY, GAIN_U,
+ GAIN_V, COUPLER_LOADS, COUPLER_OUTPUTS, U, V, A, U_FREE, V_FREE, A_FREE, X, X_FREE, LOADS, NEW_LOADS,
+ END_FREE, END_RATE_FREE, END_NOW, SCALARS, WORK1, WORK2, WORK3) = range(COUPLER_COUNT + 1, COUPLER_COUNT + 1 + len(FIELDS))
+
+# entries of the coefficients field
 DT, ALPHA_F, CU, CA, CV_OLD, CV_NEW, EQUILIBRIUM = range(7)
-# entries of CarArrays.scalars
+# entries of the scalars field
 OFFSET, DISSIPATED, SUM_LOAD2, SUM_RATE2, INITIAL_ENERGY = range(5)
 
 
-class CarArrays(NamedTuple):
-    """One car of the compiled loop: constants, then the state it updates in place (module docstring).
+@dataclass(frozen=True)
+class CarPool:
+    """Every car of a run in two arrays (module docstring); ``shapes[c][field]`` for reading a field back."""
 
-    Fields a kind does not use are empty arrays of the right dimension.
-    """
+    layout: NDArray[np.int64]  # (cars, COUPLER_COUNT + 1 + len(FIELDS))
+    values: NDArray[np.float64]
+    shapes: tuple[dict[int, tuple[int, ...]], ...]
 
-    kind: int
-    n: int                         # DOFs (second order) or state size (state space)
-    p: int                         # half-bandwidth (second order)
-    pivot: int                     # DOF that carries the rigid travel moved into ``offset``
-    sensor_start: int              # first column of the car's sensors in the run's sensor histories
-    coefficients: NDArray          # (7,) DT … EQUILIBRIUM
-    # second order: banded operators (2p+1, n) and Cholesky factors (p+1, n)
-    history_u: NDArray             # −K
-    history_v: NDArray             # −(C + (1−αf) dt K)
-    history_a: NDArray             # −(αm M + (1−αf)(1−γ) dt C + (1−αf)(½−β) dt² K)
-    damping: NDArray
-    stiffness: NDArray
-    mass: NDArray
-    effective_factor: NDArray      # of S
-    mass_factor: NDArray           # of M
-    load: NDArray                  # (n, J) B: loads to generalized forces, or the state-space input
-    response: NDArray              # (n, J) Z = (1−αf) S⁻¹ B
-    translation: NDArray           # (n,)
-    # state space
-    transition: NDArray            # (n, n) A
-    kinetic_form: NDArray          # (n, n)
-    strain_form: NDArray           # (n, n)
-    work_map: NDArray              # (J, Y)
-    # outputs
-    end_outputs: NDArray           # (Y, n) E, or the state-space end displacement map
-    end_rates: NDArray             # (Y, n) state-space end velocity map
-    sensor_outputs: NDArray        # (S, n) O, or the state-space sensor displacement map
-    sensor_accelerations: NDArray  # (S, n) state-space sensor acceleration map
-    end_feedthrough: NDArray       # (Y, J)
-    sensor_feedthrough: NDArray    # (S, J)
-    feedthrough_energy: NDArray    # (J, J)
-    gain_u: NDArray                # (Y, J) ∂(end outputs)/∂L over one step
-    gain_v: NDArray                # (Y, J) ∂(end rates)/∂L
-    coupler_loads: NDArray         # (J, n_c) L = coupler_loads @ P
-    coupler_outputs: NDArray       # (n_c, Y) closure contributions
-    # the state, updated in place
-    u: NDArray                     # second order: displacement (less the rigid travel), velocity, acceleration
-    v: NDArray
-    a: NDArray
-    u_free: NDArray                # and the free step
-    v_free: NDArray
-    a_free: NDArray
-    x: NDArray                     # state space: the state and its free step
-    x_free: NDArray
-    loads: NDArray                 # (J,) L_n
-    new_loads: NDArray             # (J,) L_{n+1}, set by the loop
-    end_free: NDArray              # (Y,) free end outputs of the step being solved
-    end_rate_free: NDArray         # (Y,) and their rates
-    end_now: NDArray               # (Y,) end outputs now (state space: for the work)
-    scalars: NDArray               # (5,) OFFSET … INITIAL_ENERGY
-    work1: NDArray                 # (n,) scratch
-    work2: NDArray
-    work3: NDArray
+    def field(self, c: int, field: int) -> NDArray[np.float64]:
+        """Car ``c``'s ``field`` (a column constant) as a view of the pool, in its shape."""
+        shape = self.shapes[c][field]
+        start = int(self.layout[c, field])
+        return self.values[start: start + math.prod(shape)].reshape(shape)
 
 
 def _bands(matrix, p: int, n: int) -> NDArray[np.float64]:
@@ -130,82 +139,6 @@ def _half_bandwidth(*matrices) -> int:
     return p
 
 
-def _matrix(value, shape: tuple[int, int]) -> NDArray[np.float64]:
-    return np.zeros(shape) if value is None else np.ascontiguousarray(value, dtype=float).reshape(shape)
-
-
-def pack_car(
-    system: CarSystem,
-    integrator: Integrator,
-    dt: float,
-    velocity: float,
-    loads: NDArray[np.float64],
-    coupler_loads: NDArray[np.float64],
-    coupler_outputs: NDArray[np.float64],
-    sensor_start: int,
-) -> CarArrays:
-    """The car's record with its state at t = 0: undeformed at ``velocity`` under the end loads
-    ``loads``; :func:`prepare` factorises it next."""
-    coupler_loads = np.ascontiguousarray(coupler_loads, dtype=float)
-    coupler_outputs = np.ascontiguousarray(coupler_outputs, dtype=float)
-    J, Y = coupler_loads.shape[0], coupler_outputs.shape[1]
-    if isinstance(system, StateSpaceSystem):
-        if system.dt != dt:
-            raise ValueError(f"the {system.fidelity} car was built for dt = {system.dt:g} s, not {dt:g} s")
-        n = system.transition.shape[0]
-        S = system.sensor_displacement.shape[0]
-        x = np.ascontiguousarray(system.initial_state(velocity, loads))
-        empty1, empty2 = np.zeros(0), np.zeros((0, 0))
-        return CarArrays(
-            STATE_SPACE, n, 0, 0, sensor_start, np.array([dt, 0, 0, 0, 0, 0, 0], dtype=float),
-            empty2, empty2, empty2, empty2, empty2, empty2, empty2, empty2,
-            _matrix(system.input, (n, J)), np.zeros((0, J)), empty1,
-            _matrix(system.transition, (n, n)), _matrix(system.kinetic_form, (n, n)), _matrix(system.strain_form, (n, n)),
-            _matrix(system.work_map, (J, Y)),
-            _matrix(system.end_displacement, (Y, n)), _matrix(system.end_velocity, (Y, n)),
-            _matrix(system.sensor_displacement, (S, n)), _matrix(system.sensor_acceleration, (S, n)),
-            np.zeros((Y, J)), np.zeros((S, J)), np.zeros((J, J)), np.zeros((Y, J)), np.zeros((Y, J)), coupler_loads, coupler_outputs,
-            empty1, empty1, empty1, empty1, empty1, empty1, x, np.zeros(n),
-            np.array(loads, dtype=float), np.zeros(J), np.zeros(Y), np.zeros(Y), np.zeros(Y), np.zeros(5),
-            np.zeros(n), np.zeros(n), np.zeros(n),
-        )
-    return _pack_second_order(system, integrator, dt, velocity, np.array(loads, dtype=float), coupler_loads, coupler_outputs, sensor_start)
-
-
-def _pack_second_order(
-    system: SecondOrderSystem, integrator: Integrator, dt: float, velocity: float, loads: NDArray,
-    coupler_loads: NDArray, coupler_outputs: NDArray, sensor_start: int,
-) -> CarArrays:
-    M, C, K = system.mass, system.damping, system.stiffness
-    n = system.dofs
-    J, Y = coupler_loads.shape[0], coupler_outputs.shape[1]
-    S = system.sensor_outputs.shape[0]
-    p = _half_bandwidth(M, C, K)
-    mass, damping, stiffness = (_bands(m, p, n) for m in (M, C, K))
-    am, af, beta, gamma = integrator.alpha_m, integrator.alpha_f, integrator.beta, integrator.gamma
-    effective = (1.0 - am) * mass + (1.0 - af) * gamma * dt * damping + (1.0 - af) * beta * dt * dt * stiffness
-    coefficients = np.array([dt, af, dt * dt * (0.5 - beta), dt * dt * beta, dt * (1.0 - gamma), dt * gamma,
-                             float(integrator.alpha_m != integrator.alpha_f)])
-    translation = np.ascontiguousarray(system.translation, dtype=float)
-    empty1, empty2 = np.zeros(0), np.zeros((0, 0))
-    return CarArrays(
-        SECOND_ORDER, n, p, int(np.argmax(np.abs(translation))), sensor_start, coefficients,
-        -stiffness,
-        -(damping + (1.0 - af) * dt * stiffness),
-        -(am * mass + (1.0 - af) * (1.0 - gamma) * dt * damping + (1.0 - af) * (0.5 - beta) * dt * dt * stiffness),
-        damping, stiffness, mass,
-        _lower_columns(effective, p, n), _lower_columns(mass, p, n),  # factorised in place by prepare()
-        _matrix(system.load_matrix, (n, J)), np.zeros((n, J)), translation,
-        empty2, empty2, empty2, np.zeros((J, Y)),
-        _matrix(system.end_outputs, (Y, n)), np.zeros((0, n)), _matrix(system.sensor_outputs, (S, n)), np.zeros((0, n)),
-        _matrix(system.end_feedthrough, (Y, J)), _matrix(system.sensor_feedthrough, (S, J)), _matrix(system.feedthrough_energy, (J, J)),
-        np.zeros((Y, J)), np.zeros((Y, J)), coupler_loads, coupler_outputs,
-        np.zeros(n), velocity * translation, np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), empty1, empty1,
-        loads, np.zeros(J), np.zeros(Y), np.zeros(Y), np.zeros(Y), np.zeros(5),
-        np.zeros(n), np.zeros(n), np.zeros(n),
-    )
-
-
 def _lower_columns(bands: NDArray[np.float64], p: int, n: int) -> NDArray[np.float64]:
     """The lower band by columns, ``low[k, j] = A[j + k, j]``, of a symmetric matrix in row bands."""
     low = np.zeros((p + 1, n))
@@ -215,102 +148,206 @@ def _lower_columns(bands: NDArray[np.float64], p: int, n: int) -> NDArray[np.flo
     return low
 
 
-# -- banded linear algebra --------------------------------------------------------------
+def _matrix(value, shape: tuple[int, ...]) -> NDArray[np.float64]:
+    return np.zeros(shape) if value is None else np.asarray(value, dtype=float).reshape(shape)
+
+
+def pack_cars(
+    systems: list[CarSystem],
+    integrator: Integrator,
+    dt: float,
+    velocities: list[float],
+    loads: list[NDArray[np.float64]],
+    coupler_maps: list[tuple[NDArray[np.float64], NDArray[np.float64]]],
+    sensor_starts: list[int],
+) -> CarPool:
+    """The pool of the cars ``systems`` with their state at t = 0: each undeformed at its velocity under
+    its end loads ``loads[c]``, with its coupler maps ``(Bc, Cc)`` and its first sensor column;
+    :func:`prepare` factorises each next."""
+    cars = [
+        _car_fields(system, integrator, dt, velocity, np.asarray(car_loads, dtype=float), *maps, start)
+        for system, velocity, car_loads, maps, start in zip(systems, velocities, loads, coupler_maps, sensor_starts)
+    ]
+    layout = np.zeros((len(cars), COUPLER_COUNT + 1 + len(FIELDS)), dtype=np.int64)
+    chunks: list[NDArray[np.float64]] = []
+    shapes = []
+    offset = 0
+    for c, (sizes, fields) in enumerate(cars):
+        layout[c, : COUPLER_COUNT + 1] = sizes
+        shapes.append({})
+        for f, array in enumerate(fields, start=COUPLER_COUNT + 1):
+            layout[c, f] = offset
+            shapes[c][f] = array.shape
+            chunks.append(array.ravel())
+            offset += array.size
+    return CarPool(layout, np.concatenate(chunks) if chunks else np.zeros(0), tuple(shapes))
+
+
+def _car_fields(
+    system: CarSystem, integrator: Integrator, dt: float, velocity: float, loads: NDArray,
+    coupler_loads: NDArray, coupler_outputs: NDArray, sensor_start: int,
+) -> tuple[list[int], list[NDArray[np.float64]]]:
+    """One car's sizes (the layout's first columns) and its fields in the order of FIELDS."""
+    J, n_c = coupler_loads.shape
+    Y = coupler_outputs.shape[1]
+    if isinstance(system, StateSpaceSystem):
+        if system.dt != dt:
+            raise ValueError(f"the {system.fidelity} car was built for dt = {system.dt:g} s, not {dt:g} s")
+        n = system.transition.shape[0]
+        S = system.sensor_displacement.shape[0]
+        sizes = [STATE_SPACE, n, 0, 0, sensor_start, J, Y, S, n_c]
+        fields = {
+            "coefficients": np.array([dt, 0, 0, 0, 0, 0, 0], dtype=float),
+            "load": _matrix(system.input, (n, J)),
+            "transition": _matrix(system.transition, (n, n)),
+            "kinetic_form": _matrix(system.kinetic_form, (n, n)),
+            "strain_form": _matrix(system.strain_form, (n, n)),
+            "work_map": _matrix(system.work_map, (J, Y)),
+            "end_outputs": _matrix(system.end_displacement, (Y, n)),
+            "end_rates": _matrix(system.end_velocity, (Y, n)),
+            "sensor_outputs": _matrix(system.sensor_displacement, (S, n)),
+            "sensor_accelerations": _matrix(system.sensor_acceleration, (S, n)),
+            "x": np.asarray(system.initial_state(velocity, loads), dtype=float),
+            "x_free": np.zeros(n),
+            "work1": np.zeros(n), "work2": np.zeros(n), "work3": np.zeros(n),
+        }
+    else:
+        sizes, fields = _second_order_fields(system, integrator, dt, velocity, sensor_start, J, Y, n_c)
+    fields.update({
+        "gain_u": np.zeros((Y, J)), "gain_v": np.zeros((Y, J)),
+        "coupler_loads": coupler_loads, "coupler_outputs": coupler_outputs,
+        "loads": np.array(loads, dtype=float), "new_loads": np.zeros(J),
+        "end_free": np.zeros(Y), "end_rate_free": np.zeros(Y), "end_now": np.zeros(Y), "scalars": np.zeros(5),
+    })
+    empty = np.zeros(0)
+    return sizes, [np.asarray(fields.get(name, empty), dtype=float) for name in FIELDS]
+
+
+def _second_order_fields(
+    system: SecondOrderSystem, integrator: Integrator, dt: float, velocity: float, sensor_start: int,
+    J: int, Y: int, n_c: int,
+) -> tuple[list[int], dict[str, NDArray[np.float64]]]:
+    M, C, K = system.mass, system.damping, system.stiffness
+    n = system.dofs
+    S = system.sensor_outputs.shape[0]
+    p = _half_bandwidth(M, C, K)
+    mass, damping, stiffness = (_bands(m, p, n) for m in (M, C, K))
+    am, af, beta, gamma = integrator.alpha_m, integrator.alpha_f, integrator.beta, integrator.gamma
+    effective = (1.0 - am) * mass + (1.0 - af) * gamma * dt * damping + (1.0 - af) * beta * dt * dt * stiffness
+    translation = np.asarray(system.translation, dtype=float)
+    sizes = [SECOND_ORDER, n, p, int(np.argmax(np.abs(translation))), sensor_start, J, Y, S, n_c]
+    return sizes, {
+        "coefficients": np.array([dt, af, dt * dt * (0.5 - beta), dt * dt * beta, dt * (1.0 - gamma), dt * gamma,
+                                  float(integrator.alpha_m != integrator.alpha_f)]),
+        "history_u": -stiffness,
+        "history_v": -(damping + (1.0 - af) * dt * stiffness),
+        "history_a": -(am * mass + (1.0 - af) * (1.0 - gamma) * dt * damping + (1.0 - af) * (0.5 - beta) * dt * dt * stiffness),
+        "damping": damping, "stiffness": stiffness, "mass": mass,
+        "effective_factor": _lower_columns(effective, p, n), "mass_factor": _lower_columns(mass, p, n),
+        "load": _matrix(system.load_matrix, (n, J)), "response": np.zeros((n, J)), "translation": translation,
+        "end_outputs": _matrix(system.end_outputs, (Y, n)), "sensor_outputs": _matrix(system.sensor_outputs, (S, n)),
+        "end_feedthrough": _matrix(system.end_feedthrough, (Y, J)),
+        "sensor_feedthrough": _matrix(system.sensor_feedthrough, (S, J)),
+        "feedthrough_energy": _matrix(system.feedthrough_energy, (J, J)),
+        "u": np.zeros(n), "v": velocity * translation, "a": np.zeros(n),
+        "u_free": np.zeros(n), "v_free": np.zeros(n), "a_free": np.zeros(n),
+        "work1": np.zeros(n), "work2": np.zeros(n), "work3": np.zeros(n),
+    }
+
+
+# -- linear algebra on the pool: every operand is an offset into ``w`` -----------------------
 
 
 @njit(cache=True)
-def band_cholesky(low: NDArray, p: int, n: int) -> bool:
-    """In place: ``low[k, j] = A[j + k, j]`` becomes ``L[j + k, j]`` with ``A = L Lᵀ``; False if A is not
-    positive definite."""
+def band_cholesky(w: NDArray, low: int, p: int, n: int) -> bool:
+    """In place: ``low[k, j] = A[j + k, j]`` becomes ``L[j + k, j]`` (k ≥ 1) with ``A = L Lᵀ``, and
+    ``low[0, j] = 1 / L[j, j]`` (the solves multiply); False if A is not positive definite."""
     for j in range(n):
-        s = low[0, j]
+        s = w[low + j]
         for k in range(max(0, j - p), j):
-            s -= low[j - k, k] ** 2
+            s -= w[low + (j - k) * n + k] ** 2
         if not s > 0.0:
             return False
-        d = math.sqrt(s)
-        low[0, j] = d
+        reciprocal = 1.0 / math.sqrt(s)
+        w[low + j] = reciprocal
         for i in range(j + 1, min(n, j + p + 1)):
-            s = low[i - j, j]
+            s = w[low + (i - j) * n + j]
             for k in range(max(0, i - p), j):
-                s -= low[i - k, k] * low[j - k, k]
-            low[i - j, j] = s / d
+                s -= w[low + (i - k) * n + k] * w[low + (j - k) * n + k]
+            w[low + (i - j) * n + j] = s * reciprocal
     return True
 
 
 @njit(cache=True)
-def band_solve(low: NDArray, p: int, n: int, rhs: NDArray) -> None:
-    """In place: ``rhs ← A⁻¹ rhs`` with the factor of :func:`band_cholesky`."""
-    for i in range(n):
-        s = rhs[i]
+def band_solve(w: NDArray, low: int, p: int, n: int, rhs: int) -> None:
+    """In place: ``rhs ← A⁻¹ rhs`` with the factor of :func:`band_cholesky`, both sweeps by columns
+    (each finished unknown updates the p after it: the dependency chain is one product per row)."""
+    for j in range(n):  # L y = b
+        xj = w[rhs + j] * w[low + j]
+        w[rhs + j] = xj
+        for i in range(j + 1, min(n, j + p + 1)):
+            w[rhs + i] -= w[low + (i - j) * n + j] * xj
+    for i in range(n - 1, -1, -1):  # Lᵀ x = y
+        xi = w[rhs + i] * w[low + i]
+        w[rhs + i] = xi
         for k in range(max(0, i - p), i):
-            s -= low[i - k, k] * rhs[k]
-        rhs[i] = s / low[0, i]
-    for i in range(n - 1, -1, -1):
-        s = rhs[i]
-        for k in range(i + 1, min(n, i + p + 1)):
-            s -= low[k - i, i] * rhs[k]
-        rhs[i] = s / low[0, i]
+            w[rhs + k] -= w[low + (i - k) * n + k] * xi
 
 
 @njit(cache=True)
-def band_product(bands: NDArray, p: int, n: int, x: NDArray, out: NDArray) -> None:
-    """``out = A x`` for ``bands[k, i] = A[i, i + k − p]``."""
-    for i in range(n):
-        s = 0.0
-        for k in range(max(0, p - i), min(2 * p + 1, n - i + p)):
-            s += bands[k, i] * x[i + k - p]
-        out[i] = s
+def band_product(w: NDArray, bands: int, p: int, n: int, x: int, out: int) -> None:
+    """``out = A x`` for ``bands[k, i] = A[i, i + k − p]``, diagonal by diagonal: each row still sums
+    its diagonals in order k = 0 … 2p, and the inner loop, over views with a zero-based index (so
+    numba adds no negative-index test), vectorises — three times faster than row by row."""
+    result = w[out: out + n]
+    result[:] = 0.0
+    for k in range(2 * p + 1):
+        first, last = max(0, p - k), min(n, n + p - k)  # rows i whose column i + k − p exists
+        band = w[bands + k * n + first: bands + k * n + last]
+        shifted = w[x + first + k - p: x + last + k - p]
+        rows = result[first:last]
+        for i in range(last - first):
+            rows[i] += band[i] * shifted[i]
 
 
 @njit(cache=True)
-def _dot(x: NDArray, y: NDArray) -> float:
+def dot(w: NDArray, x: int, y: int, n: int) -> float:
+    """``xᵀ y``."""
     s = 0.0
-    for i in range(x.size):
-        s += x[i] * y[i]
+    for i in range(n):
+        s += w[x + i] * w[y + i]
     return s
 
 
 @njit(cache=True)
-def _matvec(A: NDArray, x: NDArray, out: NDArray) -> None:
+def matvec(w: NDArray, A: int, rows: int, cols: int, x: int, out: int) -> None:
     """``out = A x`` (small or sparse-in-effect dense maps: a loop beats a BLAS call here)."""
-    for i in range(A.shape[0]):
+    for i in range(rows):
         s = 0.0
-        for j in range(A.shape[1]):
-            s += A[i, j] * x[j]
-        out[i] = s
+        for j in range(cols):
+            s += w[A + i * cols + j] * w[x + j]
+        w[out + i] = s
 
 
 @njit(cache=True)
-def _matvec_add(A: NDArray, x: NDArray, factor: float, out: NDArray) -> None:
+def matvec_add(w: NDArray, A: int, rows: int, cols: int, x: int, factor: float, out: int) -> None:
     """``out += factor · A x``."""
-    for i in range(A.shape[0]):
+    for i in range(rows):
         s = 0.0
-        for j in range(A.shape[1]):
-            s += A[i, j] * x[j]
-        out[i] += factor * s
+        for j in range(cols):
+            s += w[A + i * cols + j] * w[x + j]
+        w[out + i] += factor * s
 
 
 @njit(cache=True)
-def _matmat(A: NDArray, B: NDArray, out: NDArray) -> None:
-    """``out = A B``."""
-    for i in range(A.shape[0]):
-        for j in range(B.shape[1]):
-            s = 0.0
-            for k in range(A.shape[1]):
-                s += A[i, k] * B[k, j]
-            out[i, j] = s
-
-
-@njit(cache=True)
-def _quadratic(A: NDArray, x: NDArray) -> float:
-    """``xᵀ A x``."""
+def quadratic(w: NDArray, A: int, n: int, x: int) -> float:
+    """``xᵀ A x`` (A n × n)."""
     s = 0.0
-    for i in range(A.shape[0]):
+    for i in range(n):
         row = 0.0
-        for j in range(A.shape[1]):
-            row += A[i, j] * x[j]
-        s += x[i] * row
+        for j in range(n):
+            row += w[A + i * n + j] * w[x + j]
+        s += w[x + i] * row
     return s
 
 
@@ -318,38 +355,51 @@ def _quadratic(A: NDArray, x: NDArray) -> float:
 
 
 @njit(cache=True)
-def prepare(car: CarArrays) -> bool:
-    """Factorise and precompute the response and the gains; for a second-order car the consistent
+def prepare(layout: NDArray, w: NDArray, c: int) -> bool:
+    """Factorise car ``c`` and precompute its response and gains; for a second-order car the consistent
     initial acceleration ``M a₀ = B L₀ − C v₀``, for a state-space car its end outputs and energy at
     t = 0. False if S or M is not positive definite."""
-    n, p = car.n, car.p
-    if car.kind == STATE_SPACE:
-        _matmat(car.end_outputs, car.load, car.gain_u)
-        _matmat(car.end_rates, car.load, car.gain_v)
-        _matvec(car.end_outputs, car.x, car.end_now)
-        car.scalars[INITIAL_ENERGY] = 0.5 * _quadratic(car.kinetic_form, car.x) + 0.5 * _quadratic(car.strain_form, car.x)
+    at = layout[c]
+    n, p, J, Y = at[DOFS], at[BAND], at[LOAD_COUNT], at[END_COUNT]
+    gain_u, gain_v, load = at[GAIN_U], at[GAIN_V], at[LOAD]
+    if at[KIND] == STATE_SPACE:
+        x = at[X]
+        for i in range(Y):  # gains: end maps times the input
+            for j in range(J):
+                su = 0.0
+                sv = 0.0
+                for k in range(n):
+                    su += w[at[END_OUTPUTS] + i * n + k] * w[load + k * J + j]
+                    sv += w[at[END_RATES] + i * n + k] * w[load + k * J + j]
+                w[gain_u + i * J + j] = su
+                w[gain_v + i * J + j] = sv
+        matvec(w, at[END_OUTPUTS], Y, n, x, at[END_NOW])
+        w[at[SCALARS] + INITIAL_ENERGY] = 0.5 * quadratic(w, at[KINETIC_FORM], n, x) + 0.5 * quadratic(w, at[STRAIN_FORM], n, x)
         return True
-    if not band_cholesky(car.effective_factor, p, n) or not band_cholesky(car.mass_factor, p, n):
+    if not band_cholesky(w, at[EFFECTIVE_FACTOR], p, n) or not band_cholesky(w, at[MASS_FACTOR], p, n):
         return False
-    c = car.coefficients
-    column = car.work1
-    J = car.load.shape[1]
-    for j in range(J):
-        column[:] = car.load[:, j]
-        band_solve(car.effective_factor, p, n, column)
-        car.response[:, j] = (1.0 - c[ALPHA_F]) * column
-    _matmat(car.end_outputs, car.response, car.gain_u)
-    for i in range(car.gain_u.shape[0]):
+    cf = at[COEFFICIENTS]
+    column, response, end_feedthrough = at[WORK1], at[RESPONSE], at[END_FEEDTHROUGH]
+    for j in range(J):  # Z = (1−αf) S⁻¹ B, column by column
+        for i in range(n):
+            w[column + i] = w[load + i * J + j]
+        band_solve(w, at[EFFECTIVE_FACTOR], p, n, column)
+        for i in range(n):
+            w[response + i * J + j] = (1.0 - w[cf + ALPHA_F]) * w[column + i]
+    for i in range(Y):
         for j in range(J):
-            ez = car.gain_u[i, j]
-            car.gain_u[i, j] = c[CA] * ez + car.end_feedthrough[i, j]
-            car.gain_v[i, j] = c[CV_NEW] * ez + car.end_feedthrough[i, j] / c[DT]
+            ez = 0.0  # (E Z)[i, j]
+            for k in range(n):
+                ez += w[at[END_OUTPUTS] + i * n + k] * w[response + k * J + j]
+            w[gain_u + i * J + j] = w[cf + CA] * ez + w[end_feedthrough + i * J + j]
+            w[gain_v + i * J + j] = w[cf + CV_NEW] * ez + w[end_feedthrough + i * J + j] / w[cf + DT]
     # a₀ = M⁻¹(B L₀ − C v₀)
-    band_product(car.damping, p, n, car.v, car.a)
+    a = at[A]
+    band_product(w, at[DAMPING], p, n, at[V], a)
     for i in range(n):
-        car.a[i] = -car.a[i]
-    _matvec_add(car.load, car.loads, 1.0, car.a)
-    band_solve(car.mass_factor, p, n, car.a)
+        w[a + i] = -w[a + i]
+    matvec_add(w, load, n, J, at[LOADS], 1.0, a)
+    band_solve(w, at[MASS_FACTOR], p, n, a)
     return True
 
 
@@ -357,128 +407,157 @@ def prepare(car: CarArrays) -> bool:
 
 
 @njit(cache=True)
-def predict(car: CarArrays) -> None:
-    """The step with the new end loads left out; its end outputs and rates into ``car.end_free``,
-    ``car.end_rate_free``."""
-    n, p = car.n, car.p
-    if car.kind == STATE_SPACE:
-        _matvec(car.transition, car.x, car.x_free)
-        _matvec(car.end_outputs, car.x_free, car.end_free)
-        _matvec(car.end_rates, car.x_free, car.end_rate_free)
+def predict(layout: NDArray, w: NDArray, c: int) -> None:
+    """Car ``c``'s step with the new end loads left out; its end outputs and rates into its
+    ``end_free``, ``end_rate_free``."""
+    at = layout[c]
+    n, p, J, Y = at[DOFS], at[BAND], at[LOAD_COUNT], at[END_COUNT]
+    end_free, end_rate_free = at[END_FREE], at[END_RATE_FREE]
+    if at[KIND] == STATE_SPACE:
+        x_free = at[X_FREE]
+        matvec(w, at[TRANSITION], n, n, at[X], x_free)
+        matvec(w, at[END_OUTPUTS], Y, n, x_free, end_free)
+        matvec(w, at[END_RATES], Y, n, x_free, end_rate_free)
         return
-    c = car.coefficients
-    u, v, a, u_free, v_free, a_free = car.u, car.v, car.a, car.u_free, car.v_free, car.a_free
-    hu, hv, ha = car.history_u, car.history_v, car.history_a
-    for i in range(n):  # the three history products in one sweep
-        s = 0.0
-        for k in range(max(0, p - i), min(2 * p + 1, n - i + p)):
-            j = i + k - p
-            s += hu[k, i] * u[j] + hv[k, i] * v[j] + ha[k, i] * a[j]
-        a_free[i] = s
-    if c[ALPHA_F] != 0.0:
-        _matvec_add(car.load, car.loads, c[ALPHA_F], a_free)
-    band_solve(car.effective_factor, p, n, a_free)
-    dt, cu, ca, cv_old, cv_new = c[DT], c[CU], c[CA], c[CV_OLD], c[CV_NEW]
+    cf = at[COEFFICIENTS]
+    u, v, a, u_free, v_free, a_free = at[U], at[V], at[A], at[U_FREE], at[V_FREE], at[A_FREE]
+    hu, hv, ha = at[HISTORY_U], at[HISTORY_V], at[HISTORY_A]
+    result = w[a_free: a_free + n]  # the three history products in one sweep, diagonal by diagonal (see band_product)
+    result[:] = 0.0
+    for k in range(2 * p + 1):
+        first, last = max(0, p - k), min(n, n + p - k)
+        start, shift = k * n + first, first + k - p
+        bu, bv, ba = w[hu + start: hu + start + last - first], w[hv + start: hv + start + last - first], w[ha + start: ha + start + last - first]
+        su, sv, sa = w[u + shift: u + shift + last - first], w[v + shift: v + shift + last - first], w[a + shift: a + shift + last - first]
+        rows = result[first:last]
+        for i in range(last - first):
+            rows[i] += bu[i] * su[i] + bv[i] * sv[i] + ba[i] * sa[i]
+    if w[cf + ALPHA_F] != 0.0:
+        matvec_add(w, at[LOAD], n, J, at[LOADS], w[cf + ALPHA_F], a_free)
+    band_solve(w, at[EFFECTIVE_FACTOR], p, n, a_free)
+    dt, cu, ca, cv_old, cv_new = w[cf + DT], w[cf + CU], w[cf + CA], w[cf + CV_OLD], w[cf + CV_NEW]
     for i in range(n):
-        u_free[i] = u[i] + dt * v[i] + cu * a[i] + ca * a_free[i]
-        v_free[i] = v[i] + cv_old * a[i] + cv_new * a_free[i]
-    _matvec(car.end_outputs, u_free, car.end_free)
-    _matvec(car.end_outputs, v_free, car.end_rate_free)
-    _matvec_add(car.end_feedthrough, car.loads, -1.0 / dt, car.end_rate_free)
-    offset = car.scalars[OFFSET]
-    for i in range(car.end_free.size):
-        car.end_free[i] += offset
+        w[u_free + i] = w[u + i] + dt * w[v + i] + cu * w[a + i] + ca * w[a_free + i]
+        w[v_free + i] = w[v + i] + cv_old * w[a + i] + cv_new * w[a_free + i]
+    matvec(w, at[END_OUTPUTS], Y, n, u_free, end_free)
+    matvec(w, at[END_OUTPUTS], Y, n, v_free, end_rate_free)
+    matvec_add(w, at[END_FEEDTHROUGH], Y, J, at[LOADS], -1.0 / dt, end_rate_free)
+    offset = w[at[SCALARS] + OFFSET]
+    for i in range(Y):
+        w[end_free + i] += offset
 
 
 @njit(cache=True)
-def advance(car: CarArrays) -> None:
-    """Commit the step with the new end loads ``car.new_loads`` (``L_{n+1}``, linear within the step)."""
-    n, p = car.n, car.p
-    dt = car.coefficients[DT]
-    L0, L1 = car.loads, car.new_loads
+def advance(layout: NDArray, w: NDArray, c: int) -> None:
+    """Commit car ``c``'s step with its new end loads ``new_loads`` (``L_{n+1}``, linear within the step)."""
+    at = layout[c]
+    n, p, J, Y = at[DOFS], at[BAND], at[LOAD_COUNT], at[END_COUNT]
+    scalars = at[SCALARS]
+    dt = w[at[COEFFICIENTS] + DT]
+    L0, L1 = at[LOADS], at[NEW_LOADS]
     rate2 = 0.0
     load2 = 0.0
-    for j in range(L0.size):
-        slope = (L1[j] - L0[j]) / dt
+    for j in range(J):
+        slope = (w[L1 + j] - w[L0 + j]) / dt
         rate2 += slope * slope
-        load2 += L0[j] * L0[j] + L1[j] * L1[j]
-    car.scalars[SUM_LOAD2] += 0.5 * dt * load2
-    car.scalars[SUM_RATE2] += dt * rate2
-    if car.kind == STATE_SPACE:
+        load2 += w[L0 + j] * w[L0 + j] + w[L1 + j] * w[L1 + j]
+    w[scalars + SUM_LOAD2] += 0.5 * dt * load2
+    w[scalars + SUM_RATE2] += dt * rate2
+    if at[KIND] == STATE_SPACE:
+        x, end_outputs, end_now, work_map = at[X], at[END_OUTPUTS], at[END_NOW], at[WORK_MAP]
         for i in range(n):
-            car.x[i] = car.x_free[i]
-        _matvec_add(car.load, L1, 1.0, car.x)
+            w[x + i] = w[at[X_FREE] + i]
+        matvec_add(w, at[LOAD], n, J, L1, 1.0, x)
         work = 0.0
-        for i in range(car.end_now.size):
+        for i in range(Y):
             after = 0.0
             for k in range(n):
-                after += car.end_outputs[i, k] * car.x[k]
-            change = after - car.end_now[i]
-            car.end_now[i] = after
-            for j in range(L0.size):
-                work += 0.5 * (L0[j] + L1[j]) * car.work_map[j, i] * change
-        car.scalars[DISSIPATED] += work
-        L0[:] = L1
-        return
-    c = car.coefficients
-    ca, cv_new = c[CA], c[CV_NEW]
-    u, v, a, u_free, v_free, a_free = car.u, car.v, car.a, car.u_free, car.v_free, car.a_free
-    response, v_mid = car.work1, car.work2
-    _matvec(car.response, L1, response)
-    for i in range(n):
-        v_mid[i] = 0.5 * v[i]
-        a[i] = a_free[i] + response[i]
-        u[i] = u_free[i] + ca * response[i]
-        v[i] = v_free[i] + cv_new * response[i]
-        v_mid[i] += 0.5 * v[i]
-    # move the rigid travel out of u (K t = C t = 0: the dynamics are unchanged)
-    t = car.translation
-    shift = u[car.pivot] / t[car.pivot]
-    for i in range(n):
-        u[i] -= shift * t[i]
-    car.scalars[OFFSET] += shift
-    damped = car.work3
-    band_product(car.damping, p, n, v_mid, damped)
-    car.scalars[DISSIPATED] += dt * _dot(v_mid, damped)
-    L0[:] = L1
+                after += w[end_outputs + i * n + k] * w[x + k]
+            change = after - w[end_now + i]
+            w[end_now + i] = after
+            for j in range(J):
+                work += 0.5 * (w[L0 + j] + w[L1 + j]) * w[work_map + j * Y + i] * change
+        w[scalars + DISSIPATED] += work
+    else:
+        cf = at[COEFFICIENTS]
+        ca, cv_new = w[cf + CA], w[cf + CV_NEW]
+        u, v, a, u_free, v_free, a_free = at[U], at[V], at[A], at[U_FREE], at[V_FREE], at[A_FREE]
+        response, v_mid, damped = at[WORK1], at[WORK2], at[WORK3]
+        matvec(w, at[RESPONSE], n, J, L1, response)
+        for i in range(n):
+            w[v_mid + i] = 0.5 * w[v + i]
+            w[a + i] = w[a_free + i] + w[response + i]
+            w[u + i] = w[u_free + i] + ca * w[response + i]
+            w[v + i] = w[v_free + i] + cv_new * w[response + i]
+            w[v_mid + i] += 0.5 * w[v + i]
+        # move the rigid travel out of u (K t = C t = 0: the dynamics are unchanged)
+        t = at[TRANSLATION]
+        shift = w[u + at[PIVOT]] / w[t + at[PIVOT]]
+        for i in range(n):
+            w[u + i] -= shift * w[t + i]
+        w[scalars + OFFSET] += shift
+        band_product(w, at[DAMPING], p, n, v_mid, damped)
+        w[scalars + DISSIPATED] += dt * dot(w, v_mid, damped, n)
+    for j in range(J):
+        w[L0 + j] = w[L1 + j]
 
 
 @njit(cache=True)
-def observe(car: CarArrays, displacement: NDArray, acceleration: NDArray, energy: NDArray) -> None:
-    """Sensor displacements (m) and accelerations (m/s²) now into the given rows, and add the car's
-    kinetic, strain and dissipated energy (J) to ``energy[0:3]``."""
-    n, p = car.n, car.p
-    if car.kind == STATE_SPACE:
-        kinetic = 0.5 * _quadratic(car.kinetic_form, car.x)
-        strain = 0.5 * _quadratic(car.strain_form, car.x)
-        _matvec(car.sensor_outputs, car.x, displacement)
-        _matvec(car.sensor_accelerations, car.x, acceleration)
-        energy[0] += kinetic
-        energy[1] += strain
-        energy[2] += car.scalars[INITIAL_ENERGY] + car.scalars[DISSIPATED] - kinetic - strain
+def observe(layout: NDArray, w: NDArray, c: int, k: int, displacement: NDArray, acceleration: NDArray, energy: NDArray) -> None:
+    """Car ``c``'s sensor displacements (m) and accelerations (m/s²) now into row ``k`` of the histories
+    (its columns from its sensor start), and add its kinetic, strain and dissipated energy (J) to
+    ``energy[k, 0:3]``."""
+    at = layout[c]
+    n, p, J, S = at[DOFS], at[BAND], at[LOAD_COUNT], at[SENSOR_COUNT]
+    first = at[SENSOR_START]
+    scalars = at[SCALARS]
+    if at[KIND] == STATE_SPACE:
+        x = at[X]
+        kinetic = 0.5 * quadratic(w, at[KINETIC_FORM], n, x)
+        strain = 0.5 * quadratic(w, at[STRAIN_FORM], n, x)
+        for i in range(S):
+            sd = 0.0
+            sa = 0.0
+            for j in range(n):
+                sd += w[at[SENSOR_OUTPUTS] + i * n + j] * w[x + j]
+                sa += w[at[SENSOR_ACCELERATIONS] + i * n + j] * w[x + j]
+            displacement[k, first + i] = sd
+            acceleration[k, first + i] = sa
+        energy[k, 0] += kinetic
+        energy[k, 1] += strain
+        energy[k, 2] += w[scalars + INITIAL_ENERGY] + w[scalars + DISSIPATED] - kinetic - strain
         return
-    stiffness_u, mass_v = car.work1, car.work2
-    band_product(car.stiffness, p, n, car.u, stiffness_u)
-    band_product(car.mass, p, n, car.v, mass_v)
-    _matvec(car.sensor_outputs, car.u, displacement)
-    _matvec_add(car.sensor_feedthrough, car.loads, 1.0, displacement)
-    for i in range(displacement.size):
-        displacement[i] += car.scalars[OFFSET]
-    strain = 0.5 * _dot(car.u, stiffness_u) + 0.5 * _quadratic(car.feedthrough_energy, car.loads)
-    if car.coefficients[EQUILIBRIUM] != 0.0:
+    u, v, loads = at[U], at[V], at[LOADS]
+    stiffness_u, mass_v = at[WORK1], at[WORK2]
+    band_product(w, at[STIFFNESS], p, n, u, stiffness_u)
+    band_product(w, at[MASS], p, n, v, mass_v)
+    sensor_outputs, sensor_feedthrough = at[SENSOR_OUTPUTS], at[SENSOR_FEEDTHROUGH]
+    for i in range(S):
+        s = 0.0
+        for j in range(n):
+            s += w[sensor_outputs + i * n + j] * w[u + j]
+        feedthrough = 0.0
+        for j in range(J):
+            feedthrough += w[sensor_feedthrough + i * J + j] * w[loads + j]
+        displacement[k, first + i] = s + feedthrough + w[scalars + OFFSET]
+    strain = 0.5 * dot(w, u, stiffness_u, n) + 0.5 * quadratic(w, at[FEEDTHROUGH_ENERGY], J, loads)
+    accelerations = at[A]
+    if w[at[COEFFICIENTS] + EQUILIBRIUM] != 0.0:
         # M⁻¹(B L − C v − K u): generalized-α's own a_n lags by (αm − αf) dt
-        equilibrium = car.work3
-        band_product(car.damping, p, n, car.v, equilibrium)
+        accelerations = at[WORK3]
+        band_product(w, at[DAMPING], p, n, v, accelerations)
         for i in range(n):
-            equilibrium[i] = -equilibrium[i] - stiffness_u[i]
-        _matvec_add(car.load, car.loads, 1.0, equilibrium)
-        band_solve(car.mass_factor, p, n, equilibrium)
-        _matvec(car.sensor_outputs, equilibrium, acceleration)
-    else:
-        _matvec(car.sensor_outputs, car.a, acceleration)
-    energy[0] += 0.5 * _dot(car.v, mass_v)
-    energy[1] += strain
-    energy[2] += car.scalars[DISSIPATED]
+            w[accelerations + i] = -w[accelerations + i] - w[stiffness_u + i]
+        matvec_add(w, at[LOAD], n, J, loads, 1.0, accelerations)
+        band_solve(w, at[MASS_FACTOR], p, n, accelerations)
+    for i in range(S):
+        s = 0.0
+        for j in range(n):
+            s += w[sensor_outputs + i * n + j] * w[accelerations + j]
+        acceleration[k, first + i] = s
+    energy[k, 0] += 0.5 * dot(w, v, mass_v, n)
+    energy[k, 1] += strain
+    energy[k, 2] += w[scalars + DISSIPATED]
 
 
-__all__ = ["CarArrays", "advance", "observe", "pack_car", "predict", "prepare"]
+__all__ = ["CarPool", "advance", "observe", "pack_cars", "predict", "prepare"]

@@ -12,15 +12,21 @@ reference's, operation by operation, so the two agree to round-off:
   signs are strict (``> 0`` is +1, so a guard at exactly zero counts as negative), while a
   law method called with ``branch=None`` (the contact guards' law force, the stored energy,
   the dissipation rate, :func:`start`'s engaged force) picks its piece with the ``>= 0``
-  rule of :func:`reduced.couplers.base._branch` — :func:`law_branch` takes the rule;
+  rule of :func:`reduced.couplers.base._branch` — :func:`law_branch` takes the rule. The
+  kernels work on one coupler's :class:`CouplerLaw` (its scalars and its rows of the
+  arrays): ``law_*``, :func:`evaluate`, :func:`stored_energy` … take ``(laws, j)`` and
+  call their twins ``_law_*``, :func:`_evaluate` … on ``_law_of(laws, j)``;
 * :func:`solve` is :meth:`CouplerSolve.solve` given the free closures and rates and the
   Schur gains ``D_u``, ``D_v``: Newton on ``(P, s)``, then the Gauss–Seidel fallback with
   Brent's method (:func:`brent_root`, scipy's ``brentq`` transcribed) for a memoryless
   coupler and a 2 × 2 Newton for a stateful one, then the energy bookkeeping of ``_commit``.
-  The products with the gains are ``np.dot`` (the BLAS calls numpy makes for ``@``), the
-  Newton systems :func:`linear_solve` (LAPACK ``dgesv``'s order of operations), so the
-  tests find the two iterations equal to the bit (but for the odd last bit of a square:
-  Python's ``x**2`` calls ``pow``, numba multiplies).
+  The Newton systems are :func:`linear_solve` (LAPACK ``dgesv``'s order of operations); the
+  products with the gains are loops over a row, summed in index order without fused
+  multiply-adds, where numpy's ``@`` calls BLAS (OpenBLAS fuses them). So the iterations
+  agree to the bit for one coupler (but for the odd last bit of a square: Python's ``x**2``
+  calls ``pow``, numba multiplies), and for more to a few units in the last place of the
+  products, which the iteration carries over: the tests' runs differ by at most about
+  1e-16 of each quantity's largest value, with the same modes and iteration counts.
 
 A failed step returns a failure code instead of raising :class:`CouplerConvergenceError`
 (numba cannot build it); :func:`failure_detail` gives the error's text. What raises in the
@@ -39,10 +45,26 @@ Layout of :attr:`CouplerLaws.params` (row j, zero-padded to the widest law):
   ``table[j, :, :m]`` with ``m = table_size[j]``, rows closure, loading L, unloading U,
   ``∫₀L``, ``∫₀U`` at the table points (the law's own arrays).
 
-Pass C-contiguous float64 arrays to :func:`solve` (others work, but ``np.dot`` warns and
-slows down). The iteration limits and the state tolerance travel in :class:`CouplerLaws`
+Pass C-contiguous float64 arrays to :func:`solve` (others work, but compile again and run
+slower). The iteration limits and the state tolerance travel in :class:`CouplerLaws`
 (taken from :mod:`femref.impact.couplers` when packing): a cached compilation would keep
 stale compile-time constants, since numba's cache only watches this file.
+
+A step of a few couplers is some hundred floating-point operations, so what a call costs
+beyond them is the calls themselves. Hence:
+
+* nothing allocates: :func:`solve`'s scratch (its iterate, the residual, the Jacobian and
+  its LU factors …) is the ``work_*`` arrays of :class:`CouplerState`, made once by
+  :func:`new_state`;
+* the kernels are compiled without numba's reference counting (``_nrt=False``, a private
+  numba option): with it, every call increfs and decrefs each array it is passed (numba's
+  pruning of those pairs fails across branches and raise paths), an atomic operation
+  each: ~4 µs of a single coupler's step, ~0.4 µs without. Without it a kernel can
+  neither allocate nor hand an array to reference-counted code (hence :func:`_law_of` is
+  private); callers with reference counting (:mod:`femref.impact.kernels.loop`) keep theirs;
+* a call copies every array of its arguments into its argument list (an array is 7 to 11
+  words), so the kernels below :func:`solve` take a :class:`CouplerLaw`, not ``laws``, and
+  the dispatchers inside :func:`_evaluate` are inlined (``inline="always"``).
 """
 
 from __future__ import annotations
@@ -57,6 +79,8 @@ from numpy.typing import NDArray
 
 from femref.impact.couplers import MAX_NEWTON_ITERATIONS, MAX_SWEEPS, NEWTON_ITERATIONS, STATE_TOLERANCE
 from reduced.couplers import CONTACT_KINDS, Coupling, HystereticTable, KelvinVoigt, PowerLawGear, StandardLinearDraftGear
+
+_JIT = dict(cache=True, _nrt=False)  # every kernel's options (module docstring: no reference counting)
 
 KELVIN_VOIGT, POWER_LAW, STANDARD_LINEAR, TABLE = 0, 1, 2, 3
 """Values of :attr:`CouplerLaws.kind`."""
@@ -91,10 +115,12 @@ class CouplerLaws(NamedTuple):
     table_size: NDArray[np.int64]  # (n,) table points of a table law (0 otherwise)
     limits: NDArray[np.int64]  # (3,) NEWTON_ITERATIONS, MAX_NEWTON_ITERATIONS, MAX_SWEEPS
     state_tolerance: NDArray[np.float64]  # (1,) STATE_TOLERANCE (m)
+    state_row: NDArray[np.int64]  # (n,) row of the coupler's state among the Newton unknowns (P, s); −1 stateless
 
 
 class CouplerState(NamedTuple):
-    """The couplers now (mutable: :func:`start` and :func:`solve` update the arrays in place)."""
+    """The couplers now (mutable: :func:`start` and :func:`solve` update the arrays in place), and
+    :func:`solve`'s scratch (``work_*``: no state, their values mean nothing between calls)."""
 
     force: NDArray[np.float64]  # (n,) P, N, compression positive
     state: NDArray[np.float64]  # (n,) the law state (0 for stateless laws)
@@ -104,6 +130,21 @@ class CouplerState(NamedTuple):
     stored: NDArray[np.float64]  # (n,) J
     dissipated: NDArray[np.float64]  # (n,) J
     mode: NDArray[np.int64]  # (n,) +1 compression, −1 tension, 0 open
+    # solve's scratch, allocated once by new_state (no meaning between calls; m = n + the stateful couplers)
+    work_force: NDArray[np.float64]  # (n,) the iterated P
+    work_state: NDArray[np.float64]  # (n,) the iterated s
+    work_mode: NDArray[np.int64]  # (n,) the previous Newton iteration's modes
+    work_new_mode: NDArray[np.int64]  # (n,) this iteration's modes
+    work_closure: NDArray[np.float64]  # (n,)
+    work_rate: NDArray[np.float64]  # (n,)
+    work_state_rate: NDArray[np.float64]  # (n,)
+    work_tangent: NDArray[np.float64]  # (n, 7) the fields of CouplerTangent
+    work_residual: NDArray[np.float64]  # (m,)
+    work_step: NDArray[np.float64]  # (m,) −residual, then the Newton step
+    work_jacobian: NDArray[np.float64]  # (m, m), then its LU factors
+    work_pivots: NDArray[np.int64]  # (max(m, 2),)
+    work_block: NDArray[np.float64]  # (2, 2) a stateful coupler's own Newton matrix, then its LU factors
+    work_local: NDArray[np.float64]  # (2,) its −residual, then its step
 
 
 def pack_laws(couplings: Sequence[Coupling]) -> CouplerLaws:
@@ -141,6 +182,12 @@ def pack_laws(couplings: Sequence[Coupling]) -> CouplerLaws:
         for r, values in enumerate(arrays):
             table[j, r, : values.size] = values
         table_size[j] = arrays[0].size
+    state_row = np.full(n, -1, dtype=np.int64)
+    m = n
+    for j, law in enumerate(laws):
+        if law.state_size:
+            state_row[j] = m
+            m += 1
     return CouplerLaws(
         kind=np.array([_LAW_KINDS[type(law)] for law in laws], dtype=np.int64),
         contact=np.array([CONTACT_KINDS.index(c.contact) for c in couplings], dtype=np.int64),
@@ -153,12 +200,14 @@ def pack_laws(couplings: Sequence[Coupling]) -> CouplerLaws:
         table_size=table_size,
         limits=np.array([NEWTON_ITERATIONS, MAX_NEWTON_ITERATIONS, MAX_SWEEPS], dtype=np.int64),
         state_tolerance=np.array([STATE_TOLERANCE]),
+        state_row=state_row,
     )
 
 
 def new_state(laws: CouplerLaws) -> CouplerState:
-    """Zero forces, closures, rates and energies, the laws' initial states, all contacts open."""
+    """Zero forces, closures, rates and energies, the laws' initial states, all contacts open; solve's scratch."""
     n = laws.kind.size
+    m = n + int(np.count_nonzero(laws.state_row >= 0))
     return CouplerState(
         force=np.zeros(n),
         state=laws.initial_state.copy(),
@@ -168,6 +217,20 @@ def new_state(laws: CouplerLaws) -> CouplerState:
         stored=np.zeros(n),
         dissipated=np.zeros(n),
         mode=np.zeros(n, dtype=np.int64),
+        work_force=np.zeros(n),
+        work_state=np.zeros(n),
+        work_mode=np.zeros(n, dtype=np.int64),
+        work_new_mode=np.zeros(n, dtype=np.int64),
+        work_closure=np.zeros(n),
+        work_rate=np.zeros(n),
+        work_state_rate=np.zeros(n),
+        work_tangent=np.zeros((n, 7)),
+        work_residual=np.zeros(m),
+        work_step=np.zeros(m),
+        work_jacobian=np.zeros((m, m)),
+        work_pivots=np.zeros(max(m, 2), dtype=np.int64),
+        work_block=np.zeros((2, 2)),
+        work_local=np.zeros(2),
     )
 
 
@@ -180,122 +243,144 @@ def failure_detail(failure_kind: int, change: float) -> str:
     raise ValueError(f"failure_kind must be {SWEEPS_EXHAUSTED} or {COUPLER_NEWTON_FAILED}, got {failure_kind!r}")
 
 
+# --- coupler j's law, as the kernels read it ----------------------------------------------
+
+
+class CouplerLaw(NamedTuple):
+    """Coupler j's law and contact (:func:`_law_of`): scalars and views of :class:`CouplerLaws`' rows."""
+
+    kind: int
+    contact: int
+    slack: float
+    tension_slack: float
+    params: NDArray[np.float64]  # (P,) row j of CouplerLaws.params
+    table: NDArray[np.float64]  # (5, M) table j
+    size: int  # table points (a table law)
+
+
+@njit(**_JIT)
+def _law_of(laws, j):
+    """Coupler j's :class:`CouplerLaw` (the kernels pass it rather than ``laws`` and ``j``: a few words, not all
+    the arrays). Its arrays are views without a reference of their own: for kernels only (module docstring)."""
+    return CouplerLaw(laws.kind[j], laws.contact[j], laws.slack[j], laws.tension_slack[j], laws.params[j], laws.table[j], laws.table_size[j])
+
+
 # --- Kelvin-Voigt -------------------------------------------------------------------------
 
 
-@njit(cache=True)
-def kelvin_voigt_force(laws, j, closure, rate):
+@njit(**_JIT)
+def kelvin_voigt_force(law, closure, rate):
     """``P = c δ + μ δ̇`` (mirrors reduced.couplers.KelvinVoigt.force)."""
-    return laws.params[j, 0] * closure + laws.params[j, 1] * rate
+    return law.params[0] * closure + law.params[1] * rate
 
 
-@njit(cache=True)
-def kelvin_voigt_tangent(laws, j):
+@njit(**_JIT)
+def kelvin_voigt_tangent(law):
     """``∂P/∂δ = c``, ``∂P/∂δ̇ = μ`` (mirrors reduced.couplers.KelvinVoigt.tangent)."""
-    return laws.params[j, 0], laws.params[j, 1], 0.0, 0.0, 0.0, 0.0, 0.0
+    return law.params[0], law.params[1], 0.0, 0.0, 0.0, 0.0, 0.0
 
 
-@njit(cache=True)
-def kelvin_voigt_stored_energy(laws, j, closure, engaged):
+@njit(**_JIT)
+def kelvin_voigt_stored_energy(law, closure, engaged):
     """``c δ²/2`` while engaged, else 0 (mirrors reduced.couplers.KelvinVoigt.stored_energy)."""
-    return 0.5 * laws.params[j, 0] * closure**2 if engaged else 0.0
+    return 0.5 * law.params[0] * closure**2 if engaged else 0.0
 
 
-@njit(cache=True)
-def kelvin_voigt_dissipation_rate(laws, j, rate, engaged):
+@njit(**_JIT)
+def kelvin_voigt_dissipation_rate(law, rate, engaged):
     """``μ δ̇²`` while engaged, else 0 (mirrors reduced.couplers.KelvinVoigt.dissipation_rate)."""
-    return laws.params[j, 1] * rate**2 if engaged else 0.0
+    return law.params[1] * rate**2 if engaged else 0.0
 
 
 # --- power law ----------------------------------------------------------------------------
 
 
-@njit(cache=True)
-def power_law_damping(laws, j, closure):
+@njit(**_JIT)
+def power_law_damping(law, closure):
     """``γ(δ) = Σ_k γ_k |δ|^k`` and ``dγ/dδ`` (mirrors reduced.couplers.PowerLawGear.damping_at)."""
     a = abs(closure)
     g = 0.0
     dg = 0.0
-    for k in range(int(laws.params[j, 3])):
-        gk = laws.params[j, 4 + k]
+    for k in range(int(law.params[3])):
+        gk = law.params[4 + k]
         g += gk * a ** float(k)
         if k >= 1:
             dg += float(k) * gk * a ** float(k - 1)
     return g, dg * (1.0 if closure >= 0.0 else -1.0)
 
 
-@njit(cache=True)
-def power_law_force(laws, j, closure, rate, side):
+@njit(**_JIT)
+def power_law_force(law, closure, rate, side):
     """``P = σ (c |δ|ⁿ + N0) + γ(δ) δ̇`` on the side ``σ = ±1`` (mirrors reduced.couplers.PowerLawGear.force)."""
-    g, _ = power_law_damping(laws, j, closure)
-    return side * (laws.params[j, 0] * abs(closure) ** laws.params[j, 1] + laws.params[j, 2]) + g * rate
+    g, _ = power_law_damping(law, closure)
+    return side * (law.params[0] * abs(closure) ** law.params[1] + law.params[2]) + g * rate
 
 
-@njit(cache=True)
-def power_law_tangent(laws, j, closure, rate):
+@njit(**_JIT)
+def power_law_tangent(law, closure, rate):
     """``∂P/∂δ = n c |δ|^{n−1} + γ'(δ) δ̇``, ``∂P/∂δ̇ = γ(δ)`` (mirrors reduced.couplers.PowerLawGear.tangent)."""
-    g, dg = power_law_damping(laws, j, closure)
+    g, dg = power_law_damping(law, closure)
     a = abs(closure)
-    spring = laws.params[j, 1] * laws.params[j, 0] * a ** (laws.params[j, 1] - 1.0)
+    spring = law.params[1] * law.params[0] * a ** (law.params[1] - 1.0)
     return spring + dg * rate, g, 0.0, 0.0, 0.0, 0.0, 0.0
 
 
-@njit(cache=True)
-def power_law_stored_energy(laws, j, closure, engaged):
+@njit(**_JIT)
+def power_law_stored_energy(law, closure, engaged):
     """``c |δ|^{n+1}/(n+1) + N0 |δ|`` while engaged (mirrors reduced.couplers.PowerLawGear.stored_energy)."""
     if not engaged:
         return 0.0
     a = abs(closure)
-    c, n, preload = laws.params[j, 0], laws.params[j, 1], laws.params[j, 2]
+    c, n, preload = law.params[0], law.params[1], law.params[2]
     return c * a ** (n + 1.0) / (n + 1.0) + preload * a
 
 
-@njit(cache=True)
-def power_law_dissipation_rate(laws, j, closure, rate, engaged):
+@njit(**_JIT)
+def power_law_dissipation_rate(law, closure, rate, engaged):
     """``γ(δ) δ̇²`` while engaged (mirrors reduced.couplers.PowerLawGear.dissipation_rate)."""
-    return power_law_damping(laws, j, closure)[0] * rate**2 if engaged else 0.0
+    return power_law_damping(law, closure)[0] * rate**2 if engaged else 0.0
 
 
 # --- standard-linear draft gear -----------------------------------------------------------
 
 
-@njit(cache=True)
-def draft_gear_spring(laws, j, gear_compression, piece):
+@njit(**_JIT)
+def draft_gear_spring(law, gear_compression, piece):
     """``F_g(x_g)`` and ``F_g'``: ``c x_g`` open (piece 0), ``c* x_g + (c − c*) stroke piece`` closed
     (piece ±1) (mirrors reduced.couplers.StandardLinearDraftGear.gear_spring)."""
-    c, s, cs = laws.params[j, 1], laws.params[j, 3], laws.params[j, 4]
+    c, s, cs = law.params[1], law.params[3], law.params[4]
     if piece == 0:
         return c * gear_compression, c
     return cs * gear_compression + (c - cs) * s * piece, cs
 
 
-@njit(cache=True)
-def draft_gear_force(laws, j, closure, state):
+@njit(**_JIT)
+def draft_gear_force(law, closure, state):
     """``P = (δ − x_g)/D`` (mirrors reduced.couplers.StandardLinearDraftGear.force)."""
-    return (closure - state) / laws.params[j, 0]
+    return (closure - state) / law.params[0]
 
 
-@njit(cache=True)
-def draft_gear_state_rate(laws, j, state, force, piece):
+@njit(**_JIT)
+def draft_gear_state_rate(law, state, force, piece):
     """``ẋ_g = (P − F_g(x_g))/μ`` (mirrors reduced.couplers.StandardLinearDraftGear.state_rate)."""
-    fg, _ = draft_gear_spring(laws, j, state, piece)
-    return (force - fg) / laws.params[j, 2]
+    fg, _ = draft_gear_spring(law, state, piece)
+    return (force - fg) / law.params[2]
 
 
-@njit(cache=True)
-def draft_gear_tangent(laws, j, state, piece):
+@njit(**_JIT)
+def draft_gear_tangent(law, state, piece):
     """``∂P/∂δ = 1/D``, ``∂P/∂x_g = −1/D``, ``∂ẋ_g/∂x_g = −F_g'/μ``, ``∂ẋ_g/∂P = 1/μ``
     (mirrors reduced.couplers.StandardLinearDraftGear.tangent)."""
-    _, kg = draft_gear_spring(laws, j, state, piece)
-    d, mu = laws.params[j, 0], laws.params[j, 2]
+    _, kg = draft_gear_spring(law, state, piece)
+    d, mu = law.params[0], law.params[2]
     return 1.0 / d, 0.0, -1.0 / d, 0.0, 0.0, -kg / mu, 1.0 / mu
 
 
-@njit(cache=True)
-def draft_gear_stored_energy(laws, j, closure, state, engaged, piece):
+@njit(**_JIT)
+def draft_gear_stored_energy(law, closure, state, engaged, piece):
     """``D P²/2`` (engaged) ``+ ∫₀^{x_g} F_g`` (mirrors reduced.couplers.StandardLinearDraftGear.stored_energy)."""
-    d, c, s, cs = laws.params[j, 0], laws.params[j, 1], laws.params[j, 3], laws.params[j, 4]
-    series = 0.5 * d * draft_gear_force(laws, j, closure, state) ** 2 if engaged else 0.0
+    d, c, s, cs = law.params[0], law.params[1], law.params[3], law.params[4]
+    series = 0.5 * d * draft_gear_force(law, closure, state) ** 2 if engaged else 0.0
     if piece == 0:
         gear = 0.5 * c * state**2
     else:
@@ -304,24 +389,24 @@ def draft_gear_stored_energy(laws, j, closure, state, engaged, piece):
     return series + gear
 
 
-@njit(cache=True)
-def draft_gear_dissipation_rate(laws, j, state, force, piece):
+@njit(**_JIT)
+def draft_gear_dissipation_rate(law, state, force, piece):
     """``(P − F_g(x_g))²/μ`` (mirrors reduced.couplers.StandardLinearDraftGear.dissipation_rate)."""
-    fg, _ = draft_gear_spring(laws, j, state, piece)
-    return (force - fg) ** 2 / laws.params[j, 2]
+    fg, _ = draft_gear_spring(law, state, piece)
+    return (force - fg) ** 2 / law.params[2]
 
 
 # --- hysteretic table ---------------------------------------------------------------------
 
 
-@njit(cache=True)
-def table_curve(laws, j, row, a):
+@njit(**_JIT)
+def table_curve(law, row, a):
     """Value, slope and ``∫₀^a`` of table row 1 (L) or 2 (U) at ``a ≥ 0``, extrapolating the last
     segment (mirrors reduced.couplers.table._piecewise_linear)."""
-    m = laws.table_size[j]
-    x = laws.table[j, 0]
-    y = laws.table[j, row]
-    integral = laws.table[j, row + 2]
+    m = law.size
+    x = law.table[0]
+    y = law.table[row]
+    integral = law.table[row + 2]
     right = 0  # np.searchsorted(x, a, side="right")
     while right < m and x[right] <= a:
         right += 1
@@ -331,8 +416,8 @@ def table_curve(laws, j, row, a):
     return y[i] + slope * h, slope, integral[i] + y[i] * h + 0.5 * slope * h * h
 
 
-@njit(cache=True)
-def table_switch(laws, j, closure, rate):
+@njit(**_JIT)
+def table_switch(law, closure, rate):
     """``σ = sgn δ`` (at δ = 0: ``sgn δ̇``, +1 at rest), ``s(σδ̇) = clip(σδ̇/v_s, 0, 1)`` and its right
     derivative (mirrors reduced.couplers.HystereticTable._switch)."""
     if closure != 0.0:
@@ -340,55 +425,56 @@ def table_switch(laws, j, closure, rate):
     else:
         sigma = 1.0 if rate >= 0.0 else -1.0
     r = sigma * rate
-    vs = laws.params[j, 1]
+    vs = law.params[1]
     s = min(max(r / vs, 0.0), 1.0)
     ds = 1.0 / vs if 0.0 <= r < vs else 0.0
     return sigma, s, ds
 
 
-@njit(cache=True)
-def table_force(laws, j, closure, rate):
+@njit(**_JIT)
+def table_force(law, closure, rate):
     """``P = σ [U + (L − U) s(σδ̇)](|δ|) + c_v δ̇`` (mirrors reduced.couplers.HystereticTable.force)."""
     a = abs(closure)
-    lo = table_curve(laws, j, 1, a)[0]
-    un = table_curve(laws, j, 2, a)[0]
-    sigma, s, _ = table_switch(laws, j, closure, rate)
-    return sigma * (un + (lo - un) * s) + laws.params[j, 0] * rate
+    lo = table_curve(law, 1, a)[0]
+    un = table_curve(law, 2, a)[0]
+    sigma, s, _ = table_switch(law, closure, rate)
+    return sigma * (un + (lo - un) * s) + law.params[0] * rate
 
 
-@njit(cache=True)
-def table_tangent(laws, j, closure, rate):
+@njit(**_JIT)
+def table_tangent(law, closure, rate):
     """``∂P/∂δ = U' + (L' − U') s``, ``∂P/∂δ̇ = (L − U) s' + c_v`` (mirrors reduced.couplers.HystereticTable.tangent)."""
     a = abs(closure)
-    lo, dlo, _ = table_curve(laws, j, 1, a)
-    un, dun, _ = table_curve(laws, j, 2, a)
-    _, s, ds = table_switch(laws, j, closure, rate)
-    return dun + (dlo - dun) * s, (lo - un) * ds + laws.params[j, 0], 0.0, 0.0, 0.0, 0.0, 0.0
+    lo, dlo, _ = table_curve(law, 1, a)
+    un, dun, _ = table_curve(law, 2, a)
+    _, s, ds = table_switch(law, closure, rate)
+    return dun + (dlo - dun) * s, (lo - un) * ds + law.params[0], 0.0, 0.0, 0.0, 0.0, 0.0
 
 
-@njit(cache=True)
-def table_stored_energy(laws, j, closure, engaged):
+@njit(**_JIT)
+def table_stored_energy(law, closure, engaged):
     """``∫₀^{|δ|} U`` while engaged (mirrors reduced.couplers.HystereticTable.stored_energy)."""
-    return table_curve(laws, j, 2, abs(closure))[2] if engaged else 0.0
+    return table_curve(law, 2, abs(closure))[2] if engaged else 0.0
 
 
-@njit(cache=True)
-def table_dissipation_rate(laws, j, closure, rate, engaged):
+@njit(**_JIT)
+def table_dissipation_rate(law, closure, rate, engaged):
     """``(L − U)(|δ|) s(σδ̇) σ δ̇ + c_v δ̇²`` while engaged (mirrors reduced.couplers.HystereticTable.dissipation_rate)."""
     if not engaged:
         return 0.0
     a = abs(closure)
-    lo = table_curve(laws, j, 1, a)[0]
-    un = table_curve(laws, j, 2, a)[0]
-    sigma, s, _ = table_switch(laws, j, closure, rate)
-    return (lo - un) * s * sigma * rate + laws.params[j, 0] * rate**2
+    lo = table_curve(law, 1, a)[0]
+    un = table_curve(law, 2, a)[0]
+    sigma, s, _ = table_switch(law, closure, rate)
+    return (lo - un) * s * sigma * rate + law.params[0] * rate**2
 
 
-# --- the law of coupler j, whatever its kind ----------------------------------------------
+# --- the law of a coupler, whatever its kind ----------------------------------------------
+# (each on a CouplerLaw, with its twin on (laws, j) for the tests and for Python callers)
 
 
-@njit(cache=True)
-def law_branch(laws, j, closure, state, strict):
+@njit(inline="always", **_JIT)
+def _law_branch(law, closure, state, strict):
     """The law's piece from the signs of its guards at the law closure ``closure``.
 
     Power law: the side ``σ = ±1`` of ``δ``; draft gear: +1 closed in compression
@@ -397,12 +483,12 @@ def law_branch(laws, j, closure, state, strict):
     :meth:`Coupling.evaluate`; else iff ``>= 0``, the rule of ``reduced.couplers.base._branch``
     (a law method called with ``branch=None``).
     """
-    kind = laws.kind[j]
+    kind = law.kind
     if kind == POWER_LAW:
         positive = closure > 0.0 if strict else closure >= 0.0
         return 1 if positive else -1
     if kind == STANDARD_LINEAR:
-        stroke = laws.params[j, 3]
+        stroke = law.params[3]
         above, below = state - stroke, state + stroke
         above_positive = above > 0.0 if strict else above >= 0.0
         below_positive = below > 0.0 if strict else below >= 0.0
@@ -414,88 +500,124 @@ def law_branch(laws, j, closure, state, strict):
     return 0
 
 
-@njit(cache=True)
-def law_force(laws, j, closure, rate, state, branch):
-    """The engaged law force ``F(δ, δ̇, s)`` on the piece ``branch`` (:func:`law_branch`)."""
-    kind = laws.kind[j]
+@njit(inline="always", **_JIT)
+def _law_force(law, closure, rate, state, branch):
+    """The engaged law force ``F(δ, δ̇, s)`` on the piece ``branch`` (:func:`_law_branch`)."""
+    kind = law.kind
     if kind == KELVIN_VOIGT:
-        return kelvin_voigt_force(laws, j, closure, rate)
+        return kelvin_voigt_force(law, closure, rate)
     if kind == POWER_LAW:
-        return power_law_force(laws, j, closure, rate, branch)
+        return power_law_force(law, closure, rate, branch)
     if kind == STANDARD_LINEAR:
-        return draft_gear_force(laws, j, closure, state)
-    return table_force(laws, j, closure, rate)
+        return draft_gear_force(law, closure, state)
+    return table_force(law, closure, rate)
 
 
-@njit(cache=True)
-def law_state_rate(laws, j, closure, rate, state, force, branch):
+@njit(inline="always", **_JIT)
+def _law_state_rate(law, closure, rate, state, force, branch):
     """``ṡ = q(δ, δ̇, s, P)`` given the transmitted force (0 for a stateless law)."""
-    if laws.kind[j] == STANDARD_LINEAR:
-        return draft_gear_state_rate(laws, j, state, force, branch)
+    if law.kind == STANDARD_LINEAR:
+        return draft_gear_state_rate(law, state, force, branch)
     return 0.0
 
 
-@njit(cache=True)
-def law_tangent(laws, j, closure, rate, state, force, branch):
+@njit(inline="always", **_JIT)
+def _law_tangent(law, closure, rate, state, force, branch):
     """``(∂P/∂δ, ∂P/∂δ̇, ∂P/∂s, ∂ṡ/∂δ, ∂ṡ/∂δ̇, ∂ṡ/∂s, ∂ṡ/∂P)`` — the fields of CouplerTangent in order."""
-    kind = laws.kind[j]
+    kind = law.kind
     if kind == KELVIN_VOIGT:
-        return kelvin_voigt_tangent(laws, j)
+        return kelvin_voigt_tangent(law)
     if kind == POWER_LAW:
-        return power_law_tangent(laws, j, closure, rate)
+        return power_law_tangent(law, closure, rate)
     if kind == STANDARD_LINEAR:
-        return draft_gear_tangent(laws, j, state, branch)
-    return table_tangent(laws, j, closure, rate)
+        return draft_gear_tangent(law, state, branch)
+    return table_tangent(law, closure, rate)
 
 
-@njit(cache=True)
-def law_stored_energy(laws, j, closure, state, engaged):
+@njit(**_JIT)
+def _law_stored_energy(law, closure, state, engaged):
     """The law's stored energy at the law closure (its piece by the ``>= 0`` rule, as ``branch=None``)."""
-    kind = laws.kind[j]
+    kind = law.kind
     if kind == KELVIN_VOIGT:
-        return kelvin_voigt_stored_energy(laws, j, closure, engaged)
+        return kelvin_voigt_stored_energy(law, closure, engaged)
     if kind == POWER_LAW:
-        return power_law_stored_energy(laws, j, closure, engaged)
+        return power_law_stored_energy(law, closure, engaged)
     if kind == STANDARD_LINEAR:
-        return draft_gear_stored_energy(laws, j, closure, state, engaged, law_branch(laws, j, closure, state, False))
-    return table_stored_energy(laws, j, closure, engaged)
+        return draft_gear_stored_energy(law, closure, state, engaged, _law_branch(law, closure, state, False))
+    return table_stored_energy(law, closure, engaged)
 
 
-@njit(cache=True)
-def law_dissipation_rate(laws, j, closure, rate, state, force, engaged):
+@njit(**_JIT)
+def _law_dissipation_rate(law, closure, rate, state, force, engaged):
     """The law's dissipation rate (its piece by the ``>= 0`` rule, as ``branch=None``)."""
-    kind = laws.kind[j]
+    kind = law.kind
     if kind == KELVIN_VOIGT:
-        return kelvin_voigt_dissipation_rate(laws, j, rate, engaged)
+        return kelvin_voigt_dissipation_rate(law, rate, engaged)
     if kind == POWER_LAW:
-        return power_law_dissipation_rate(laws, j, closure, rate, engaged)
+        return power_law_dissipation_rate(law, closure, rate, engaged)
     if kind == STANDARD_LINEAR:
-        return draft_gear_dissipation_rate(laws, j, state, force, law_branch(laws, j, closure, state, False))
-    return table_dissipation_rate(laws, j, closure, rate, engaged)
+        return draft_gear_dissipation_rate(law, state, force, _law_branch(law, closure, state, False))
+    return table_dissipation_rate(law, closure, rate, engaged)
+
+
+@njit(**_JIT)
+def law_branch(laws, j, closure, state, strict):
+    """:func:`_law_branch` of coupler j's law (:func:`_law_of`)."""
+    return _law_branch(_law_of(laws, j), closure, state, strict)
+
+
+@njit(**_JIT)
+def law_force(laws, j, closure, rate, state, branch):
+    """:func:`_law_force` of coupler j's law (:func:`_law_of`)."""
+    return _law_force(_law_of(laws, j), closure, rate, state, branch)
+
+
+@njit(**_JIT)
+def law_state_rate(laws, j, closure, rate, state, force, branch):
+    """:func:`_law_state_rate` of coupler j's law (:func:`_law_of`)."""
+    return _law_state_rate(_law_of(laws, j), closure, rate, state, force, branch)
+
+
+@njit(**_JIT)
+def law_tangent(laws, j, closure, rate, state, force, branch):
+    """:func:`_law_tangent` of coupler j's law (:func:`_law_of`)."""
+    return _law_tangent(_law_of(laws, j), closure, rate, state, force, branch)
+
+
+@njit(**_JIT)
+def law_stored_energy(laws, j, closure, state, engaged):
+    """:func:`_law_stored_energy` of coupler j's law (:func:`_law_of`)."""
+    return _law_stored_energy(_law_of(laws, j), closure, state, engaged)
+
+
+@njit(**_JIT)
+def law_dissipation_rate(laws, j, closure, rate, state, force, engaged):
+    """:func:`_law_dissipation_rate` of coupler j's law (:func:`_law_of`)."""
+    return _law_dissipation_rate(_law_of(laws, j), closure, rate, state, force, engaged)
 
 
 # --- the coupling (contact and slack around the law) --------------------------------------
 
 
-@njit(cache=True)
-def effective_closure(laws, j, closure, mode):
+@njit(inline="always", **_JIT)
+def _effective_closure(law, closure, mode):
     """``δ − slack`` in compression or open, ``δ + tension_slack`` in tension (mirrors Coupling.effective_closure)."""
     if mode < 0:
-        return closure + laws.tension_slack[j]
-    return closure - laws.slack[j]
+        return closure + law.tension_slack
+    return closure - law.slack
 
 
-@njit(cache=True)
-def transmitted_force(laws, j, closure, rate, state, mode, branch):
+@njit(inline="always", **_JIT)
+def _transmitted_force(law, closure, rate, state, mode, branch):
     """``P`` in the contact mode: 0 open, else the law force at the effective closure (mirrors Coupling.transmitted_force)."""
     if mode == 0:
         return 0.0
-    return law_force(laws, j, effective_closure(laws, j, closure, mode), rate, state, branch)
+    return _law_force(law, _effective_closure(law, closure, mode), rate, state, branch)
 
 
-@njit(cache=True)
-def evaluate(laws, j, closure, rate, state):
-    """Coupler j at ``(δ, δ̇, s)``, mode and branch from the guards' strict signs (mirrors Coupling.evaluate).
+@njit(**_JIT)
+def _evaluate(law, closure, rate, state):
+    """The coupler of ``law`` at ``(δ, δ̇, s)``, mode and branch from the guards' strict signs (mirrors Coupling.evaluate).
 
     Compression (+1) iff ``min(δ − slack, F(δ − slack)) > 0``; tension (−1, bilateral with
     slack) iff not, and ``max(δ + tension_slack, F(δ + tension_slack))`` is not ``> 0``;
@@ -508,43 +630,67 @@ def evaluate(laws, j, closure, rate, state):
         raise ValueError("closure must be finite")
     if not math.isfinite(rate):
         raise ValueError("closure_rate must be finite")
-    slack, tension_slack = laws.slack[j], laws.tension_slack[j]
-    bilateral = laws.contact[j] == BILATERAL
-    branch = law_branch(laws, j, closure - slack, state, True)
+    slack, tension_slack = law.slack, law.tension_slack
+    bilateral = law.contact == BILATERAL
+    branch = _law_branch(law, closure - slack, state, True)
     if bilateral and slack == 0.0 and tension_slack == 0.0:
         mode = 1
     else:
         dc = closure - slack
-        fc = law_force(laws, j, dc, rate, state, law_branch(laws, j, dc, state, False))
+        fc = _law_force(law, dc, rate, state, _law_branch(law, dc, state, False))
         guard = fc if fc < dc else dc  # Python's min(dc, F)
         if guard > 0.0:
             mode = 1
         elif bilateral:
             dt = closure + tension_slack
-            ft = law_force(laws, j, dt, rate, state, law_branch(laws, j, dt, state, False))
+            ft = _law_force(law, dt, rate, state, _law_branch(law, dt, state, False))
             guard = ft if ft > dt else dt  # Python's max(dt, F)
             mode = 0 if guard > 0.0 else -1
         else:
             mode = 0
-    p = transmitted_force(laws, j, closure, rate, state, mode, branch)
-    de = effective_closure(laws, j, closure, mode)
-    state_rate = law_state_rate(laws, j, de, rate, state, p, branch)
-    fcl, frt, fst, rcl, rrt, rst, rfo = law_tangent(laws, j, de, rate, state, p, branch)
+    p = _transmitted_force(law, closure, rate, state, mode, branch)
+    de = _effective_closure(law, closure, mode)
+    state_rate = _law_state_rate(law, de, rate, state, p, branch)
+    fcl, frt, fst, rcl, rrt, rst, rfo = _law_tangent(law, de, rate, state, p, branch)
     if mode == 0:
         fcl, frt, fst = 0.0, 0.0, 0.0
     return p, mode, state_rate, fcl, frt, fst, rcl, rrt, rst, rfo
 
 
-@njit(cache=True)
+@njit(**_JIT)
+def _stored_energy(law, closure, state, mode):
+    """The stored energy of the coupler of ``law`` in the contact mode (mirrors CouplerSolve._stored)."""
+    return _law_stored_energy(law, _effective_closure(law, closure, mode), state, mode != 0)
+
+
+@njit(**_JIT)
+def effective_closure(laws, j, closure, mode):
+    """:func:`_effective_closure` of coupler j (:func:`_law_of`)."""
+    return _effective_closure(_law_of(laws, j), closure, mode)
+
+
+@njit(**_JIT)
+def transmitted_force(laws, j, closure, rate, state, mode, branch):
+    """:func:`_transmitted_force` of coupler j (:func:`_law_of`)."""
+    return _transmitted_force(_law_of(laws, j), closure, rate, state, mode, branch)
+
+
+@njit(**_JIT)
+def evaluate(laws, j, closure, rate, state):
+    """Coupler j at ``(δ, δ̇, s)`` (mirrors Coupling.evaluate): :func:`_evaluate` of its law (:func:`_law_of`)."""
+    return _evaluate(_law_of(laws, j), closure, rate, state)
+
+
+@njit(**_JIT)
 def stored_energy(laws, j, closure, state, mode):
-    """Coupler j's stored energy in the contact mode (mirrors CouplerSolve._stored)."""
-    return law_stored_energy(laws, j, effective_closure(laws, j, closure, mode), state, mode != 0)
+    """Coupler j's stored energy in the contact mode (mirrors CouplerSolve._stored): :func:`_stored_energy` of its law."""
+    return _stored_energy(_law_of(laws, j), closure, state, mode)
 
 
 # --- the iteration ------------------------------------------------------------------------
 
 
-@njit(cache=True)
+@njit(**_JIT)
 def start(laws, st, closure_rate):
     """Forces at t = 0 from the laws at zero closure and the initial closure rates (mirrors CouplerSolve.start).
 
@@ -552,42 +698,35 @@ def start(laws, st, closure_rate):
     force jump) is engaged from t = 0 when its engaged force is compressive.
     """
     for j in range(laws.kind.size):
+        law = _law_of(laws, j)
         st.rate[j] = closure_rate[j]
         state = st.state[j]
-        force, mode, state_rate, _, _, _, _, _, _, _ = evaluate(laws, j, 0.0, closure_rate[j], state)
-        if laws.slack[j] == 0.0 and closure_rate[j] > 0.0 and mode == 0:
-            de = effective_closure(laws, j, 0.0, 1)
-            engaged = law_force(laws, j, de, closure_rate[j], state, law_branch(laws, j, de, state, False))
+        force, mode, state_rate, _, _, _, _, _, _, _ = _evaluate(law, 0.0, closure_rate[j], state)
+        if law.slack == 0.0 and closure_rate[j] > 0.0 and mode == 0:
+            de = _effective_closure(law, 0.0, 1)
+            engaged = _law_force(law, de, closure_rate[j], state, _law_branch(law, de, state, False))
             if engaged > 0.0:
                 force, mode = engaged, 1
         st.force[j] = force
         st.mode[j] = mode
         st.state_rate[j] = state_rate
-        st.stored[j] = stored_energy(laws, j, 0.0, state, mode)
+        st.stored[j] = _stored_energy(law, 0.0, state, mode)
 
 
-@njit(cache=True)
-def _state_rows(laws):
-    """Row of each coupler's state among the unknowns ``(P, s)`` (−1 stateless) and the unknowns' count."""
-    n = laws.kind.size
-    rows = np.full(n, -1, dtype=np.int64)
-    m = n
-    for j in range(n):
-        if laws.stateful[j] != 0:
-            rows[j] = m
-            m += 1
-    return rows, m
-
-
-@njit(cache=True)
-def _residual(laws, st, dt, closure_free, rate_free, gain_u, gain_v, P, s, rows, closure, rate, modes, state_rate, tangent, residual):
+@njit(**_JIT)
+def _residual(laws, st, dt, closure_free, rate_free, gain_u, gain_v, P, s, closure, rate, modes, state_rate, tangent, residual):
     """Closures, rates, modes, ``ṡ``, tangents and the residual ``(P − T, s − s_n − dt/2 (ṡ_n + ṡ))`` (in place)."""
-    closure_gain = np.dot(gain_u, P)
-    rate_gain = np.dot(gain_v, P)
-    for j in range(closure.size):
-        closure[j] = closure_free[j] + closure_gain[j]
-        rate[j] = rate_free[j] + rate_gain[j]
-        force, modes[j], state_rate[j], fcl, frt, fst, rcl, rrt, rst, rfo = evaluate(laws, j, closure[j], rate[j], s[j])
+    n = closure.size
+    rows = laws.state_row
+    for j in range(n):
+        closure_gain = 0.0  # (D_u P)_j, (D_v P)_j: loops, not BLAS calls, on a few couplers
+        rate_gain = 0.0
+        for k in range(n):
+            closure_gain += gain_u[j, k] * P[k]
+            rate_gain += gain_v[j, k] * P[k]
+        closure[j] = closure_free[j] + closure_gain
+        rate[j] = rate_free[j] + rate_gain
+        force, modes[j], state_rate[j], fcl, frt, fst, rcl, rrt, rst, rfo = _evaluate(_law_of(laws, j), closure[j], rate[j], s[j])
         tangent[j, 0], tangent[j, 1], tangent[j, 2], tangent[j, 3] = fcl, frt, fst, rcl
         tangent[j, 4], tangent[j, 5], tangent[j, 6] = rrt, rst, rfo
         residual[j] = P[j] - force
@@ -595,11 +734,15 @@ def _residual(laws, st, dt, closure_free, rate_free, gain_u, gain_v, P, s, rows,
             residual[rows[j]] = s[j] - st.state[j] - 0.5 * dt * (st.state_rate[j] + state_rate[j])
 
 
-@njit(cache=True)
-def _jacobian(dt, gain_u, gain_v, rows, m, tangent):
-    """∂(residual)/∂(P, s) from the tangents and the gains (mirrors CouplerSolve._jacobian)."""
+@njit(**_JIT)
+def _jacobian(dt, gain_u, gain_v, rows, tangent, jacobian):
+    """∂(residual)/∂(P, s) from the tangents and the gains, into ``jacobian`` (mirrors CouplerSolve._jacobian)."""
     n = rows.size
-    jacobian = np.eye(m)
+    m = jacobian.shape[0]
+    for i in range(m):  # np.eye(m)
+        for k in range(m):
+            jacobian[i, k] = 0.0
+        jacobian[i, i] = 1.0
     for j in range(n):
         fcl, frt, fst, rcl = tangent[j, 0], tangent[j, 1], tangent[j, 2], tangent[j, 3]
         rrt, rst, rfo = tangent[j, 4], tangent[j, 5], tangent[j, 6]
@@ -615,63 +758,59 @@ def _jacobian(dt, gain_u, gain_v, rows, m, tangent):
         for k in range(n):
             jacobian[r, k] = -0.5 * dt * (d_closure * gain_u[j, k] + d_rate * gain_v[j, k])
         jacobian[r, r] -= 0.5 * dt * (rst + rfo * fst)
-    return jacobian
 
 
-@njit(cache=True)
-def linear_solve(a, b):
-    """``a⁻¹ b`` by LU with partial pivoting, in the order of OpenBLAS's ``dgesv`` (left-looking ``getf2``,
-    then the two triangular solves): equal to ``np.linalg.solve`` bit for bit up to 5 unknowns (measured;
+@njit(**_JIT)
+def linear_solve(a, x, pivots):
+    """``x ← a⁻¹ x`` in place, ``a`` overwritten by its LU factors, ``pivots`` (at least ``x.size`` long) by
+    the row swaps: LU with partial pivoting in the order of OpenBLAS's ``dgesv`` (left-looking ``getf2``,
+    then the two triangular solves), equal to ``np.linalg.solve`` bit for bit up to 5 unknowns (measured;
     round-off beyond), and cheaper to compile than numba's ``np.linalg.solve``."""
-    n = b.size
-    m = a.copy()
-    x = b.copy()
-    pivots = np.zeros(n, dtype=np.int64)
+    n = x.size
     for j in range(n):
         for i in range(j):  # the earlier row swaps, on column j
             p = pivots[i]
             if p != i:
-                m[i, j], m[p, j] = m[p, j], m[i, j]
+                a[i, j], a[p, j] = a[p, j], a[i, j]
         for i in range(1, j):  # U above the diagonal
             t = 0.0
             for k in range(i):
-                t += m[i, k] * m[k, j]
-            m[i, j] -= t
+                t += a[i, k] * a[k, j]
+            a[i, j] -= t
         for r in range(j, n):  # the rest of the column
             t = 0.0
             for k in range(j):
-                t += m[r, k] * m[k, j]
-            m[r, j] -= t
+                t += a[r, k] * a[k, j]
+            a[r, j] -= t
         p = j
-        big = abs(m[j, j])
+        big = abs(a[j, j])
         for r in range(j + 1, n):
-            if abs(m[r, j]) > big:
+            if abs(a[r, j]) > big:
                 p = r
-                big = abs(m[r, j])
+                big = abs(a[r, j])
         pivots[j] = p
-        if m[p, j] == 0.0:
+        if a[p, j] == 0.0:
             raise LinAlgError("Singular matrix")
         if p != j:
             for c in range(j + 1):
-                m[j, c], m[p, c] = m[p, c], m[j, c]
-        reciprocal = 1.0 / m[j, j]
+                a[j, c], a[p, c] = a[p, c], a[j, c]
+        reciprocal = 1.0 / a[j, j]
         for r in range(j + 1, n):
-            m[r, j] *= reciprocal
+            a[r, j] *= reciprocal
     for k in range(n):
         p = pivots[k]
         if p != k:
             x[k], x[p] = x[p], x[k]
     for k in range(n):
         for i in range(k + 1, n):
-            x[i] -= m[i, k] * x[k]
+            x[i] -= a[i, k] * x[k]
     for k in range(n - 1, -1, -1):
-        x[k] /= m[k, k]
+        x[k] /= a[k, k]
         for i in range(k):
-            x[i] -= m[i, k] * x[k]
-    return x
+            x[i] -= a[i, k] * x[k]
 
 
-@njit(cache=True)
+@njit(**_JIT)
 def _converged(residual, n, force_tolerance, state_tolerance):
     for k in range(residual.size):
         if not abs(residual[k]) <= (force_tolerance if k < n else state_tolerance):
@@ -679,29 +818,35 @@ def _converged(residual, n, force_tolerance, state_tolerance):
     return True
 
 
-@njit(cache=True)
-def _excess(laws, j, closure_free, rate_free, gain_u, gain_v, P, s, force):
-    """``f(P_j) = P_j − T_j(δ(P), δ̇(P))`` with the other forces held; sets ``P[j]`` (as the reference does)."""
+@njit(**_JIT)
+def _excess(law, j, closure_free, rate_free, gain_u, gain_v, P, s, force):
+    """``f(P_j) = P_j − T_j(δ(P), δ̇(P))`` with the other forces held (``law``: coupler j's); sets ``P[j]`` (as the reference does)."""
     P[j] = force
-    closure = closure_free[j] + np.dot(gain_u[j], P)
-    rate = rate_free[j] + np.dot(gain_v[j], P)
-    value = force - evaluate(laws, j, closure, rate, s[j])[0]
+    closure_gain = 0.0
+    rate_gain = 0.0
+    for k in range(P.size):
+        closure_gain += gain_u[j, k] * P[k]
+        rate_gain += gain_v[j, k] * P[k]
+    closure = closure_free[j] + closure_gain
+    rate = rate_free[j] + rate_gain
+    value = force - _evaluate(law, closure, rate, s[j])[0]
     if math.isnan(value):
         raise ValueError("The function value is NaN; solver cannot continue.")
     return value
 
 
-@njit(cache=True)
+@njit(**_JIT)
 def brent_root(laws, j, closure_free, rate_free, gain_u, gain_v, P, s, xa, xb, xtol):
     """The root of :func:`_excess` in ``[xa, xb]`` by Brent's method: scipy.optimize.brentq transcribed
     (scipy/optimize/Zeros/brentq.c; ``rtol = 4 eps``, 100 iterations), same evaluations, same result."""
     if xtol <= 0.0:
         raise ValueError("xtol too small (xtol <= 0)")
+    law = _law_of(laws, j)
     rtol = BRENT_RTOL
     xpre, xcur = xa, xb
     xblk, fblk, spre, scur = 0.0, 0.0, 0.0, 0.0
-    fpre = _excess(laws, j, closure_free, rate_free, gain_u, gain_v, P, s, xpre)
-    fcur = _excess(laws, j, closure_free, rate_free, gain_u, gain_v, P, s, xcur)
+    fpre = _excess(law, j, closure_free, rate_free, gain_u, gain_v, P, s, xpre)
+    fcur = _excess(law, j, closure_free, rate_free, gain_u, gain_v, P, s, xcur)
     if fpre * fcur > 0.0:
         raise ValueError("f(a) and f(b) must have different signs")
     if fpre == 0.0:
@@ -747,15 +892,15 @@ def brent_root(laws, j, closure_free, rate_free, gain_u, gain_v, P, s, xa, xb, x
             xcur += scur
         else:
             xcur += delta if sbis > 0 else -delta
-        fcur = _excess(laws, j, closure_free, rate_free, gain_u, gain_v, P, s, xcur)
+        fcur = _excess(law, j, closure_free, rate_free, gain_u, gain_v, P, s, xcur)
     raise RuntimeError("Failed to converge after 100 iterations.")
 
 
-@njit(cache=True)
+@njit(**_JIT)
 def _scalar_root(laws, j, force_tolerance, closure_free, rate_free, gain_u, gain_v, P, s):
     """Coupler j's force with the others held, bracketed by ``[P − f(P), P]`` (mirrors CouplerSolve._scalar_root)."""
     start = P[j]
-    f0 = _excess(laws, j, closure_free, rate_free, gain_u, gain_v, P, s, start)
+    f0 = _excess(_law_of(laws, j), j, closure_free, rate_free, gain_u, gain_v, P, s, start)
     if f0 == 0.0:
         return start
     other = start - f0
@@ -763,20 +908,25 @@ def _scalar_root(laws, j, force_tolerance, closure_free, rate_free, gain_u, gain
     return brent_root(laws, j, closure_free, rate_free, gain_u, gain_v, P, s, low, high, force_tolerance)
 
 
-@njit(cache=True)
-def _coupler_newton(laws, st, dt, force_tolerance, closure_free, rate_free, gain_u, gain_v, P, s, j):
-    """Newton on coupler j's force and state, the other forces held (mirrors CouplerSolve._coupler_newton).
+@njit(**_JIT)
+def _coupler_newton(laws, st, dt, force_tolerance, closure_free, rate_free, gain_u, gain_v, P, s, j, block, local, pivots):
+    """Newton on coupler j's force and state, the other forces held (mirrors CouplerSolve._coupler_newton);
+    ``block`` (2 × 2), ``local`` (2) and ``pivots`` (2 or more) are scratch.
 
     Returns ``(converged, |force residual|)`` of the last evaluation.
     """
     state_tolerance = laws.state_tolerance[0]
-    local = np.empty(2)
-    block = np.empty((2, 2))
+    law = _law_of(laws, j)
     last = 0.0
     for _ in range(laws.limits[1]):
-        closure = closure_free[j] + np.dot(gain_u, P)[j]
-        rate = rate_free[j] + np.dot(gain_v, P)[j]
-        p, _, state_rate, fcl, frt, fst, rcl, rrt, rst, rfo = evaluate(laws, j, closure, rate, s[j])
+        closure_gain = 0.0  # row j of D_u P, D_v P
+        rate_gain = 0.0
+        for k in range(P.size):
+            closure_gain += gain_u[j, k] * P[k]
+            rate_gain += gain_v[j, k] * P[k]
+        closure = closure_free[j] + closure_gain
+        rate = rate_free[j] + rate_gain
+        p, _, state_rate, fcl, frt, fst, rcl, rrt, rst, rfo = _evaluate(law, closure, rate, s[j])
         local[0] = P[j] - p
         local[1] = s[j] - st.state[j] - 0.5 * dt * (st.state_rate[j] + state_rate)
         last = abs(local[0])
@@ -786,15 +936,18 @@ def _coupler_newton(laws, st, dt, force_tolerance, closure_free, rate_free, gain
         block[0, 1] = -fst
         block[1, 0] = -0.5 * dt * ((rcl + rfo * fcl) * gain_u[j, j] + (rrt + rfo * frt) * gain_v[j, j])
         block[1, 1] = 1.0 - 0.5 * dt * (rst + rfo * fst)
-        step = linear_solve(block, -local)
-        P[j] += step[0]
-        s[j] += step[1]
+        local[0] = -local[0]
+        local[1] = -local[1]
+        linear_solve(block, local, pivots)  # local ← the step
+        P[j] += local[0]
+        s[j] += local[1]
     return False, last
 
 
-@njit(cache=True)
+@njit(**_JIT)
 def _gauss_seidel(laws, st, dt, force_tolerance, closure_free, rate_free, gain_u, gain_v, P, s):
-    """Sweeps coupler by coupler from the committed forces (mirrors CouplerSolve._gauss_seidel), in place on P, s.
+    """Sweeps coupler by coupler from the committed forces (mirrors CouplerSolve._gauss_seidel), in place on P, s
+    (a stateful coupler's Newton on st's scratch block).
 
     Returns ``(sweeps, worst coupler, failure kind, change)``: failure kind 0 on success.
     """
@@ -807,7 +960,9 @@ def _gauss_seidel(laws, st, dt, force_tolerance, closure_free, rate_free, gain_u
             if laws.stateful[j] == 0:
                 P[j] = _scalar_root(laws, j, force_tolerance, closure_free, rate_free, gain_u, gain_v, P, s)
             else:
-                ok, last = _coupler_newton(laws, st, dt, force_tolerance, closure_free, rate_free, gain_u, gain_v, P, s, j)
+                ok, last = _coupler_newton(
+                    laws, st, dt, force_tolerance, closure_free, rate_free, gain_u, gain_v, P, s, j, st.work_block, st.work_local, st.work_pivots
+                )
                 if not ok:
                     return sweep, j, COUPLER_NEWTON_FAILED, last
             if abs(P[j] - previous) > change:
@@ -817,18 +972,19 @@ def _gauss_seidel(laws, st, dt, force_tolerance, closure_free, rate_free, gain_u
     return laws.limits[2], worst, SWEEPS_EXHAUSTED, change
 
 
-@njit(cache=True)
+@njit(**_JIT)
 def _commit(laws, st, dt, P, s, closure, rate, state_rate, modes):
     """Book the step's coupler energy and take the new values (mirrors CouplerSolve._commit)."""
     for j in range(P.size):
+        law = _law_of(laws, j)
         mode = modes[j]
-        stored = stored_energy(laws, j, closure[j], s[j], mode)
+        stored = _stored_energy(law, closure[j], s[j], mode)
         if mode == st.mode[j]:
             mid_closure = 0.5 * (closure[j] + st.closure[j])
-            mid = effective_closure(laws, j, mid_closure, mode)
+            mid = _effective_closure(law, mid_closure, mode)
             rate_mid = 0.5 * (rate[j] + st.rate[j])
-            st.dissipated[j] += dt * law_dissipation_rate(
-                laws, j, mid, rate_mid, 0.5 * (s[j] + st.state[j]), 0.5 * (P[j] + st.force[j]), mode != 0
+            st.dissipated[j] += dt * _law_dissipation_rate(
+                law, mid, rate_mid, 0.5 * (s[j] + st.state[j]), 0.5 * (P[j] + st.force[j]), mode != 0
             )
         else:  # the contact changed within the step: absorbed work less the change of stored energy
             work = 0.5 * (P[j] + st.force[j]) * (closure[j] - st.closure[j])
@@ -843,7 +999,7 @@ def _commit(laws, st, dt, P, s, closure, rate, state_rate, modes):
         st.mode[j] = modes[j]
 
 
-@njit(cache=True)
+@njit(**_JIT)
 def solve(laws, st, dt, force_tolerance, closure_free, rate_free, gain_u, gain_v):
     """One step of the couplers (mirrors CouplerSolve.solve given the free closures, rates and gains).
 
@@ -858,22 +1014,20 @@ def solve(laws, st, dt, force_tolerance, closure_free, rate_free, gain_u, gain_v
     stateful coupler whose Newton failed, with its last force residual (N).
     """
     n = closure_free.size
-    rows, m = _state_rows(laws)
-    P = st.force.copy()
-    s = st.state.copy()
-    modes = st.mode.copy()
-    new_modes = np.zeros(n, dtype=np.int64)
-    closure = np.empty(n)
-    rate = np.empty(n)
-    state_rate = np.zeros(n)
-    tangent = np.empty((n, 7))
-    residual = np.empty(m)
+    rows = laws.state_row
+    P, s, modes, new_modes = st.work_force, st.work_state, st.work_mode, st.work_new_mode
+    closure, rate, state_rate, tangent = st.work_closure, st.work_rate, st.work_state_rate, st.work_tangent
+    residual, step, jacobian, pivots = st.work_residual, st.work_step, st.work_jacobian, st.work_pivots
+    for j in range(n):  # (new_modes, closure, rate, state_rate, tangent, residual: all set by _residual before use)
+        P[j] = st.force[j]
+        s[j] = st.state[j]
+        modes[j] = st.mode[j]
     newton_iterations = laws.limits[0]
     iteration = 0
     converged = False
     for it in range(1, newton_iterations + 1):
         iteration = it
-        _residual(laws, st, dt, closure_free, rate_free, gain_u, gain_v, P, s, rows, closure, rate, new_modes, state_rate, tangent, residual)
+        _residual(laws, st, dt, closure_free, rate_free, gain_u, gain_v, P, s, closure, rate, new_modes, state_rate, tangent, residual)
         settled = True
         for j in range(n):
             if new_modes[j] != modes[j]:
@@ -882,7 +1036,10 @@ def solve(laws, st, dt, force_tolerance, closure_free, rate_free, gain_u, gain_v
         if settled and _converged(residual, n, force_tolerance, laws.state_tolerance[0]):
             converged = True
             break
-        step = linear_solve(_jacobian(dt, gain_u, gain_v, rows, m, tangent), -residual)
+        _jacobian(dt, gain_u, gain_v, rows, tangent, jacobian)
+        for k in range(residual.size):
+            step[k] = -residual[k]
+        linear_solve(jacobian, step, pivots)  # step ← the Newton step
         for j in range(n):
             P[j] += step[j]
             if rows[j] >= 0:
@@ -894,7 +1051,7 @@ def solve(laws, st, dt, force_tolerance, closure_free, rate_free, gain_u, gain_v
         sweeps, worst, kind, change = _gauss_seidel(laws, st, dt, force_tolerance, closure_free, rate_free, gain_u, gain_v, P, s)
         if kind != 0:
             return iteration + sweeps, worst, kind, change
-        _residual(laws, st, dt, closure_free, rate_free, gain_u, gain_v, P, s, rows, closure, rate, new_modes, state_rate, tangent, residual)
+        _residual(laws, st, dt, closure_free, rate_free, gain_u, gain_v, P, s, closure, rate, new_modes, state_rate, tangent, residual)
         iteration += sweeps
     _commit(laws, st, dt, P, s, closure, rate, state_rate, new_modes)
     return iteration, -1, 0, 0.0

@@ -37,7 +37,10 @@ from femref.impact.cars import car_settings_after
 from femref.impact.couplers import force_tolerance
 from femref.impact.kernels import cars as car_kernels
 from femref.impact.kernels import couplers as coupler_kernels
-from femref.impact.kernels.cars import SUM_LOAD2, SUM_RATE2, pack_car
+from femref.impact.kernels.cars import (
+    COUPLER_LOADS, COUPLER_OUTPUTS, END_COUNT, END_FREE, END_RATE_FREE, GAIN_U, GAIN_V, LOAD_COUNT, NEW_LOADS, SCALARS,
+    SUM_LOAD2, SUM_RATE2, pack_cars,
+)
 from femref.impact.response import ImpactResponse, failure_message
 from femref.impact.systems import CarSystem
 from femref.scene import ImpactScene
@@ -80,15 +83,13 @@ def solve_compiled(
         closure_rate += outputs @ np.full(outputs.shape[1], v)  # every end of a car at rest in shape moves at v
     coupler_kernels.start(laws, couplers, closure_rate)
     sensor_start = np.cumsum([0] + [len(car.sensors) for car in scene.cars])
-    cars = tuple(
-        pack_car(system, integrator, dt, car.velocity, loads @ couplers.force, loads, outputs, int(start))
-        for system, car, (loads, outputs), start in zip(systems, scene.cars, maps, sensor_start)
-    )
-    for car, spec in zip(cars, scene.cars):
-        if not car_kernels.prepare(car):
+    pool = pack_cars(systems, integrator, dt, list(velocity), [loads @ couplers.force for loads, _ in maps], maps,
+                     [int(start) for start in sensor_start[:-1]])
+    for c, spec in enumerate(scene.cars):
+        if not car_kernels.prepare(pool.layout, pool.values, c):
             raise ValueError(f"car {spec.name}: its mass or step matrix is not positive definite")
-    gain_u = sum(car.coupler_outputs @ car.gain_u @ car.coupler_loads for car in cars)
-    gain_v = sum(car.coupler_outputs @ car.gain_v @ car.coupler_loads for car in cars)
+    gain_u = sum(outputs @ pool.field(c, GAIN_U) @ loads for c, (loads, outputs) in enumerate(maps))
+    gain_v = sum(outputs @ pool.field(c, GAIN_V) @ loads for c, (loads, outputs) in enumerate(maps))
     steps = steps_to(scene.end, dt)
     outputs = output_steps(steps, scene.output_stride)
     n_out, n_c = outputs.size, len(scene.couplers)
@@ -102,13 +103,13 @@ def solve_compiled(
     counters = np.zeros(8, dtype=np.int64)
     counters[STEP], counters[OUTPUT], counters[WORST] = 1, 1, -1
     change = np.zeros(1)
-    record(cars, couplers, 0, history["displacement"], history["acceleration"], history["force"], history["closure"], history["energy"])
+    record(pool.layout, pool.values, couplers, 0, history["displacement"], history["acceleration"], history["force"], history["closure"], history["energy"])
     tolerance = force_tolerance(scene)
     setup_time = _time.perf_counter() - started
     chunk = steps if progress is None else max(1, steps // 100)
     while counters[STEP] <= steps and counters[WORST] < 0:
         stop = min(steps, int(counters[STEP]) + chunk - 1)
-        run_steps(cars, laws, couplers, dt, tolerance, gain_u, gain_v, outputs, stop, counters, change,
+        run_steps(pool.layout, pool.values, laws, couplers, dt, tolerance, gain_u, gain_v, outputs, stop, counters, change,
                   history["displacement"], history["acceleration"], history["force"], history["closure"], history["energy"])
         if progress is not None:
             progress(stop if counters[WORST] < 0 else int(counters[FAILED_STEP]) - 1, steps)
@@ -133,22 +134,20 @@ def solve_compiled(
         contact_changes=int(counters[CHANGES]),
         wall_time=_time.perf_counter() - started - setup_time,
         setup_time=setup_time,
-        car_settings=[car_settings_after(system, float(car.scalars[SUM_LOAD2]), float(car.scalars[SUM_RATE2]))
-                      for system, car in zip(systems, cars)],
+        car_settings=[car_settings_after(system, float(pool.field(c, SCALARS)[SUM_LOAD2]), float(pool.field(c, SCALARS)[SUM_RATE2]))
+                      for c, system in enumerate(systems)],
         status=-1 if failed else 0,
         message=message,
     )
 
 
 @njit(cache=True)
-def record(cars, couplers, k: int, displacement, acceleration, force, closure, energy) -> None:
+def record(layout, values, couplers, k: int, displacement, acceleration, force, closure, energy) -> None:
     """Row ``k`` of the histories: every car's sensors and energies, the couplers' forces and closures."""
-    energy[k, :] = 0.0
-    for c in range(len(cars)):
-        car = cars[c]
-        start = car.sensor_start
-        stop = start + car.sensor_outputs.shape[0]
-        car_kernels.observe(car, displacement[k, start:stop], acceleration[k, start:stop], energy[k, :3])
+    for e in range(energy.shape[1]):
+        energy[k, e] = 0.0
+    for c in range(layout.shape[0]):
+        car_kernels.observe(layout, values, c, k, displacement, acceleration, energy)
     for j in range(couplers.force.size):
         force[k, j] = couplers.force[j]
         closure[k, j] = couplers.closure[j]
@@ -157,7 +156,7 @@ def record(cars, couplers, k: int, displacement, acceleration, force, closure, e
 
 
 @njit(cache=True)
-def run_steps(cars, laws, couplers, dt, tolerance, gain_u, gain_v, outputs, stop, counters, change,
+def run_steps(layout, w, laws, couplers, dt, tolerance, gain_u, gain_v, outputs, stop, counters, change,
               displacement, acceleration, force, closure, energy) -> None:
     """Steps ``counters[STEP] … stop`` (module docstring); a failing coupler iteration stops the run with
     ``counters[FAILED_STEP]``, ``counters[WORST]`` (the coupler) and ``counters[FAILURE_KIND]`` set."""
@@ -168,13 +167,14 @@ def run_steps(cars, laws, couplers, dt, tolerance, gain_u, gain_v, outputs, stop
     for step in range(counters[STEP], stop + 1):
         closure_free[:] = 0.0
         rate_free[:] = 0.0
-        for c in range(len(cars)):
-            car = cars[c]
-            car_kernels.predict(car)
+        for c in range(layout.shape[0]):
+            car_kernels.predict(layout, w, c)
+            Y, outputs_map = layout[c, END_COUNT], layout[c, COUPLER_OUTPUTS]
+            end_free, end_rate_free = layout[c, END_FREE], layout[c, END_RATE_FREE]
             for j in range(n_c):
-                for i in range(car.coupler_outputs.shape[1]):
-                    closure_free[j] += car.coupler_outputs[j, i] * car.end_free[i]
-                    rate_free[j] += car.coupler_outputs[j, i] * car.end_rate_free[i]
+                for i in range(Y):
+                    closure_free[j] += w[outputs_map + j * Y + i] * w[end_free + i]
+                    rate_free[j] += w[outputs_map + j * Y + i] * w[end_rate_free + i]
         previous_modes[:] = couplers.mode
         iterations, worst, kind, last_change = coupler_kernels.solve(
             laws, couplers, dt, tolerance, closure_free, rate_free, gain_u, gain_v
@@ -189,17 +189,17 @@ def run_steps(cars, laws, couplers, dt, tolerance, gain_u, gain_v, outputs, stop
         for j in range(n_c):
             if couplers.mode[j] != previous_modes[j]:
                 counters[CHANGES] += 1
-        for c in range(len(cars)):
-            car = cars[c]
-            for i in range(car.loads.size):
+        for c in range(layout.shape[0]):
+            J, loads_map, new_loads = layout[c, LOAD_COUNT], layout[c, COUPLER_LOADS], layout[c, NEW_LOADS]
+            for i in range(J):
                 s = 0.0
                 for j in range(n_c):
-                    s += car.coupler_loads[i, j] * couplers.force[j]
-                car.new_loads[i] = s
-            car_kernels.advance(car)
+                    s += w[loads_map + i * n_c + j] * couplers.force[j]
+                w[new_loads + i] = s
+            car_kernels.advance(layout, w, c)
         k = counters[OUTPUT]
         if k < outputs.size and step == outputs[k]:
-            record(cars, couplers, k, displacement, acceleration, force, closure, energy)
+            record(layout, w, couplers, k, displacement, acceleration, force, closure, energy)
             counters[OUTPUT] = k + 1
     counters[STEP] = stop + 1
 
