@@ -2,10 +2,14 @@
 
 The client (this process) draws each sample (:meth:`Sweep.sample`), validates its case —
 a sample whose case fails validation is stored as failed right away — and submits the
-rest as :func:`femref.sweep.worker.run_sample` tasks, keeping about two per worker
-thread in flight (``distributed.as_completed`` with ``add``), so a sweep of 10⁵ samples
-never queues everything at once. Only the client writes the file
-(:class:`femref.sweep.store.SweepStore`), one flushed row per finished sample.
+rest in batches (:func:`batch_size`, up to 32 samples) as
+:func:`femref.sweep.worker.run_samples` tasks, keeping about two per worker thread in flight
+(``distributed.as_completed`` with ``add``), so a sweep of 10⁵ samples never queues
+everything at once. Only the client writes the file (:class:`femref.sweep.store.SweepStore`),
+one flushed write of a batch's rows as it finishes. Batches matter since the stepping was
+compiled: a rigid sample runs in about 3 ms, less than the scheduling, shipping and HDF5
+writing of a task of its own (measured: a 1000-sample rigid sweep on 2 workers ran at 53
+samples/s with a task per sample, against 336 samples/s in a plain process pool).
 
 Where the work runs: a ``distributed.LocalCluster`` of ``workers`` single-threaded
 processes (default: one per CPU), an existing scheduler (``scheduler="tcp://host:8786"``),
@@ -32,12 +36,14 @@ import numpy as np
 from femref.case import CaseError
 from femref.sweep.spec import Sweep, load_sweep
 from femref.sweep.store import FAILED, SweepLayout, SweepStore, partial_path
-from femref.sweep.worker import run_sample
+from femref.sweep.worker import run_samples
 
 __all__ = ["SweepInterrupted", "SweepSummary", "run_sweep"]
 
 #: Futures kept in flight per worker thread: enough to keep every worker busy, few enough to stream.
 IN_FLIGHT_PER_THREAD = 2
+#: Most samples in one task (:func:`batch_size`).
+MAX_BATCH = 32
 
 #: ``progress(done, to_run)`` after each sample stored in this call.
 Progress = Callable[[int, int], None]
@@ -146,59 +152,77 @@ def _client(scheduler: str | None, workers: int | None, client: Any) -> Iterator
         yield local
 
 
+def batch_size(samples: int, threads: int) -> int:
+    """Samples per task: enough that a task outlasts its scheduling and the client's write of its rows
+    (a rigid sample runs in milliseconds), few enough that every worker thread gets several
+    batches (:data:`IN_FLIGHT_PER_THREAD` in flight each) and rows stream in; at most :data:`MAX_BATCH`."""
+    return max(1, min(MAX_BATCH, samples // (4 * IN_FLIGHT_PER_THREAD * max(1, threads))))
+
+
 def _run(client: Any, sweep: Sweep, store: SweepStore, todo: list[int], summary: SweepSummary, progress: Progress | None) -> None:
-    """Submit ``todo`` with a bounded number of futures in flight; store each sample as it finishes."""
+    """Submit ``todo`` in batches with a bounded number of futures in flight; store each batch as it finishes."""
     from distributed import as_completed
 
     outputs = sweep.spec.outputs
-    slots = IN_FLIGHT_PER_THREAD * max(1, sum(client.nthreads().values()))
+    threads = max(1, sum(client.nthreads().values()))
+    slots = IN_FLIGHT_PER_THREAD * threads
+    size = batch_size(len(todo), threads)
     queue = iter(todo)
-    in_flight: dict[Any, Any] = {}
+    in_flight: dict[Any, list[Any]] = {}
     finished = as_completed()
 
-    def stored(index: int, parameters: dict[str, float | int], record: dict[str, Any]) -> None:
-        if not store.store(index, parameters, record):
-            summary.failures.append((index, record.get("error") or store.layout.mismatch(record)))
-        summary.run += 1
+    def stored(samples: list[Any], records: list[dict[str, Any]]) -> None:
+        oks = store.store_batch([s.index for s in samples], [s.stored for s in samples], records)
+        for sample, record, ok in zip(samples, records, oks):
+            if not ok:
+                summary.failures.append((sample.index, record.get("error") or store.layout.mismatch(record)))
+        summary.run += len(samples)
         if progress is not None:
             progress(summary.run, len(todo))
 
     def submit_more() -> None:
         while len(in_flight) < slots:
-            index = next(queue, None)
-            if index is None:
+            batch = []
+            while len(batch) < size:
+                index = next(queue, None)
+                if index is None:
+                    break
+                sample = sweep.sample(index)
+                error = sample.error
+                if not error:
+                    try:
+                        sweep.sample_case(sample)
+                    except CaseError as invalid:
+                        error = str(invalid)
+                if error:
+                    stored([sample], [{"error": error}])
+                    continue
+                batch.append(sample)
+            if not batch:
                 return
-            sample = sweep.sample(index)
-            error = sample.error
-            if not error:
-                try:
-                    sweep.sample_case(sample)
-                except CaseError as invalid:
-                    error = str(invalid)
-            if error:
-                stored(index, sample.stored, {"error": error})
-                continue
-            key = f"femref-sample-{index}-{uuid.uuid4().hex[:8]}"
-            future = client.submit(run_sample, sample.case_data, str(sweep.base_dir), outputs.record_length, outputs.force_length, key=key, pure=False)
-            in_flight[future] = sample
+            key = f"femref-samples-{batch[0].index}-{uuid.uuid4().hex[:8]}"
+            cases = [sample.case_data for sample in batch]
+            future = client.submit(run_samples, cases, str(sweep.base_dir), outputs.record_length, outputs.force_length, key=key, pure=False)
+            in_flight[future] = batch
             finished.add(future)
 
     try:
         submit_more()
         for future in finished:
-            sample = in_flight.pop(future)
-            stored(sample.index, sample.stored, _record_of(future))
+            batch = in_flight.pop(future)
+            stored(batch, _records_of(future, len(batch)))
             submit_more()
     except BaseException:
         client.cancel(list(in_flight))
         raise
 
 
-def _record_of(future: Any) -> dict[str, Any]:
-    """The worker's record; a sample that killed its workers is the sample's failure, other errors are the sweep's."""
+def _records_of(future: Any, samples: int) -> list[dict[str, Any]]:
+    """The worker's records; a batch that killed its workers is the failure of each of its samples, other
+    errors are the sweep's."""
     from distributed import KilledWorker
 
     try:
         return future.result()
     except KilledWorker as error:
-        return {"error": f"the sample killed the workers that ran it ({error})"}
+        return [{"error": f"a sample of this batch of {samples} killed the workers that ran it ({error})"}] * samples

@@ -16,7 +16,7 @@ Layout (the contract the networks read; ``N`` samples, names fixed)::
     /<model>/wall_time_s         (N,) float64 s
 
 Only the sweep's client writes. Work goes to ``<output>.partial``, flushed after every
-stored sample; once every sample is stored (ok or failed) it is renamed to ``<output>``.
+stored batch of samples; once every sample is stored (ok or failed) it is renamed to ``<output>``.
 Opening again with the same sweep (same ``spec_hash``) resumes: stored samples are
 skipped, a larger ``samples`` extends the datasets (unlimited along N); a file is never
 shrunk. A file of another sweep is refused and left untouched.
@@ -245,18 +245,31 @@ class SweepStore:
 
     def store(self, index: int, stored_parameters: dict[str, float | int], record: dict[str, Any]) -> bool:
         """Store sample ``index`` (a worker record, or ``{"error": …}``) and flush; True if it is ok."""
+        return self.store_batch([index], [stored_parameters], [record])[0]
+
+    def store_batch(self, indices: list[int], stored_parameters: list[dict[str, float | int]], records: list[dict[str, Any]]) -> list[bool]:
+        """Store the samples ``indices`` (increasing) with their parameters and records, one write per
+        dataset, and flush once; each True if that sample is ok."""
         h5 = self.h5
-        for path, value in stored_parameters.items():
-            h5[f"parameters/{path}"][index] = value
-        error = record.get("error", "") or self.layout.mismatch(record)
+        rows = np.asarray(indices, dtype=np.int64)
+        if rows.size > 1 and not np.all(np.diff(rows) > 0):
+            raise ValueError(f"sample indices must be increasing, got {indices}")
+        errors = [record.get("error", "") or self.layout.mismatch(record) for record in records]
+        selection = slice(int(rows[0]), int(rows[-1]) + 1) if rows[-1] - rows[0] + 1 == rows.size else rows
+        for path in stored_parameters[0]:
+            h5[f"parameters/{path}"][selection] = np.array([p[path] for p in stored_parameters])
         for model in self.layout.models:
             for name in _ARRAYS:
                 ds = h5[f"{model}/{name}"]
-                ds[index] = np.nan if error else record[f"{model}/{name}"]
-        h5["samples/error"][index] = error
-        h5["samples/status"][index] = FAILED if error else OK
+                block = np.full((rows.size, *ds.shape[1:]), np.nan)
+                for k, (record, error) in enumerate(zip(records, errors)):
+                    if not error:
+                        block[k] = record[f"{model}/{name}"]
+                ds[selection] = block
+        h5["samples/error"][selection] = errors
+        h5["samples/status"][selection] = np.array([FAILED if error else OK for error in errors], dtype=np.int8)
         h5.flush()
-        return not error
+        return [not error for error in errors]
 
     def close(self) -> bool:
         """Close the file; rename ``.partial`` to the output when every sample is stored. True if renamed."""

@@ -1,9 +1,9 @@
 """The work of one sweep sample, run on a Dask worker: case data in, fixed-length arrays out.
 
-:func:`run_sample` is a top-level function (Dask pickles it by reference) that never
-raises: any failure — a case the worker cannot parse, a model run that fails, an
-exception anywhere — comes back as the ``error`` text of the returned record, so one bad
-sample never stops a sweep. The record is a plain dict (cheap to ship back to the client)::
+:func:`run_sample` is a top-level function (Dask pickles it by reference; a sweep sends its
+samples in batches through :func:`run_samples`) that never raises: any failure — a case
+the worker cannot parse, a model run that fails, an exception anywhere — comes back as the
+``error`` text of the returned record, so one bad sample never stops a sweep. The record is a plain dict (cheap to ship back to the client)::
 
     error                       ""  or why the sample failed
     probes, couplers, models    channel, coupler and model-run names in scene order
@@ -25,7 +25,7 @@ from femref.sensing.records import acceleration_histories, fixed_length_records,
 from femref.run import run_scene
 from femref.scene.build import scene_from_case
 
-__all__ = ["run_sample"]
+__all__ = ["run_sample", "run_samples"]
 
 
 def run_sample(case_data: dict[str, Any], base_dir: str, record_length: int, force_length: int) -> dict[str, Any]:
@@ -50,3 +50,10 @@ def run_sample(case_data: dict[str, Any], base_dir: str, record_length: int, for
         return out
     except Exception as error:  # the sweep records it as the sample's failure and goes on
         return {"error": f"{type(error).__name__}: {error}"}
+
+
+def run_samples(cases: list[dict[str, Any]], base_dir: str, record_length: int, force_length: int) -> list[dict[str, Any]]:
+    """:func:`run_sample` of each case, in one task: a cheap sample (a rigid run costs milliseconds)
+    would otherwise cost less than the scheduling and shipping of its own task."""
+    return [run_sample(case, base_dir, record_length, force_length) for case in cases]
+

@@ -345,3 +345,47 @@ def test_cli_sweep_default_output_and_machinery_failure(folder, monkeypatch):
         failed = CliRunner().invoke(main, ["sweep", str(path), "--scheduler", "tcp://127.0.0.1:9"])
     assert failed.exit_code == 1 and "error: sweep failed" in failed.output
     assert (folder / "default" / "sweep.h5.partial").exists()
+
+
+def test_batch_size_grows_with_the_samples_per_thread_and_is_capped():
+    from femref.sweep.run import MAX_BATCH, batch_size
+
+    assert batch_size(8, 2) == 1 and batch_size(0, 2) == 1  # few samples: one per task, rows stream in
+    assert batch_size(200, 2) == 200 // (4 * 2 * 2)  # every thread still gets four batches or more
+    assert batch_size(10**5, 2) == MAX_BATCH and batch_size(10**5, 10**6) == 1
+
+
+def test_batched_samples_are_stored_as_one_sample_per_task_stores_them(full, client, folder, monkeypatch):
+    """Batches of 3 (the last one short; a retry's failed samples are not contiguous): the same rows, the same
+    failures, and the same retry, as the unbatched sweeps of the tests above."""
+    import femref.sweep.run as sweep_run
+
+    monkeypatch.setattr(sweep_run, "batch_size", lambda samples, threads: 3)
+    path, reference, _ = full
+    output = folder / "batched.h5"
+    summary = run_sweep(path, output, client=client)
+    assert (summary.run, summary.failed, summary.complete) == (SAMPLES, 0, True)
+    a, b = read_sweep(reference), read_sweep(output)
+    np.testing.assert_array_equal(a.status, b.status)
+    assert a.error == b.error and all(np.array_equal(a.parameters[k], b.parameters[k]) for k in a.parameters)
+    for field in ("records", "coupler_force", "peak_coupler_force"):
+        for model in a.models:
+            np.testing.assert_array_equal(getattr(a, field)[model], getattr(b, field)[model], err_msg=f"{model}/{field}")
+
+    failing = write_sweep(
+        folder / "failing-batched",
+        samples=10,
+        parameters={"cars.1.body.axial_stiffness": {"normal": {"mean": 1.0e9, "std": 2.0e9}}},
+    )
+    output = folder / "failing-batched.h5"
+    first = run_sweep(failing, output, client=client)
+    data = read_sweep(output)
+    expected_failed = data.parameters["cars.1.body.axial_stiffness"] <= 0
+    assert 1 < expected_failed.sum() < 9 and first.complete
+    assert np.any(np.diff(np.flatnonzero(expected_failed)) > 1)  # the retry's batch is not a contiguous range
+    np.testing.assert_array_equal(data.status, np.where(expected_failed, FAILED, OK))
+    assert sorted(i for i, _ in first.failures) == list(np.flatnonzero(expected_failed))
+    assert np.isnan(data.records["fem"][expected_failed]).all() and np.isfinite(data.records["fem"][~expected_failed]).all()
+    retried = run_sweep(failing, output, client=client, retry_failed=True)
+    assert (retried.run, retried.failed) == (expected_failed.sum(), expected_failed.sum())
+    np.testing.assert_array_equal(read_sweep(output).status, data.status)
