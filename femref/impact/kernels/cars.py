@@ -8,7 +8,7 @@ take ``(layout, values, c)`` and index the pool directly. This is a performance 
 not a style: numba increments and decrements the reference count of every array a
 function receives (about 20 ns each, measured) wherever its control flow keeps the counts
 from being pruned, so a car passed as a record of some fifty arrays cost about a
-microsecond per call — more than a rigid car's whole step. Two arrays cost nothing
+microsecond per call — several times a rigid car's arithmetic. Two arrays cost nothing
 measurable.
 
 :func:`prepare` factorises and precomputes in compiled code. Each step the loop calls

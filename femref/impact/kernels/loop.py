@@ -1,6 +1,6 @@
 """The compiled impact loop: every step of a run in numba, Python only between chunks of steps.
 
-:func:`solve_compiled` packs the run — each car (:func:`femref.impact.kernels.cars.pack_car`),
+:func:`solve_compiled` packs the run — the cars into one pool (:func:`femref.impact.kernels.cars.pack_cars`),
 the couplers (:func:`femref.impact.kernels.couplers.pack_laws`), the line's coupler maps
 and the Schur gains — and calls :func:`run_steps`, which does per step what the readable
 loop of :func:`femref.impact.solver.solve_impact` does (the tests hold them together):
