@@ -35,6 +35,7 @@ Storage in the pool: dense matrices row-major; banded ones ``bands[k, i] = A[i, 
 from __future__ import annotations
 
 import math
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -223,15 +224,29 @@ def _car_fields(
     return sizes, [np.asarray(fields.get(name, empty), dtype=float) for name in FIELDS]
 
 
+_banded_forms: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _banded_form(system: SecondOrderSystem) -> tuple[int, NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """``(p, M, C, K)`` in row bands, p the half-bandwidth: once per system, since a system is built
+    once per geometry and every run of it reuses them (a fem car's conversion costs milliseconds;
+    the arrays are only read)."""
+    form = _banded_forms.get(system)
+    if form is None:
+        M, C, K = system.mass, system.damping, system.stiffness
+        p = _half_bandwidth(M, C, K)
+        form = (p, *(_bands(m, p, system.dofs) for m in (M, C, K)))
+        _banded_forms[system] = form
+    return form
+
+
 def _second_order_fields(
     system: SecondOrderSystem, integrator: Integrator, dt: float, velocity: float, sensor_start: int,
     J: int, Y: int, n_c: int,
 ) -> tuple[list[int], dict[str, NDArray[np.float64]]]:
-    M, C, K = system.mass, system.damping, system.stiffness
     n = system.dofs
     S = system.sensor_outputs.shape[0]
-    p = _half_bandwidth(M, C, K)
-    mass, damping, stiffness = (_bands(m, p, n) for m in (M, C, K))
+    p, mass, damping, stiffness = _banded_form(system)
     am, af, beta, gamma = integrator.alpha_m, integrator.alpha_f, integrator.beta, integrator.gamma
     effective = (1.0 - am) * mass + (1.0 - af) * gamma * dt * damping + (1.0 - af) * beta * dt * dt * stiffness
     translation = np.asarray(system.translation, dtype=float)
