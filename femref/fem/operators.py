@@ -96,7 +96,6 @@ class Operators:
         return sp.csr_matrix((values.T.ravel(), self.element_dofs[e].ravel(), row_starts), shape=(x.size, self.ndof))
 
 
-
 #: ``∫ c u v dx`` and ``∫ c u_x v_x dx``, the coefficient ``c`` given at the quadrature points.
 _COEFFICIENT_FORMS = {
     False: BilinearForm(lambda u, v, w: w.c * u * v),

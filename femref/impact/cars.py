@@ -280,7 +280,6 @@ def car_settings_after(system: CarSystem, sum_load2: float, sum_rate2: float) ->
 def reference_car(system: CarSystem, integrator: Integrator, dt: float, velocity: float, loads: NDArray[np.float64]) -> CarModel:
     """The Python stepper of a car description: :class:`LinearCar` or :class:`StateSpaceCar`."""
     if isinstance(system, StateSpaceSystem):
-        if system.dt != dt:
-            raise ValueError(f"the {system.fidelity} car was built for dt = {system.dt:g} s, not {dt:g} s")
+        system.check_step(dt)
         return StateSpaceCar(system, velocity, loads)
     return LinearCar(system, integrator, dt, velocity, loads)

@@ -54,7 +54,6 @@ class ImpactResponse:
         return float(np.nanmax(np.abs(total - total[0])) / scale)
 
 
-
 def failure_message(coupler: str, step: int, steps: int, dt: float, detail: str) -> str:
     """The status message of a run whose coupler iteration failed at ``step`` (of ``steps``, step ``dt``)."""
     return f"coupler {coupler} did not converge at t = {step * dt:.6g} s (step {step} of {steps}): {detail}"

@@ -91,6 +91,11 @@ class StateSpaceSystem:
     settings: dict[str, Any] = field(default_factory=dict)
     settings_of_time_scale: Callable[[float], dict[str, Any]] | None = None
 
+    def check_step(self, dt: float) -> None:
+        """ValueError unless ``dt`` is the step the system was built for (its A and B hold only there)."""
+        if self.dt != dt:
+            raise ValueError(f"the {self.fidelity} car was built for dt = {self.dt:g} s, not {dt:g} s")
+
     def initial_state(self, velocity: float, loads: NDArray[np.float64]) -> NDArray[np.float64]:
         """``x₀ = velocity · velocity_state + load_state @ L₀``."""
         return velocity * self.velocity_state + self.load_state @ np.asarray(loads, dtype=float)

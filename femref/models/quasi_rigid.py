@@ -105,8 +105,6 @@ def _energy_forms(rod: QuasiRigidRod) -> tuple[NDArray[np.float64], NDArray[np.f
     return C.T @ (mass[:, None] * C), mass @ C, D.T @ (stiffness[:, None] * D)
 
 
-
-
 def quasi_rigid_car(car: Car, dt: float) -> StateSpaceSystem:
     """The car as a quasi-rigid rod stepped at ``dt`` (module docstring), sensors as probes; built once per
     geometry, sensors and step.

@@ -172,32 +172,33 @@ def _run(client: Any, sweep: Sweep, store: SweepStore, todo: list[int], summary:
     finished = as_completed()
 
     def stored(samples: list[Any], records: list[dict[str, Any]]) -> None:
-        oks = store.store_batch([s.index for s in samples], [s.stored for s in samples], records)
-        for sample, record, ok in zip(samples, records, oks):
-            if not ok:
-                summary.failures.append((sample.index, record.get("error") or store.layout.mismatch(record)))
+        errors = store.store_batch([s.index for s in samples], [s.stored for s in samples], records)
+        summary.failures.extend((sample.index, error) for sample, error in zip(samples, errors) if error)
         summary.run += len(samples)
         if progress is not None:
             progress(summary.run, len(todo))
 
+    def valid(index: int) -> Any | None:
+        """Sample ``index`` if its case is valid; else None, the sample stored as failed."""
+        sample = sweep.sample(index)
+        error = sample.error
+        if not error:
+            try:
+                sweep.sample_case(sample)
+            except CaseError as invalid:
+                error = str(invalid)
+        if error:
+            stored([sample], [{"error": error}])
+            return None
+        return sample
+
     def submit_more() -> None:
         while len(in_flight) < slots:
             batch = []
-            while len(batch) < size:
-                index = next(queue, None)
-                if index is None:
-                    break
-                sample = sweep.sample(index)
-                error = sample.error
-                if not error:
-                    try:
-                        sweep.sample_case(sample)
-                    except CaseError as invalid:
-                        error = str(invalid)
-                if error:
-                    stored([sample], [{"error": error}])
-                    continue
-                batch.append(sample)
+            while len(batch) < size and (index := next(queue, None)) is not None:
+                sample = valid(index)
+                if sample is not None:
+                    batch.append(sample)
             if not batch:
                 return
             key = f"femref-samples-{batch[0].index}-{uuid.uuid4().hex[:8]}"

@@ -243,13 +243,10 @@ class SweepStore:
 
     # -- storing -------------------------------------------------------------------------------
 
-    def store(self, index: int, stored_parameters: dict[str, float | int], record: dict[str, Any]) -> bool:
-        """Store sample ``index`` (a worker record, or ``{"error": …}``) and flush; True if it is ok."""
-        return self.store_batch([index], [stored_parameters], [record])[0]
-
-    def store_batch(self, indices: list[int], stored_parameters: list[dict[str, float | int]], records: list[dict[str, Any]]) -> list[bool]:
-        """Store the samples ``indices`` (increasing) with their parameters and records, one write per
-        dataset, and flush once; each True if that sample is ok."""
+    def store_batch(self, indices: list[int], stored_parameters: list[dict[str, float | int]], records: list[dict[str, Any]]) -> list[str]:
+        """Store the samples ``indices`` (increasing) with their parameters and records (worker records, or
+        ``{"error": …}``), one write per dataset, and flush once; each sample's error, ``""`` if it is ok
+        (a record that does not fit the layout fails with the mismatch)."""
         h5 = self.h5
         rows = np.asarray(indices, dtype=np.int64)
         if rows.size > 1 and not np.all(np.diff(rows) > 0):
@@ -269,7 +266,7 @@ class SweepStore:
         h5["samples/error"][selection] = errors
         h5["samples/status"][selection] = np.array([FAILED if error else OK for error in errors], dtype=np.int8)
         h5.flush()
-        return [not error for error in errors]
+        return errors
 
     def close(self) -> bool:
         """Close the file; rename ``.partial`` to the output when every sample is stored. True if renamed."""

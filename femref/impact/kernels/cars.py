@@ -43,6 +43,7 @@ import scipy.sparse as sp
 from numba import njit
 from numpy.typing import NDArray
 
+from femref.fem.banded import half_bandwidth
 from femref.fem.transient import Integrator
 from femref.impact.systems import CarSystem, SecondOrderSystem, StateSpaceSystem
 
@@ -116,28 +117,12 @@ class CarPool:
 
 
 def _bands(matrix, p: int, n: int) -> NDArray[np.float64]:
-    """``bands[k, i] = A[i, i + k − p]`` of a sparse or dense n × n matrix."""
+    """``bands[k, i] = A[i, i + k − p]`` of a sparse or dense n × n matrix of half-bandwidth at most p."""
+    coo = sp.coo_matrix(matrix)
+    coo.sum_duplicates()
     bands = np.zeros((2 * p + 1, n))
-    if sp.issparse(matrix):
-        coo = sp.coo_matrix(matrix)
-        coo.sum_duplicates()
-        bands[coo.col - coo.row + p, coo.row] = coo.data
-    else:
-        rows, cols = np.indices((n, n))
-        bands[cols - rows + p, rows] = np.asarray(matrix, dtype=float)
+    bands[coo.col - coo.row + p, coo.row] = coo.data
     return bands
-
-
-def _half_bandwidth(*matrices) -> int:
-    p = 0
-    for matrix in matrices:
-        if sp.issparse(matrix):
-            coo = sp.coo_matrix(matrix)
-            if coo.nnz:
-                p = max(p, int(np.max(np.abs(coo.col - coo.row))))
-        else:
-            p = max(p, matrix.shape[0] - 1)
-    return p
 
 
 def _lower_columns(bands: NDArray[np.float64], p: int, n: int) -> NDArray[np.float64]:
@@ -192,8 +177,7 @@ def _car_fields(
     J, n_c = coupler_loads.shape
     Y = coupler_outputs.shape[1]
     if isinstance(system, StateSpaceSystem):
-        if system.dt != dt:
-            raise ValueError(f"the {system.fidelity} car was built for dt = {system.dt:g} s, not {dt:g} s")
+        system.check_step(dt)
         n = system.transition.shape[0]
         S = system.sensor_displacement.shape[0]
         sizes = [STATE_SPACE, n, 0, 0, sensor_start, J, Y, S, n_c]
@@ -234,7 +218,7 @@ def _banded_form(system: SecondOrderSystem) -> tuple[int, NDArray[np.float64], N
     form = _banded_forms.get(system)
     if form is None:
         M, C, K = system.mass, system.damping, system.stiffness
-        p = _half_bandwidth(M, C, K)
+        p = max(half_bandwidth(m) for m in (M, C, K))
         form = (p, *(_bands(m, p, system.dofs) for m in (M, C, K)))
         _banded_forms[system] = form
     return form

@@ -14,8 +14,10 @@ reference's, operation by operation, so the two agree to round-off:
   the dissipation rate, :func:`start`'s engaged force) picks its piece with the ``>= 0``
   rule of :func:`reduced.couplers.base._branch` — :func:`law_branch` takes the rule. The
   kernels work on one coupler's :class:`CouplerLaw` (its scalars and its rows of the
-  arrays): ``law_*``, :func:`evaluate`, :func:`stored_energy` … take ``(laws, j)`` and
-  call their twins ``_law_*``, :func:`_evaluate` … on ``_law_of(laws, j)``;
+  arrays); the entry points the tests compare with the laws' methods — :func:`law_branch`,
+  :func:`law_force`, :func:`law_stored_energy`, :func:`law_dissipation_rate`,
+  :func:`evaluate` — take ``(laws, j)`` and call their twins ``_law_*``, :func:`_evaluate`
+  on ``_law_of(laws, j)``;
 * :func:`solve` is :meth:`CouplerSolve.solve` given the free closures and rates and the
   Schur gains ``D_u``, ``D_v``: Newton on ``(P, s)``, then the Gauss–Seidel fallback with
   Brent's method (:func:`brent_root`, scipy's ``brentq`` transcribed) for a memoryless
@@ -573,18 +575,6 @@ def law_force(laws, j, closure, rate, state, branch):
 
 
 @njit(**_JIT)
-def law_state_rate(laws, j, closure, rate, state, force, branch):
-    """:func:`_law_state_rate` of coupler j's law (:func:`_law_of`)."""
-    return _law_state_rate(_law_of(laws, j), closure, rate, state, force, branch)
-
-
-@njit(**_JIT)
-def law_tangent(laws, j, closure, rate, state, force, branch):
-    """:func:`_law_tangent` of coupler j's law (:func:`_law_of`)."""
-    return _law_tangent(_law_of(laws, j), closure, rate, state, force, branch)
-
-
-@njit(**_JIT)
 def law_stored_energy(laws, j, closure, state, engaged):
     """:func:`_law_stored_energy` of coupler j's law (:func:`_law_of`)."""
     return _law_stored_energy(_law_of(laws, j), closure, state, engaged)
@@ -664,27 +654,9 @@ def _stored_energy(law, closure, state, mode):
 
 
 @njit(**_JIT)
-def effective_closure(laws, j, closure, mode):
-    """:func:`_effective_closure` of coupler j (:func:`_law_of`)."""
-    return _effective_closure(_law_of(laws, j), closure, mode)
-
-
-@njit(**_JIT)
-def transmitted_force(laws, j, closure, rate, state, mode, branch):
-    """:func:`_transmitted_force` of coupler j (:func:`_law_of`)."""
-    return _transmitted_force(_law_of(laws, j), closure, rate, state, mode, branch)
-
-
-@njit(**_JIT)
 def evaluate(laws, j, closure, rate, state):
     """Coupler j at ``(δ, δ̇, s)`` (mirrors Coupling.evaluate): :func:`_evaluate` of its law (:func:`_law_of`)."""
     return _evaluate(_law_of(laws, j), closure, rate, state)
-
-
-@njit(**_JIT)
-def stored_energy(laws, j, closure, state, mode):
-    """Coupler j's stored energy in the contact mode (mirrors CouplerSolve._stored): :func:`_stored_energy` of its law."""
-    return _stored_energy(_law_of(laws, j), closure, state, mode)
 
 
 # --- the iteration ------------------------------------------------------------------------
