@@ -16,7 +16,9 @@ script checks that the largest force is not at the end of the run.
 ``integrator: newmark`` = average acceleration, ``time.dt`` given) through
 ``parse_case`` -> ``scene_from_case`` -> ``run_model``; consistent mass, Voigt damping
 assembled from cA, coupler forces solved each step; time = ``ModelResult.wall_time_s``
-(building the cars + stepping + the result).
+(building the cars + stepping + the result), every run cold: femref's builds kept per
+geometry are dropped first (:func:`femref.models.base.forget_built`), since OpenSees
+builds its model every run.
 
 **OpenSeesPy**: ``ndm = ndf = 1``; each car a chain of ``n`` 1-D ``Truss`` elements
 (``Elastic`` material E = EA, A = 1) with lumped nodal masses (m h, m h/2 at the ends);
@@ -99,6 +101,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from femref.case import parse_case
+from femref.models.base import forget_built
 from femref.run.runner import run_model
 from femref.scene.build import scene_from_case
 
@@ -228,7 +231,9 @@ def femref_case(elements: int, dt: float) -> dict[str, Any]:
 
 
 def run_femref(elements: int, dt: float) -> tuple[NDArray[np.float64], NDArray[np.float64], int, float]:
-    """One femref run: time axis, coupler force (N, compression positive), steps, wall time (s)."""
+    """One femref run: time axis, coupler force (N, compression positive), steps, wall time (s). Cold:
+    the cars are built afresh (femref keeps builds per geometry; OpenSees builds its model every run)."""
+    forget_built()
     scene = scene_from_case(parse_case(femref_case(elements, dt), source="<bench_peer>"))
     result = run_model(scene, scene.runs[0])
     if not result.ok:

@@ -95,10 +95,9 @@ def measure(elements: int, steps: int, repeats: int) -> dict[str, float]:
     load_compiled_loop(scene)
     step = best_time(lambda: solve_compiled(scene, systems, integrator, dt), repeats=repeats)
     response = solve_compiled(scene, systems, integrator, dt)
-    pool = K.pack_cars(systems, integrator, dt, [car.velocity for car in scene.cars],
-                       [np.zeros(2) for _ in scene.cars], coupler_maps(scene), [0] * len(scene.cars))
-    for c in range(len(scene.cars)):
-        K.prepare(pool.layout, pool.values, c)
+    prepared = [K.prepared_car(system, integrator, dt, *maps) for system, maps in zip(systems, coupler_maps(scene))]
+    pool = K.pack_cars(systems, prepared, [car.velocity for car in scene.cars], [np.zeros(2) for _ in scene.cars],
+                       [0] * len(scene.cars))
     inner = max(1, 200_000 // (elements + 1))
     bare = best_time(bare_step, pool.layout, pool.values, inner, repeats=repeats) / inner
     record = best_time(bare_record, pool.layout, pool.values, inner, repeats=repeats) / inner

@@ -4,25 +4,38 @@ A run steps small operators many times; OpenBLAS's default of one thread per cor
 each small product pay a thread hand-off (a 1e4-element car stepped with scipy's products
 ran about 7× slower with two threads than with one), and the workers of a sweep, one per
 core, would contend for the same cores. :func:`one_blas_thread` limits BLAS to one thread
-for a ``with`` block. The libraries are inspected once per process (about a millisecond);
-each limit then costs tens of microseconds.
+for a ``with`` block. The libraries are found once per process (threadpoolctl, about a
+millisecond); each limit then sets and restores their thread counts directly, a few
+microseconds (threadpoolctl's own ``limit`` inspects every library again, ~60 µs, which
+was a tenth of a rigid run).
 """
 
 from __future__ import annotations
 
-from contextlib import AbstractContextManager
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 from threadpoolctl import ThreadpoolController
 
-_controller: ThreadpoolController | None = None
+_blas: list | None = None
 
 
-def one_blas_thread() -> AbstractContextManager:
-    """A context in which BLAS runs on one thread (restored on exit)."""
-    global _controller
-    if _controller is None:
-        _controller = ThreadpoolController()
-    return _controller.limit(limits=1, user_api="blas")
+@contextmanager
+def one_blas_thread() -> Iterator[None]:
+    """A context in which BLAS runs on one thread (each library's count restored on exit)."""
+    global _blas
+    if _blas is None:
+        _blas = ThreadpoolController().select(user_api="blas").lib_controllers
+    previous = [library.num_threads for library in _blas]
+    for library, threads in zip(_blas, previous):
+        if threads != 1:
+            library.set_num_threads(1)
+    try:
+        yield
+    finally:
+        for library, threads in zip(_blas, previous):
+            if threads != 1:
+                library.set_num_threads(threads)
 
 
 __all__ = ["one_blas_thread"]

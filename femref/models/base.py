@@ -55,3 +55,9 @@ def built_once(key: Hashable, build: Callable[[], T]) -> T:
     if len(_BUILT) > BUILT_CAPACITY:
         _BUILT.popitem(last=False)
     return value
+
+
+def forget_built() -> None:
+    """Drop every kept build: the next run of any geometry builds its cars afresh (what a benchmark
+    times when it compares a cold run with a tool that keeps nothing between runs)."""
+    _BUILT.clear()

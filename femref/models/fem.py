@@ -14,6 +14,7 @@ import numpy as np
 
 from femref.fem import INTEGRATORS, Stepper, harmonic_response
 from femref.fem.build import FemSettings, build_operators
+from femref.fem.operators import Operators
 from femref.impact.systems import SecondOrderSystem
 from femref.models.base import Progress, built_once
 from femref.results import ModelResult
@@ -64,8 +65,15 @@ def fem_car(car: Car, settings: FemSettings) -> SecondOrderSystem:
     return built_once(key, lambda: _fem_system(car, settings))
 
 
+def car_operators(car: Car, settings: FemSettings) -> Operators:
+    """The car body's assembled operators, once per geometry and mesh: the fem car and the modal car
+    (which reduces them) of one body share one assembly."""
+    key = ("operators", car.body.geometry, settings.elements, settings.order, settings.grading)
+    return built_once(key, lambda: build_operators(car.body, settings))
+
+
 def _fem_system(car: Car, settings: FemSettings) -> SecondOrderSystem:
-    ops = build_operators(car.body, settings)
+    ops = car_operators(car, settings)
     l = car.body.half_length
     outputs = ops.interpolation(np.concatenate([[-l, l], car.sensor_x])).toarray()  # the ends, then the sensors
     return SecondOrderSystem(

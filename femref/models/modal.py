@@ -39,10 +39,11 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from femref.fem.build import FemSettings, build_operators
+from femref.fem.build import FemSettings
 from femref.fem.modes import free_free_modes, residual_flexibility
 from femref.impact.systems import SecondOrderSystem
 from femref.models.base import built_once
+from femref.models.fem import car_operators
 from femref.scene import Car, ImpactScene
 
 
@@ -72,7 +73,7 @@ def modal_car(car: Car, settings: FemSettings, modes: int, *, static_correction:
 
 
 def _modal_system(car: Car, settings: FemSettings, modes: int, static_correction: bool) -> SecondOrderSystem:
-    ops = build_operators(car.body, settings)
+    ops = car_operators(car, settings)
     phi, omega2 = free_free_modes(ops, modes, car.body.wave_travel_time)
     l = car.body.half_length
     outputs = ops.interpolation(np.concatenate([[-l, l], car.sensor_x]))  # the ends, then the sensors

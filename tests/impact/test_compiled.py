@@ -182,3 +182,44 @@ def test_a_coupler_iteration_that_fails_fails_alike():
     assert_same_run(compiled, reference)
     force = compiled.couplers["c1"]["force"]
     assert compiled.time.size == 701 and np.all(np.isfinite(force[:274])) and np.all(np.isnan(force[274:]))
+
+
+def test_a_second_run_reuses_each_prepared_car_and_repeats_the_first():
+    """Runs of the same systems at the same step share each car's packed, factorised form (the
+    kernels only read it: a second run is the first to the bit); another step prepares anew."""
+    from femref.fem import INTEGRATORS
+    from femref.impact.kernels.cars import prepared_car
+    from femref.impact.kernels.loop import line_plan
+
+    impact = scene(("fem", "quasi_rigid"), "draft_gear")
+    systems = [model_form(f, "impact")(car, impact, 5e-4) for car, f in zip(impact.cars, impact.runs[0].fidelity)]
+    first = solve_impact(impact, systems, 5e-4)
+    integrator = INTEGRATORS[impact.integrator](impact.rho_inf)
+    maps = line_plan(impact).maps
+    prepared = [prepared_car(system, integrator, 5e-4, *m) for system, m in zip(systems, maps)]
+    frozen = [car.values.copy() for car in prepared]
+    second = solve_impact(impact, systems, 5e-4)
+    assert [prepared_car(system, integrator, 5e-4, *m) for system, m in zip(systems, maps)] == prepared  # the same objects
+    for car, values in zip(prepared, frozen):
+        np.testing.assert_array_equal(car.values, values)
+    for name, values in first.couplers.items():
+        np.testing.assert_array_equal(second.couplers[name]["force"], values["force"])
+    np.testing.assert_array_equal(second.energy["total"], first.energy["total"])
+    assert prepared_car(systems[0], integrator, 2.5e-4, *maps[0]) is not prepared[0]
+
+
+def test_one_blas_thread_limits_and_restores_every_blas_library():
+    """Inside the context every BLAS library runs one thread; after it, each has its count back."""
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    from femref.core.threads import one_blas_thread
+
+    def blas_threads():
+        return [info["num_threads"] for info in threadpool_info() if info["user_api"] == "blas"]
+
+    with threadpool_limits(limits=2, user_api="blas"):
+        before = blas_threads()
+        assert before and set(before) == {2}, "numpy's BLAS is not visible to threadpoolctl"
+        with one_blas_thread():
+            assert blas_threads() == [1] * len(before)
+        assert blas_threads() == before

@@ -9,9 +9,15 @@ not a style: numba increments and decrements the reference count of every array 
 function receives (about 20 ns each, measured) wherever its control flow keeps the counts
 from being pruned, so a car passed as a record of some fifty arrays cost about a
 microsecond per call — several times a rigid car's arithmetic. Two arrays cost nothing
-measurable.
+measurable. The kernels, like the coupler kernels and the loop, are compiled without
+numba's reference counting (``_nrt=False``, see :mod:`femref.impact.kernels.couplers`):
+they never allocate, and a rigid run's step with every step recorded fell from 2.1 to
+1.1 µs.
 
-:func:`prepare` factorises and precomputes in compiled code. Each step the loop calls
+:func:`prepared_car` packs one car alone and :func:`factorise` factorises it and precomputes its
+gains in compiled code, once per system, step and coupler maps (kept beside the system, so the runs
+of a sweep, a study or the bench reuse it); :func:`pack_cars` copies the prepared cars into a run's
+pool, sets their initial state and calls :func:`start` (the consistent initial acceleration). Each step the loop calls
 :func:`predict` (the free step, read at the end outputs) and :func:`advance` (add the
 response to the new end loads); :func:`observe` reads sensors and energies at the output
 steps only. The arithmetic is that of the readable steppers of :mod:`femref.impact.cars`
@@ -58,7 +64,7 @@ FIELDS = (
     "history_v",             # −(C + (1−αf) dt K)
     "history_a",             # −(αm M + (1−αf)(1−γ) dt C + (1−αf)(½−β) dt² K)
     "damping", "stiffness", "mass",
-    "effective_factor",      # Cholesky factor of S (factorised in place by prepare)
+    "effective_factor",      # Cholesky factor of S (factorised in place by factorise)
     "mass_factor",           # of M
     "load",                  # (n, J) B: loads to generalized forces, or the state-space input
     "response",              # (n, J) Z = (1−αf) S⁻¹ B
@@ -138,49 +144,101 @@ def _matrix(value, shape: tuple[int, ...]) -> NDArray[np.float64]:
     return np.zeros(shape) if value is None else np.asarray(value, dtype=float).reshape(shape)
 
 
+@dataclass(frozen=True, eq=False)
+class PreparedCar:
+    """One car packed alone and factorised (:func:`factorise`): its layout row with offsets into its own
+    ``values``, the shapes of its fields, and its share ``Cc G Bc`` of the coupler Schur gains.
+    Constant for a system, integrator, step and coupler maps; a run copies it (:func:`pack_cars`)."""
+
+    layout: NDArray[np.int64]  # (COUPLER_COUNT + 1 + len(FIELDS),), SENSOR_START 0
+    values: NDArray[np.float64]
+    shapes: dict[int, tuple[int, ...]]
+    positive_definite: bool  # False: its mass or step matrix is not (the values are then meaningless)
+    gain_u: NDArray[np.float64]  # (n_c, n_c) Cc G_u Bc: ∂(closures)/∂P over one step
+    gain_v: NDArray[np.float64]  # (n_c, n_c) Cc G_v Bc: ∂(closure rates)/∂P
+
+
+_prepared: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+PREPARED_PER_SYSTEM = 8
+"""How many prepared forms (steps, integrators, coupler maps) are kept per system."""
+
+
+def prepared_car(system: CarSystem, integrator: Integrator, dt: float, coupler_loads: NDArray, coupler_outputs: NDArray) -> PreparedCar:
+    """``system`` packed and factorised for a step ``dt`` of ``integrator`` with its coupler maps ``(Bc, Cc)``:
+    once per system and these arguments (a system is built once per geometry, so the runs of a sweep, a
+    study or the bench factorise each car once); the state fields are zero, :func:`pack_cars` sets them."""
+    coupler_loads = np.ascontiguousarray(coupler_loads, dtype=float)
+    coupler_outputs = np.ascontiguousarray(coupler_outputs, dtype=float)
+    key = (integrator.alpha_m, integrator.alpha_f, integrator.beta, integrator.gamma, float(dt),
+           coupler_loads.shape, coupler_loads.tobytes(), coupler_outputs.shape, coupler_outputs.tobytes())
+    forms = _prepared.setdefault(system, {})
+    car = forms.get(key)
+    if car is None:
+        car = _prepare(system, integrator, dt, coupler_loads, coupler_outputs)
+        forms[key] = car
+        if len(forms) > PREPARED_PER_SYSTEM:
+            del forms[next(iter(forms))]
+    return car
+
+
+def _prepare(system: CarSystem, integrator: Integrator, dt: float, coupler_loads: NDArray, coupler_outputs: NDArray) -> PreparedCar:
+    sizes, fields = _car_fields(system, integrator, dt, coupler_loads, coupler_outputs)
+    layout = np.zeros(COUPLER_COUNT + 1 + len(FIELDS), dtype=np.int64)
+    layout[: COUPLER_COUNT + 1] = sizes
+    shapes = {}
+    offset = 0
+    for f, array in enumerate(fields, start=COUPLER_COUNT + 1):
+        layout[f] = offset
+        shapes[f] = array.shape
+        offset += array.size
+    values = np.concatenate([array.ravel() for array in fields])
+    positive_definite = factorise(layout.reshape(1, -1), values, 0)
+    J, n_c = coupler_loads.shape
+    Y = coupler_outputs.shape[1]
+    gains = [values[layout[f]: layout[f] + Y * J].reshape(Y, J) for f in (GAIN_U, GAIN_V)]
+    return PreparedCar(layout, values, shapes, bool(positive_definite),
+                       coupler_outputs @ gains[0] @ coupler_loads, coupler_outputs @ gains[1] @ coupler_loads)
+
+
 def pack_cars(
     systems: list[CarSystem],
-    integrator: Integrator,
-    dt: float,
+    prepared: list[PreparedCar],
     velocities: list[float],
     loads: list[NDArray[np.float64]],
-    coupler_maps: list[tuple[NDArray[np.float64], NDArray[np.float64]]],
     sensor_starts: list[int],
 ) -> CarPool:
-    """The pool of the cars ``systems`` with their state at t = 0: each undeformed at its velocity under
-    its end loads ``loads[c]``, with its coupler maps ``(Bc, Cc)`` and its first sensor column;
-    :func:`prepare` factorises each next."""
-    cars = [
-        _car_fields(system, integrator, dt, velocity, np.asarray(car_loads, dtype=float), *maps, start)
-        for system, velocity, car_loads, maps, start in zip(systems, velocities, loads, coupler_maps, sensor_starts)
-    ]
-    layout = np.zeros((len(cars), COUPLER_COUNT + 1 + len(FIELDS)), dtype=np.int64)
-    chunks: list[NDArray[np.float64]] = []
-    shapes = []
-    offset = 0
-    for c, (sizes, fields) in enumerate(cars):
-        layout[c, : COUPLER_COUNT + 1] = sizes
-        shapes.append({})
-        for f, array in enumerate(fields, start=COUPLER_COUNT + 1):
-            layout[c, f] = offset
-            shapes[c][f] = array.shape
-            chunks.append(array.ravel())
-            offset += array.size
-    return CarPool(layout, np.concatenate(chunks) if chunks else np.zeros(0), tuple(shapes))
+    """The pool of the cars ``systems`` (each :func:`prepared_car`) with their state at t = 0: each
+    undeformed at its velocity under its end loads ``loads[c]``, its sensors from column ``sensor_starts[c]``."""
+    layout = np.array([car.layout for car in prepared], dtype=np.int64).reshape(len(prepared), -1)
+    values = np.concatenate([car.values for car in prepared]) if prepared else np.zeros(0)
+    base = 0
+    for c, car in enumerate(prepared):
+        layout[c, COUPLER_COUNT + 1:] += base
+        layout[c, SENSOR_START] = sensor_starts[c]
+        base += car.values.size
+        at = layout[c]
+        loads_at = int(at[LOADS])
+        values[loads_at: loads_at + int(at[LOAD_COUNT])] = loads[c]
+        n = int(at[DOFS])
+        if isinstance(systems[c], StateSpaceSystem):
+            values[int(at[X]): int(at[X]) + n] = systems[c].initial_state(velocities[c], loads[c])
+        else:
+            values[int(at[V]): int(at[V]) + n] = velocities[c] * values[int(at[TRANSLATION]): int(at[TRANSLATION]) + n]
+        start(layout, values, c)
+    return CarPool(layout, values, tuple(car.shapes for car in prepared))
 
 
 def _car_fields(
-    system: CarSystem, integrator: Integrator, dt: float, velocity: float, loads: NDArray,
-    coupler_loads: NDArray, coupler_outputs: NDArray, sensor_start: int,
+    system: CarSystem, integrator: Integrator, dt: float, coupler_loads: NDArray, coupler_outputs: NDArray,
 ) -> tuple[list[int], list[NDArray[np.float64]]]:
-    """One car's sizes (the layout's first columns) and its fields in the order of FIELDS."""
+    """One car's sizes (the layout's first columns) and its fields in the order of FIELDS, its state zero."""
     J, n_c = coupler_loads.shape
     Y = coupler_outputs.shape[1]
     if isinstance(system, StateSpaceSystem):
         system.check_step(dt)
         n = system.transition.shape[0]
         S = system.sensor_displacement.shape[0]
-        sizes = [STATE_SPACE, n, 0, 0, sensor_start, J, Y, S, n_c]
+        sizes = [STATE_SPACE, n, 0, 0, 0, J, Y, S, n_c]
         fields = {
             "coefficients": np.array([dt, 0, 0, 0, 0, 0, 0], dtype=float),
             "load": _matrix(system.input, (n, J)),
@@ -192,16 +250,15 @@ def _car_fields(
             "end_rates": _matrix(system.end_velocity, (Y, n)),
             "sensor_outputs": _matrix(system.sensor_displacement, (S, n)),
             "sensor_accelerations": _matrix(system.sensor_acceleration, (S, n)),
-            "x": np.asarray(system.initial_state(velocity, loads), dtype=float),
-            "x_free": np.zeros(n),
+            "x": np.zeros(n), "x_free": np.zeros(n),
             "work1": np.zeros(n), "work2": np.zeros(n), "work3": np.zeros(n),
         }
     else:
-        sizes, fields = _second_order_fields(system, integrator, dt, velocity, sensor_start, J, Y, n_c)
+        sizes, fields = _second_order_fields(system, integrator, dt, J, Y, n_c)
     fields.update({
         "gain_u": np.zeros((Y, J)), "gain_v": np.zeros((Y, J)),
         "coupler_loads": coupler_loads, "coupler_outputs": coupler_outputs,
-        "loads": np.array(loads, dtype=float), "new_loads": np.zeros(J),
+        "loads": np.zeros(J), "new_loads": np.zeros(J),
         "end_free": np.zeros(Y), "end_rate_free": np.zeros(Y), "end_now": np.zeros(Y), "scalars": np.zeros(5),
     })
     empty = np.zeros(0)
@@ -225,8 +282,7 @@ def _banded_form(system: SecondOrderSystem) -> tuple[int, NDArray[np.float64], N
 
 
 def _second_order_fields(
-    system: SecondOrderSystem, integrator: Integrator, dt: float, velocity: float, sensor_start: int,
-    J: int, Y: int, n_c: int,
+    system: SecondOrderSystem, integrator: Integrator, dt: float, J: int, Y: int, n_c: int,
 ) -> tuple[list[int], dict[str, NDArray[np.float64]]]:
     n = system.dofs
     S = system.sensor_outputs.shape[0]
@@ -234,7 +290,7 @@ def _second_order_fields(
     am, af, beta, gamma = integrator.alpha_m, integrator.alpha_f, integrator.beta, integrator.gamma
     effective = (1.0 - am) * mass + (1.0 - af) * gamma * dt * damping + (1.0 - af) * beta * dt * dt * stiffness
     translation = np.asarray(system.translation, dtype=float)
-    sizes = [SECOND_ORDER, n, p, int(np.argmax(np.abs(translation))), sensor_start, J, Y, S, n_c]
+    sizes = [SECOND_ORDER, n, p, int(np.argmax(np.abs(translation))), 0, J, Y, S, n_c]
     return sizes, {
         "coefficients": np.array([dt, af, dt * dt * (0.5 - beta), dt * dt * beta, dt * (1.0 - gamma), dt * gamma,
                                   float(integrator.alpha_m != integrator.alpha_f)]),
@@ -248,7 +304,7 @@ def _second_order_fields(
         "end_feedthrough": _matrix(system.end_feedthrough, (Y, J)),
         "sensor_feedthrough": _matrix(system.sensor_feedthrough, (S, J)),
         "feedthrough_energy": _matrix(system.feedthrough_energy, (J, J)),
-        "u": np.zeros(n), "v": velocity * translation, "a": np.zeros(n),
+        "u": np.zeros(n), "v": np.zeros(n), "a": np.zeros(n),
         "u_free": np.zeros(n), "v_free": np.zeros(n), "a_free": np.zeros(n),
         "work1": np.zeros(n), "work2": np.zeros(n), "work3": np.zeros(n),
     }
@@ -257,7 +313,7 @@ def _second_order_fields(
 # -- linear algebra on the pool: every operand is an offset into ``w`` -----------------------
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def band_cholesky(w: NDArray, low: int, p: int, n: int) -> bool:
     """In place: ``low[k, j] = A[j + k, j]`` becomes ``L[j + k, j]`` (k ≥ 1) with ``A = L Lᵀ``, and
     ``low[0, j] = 1 / L[j, j]`` (the solves multiply); False if A is not positive definite."""
@@ -277,7 +333,7 @@ def band_cholesky(w: NDArray, low: int, p: int, n: int) -> bool:
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def band_solve(w: NDArray, low: int, p: int, n: int, rhs: int) -> None:
     """In place: ``rhs ← A⁻¹ rhs`` with the factor of :func:`band_cholesky`, both sweeps by columns
     (each finished unknown updates the p after it: the dependency chain is one product per row)."""
@@ -293,7 +349,7 @@ def band_solve(w: NDArray, low: int, p: int, n: int, rhs: int) -> None:
             w[rhs + k] -= w[low + (i - k) * n + k] * xi
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def band_product(w: NDArray, bands: int, p: int, n: int, x: int, out: int) -> None:
     """``out = A x`` for ``bands[k, i] = A[i, i + k − p]``, diagonal by diagonal: each row still sums
     its diagonals in order k = 0 … 2p, and the inner loop, over views with a zero-based index (so
@@ -309,7 +365,7 @@ def band_product(w: NDArray, bands: int, p: int, n: int, x: int, out: int) -> No
             rows[i] += band[i] * shifted[i]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def dot(w: NDArray, x: int, y: int, n: int) -> float:
     """``xᵀ y``."""
     s = 0.0
@@ -318,7 +374,7 @@ def dot(w: NDArray, x: int, y: int, n: int) -> float:
     return s
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def matvec(w: NDArray, A: int, rows: int, cols: int, x: int, out: int) -> None:
     """``out = A x`` (small or sparse-in-effect dense maps: a loop beats a BLAS call here)."""
     for i in range(rows):
@@ -328,7 +384,7 @@ def matvec(w: NDArray, A: int, rows: int, cols: int, x: int, out: int) -> None:
         w[out + i] = s
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def matvec_add(w: NDArray, A: int, rows: int, cols: int, x: int, factor: float, out: int) -> None:
     """``out += factor · A x``."""
     for i in range(rows):
@@ -338,7 +394,7 @@ def matvec_add(w: NDArray, A: int, rows: int, cols: int, x: int, factor: float, 
         w[out + i] += factor * s
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def quadratic(w: NDArray, A: int, n: int, x: int) -> float:
     """``xᵀ A x`` (A n × n)."""
     s = 0.0
@@ -353,16 +409,14 @@ def quadratic(w: NDArray, A: int, n: int, x: int) -> float:
 # -- set-up ------------------------------------------------------------------------------
 
 
-@njit(cache=True)
-def prepare(layout: NDArray, w: NDArray, c: int) -> bool:
-    """Factorise car ``c`` and precompute its response and gains; for a second-order car the consistent
-    initial acceleration ``M a₀ = B L₀ − C v₀``, for a state-space car its end outputs and energy at
-    t = 0. False if S or M is not positive definite."""
+@njit(cache=True, _nrt=False)
+def factorise(layout: NDArray, w: NDArray, c: int) -> bool:
+    """Factorise car ``c`` and precompute its response and gains (constant for its step); False if S or M
+    is not positive definite."""
     at = layout[c]
     n, p, J, Y = at[DOFS], at[BAND], at[LOAD_COUNT], at[END_COUNT]
     gain_u, gain_v, load = at[GAIN_U], at[GAIN_V], at[LOAD]
     if at[KIND] == STATE_SPACE:
-        x = at[X]
         for i in range(Y):  # gains: end maps times the input
             for j in range(J):
                 su = 0.0
@@ -372,8 +426,6 @@ def prepare(layout: NDArray, w: NDArray, c: int) -> bool:
                     sv += w[at[END_RATES] + i * n + k] * w[load + k * J + j]
                 w[gain_u + i * J + j] = su
                 w[gain_v + i * J + j] = sv
-        matvec(w, at[END_OUTPUTS], Y, n, x, at[END_NOW])
-        w[at[SCALARS] + INITIAL_ENERGY] = 0.5 * quadratic(w, at[KINETIC_FORM], n, x) + 0.5 * quadratic(w, at[STRAIN_FORM], n, x)
         return True
     if not band_cholesky(w, at[EFFECTIVE_FACTOR], p, n) or not band_cholesky(w, at[MASS_FACTOR], p, n):
         return False
@@ -392,20 +444,32 @@ def prepare(layout: NDArray, w: NDArray, c: int) -> bool:
                 ez += w[at[END_OUTPUTS] + i * n + k] * w[response + k * J + j]
             w[gain_u + i * J + j] = w[cf + CA] * ez + w[end_feedthrough + i * J + j]
             w[gain_v + i * J + j] = w[cf + CV_NEW] * ez + w[end_feedthrough + i * J + j] / w[cf + DT]
-    # a₀ = M⁻¹(B L₀ − C v₀)
+    return True
+
+
+@njit(cache=True, _nrt=False)
+def start(layout: NDArray, w: NDArray, c: int) -> None:
+    """Car ``c`` at t = 0, its velocities (or state) and loads set: for a second-order car the consistent
+    initial acceleration ``M a₀ = B L₀ − C v₀``, for a state-space car its end outputs and energy."""
+    at = layout[c]
+    n, p, J, Y = at[DOFS], at[BAND], at[LOAD_COUNT], at[END_COUNT]
+    if at[KIND] == STATE_SPACE:
+        x = at[X]
+        matvec(w, at[END_OUTPUTS], Y, n, x, at[END_NOW])
+        w[at[SCALARS] + INITIAL_ENERGY] = 0.5 * quadratic(w, at[KINETIC_FORM], n, x) + 0.5 * quadratic(w, at[STRAIN_FORM], n, x)
+        return
     a = at[A]
     band_product(w, at[DAMPING], p, n, at[V], a)
     for i in range(n):
         w[a + i] = -w[a + i]
-    matvec_add(w, load, n, J, at[LOADS], 1.0, a)
+    matvec_add(w, at[LOAD], n, J, at[LOADS], 1.0, a)
     band_solve(w, at[MASS_FACTOR], p, n, a)
-    return True
 
 
 # -- one step ----------------------------------------------------------------------------
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def predict(layout: NDArray, w: NDArray, c: int) -> None:
     """Car ``c``'s step with the new end loads left out; its end outputs and rates into its
     ``end_free``, ``end_rate_free``."""
@@ -446,7 +510,7 @@ def predict(layout: NDArray, w: NDArray, c: int) -> None:
         w[end_free + i] += offset
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def advance(layout: NDArray, w: NDArray, c: int) -> None:
     """Commit car ``c``'s step with its new end loads ``new_loads`` (``L_{n+1}``, linear within the step)."""
     at = layout[c]
@@ -501,7 +565,7 @@ def advance(layout: NDArray, w: NDArray, c: int) -> None:
         w[L0 + j] = w[L1 + j]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def observe(layout: NDArray, w: NDArray, c: int, k: int, displacement: NDArray, acceleration: NDArray, energy: NDArray) -> None:
     """Car ``c``'s sensor displacements (m) and accelerations (m/s²) now into row ``k`` of the histories
     (its columns from its sensor start), and add its kinetic, strain and dissipated energy (J) to
@@ -559,4 +623,4 @@ def observe(layout: NDArray, w: NDArray, c: int, k: int, displacement: NDArray, 
     energy[k, 2] += w[scalars + DISSIPATED]
 
 
-__all__ = ["CarPool", "advance", "observe", "pack_cars", "predict", "prepare"]
+__all__ = ["CarPool", "PreparedCar", "advance", "factorise", "observe", "pack_cars", "predict", "prepared_car", "start"]

@@ -1,9 +1,9 @@
 """The compiled impact loop: every step of a run in numba, Python only between chunks of steps.
 
-:func:`solve_compiled` packs the run — the cars into one pool (:func:`femref.impact.kernels.cars.pack_cars`),
-the couplers (:func:`femref.impact.kernels.couplers.pack_laws`), the line's coupler maps
-and the Schur gains — and calls :func:`run_steps`, which does per step what the readable
-loop of :func:`femref.impact.solver.solve_impact` does (the tests hold them together):
+:func:`solve_compiled` packs the run — the cars into one pool
+(:func:`femref.impact.kernels.cars.pack_cars`), the couplers, the line's coupler maps and
+the Schur gains — and calls :func:`run_steps`, which does per step what the readable loop
+of :func:`femref.impact.solver.solve_impact` does (the tests hold them together):
 
     every car predicts its free end outputs y_free and rates ẏ_free (no new loads);
     δ_free = Σ_cars Cc y_free,  δ̇_free = Σ_cars Cc ẏ_free;
@@ -18,6 +18,12 @@ the ``+l`` end of car ``r`` and the ``−l`` end of car ``r + 1`` loads ``F2 = �
 ``F1 = −P`` on r + 1, and closes by ``u_r(+l) − u_{r+1}(−l)``. A car with more end loads
 or outputs (a beam with its coupler below the neutral axis) changes these maps, not the loop.
 
+What a run packs is made once where it can be: what depends only on the scene (the packed
+laws, :func:`coupler_maps`, the couplers' forces at contact, the force tolerance) once per
+scene (:func:`line_plan`), what depends on a car's system, step and maps (its factorised
+form) once per system (:func:`~femref.impact.kernels.cars.prepared_car`). A run then copies
+them: a rigid run's set-up is about 0.1 ms.
+
 With a progress callback the steps run in chunks of about a hundredth of the run, and the
 callback is called between them; otherwise in one call.
 """
@@ -25,6 +31,8 @@ callback is called between them; otherwise in one call.
 from __future__ import annotations
 
 import time as _time
+import weakref
+from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
@@ -38,7 +46,7 @@ from femref.impact.couplers import force_tolerance
 from femref.impact.kernels import cars as car_kernels
 from femref.impact.kernels import couplers as coupler_kernels
 from femref.impact.kernels.cars import (
-    COUPLER_LOADS, COUPLER_OUTPUTS, END_COUNT, END_FREE, END_RATE_FREE, GAIN_U, GAIN_V, LOAD_COUNT, NEW_LOADS, SCALARS,
+    COUPLER_LOADS, COUPLER_OUTPUTS, END_COUNT, END_FREE, END_RATE_FREE, LOAD_COUNT, NEW_LOADS, SCALARS,
     SUM_LOAD2, SUM_RATE2, pack_cars,
 )
 from femref.impact.response import ImpactResponse, failure_message
@@ -64,6 +72,46 @@ def coupler_maps(scene: ImpactScene) -> list[tuple[NDArray[np.float64], NDArray[
     return maps
 
 
+@dataclass(frozen=True, eq=False)
+class LinePlan:
+    """What every run of a scene shares, whatever its cars' fidelities: the packed coupler laws, the
+    coupler maps, the couplers at contact (forces from the initial closure rates) and the end loads
+    they put on each car, the sensor columns, the coupler iteration's force tolerance. Read only."""
+
+    laws: coupler_kernels.CouplerLaws
+    maps: list[tuple[NDArray[np.float64], NDArray[np.float64]]]
+    couplers_at_contact: coupler_kernels.CouplerState  # copied by each run
+    loads_at_contact: list[NDArray[np.float64]]  # L₀ = Bc P₀ of each car
+    velocities: list[float]
+    sensor_starts: list[int]  # each car's first sensor column
+    sensors: int
+    force_tolerance: float
+
+
+_line_plans: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def line_plan(scene: ImpactScene) -> LinePlan:
+    """The scene's :class:`LinePlan`, made on its first run (a scene is immutable)."""
+    plan = _line_plans.get(scene)
+    if plan is None:
+        laws = coupler_kernels.pack_laws([c.coupling for c in scene.couplers])
+        couplers = coupler_kernels.new_state(laws)
+        velocities = [float(car.velocity) for car in scene.cars]
+        maps = coupler_maps(scene)
+        closure_rate = np.zeros(len(scene.couplers))
+        for (_, outputs), v in zip(maps, velocities):
+            closure_rate += outputs @ np.full(outputs.shape[1], v)  # every end of a car at rest in shape moves at v
+        coupler_kernels.start(laws, couplers, closure_rate)
+        sensor_starts = [0]
+        for car in scene.cars:
+            sensor_starts.append(sensor_starts[-1] + len(car.sensors))
+        plan = LinePlan(laws, maps, couplers, [loads @ couplers.force for loads, _ in maps], velocities,
+                        sensor_starts[:-1], sensor_starts[-1], force_tolerance(scene))
+        _line_plans[scene] = plan
+    return plan
+
+
 def solve_compiled(
     scene: ImpactScene,
     systems: list[CarSystem],
@@ -74,43 +122,37 @@ def solve_compiled(
     """Step the cars of ``systems`` (line order) from contact to ``scene.end``, with the time of packing
     and factorising (``setup_time``) apart from the stepping (``wall_time``)."""
     started = _time.perf_counter()
-    laws = coupler_kernels.pack_laws([c.coupling for c in scene.couplers])
-    couplers = coupler_kernels.new_state(laws)
-    velocity = np.array([car.velocity for car in scene.cars], dtype=float)
-    maps = coupler_maps(scene)
-    closure_rate = np.zeros(len(scene.couplers))
-    for (_, outputs), v in zip(maps, velocity):
-        closure_rate += outputs @ np.full(outputs.shape[1], v)  # every end of a car at rest in shape moves at v
-    coupler_kernels.start(laws, couplers, closure_rate)
-    sensor_start = np.cumsum([0] + [len(car.sensors) for car in scene.cars])
-    pool = pack_cars(systems, integrator, dt, list(velocity), [loads @ couplers.force for loads, _ in maps], maps,
-                     [int(start) for start in sensor_start[:-1]])
-    for c, spec in enumerate(scene.cars):
-        if not car_kernels.prepare(pool.layout, pool.values, c):
+    line = line_plan(scene)
+    laws = line.laws
+    couplers = coupler_kernels.CouplerState(*(array.copy() for array in line.couplers_at_contact))
+    prepared = [car_kernels.prepared_car(system, integrator, dt, *car_maps) for system, car_maps in zip(systems, line.maps)]
+    for spec, car in zip(scene.cars, prepared):
+        if not car.positive_definite:
             raise ValueError(f"car {spec.name}: its mass or step matrix is not positive definite")
-    gain_u = sum(outputs @ pool.field(c, GAIN_U) @ loads for c, (loads, outputs) in enumerate(maps))
-    gain_v = sum(outputs @ pool.field(c, GAIN_V) @ loads for c, (loads, outputs) in enumerate(maps))
+    pool = pack_cars(systems, prepared, line.velocities, line.loads_at_contact, line.sensor_starts)
+    gain_u = sum(car.gain_u for car in prepared)
+    gain_v = sum(car.gain_v for car in prepared)
     steps = steps_to(scene.end, dt)
     outputs = output_steps(steps, scene.output_stride)
     n_out, n_c = outputs.size, len(scene.couplers)
     history = {
-        "displacement": np.full((n_out, int(sensor_start[-1])), np.nan),
-        "acceleration": np.full((n_out, int(sensor_start[-1])), np.nan),
+        "displacement": np.full((n_out, line.sensors), np.nan),
+        "acceleration": np.full((n_out, line.sensors), np.nan),
         "force": np.full((n_out, n_c), np.nan),
         "closure": np.full((n_out, n_c), np.nan),
         "energy": np.full((n_out, len(ENERGY_NAMES)), np.nan),
     }
     counters = np.zeros(8, dtype=np.int64)
-    counters[STEP], counters[OUTPUT], counters[WORST] = 1, 1, -1
+    counters[STEP], counters[OUTPUT], counters[WORST] = 1, 0, -1  # run_steps records row 0 first
     change = np.zeros(1)
-    record(pool.layout, pool.values, couplers, 0, history["displacement"], history["acceleration"], history["force"], history["closure"], history["energy"])
-    tolerance = force_tolerance(scene)
+    tolerance = line.force_tolerance
     setup_time = _time.perf_counter() - started
     chunk = steps if progress is None else max(1, steps // 100)
-    while counters[STEP] <= steps and counters[WORST] < 0:
+    while (counters[STEP] <= steps or counters[OUTPUT] == 0) and counters[WORST] < 0:
         stop = min(steps, int(counters[STEP]) + chunk - 1)
         run_steps(pool.layout, pool.values, laws, couplers, dt, tolerance, gain_u, gain_v, outputs, stop, counters, change,
-                  history["displacement"], history["acceleration"], history["force"], history["closure"], history["energy"])
+                  history["displacement"], history["acceleration"], history["force"], history["closure"], history["energy"],
+                  np.zeros(n_c), np.zeros(n_c), np.zeros(n_c, dtype=np.int64))
         if progress is not None:
             progress(stop if counters[WORST] < 0 else int(counters[FAILED_STEP]) - 1, steps)
     failed = counters[WORST] >= 0
@@ -141,7 +183,7 @@ def solve_compiled(
     )
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False, inline="always")
 def record(layout, values, couplers, k: int, displacement, acceleration, force, closure, energy) -> None:
     """Row ``k`` of the histories: every car's sensors and energies, the couplers' forces and closures."""
     for e in range(energy.shape[1]):
@@ -155,18 +197,20 @@ def record(layout, values, couplers, k: int, displacement, acceleration, force, 
         energy[k, 4] += couplers.dissipated[j]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def run_steps(layout, w, laws, couplers, dt, tolerance, gain_u, gain_v, outputs, stop, counters, change,
-              displacement, acceleration, force, closure, energy) -> None:
-    """Steps ``counters[STEP] … stop`` (module docstring); a failing coupler iteration stops the run with
-    ``counters[FAILED_STEP]``, ``counters[WORST]`` (the coupler) and ``counters[FAILURE_KIND]`` set."""
+              displacement, acceleration, force, closure, energy, closure_free, rate_free, previous_modes) -> None:
+    """Steps ``counters[STEP] … stop`` (module docstring), after recording row 0 (t = 0) if
+    ``counters[OUTPUT]`` is 0; a failing coupler iteration stops the run with ``counters[FAILED_STEP]``,
+    ``counters[WORST]`` (the coupler) and ``counters[FAILURE_KIND]`` set."""
     n_c = couplers.force.size
-    closure_free = np.zeros(n_c)
-    rate_free = np.zeros(n_c)
-    previous_modes = np.zeros(n_c, dtype=np.int64)
+    if counters[OUTPUT] == 0:
+        record(layout, w, couplers, 0, displacement, acceleration, force, closure, energy)
+        counters[OUTPUT] = 1
     for step in range(counters[STEP], stop + 1):
-        closure_free[:] = 0.0
-        rate_free[:] = 0.0
+        for j in range(n_c):
+            closure_free[j] = 0.0
+            rate_free[j] = 0.0
         for c in range(layout.shape[0]):
             car_kernels.predict(layout, w, c)
             Y, outputs_map = layout[c, END_COUNT], layout[c, COUPLER_OUTPUTS]
@@ -175,7 +219,8 @@ def run_steps(layout, w, laws, couplers, dt, tolerance, gain_u, gain_v, outputs,
                 for i in range(Y):
                     closure_free[j] += w[outputs_map + j * Y + i] * w[end_free + i]
                     rate_free[j] += w[outputs_map + j * Y + i] * w[end_rate_free + i]
-        previous_modes[:] = couplers.mode
+        for j in range(n_c):
+            previous_modes[j] = couplers.mode[j]
         iterations, worst, kind, last_change = coupler_kernels.solve(
             laws, couplers, dt, tolerance, closure_free, rate_free, gain_u, gain_v
         )
@@ -204,4 +249,4 @@ def run_steps(layout, w, laws, couplers, dt, tolerance, gain_u, gain_v, outputs,
     counters[STEP] = stop + 1
 
 
-__all__ = ["coupler_maps", "record", "run_steps", "solve_compiled"]
+__all__ = ["LinePlan", "coupler_maps", "line_plan", "record", "run_steps", "solve_compiled"]
