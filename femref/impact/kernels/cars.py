@@ -45,11 +45,10 @@ import weakref
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
 from numba import njit
 from numpy.typing import NDArray
 
-from femref.fem.banded import half_bandwidth
+from femref.fem.banded import entries, half_bandwidth
 from femref.fem.transient import Integrator
 from femref.impact.systems import CarSystem, SecondOrderSystem, StateSpaceSystem
 
@@ -124,10 +123,9 @@ class CarPool:
 
 def _bands(matrix, p: int, n: int) -> NDArray[np.float64]:
     """``bands[k, i] = A[i, i + k − p]`` of a sparse or dense n × n matrix of half-bandwidth at most p."""
-    coo = sp.coo_matrix(matrix)
-    coo.sum_duplicates()
+    rows, cols, data = entries(matrix)
     bands = np.zeros((2 * p + 1, n))
-    bands[coo.col - coo.row + p, coo.row] = coo.data
+    bands[cols - rows + p, rows] = data
     return bands
 
 
