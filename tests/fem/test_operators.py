@@ -57,6 +57,32 @@ def test_dofs_numbered_by_position_give_narrow_band(kind, order, band):
     assert half_bandwidth(ops.stiffness) == band
 
 
+@pytest.mark.parametrize("order", [1, 2])
+def test_rod_matrices_equal_scikit_fems_own_assembly(order):
+    """The rod's einsum over scikit-fem's shape functions gives what scikit-fem's assembler gives for
+    ``∫ m φᵢ φⱼ``, ``∫ EA φᵢ' φⱼ'``, ``∫ cA φᵢ' φⱼ'`` on the same basis and rule, to round-off, in the
+    position numbering (piecewise, linear and tabulated profiles)."""
+    from skfem import ElementLineP1, ElementLineP2
+    from skfem.helpers import grad
+
+    from femref.core.quadrature import gauss_legendre
+
+    nodes = body_nodes(L, 24, jumps=MASS.jumps + VISC.kinks)
+    ops = assemble_rod(nodes, order, MASS, STIFF, VISC)
+    xi, wi = gauss_legendre(order + 2)
+    basis = Basis(MeshLine(nodes), (ElementLineP1, ElementLineP2)[order - 1](), quadrature=(0.5 * xi[None, :] + 0.5, 0.5 * wi))
+    x = basis.global_coordinates()[0]
+    position = np.argsort(basis.doflocs[0], kind="stable")  # scikit-fem DOF of each position
+    forms = (
+        (ops.mass, MASS, BilinearForm(lambda u, v, w: w.c * u * v)),
+        (ops.stiffness, STIFF, BilinearForm(lambda u, v, w: w.c * grad(u)[0] * grad(v)[0])),
+        (ops.damping, VISC, BilinearForm(lambda u, v, w: w.c * grad(u)[0] * grad(v)[0])),
+    )
+    for mine, profile, form in forms:
+        theirs = sp.csr_matrix(form.assemble(basis, c=profile(x)))[position][:, position]
+        assert abs(mine - theirs).max() <= 1e-14 * abs(theirs).max()
+
+
 def test_local_hermite_matches_scikit_fem_on_small_mesh():
     """Element-local Hermite assembly equals skfem's ElementLineHermite where the latter is accurate."""
     nodes = np.linspace(-1.0, 1.0, 9)
