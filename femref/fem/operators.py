@@ -129,15 +129,21 @@ def assemble_rod(
     slopes = np.array([field[0].grad[0] for field in basis.basis])
     element_dofs = renumber[basis.element_dofs.T]  # (elements, local DOFs), position numbering
     local_size = element_dofs.shape[1]
+    ndof = basis.N
+    # the three matrices share one sparsity pattern: each element entry's slot in it, found once
     rows = np.repeat(element_dofs, local_size, axis=1).ravel()
     cols = np.tile(element_dofs, (1, local_size)).ravel()
-    ndof = basis.N
+    keys, slot = np.unique(rows * ndof + cols, return_inverse=True)  # row-major, columns sorted
+    indptr = np.searchsorted(keys, np.arange(ndof + 1) * ndof)
+    indices = keys % ndof
 
     def assemble(profile: Profile, derivative: bool) -> sp.csr_matrix:
         shapes = slopes if derivative else values
         local = np.einsum("eq,aeq,beq->eab", profile(x) * basis.dx, shapes, shapes)
-        matrix = sp.csr_matrix((local.ravel(), (rows, cols)), shape=(ndof, ndof))  # duplicates summed
-        matrix.eliminate_zeros()
+        matrix = sp.csr_matrix((np.bincount(slot, weights=local.ravel(), minlength=keys.size), indices.copy(), indptr.copy()),
+                               shape=(ndof, ndof))
+        if not np.all(matrix.data):
+            matrix.eliminate_zeros()
         return matrix
 
     left, right = 0, ndof - 1  # after sorting by position
