@@ -16,13 +16,35 @@ Each rung has a Richardson **partner**, the next finer level of its family (``mo
 ``k → 2k``, ``fem`` ``n → 2n``; ``rigid`` ↔ ``quasi_rigid``, whose difference is the
 first-order term of the asymptotic expansion). The finest level of a family has none.
 
-**Cost** is predicted, not measured, so the ladder is ordered before anything runs:
-``cost = steps × w_family × (1 + elements/1000)`` (fem only for the last factor), in
-units of a rigid step. The per-step weights are medians over 120 random two-car scenes
-on this machine (``rigid`` 210 µs per step, ``quasi_rigid`` 1.48×, ``modal`` 1.1–1.3×,
-``fem`` 1.25–1.4× up to 64 elements; 0.27 µs per element beyond), measured when the
-stepping was Python and its per-step overhead dominated, so a model's cost was mostly its
-step count. The compiled loop changes these weights; they are still to be re-fitted.
+**Cost** is predicted, not measured, so the ladder is ordered before anything runs. For a
+run of ``C`` cars and ``steps`` steps, in microseconds on the machine that fitted it (only
+ratios matter: they order the rungs),
+
+    cost = C/2 · (setup + steps · step),   setup = s · x_setup,   step = t · x_step,
+
+with the regressors ``x`` of :func:`cost_regressors` and their coefficients ``s`` in
+:data:`SETUP_COST_US`, ``t`` in :data:`STEP_COST_US` (``N`` the case's ``fem.elements``,
+``k`` the modes, ``n`` the elements per car of a fem rung):
+
+* ``rigid``, ``quasi_rigid``: ``setup = s₀``, ``step = t₀``;
+* ``modal``: ``setup = s₀ + s₁·N + s₂·k`` (the case's mesh assembled, then the eigen-solve
+  of ``k`` modes, the static correction and packing), ``step = t₀ + t₁·(k+1)²`` (dense
+  ``(k+1)``-DOF cars);
+* ``fem``: ``setup = s₀ + s₁·n``, ``step = t₀ + t₁·n`` (banded cars).
+
+The set-up is cold: every car assembled, reduced and factorised afresh, as each rung of a
+ladder runs once on its own geometry (a modal rung pays its mesh's assembly even when the
+fem rung at ``N`` has run). Fitted by ``benchmarks/fit_ladder_costs.py`` (defaults: every
+rung of 30 random two-car impacts with draft-gear, Kelvin–Voigt and friction-table
+couplers, ``N`` = 16–64, 353 rungs; a 2-core AMD EPYC, busy) on the median of five cold
+runs per rung, by relative-error least squares with non-negative coefficients: the set-up
+on the wall time outside the stepping, the step on the stepping time per step. Predicted
+over measured wall time per rung: −5 % to +5 % (10th–90th percentile), at most 18 % off;
+the same within one scene (its median error divided out: a scene-wide speed does not change
+its ladder's order). A run's set-up is worth about 135 (fem, 128 elements) to 4,000 (modal,
+one mode) of its steps: rigid 1.3 ms and 1.9 µs a step, quasi-rigid 5.1 ms and 4.6 µs,
+modal 9.6–15 ms and 2.4–11 µs, fem 5.1–6.2 ms and 4.4–46 µs (4–128 P2 elements per car,
+the order every case uses). Re-run the script when the build or the stepping changes.
 """
 
 from __future__ import annotations
@@ -35,14 +57,53 @@ from femref.run.resolutions import MIN_ELEMENTS, MODE_COUNTS, mode_counts, with_
 from femref.run.timestep import impact_time_step
 from femref.scene import ImpactScene, ModelRun
 
-__all__ = ["FEM_LEVELS", "STEP_WEIGHTS", "Ladder", "Rung", "model_ladder"]
+__all__ = ["FEM_LEVELS", "SETUP_COST_US", "STEP_COST_US", "Ladder", "Rung", "cost_regressors", "model_ladder", "predicted_cost"]
 
 FEM_LEVELS: tuple[int, ...] = (-3, -2, -1, 0, 1)
 """fem rungs at ``N·2^j`` elements per car for these ``j`` (``N`` the case's ``fem.elements``)."""
-STEP_WEIGHTS: dict[str, float] = {"rigid": 1.0, "quasi_rigid": 1.5, "modal": 1.2, "fem": 1.3}
-"""Cost of one step relative to a rigid step (module docstring)."""
-ELEMENT_COST = 1.0e-3
-"""Extra cost of a fem step per element per car, relative to a rigid step."""
+SETUP_COST_US: dict[str, tuple[float, ...]] = {
+    "rigid": (1268.0,),
+    "quasi_rigid": (5064.0,),
+    "modal": (8930.0, 23.5, 303.3),
+    "fem": (5090.0, 8.671),
+}
+"""Set-up of a two-car run (µs on the fitting machine, cold: cars built, reduced, factorised and packed,
+the result assembled), the coefficients of :func:`cost_regressors`' ``x_setup``: ``s₀`` (rigid,
+quasi_rigid), ``s₀ + s₁·N + s₂·k`` (modal), ``s₀ + s₁·n`` (fem). Fitted on the wall time outside the
+stepping by ``benchmarks/fit_ladder_costs.py`` (module docstring)."""
+STEP_COST_US: dict[str, tuple[float, ...]] = {
+    "rigid": (1.868,),
+    "quasi_rigid": (4.556,),
+    "modal": (2.258, 0.03005),
+    "fem": (3.042, 0.3329),
+}
+"""One step of a two-car run (µs on the fitting machine), the coefficients of :func:`cost_regressors`'
+``x_step``: ``t₀`` (rigid, quasi_rigid), ``t₀ + t₁·(k+1)²`` (modal), ``t₀ + t₁·n`` (fem). Fitted on the
+stepping time per step by ``benchmarks/fit_ladder_costs.py`` (module docstring)."""
+
+
+def cost_regressors(family: str, scene: ImpactScene) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """``(x_setup, x_step)`` of a ``family`` run of ``scene``: ``cost = C/2 · (s·x_setup + steps · t·x_step)``.
+
+    ``N = scene.fem.elements`` is the modal car's mesh, ``k = scene.modal_modes``, ``n =
+    scene.fem.elements`` the fem car's elements per car.
+    """
+    if family in ("rigid", "quasi_rigid"):
+        return (1.0,), (1.0,)
+    if family == "modal":
+        k = scene.modal_modes
+        return (1.0, scene.fem.elements, k), (1.0, (k + 1) ** 2)
+    if family == "fem":
+        return (1.0, scene.fem.elements), (1.0, scene.fem.elements)
+    raise ValueError(f"no cost model for the {family!r} family")
+
+
+def predicted_cost(family: str, scene: ImpactScene, steps: int) -> float:
+    """``cost = C/2 · (s·x_setup + steps · t·x_step)`` (µs, module docstring) of a uniform ``family`` run of ``scene``'s ``C`` cars."""
+    x_setup, x_step = cost_regressors(family, scene)
+    setup = sum(s * x for s, x in zip(SETUP_COST_US[family], x_setup, strict=True))
+    step = sum(t * x for t, x in zip(STEP_COST_US[family], x_step, strict=True))
+    return len(scene.cars) / 2.0 * (setup + steps * step)
 
 
 @dataclass(frozen=True)
@@ -113,5 +174,4 @@ def _rung(label: str, family: str, resolution: int, scene: ImpactScene, dt: floa
     run = _uniform_run(family, scene, label)
     if dt is None:
         dt, dt_rule = impact_time_step(scene, run)
-    weight = STEP_WEIGHTS[family] * (1.0 + ELEMENT_COST * resolution if family == "fem" else 1.0)
-    return Rung(label, family, resolution, scene, run, dt, dt_rule, steps_to(scene.end, dt) * weight)
+    return Rung(label, family, resolution, scene, run, dt, dt_rule, predicted_cost(family, scene, steps_to(scene.end, dt)))

@@ -8,7 +8,7 @@ datasets of equal length::
 
     label, family, basis, status      strings ("" status: not run)
     resolution                        modes (modal) or elements per car (fem), 0 otherwise
-    predicted_cost                    rigid steps (femref.choice.ladder)
+    predicted_cost                    µs on the machine that fitted the model (femref.choice.ladder); only ratios matter
     dt                                s
     ran                               bool
     wall_time_s                       s, NaN when not run
@@ -57,7 +57,7 @@ def write_choice(h5: h5py.File, choice: ModelChoice) -> None:
     for name, values in strings.items():
         group.create_dataset(name, data=np.array(values, dtype=h5py.string_dtype()))
     group.create_dataset("resolution", data=np.array([row.rung.resolution for row in rows], dtype=np.int64))
-    group.create_dataset("predicted_cost", data=np.array([row.rung.cost for row in rows]))
+    group.create_dataset("predicted_cost", data=np.array([row.rung.cost for row in rows])).attrs["units"] = "µs (fitting machine)"
     group.create_dataset("dt", data=np.array([row.rung.dt for row in rows])).attrs["units"] = "s"
     group.create_dataset("ran", data=np.array([row.ran for row in rows], dtype=bool))
     group.create_dataset("wall_time_s", data=np.array([row.result.wall_time_s if row.ran else math.nan for row in rows])).attrs["units"] = "s"
@@ -72,7 +72,8 @@ def _peak(row: RungEstimate) -> float:
 
 
 def choice_table(choice: ModelChoice) -> Table:
-    """Every rung: predicted cost, wall time, peak force, estimate and its basis; the choice marked."""
+    """Every rung: predicted cost (ms on the machine that fitted the model), wall time, peak force, estimate
+    and its basis; the choice marked."""
     verdict = "within" if choice.met else "NOT within (no rung is expected to be; the most accurate is kept)"
     title = (
         f"model choice: {choice.chosen} is expected {verdict} {choice.tolerance:.3g} on {choice.output} "
@@ -85,8 +86,8 @@ def choice_table(choice: ModelChoice) -> Table:
         table.add_row(
             "→" if row.rung.label == choice.chosen else "",
             row.rung.label,
-            f"{row.rung.cost:.0f}",
-            f"{row.result.wall_time_s * 1e3:.0f} ms" if row.result is not None else "",
+            f"{row.rung.cost * 1e-3:.1f} ms",
+            f"{row.result.wall_time_s * 1e3:.1f} ms" if row.result is not None else "",
             f"{_peak(row) / 1e3:.1f}" if row.ran else "",
             f"{row.estimate:.2g}" if math.isfinite(row.estimate) else "",
             row.basis,

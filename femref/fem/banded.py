@@ -15,7 +15,7 @@ from scipy.linalg import blas, lapack
 
 
 def entries(matrix: sp.spmatrix | NDArray[np.float64]) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.float64]]:
-    """The stored entries ``(i, j, A_ij)`` of a sparse or dense matrix, duplicates summed. A CSR matrix
+    """The stored (sparse) or nonzero (dense) entries ``(i, j, A_ij)`` of a matrix, duplicates summed. A CSR matrix
     (what the assembly gives) is read from its index arrays: building a COO matrix costs scipy's
     checks, a tenth of a millisecond each, which a small car's set-up paid a dozen times."""
     if sp.issparse(matrix) and matrix.format == "csr":
@@ -24,7 +24,11 @@ def entries(matrix: sp.spmatrix | NDArray[np.float64]) -> tuple[NDArray[np.intp]
             matrix.sum_duplicates()
         rows = np.repeat(np.arange(matrix.shape[0]), np.diff(matrix.indptr))
         return rows, matrix.indices, matrix.data
-    coo = matrix.tocoo() if sp.issparse(matrix) else sp.coo_matrix(matrix)
+    if not sp.issparse(matrix):
+        dense = np.asarray(matrix, dtype=float)
+        rows, cols = np.nonzero(dense)
+        return rows, cols, dense[rows, cols]
+    coo = matrix.tocoo()
     coo.sum_duplicates()
     return coo.row, coo.col, coo.data
 

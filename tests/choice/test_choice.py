@@ -12,20 +12,20 @@ import pytest
 import yaml
 from click.testing import CliRunner
 
-from femref.case import parse_case
+from femref.case import load_case, parse_case
 from femref.choice import choose_model, model_ladder, run_rung
 from femref.choice.estimates import (
     EPS_LOAD_VALID,
-    SAFETY,
     asymptotic_errors,
     load_epsilon,
     output_distance,
     peak_sampling_error,
     richardson_error,
 )
-from femref.choice.ladder import Rung
+from femref.choice.ladder import Rung, predicted_cost
 from femref.cli import main
 from femref.case.defaults import default_scene_data
+from femref.run.resolutions import with_elements
 from femref.run.scoring import score_impact
 from femref.scene.build import scene_from_case
 
@@ -154,6 +154,27 @@ def test_ladder_is_ordered_by_cost_and_refines_fem_jointly():
     assert ladder.partner("rigid") == "quasi_rigid"
 
 
+def test_predicted_cost_orders_the_default_scene():
+    """The cost model (femref.choice.ladder) on the default scene: rigid < quasi_rigid < fem at the
+    case's N, every cost positive, growing with fem elements and modal modes (on the ladder, and at
+    one step count), and per car. Orders only: no seconds are asserted."""
+    scene = scene_from_case(parse_case(default_scene_data(), source="<default>"))
+    ladder = model_ladder(scene)
+    cost = {r.label: r.cost for r in ladder.rungs}
+    assert all(c > 0 for c in cost.values())
+    assert cost["rigid"] < cost["quasi_rigid"] < cost[f"fem_n{scene.fem.elements}"]
+    for family in ("fem", "modal"):
+        rungs = sorted((r for r in ladder.rungs if r.family == family), key=lambda r: r.resolution)
+        assert len(rungs) == 5 and np.all(np.diff([r.cost for r in rungs]) > 0), family
+    steps = 1000
+    fem = [predicted_cost("fem", with_elements(scene, n), steps) for n in (4, 8, 64, 512)]
+    modal = [predicted_cost("modal", dataclasses.replace(scene, modal_modes=k), steps) for k in (1, 2, 8, 32)]
+    assert np.all(np.diff(fem) > 0) and np.all(np.diff(modal) > 0)
+    consist = scene_from_case(load_case(CASES / "impact_consist.yaml"))  # five cars
+    for family in ("rigid", "quasi_rigid", "fem"):
+        assert predicted_cost(family, consist, steps) == pytest.approx(2.5 * predicted_cost(family, with_elements(scene, consist.fem.elements), steps))
+
+
 def test_ladder_keeps_the_modes_the_mesh_holds_and_at_least_four_elements():
     body = {"type": "rod", "length": 17.0, "mass_per_length": 7000.0, "axial_stiffness": 3.0e9, "axial_viscosity": 2.0e6}
     scene = _scene({"kelvin_voigt": {"stiffness": 4.0e7}}, elements=4, cars=[body, body])
@@ -235,16 +256,17 @@ def test_an_unreachable_tolerance_runs_the_ladder_and_keeps_the_best():
 
 def test_a_failing_rung_is_recorded_and_skipped():
     scene = scene_from_case(parse_case(default_scene_data(), source="<default>"))
+    failing = next(r.label for r in model_ladder(scene).rungs if r.family in ("modal", "fem"))  # the climb runs it
 
     def runner(rung):
-        if rung.label == "modal_k1":
+        if rung.label == failing:
             return run_rung(dataclasses.replace(rung, dt=math.nan))  # a step the solver refuses
         return run_rung(rung)
 
     choice = choose_model(scene, 0.01, runner=runner)
     rows = {row.rung.label: row for row in choice.rows}
-    assert rows["modal_k1"].result.status == "failed" and rows["modal_k1"].basis.startswith("failed")
-    assert choice.chosen != "modal_k1" and choice.met
+    assert rows[failing].result.status == "failed" and rows[failing].basis.startswith("failed")
+    assert choice.chosen != failing and choice.met
 
 
 def test_bad_arguments_are_refused():
