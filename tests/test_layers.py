@@ -24,6 +24,7 @@ LAYERS = {
     "exact": 1,
     "sensing": 1,
     "results": 1,
+    "events": 1,
     "case": 2,
     "report": 2,
     "scene": 3,

@@ -1,7 +1,8 @@
 """The case kinds: the ``kind:`` key of a case file, the one module that knows every kind.
 
 * ``harmonic``, ``transient``: one body under end loads (:mod:`femref.case.single`);
-* ``impact``: cars in a line joined by couplers (:mod:`femref.case.impact`).
+* ``impact``: cars in a line joined by couplers (:mod:`femref.case.impact`);
+* ``measured``: recorded accelerations of such cars, read by estimators (:mod:`femref.case.measured`).
 
 :data:`Case` is their union, discriminated on ``kind``; the loader validates a case
 file into it.
@@ -14,12 +15,18 @@ from pydantic import Field
 
 from femref.case.base import SceneCase
 from femref.case.impact import ImpactCase
+from femref.case.measured import MeasuredCase
 from femref.case.single import HarmonicCase, TransientCase
 
 __all__ = ["CASE_KINDS", "Case"]
 
 #: Case kinds by case-file name.
-CASE_KINDS: Mapping[str, type[SceneCase]] = {"harmonic": HarmonicCase, "transient": TransientCase, "impact": ImpactCase}
+CASE_KINDS: Mapping[str, type[SceneCase]] = {
+    "harmonic": HarmonicCase,
+    "transient": TransientCase,
+    "impact": ImpactCase,
+    "measured": MeasuredCase,
+}
 
 #: Any case, discriminated on ``kind``.
-Case = Annotated[Union[HarmonicCase, TransientCase, ImpactCase], Field(discriminator="kind")]  # noqa: UP007
+Case = Annotated[Union[HarmonicCase, TransientCase, ImpactCase, MeasuredCase], Field(discriminator="kind")]  # noqa: UP007

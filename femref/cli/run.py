@@ -2,7 +2,8 @@
 
 ``run`` runs every model of the case (:func:`femref.run.run_scene`), writes the result
 file atomically with the scene's facts and scores, prints the summary and exits 1 when
-a model failed (its message says where). With a tolerance it climbs the ladder of impact
+a model failed (its message says where). A measured case runs its estimators on every
+event of its records instead (:func:`femref.run.measured.run_measured`) and writes ``/events``. With a tolerance it climbs the ladder of impact
 models instead (:mod:`femref.choice`) and keeps the cheapest expected within it.
 """
 
@@ -60,6 +61,9 @@ def run_command(case_path: Path | None, output: Path | None, tolerance: float | 
         click.echo(f"error: {error}", err=True)
         sys.exit(EXIT_BAD_INPUT)
     output = output or Path(f"{case_path.stem if case_path else 'default'}.h5")
+    if case.kind == "measured":
+        _run_measured(case, scene, output)
+        return
     if getattr(case, "tolerance", None) is not None:
         _run_choice(case, scene, output, console)
         return
@@ -105,3 +109,24 @@ def _run_choice(case, scene, output: Path, console: Console) -> None:
     if not choice.met:
         click.echo(f"warning: no model on the ladder is expected within {choice.tolerance:g}; kept {choice.chosen}, the most accurate", err=True)
     finish(written, [])
+
+
+def _run_measured(case, scene, output: Path) -> None:
+    """Every event of a measured case (femref.run.measured): write /events, print the event table."""
+    from femref.case import resolved_yaml
+    from femref.cli.tables import event_table
+    from femref.events import write_events
+    from femref.run.measured import run_measured
+    from femref.sensing.recordings import RecordError
+
+    try:
+        outcome = run_measured(scene)
+    except RecordError as error:  # a record file changed since the case was validated
+        click.echo(f"error: {error}", err=True)
+        sys.exit(EXIT_BAD_INPUT)
+    facts = {"cars": [car.name for car in scene.cars], "couplers": [c.name for c in scene.couplers], "estimators": list(scene.estimators)}
+    written = write_events(output, facts, outcome.events, resolved_yaml(case))
+    print_table(event_table(outcome))
+    if not outcome.events:
+        click.echo(f"warning: no channel exceeds the trigger level {scene.trigger:g} m/s²: no event", err=True)
+    finish([written], [])

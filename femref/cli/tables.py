@@ -135,3 +135,34 @@ def _percent(value: float) -> str:
     """A relative error in per cent to three significant digits (``0.0194%``)."""
     return f"{value * 100:.3g}%" if math.isfinite(value) else ""
 
+
+def event_table(outcome) -> Table:
+    """One row per event and estimator of a measured case: type, closing speed, peak force with its 95 %
+    band (blank without a bound), closure, wear and alarm; flags below the table's rows of their event."""
+    several = len(outcome.scene.couplers) > 1
+    table = Table(title=f"measured records: {len(outcome.events)} event(s); peak force with its 95 % band", title_justify="left")
+    for column in ("event", "t trigger s", "type", "ρ0", "v m/s", "estimator", "status", "peak kN", "band kN", "closure", "wear", "alarm"):
+        table.add_column(column, justify="right" if column in ("event", "t trigger s", "ρ0", "v m/s", "peak kN", "band kN") else "left", no_wrap=True)
+    for event in outcome.events:
+        closure = ", ".join(c.status + (f" at {c.closure_force / 1e3:.0f} kN" if c.status == "closed" else "") for c in event.closures)
+        for k, estimate in enumerate(event.estimates):
+            peak, lower, upper = estimate.peak
+            head = k == 0
+            table.add_row(
+                str(event.index) if head else "",
+                f"{event.trigger_time:.4f}" if head else "",
+                event.impact_type if head else "",
+                _fmt(event.zero_harmonic_ratio, "{:.2f}") if head else "",
+                _fmt(event.closing_speed, "{:.2f}") if head else "",
+                estimate.estimator + (f" @{estimate.coupler}" if several else ""),
+                estimate.status,
+                _fmt(peak / 1e3, "{:.1f}"),
+                f"{lower / 1e3:.0f}–{upper / 1e3:.0f}" if math.isfinite(lower) else "",
+                closure if head else "",
+                event.wear if head else "",
+                event.alarm if head else "",
+            )
+        notes = list(event.flags) + [f"{e.estimator}: {e.message}" for e in event.estimates if not e.ok]
+        for note in notes:
+            table.add_row("", "", "", "", "", f"[yellow]{note}[/yellow]", "", "", "", "", "", "")
+    return table

@@ -20,8 +20,12 @@ from dataclasses import dataclass
 SINGLE_BODY_KINDS: tuple[str, ...] = ("harmonic", "transient")
 #: Scene kinds of cars in a line joined by couplers.
 IMPACT_KINDS: tuple[str, ...] = ("impact",)
+#: Scene kinds the models simulate.
+SIMULATED_KINDS: tuple[str, ...] = (*SINGLE_BODY_KINDS, *IMPACT_KINDS)
+#: Scene kinds of recorded accelerations: estimators run on them, no model does.
+MEASURED_KINDS: tuple[str, ...] = ("measured",)
 #: Every scene kind a case may declare (``kind:``), in documentation order.
-SCENE_KINDS: tuple[str, ...] = (*SINGLE_BODY_KINDS, *IMPACT_KINDS)
+SCENE_KINDS: tuple[str, ...] = (*SIMULATED_KINDS, *MEASURED_KINDS)
 
 
 @dataclass(frozen=True)
@@ -37,10 +41,10 @@ class ModelEntry:
 MODELS: dict[str, ModelEntry] = {
     entry.name: entry
     for entry in (
-        ModelEntry("fem", SCENE_KINDS, "finite elements (scikit-fem rods and beams): the reference"),
+        ModelEntry("fem", SIMULATED_KINDS, "finite elements (scikit-fem rods and beams): the reference"),
         ModelEntry("exact", SINGLE_BODY_KINDS, "closed forms, transfer matrices, inverse Laplace (piecewise-constant bodies)"),
-        ModelEntry("quasi_rigid", SCENE_KINDS, "low-frequency perturbation of rigid-body motion (reduced.quasi_rigid)"),
-        ModelEntry("rigid", SCENE_KINDS, "rigid bodies"),
+        ModelEntry("quasi_rigid", SIMULATED_KINDS, "low-frequency perturbation of rigid-body motion (reduced.quasi_rigid)"),
+        ModelEntry("rigid", SIMULATED_KINDS, "rigid bodies"),
         ModelEntry("modal", IMPACT_KINDS, "rigid mode, lowest elastic modes and a static correction of the fem car"),
         ModelEntry("ann", (), "a saved network: an estimator on the fem records, listed under estimators:"),
     )
@@ -52,6 +56,8 @@ assert set(FIDELITIES) == {name for name, entry in MODELS.items() if "impact" in
 
 #: Inverse estimators: coupler forces from the fem run's acceleration records.
 ESTIMATORS: tuple[str, ...] = ("inverse_rigid", "inverse_quasi_rigid")
+#: Estimators of a measured case: the inverse ones and the joint input-state (augmented Kalman) one.
+MEASURED_ESTIMATORS: tuple[str, ...] = (*ESTIMATORS, "kalman")
 
 #: Result-group prefix of a network estimator: ``ann_<name>`` (a saved network file).
 NETWORK_PREFIX = "ann_"

@@ -67,6 +67,8 @@ def run_scene(scene: Scene | ImpactScene, progress_for: ProgressFor | None = Non
 
     if isinstance(scene, ImpactScene):
         return _run_impact(scene, progress)
+    if scene.kind not in catalog.SINGLE_BODY_KINDS:
+        raise TypeError(f"run_scene simulates models; a {scene.kind} scene is run by femref.run.measured.run_measured")
     return _run_single_body(scene, progress)
 
 

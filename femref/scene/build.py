@@ -1,7 +1,8 @@
 """From a validated case (:mod:`femref.case`) to the resolved scene: the one case → scene builder.
 
 Single-body cases (harmonic, transient) become a :class:`femref.scene.single.Scene`, impact
-cases a :class:`femref.scene.impact.ImpactScene`. The case has already checked every rule;
+cases a :class:`femref.scene.impact.ImpactScene`, measured cases a
+:class:`femref.scene.measured.MeasuredScene`. The case has already checked every rule;
 this module only converts: body specs to :class:`femref.core.body.Body` (the same way
 for a single body and for a car), coupler specs to :class:`reduced.couplers.Coupling`,
 runs to per-car fidelity tuples in line order, network estimator specs to loaded
@@ -15,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from femref.case import Case, CaseError, ImpactCase
+from femref.case.measured import MeasuredCase
 from femref.case.bodies import Body as BodySpec
 from femref.case.cars import CarSpec
 from femref.case.couplers import CouplerSpec
@@ -23,6 +25,7 @@ from femref.case.settings import FemSettings as FemSpec
 from femref.core.body import Body
 from femref.fem.build import FemSettings
 from femref.scene.impact import Car, Coupler, ImpactScene, ModelRun
+from femref.scene.measured import Checks, MeasuredCar, MeasuredCoupler, MeasuredScene
 from femref.scene.single import Scene
 from femref.sensing.measurement import Measurement
 from femref.sensing.network import AnnEstimator, NetworkFileError
@@ -31,10 +34,12 @@ from reduced.couplers import Coupling
 __all__ = ["body_from_spec", "scene_from_case"]
 
 
-def scene_from_case(case: Case, base_dir: Path | None = None) -> Scene | ImpactScene:
+def scene_from_case(case: Case, base_dir: Path | None = None) -> Scene | ImpactScene | MeasuredScene:
     """Resolve a case: profiles, signals, the frequency axis and settings (CSV paths relative to ``base_dir``)."""
     if case.kind == "impact":
         return impact_scene_from_case(case)
+    if case.kind == "measured":
+        return measured_scene_from_case(case)
     common = dict(body=body_from_spec(case.body), probes=dict(case.probes), models=tuple(case.models), fem=fem_settings_of(case.fem))
     if case.kind == "harmonic":
         loads = {name: complex(value) for name, value in case.load_amplitudes().items() if value != 0}
@@ -93,6 +98,28 @@ def impact_scene_from_case(case: ImpactCase) -> ImpactScene:
         measurement=_measurement_of(case.measurement),
         estimators=tuple(entry for entry in case.estimators if isinstance(entry, str)),
         networks=tuple(_network_of(i, spec) for i, spec in enumerate(case.estimators) if isinstance(spec, AnnEstimatorSpec)),
+    )
+
+
+def measured_scene_from_case(case: MeasuredCase) -> MeasuredScene:
+    """Resolve the record files, cars (a body, or only mass and length), couplers, events, estimators and checks."""
+    index = {car.name: i for i, car in enumerate(case.cars)}
+    cars = []
+    for spec in case.cars:
+        body = body_from_spec(spec.body) if spec.body is not None else None
+        mass = body.total_mass if body is not None else float(spec.mass)  # type: ignore[arg-type]
+        cars.append(MeasuredCar(spec.name, body, mass, 2.0 * spec.half_length, dict(spec.sensors)))
+    checks = case.checks
+    return MeasuredScene(
+        records=case.record_sources(),
+        cars=tuple(cars),
+        couplers=tuple(MeasuredCoupler(spec.name, index[spec.between[0]]) for spec in case.couplers),  # type: ignore[arg-type]
+        trigger=case.events.trigger,
+        pre=case.events.pre,
+        post=case.events.post,
+        estimators=tuple(case.estimators),
+        kalman_modes=case.kalman.modes,
+        checks=Checks(checks.alarm, checks.rated_closure_force, checks.wear_tolerance),
     )
 
 

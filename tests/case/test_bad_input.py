@@ -48,7 +48,7 @@ SCHEMA_CASES = {
     "missing frequency": ("rod_harmonic", {"frequency": DELETE}, "frequency", "required key is missing"),
     "missing time.end": ("rod_transient", {"time": {"dt": 0.001}}, "time.end", "required key is missing"),
     "harmonic key in a transient case": ("rod_transient", {"frequency": {"hz": {}}}, "frequency", "'frequency' is a harmonic-case key, not a transient-case key"),
-    "unknown kind": ("rod_harmonic", {"kind": "modal"}, "kind", r"must be one of 'harmonic', 'transient', 'impact'; got 'modal'"),
+    "unknown kind": ("rod_harmonic", {"kind": "modal"}, "kind", r"must be one of 'harmonic', 'transient', 'impact', 'measured'; got 'modal'"),
     "missing kind": ("rod_harmonic", {"kind": DELETE}, "kind", "required key is missing; one of: harmonic, transient"),
     "unknown body type": ("rod_harmonic", {"body.type": "shell"}, "body.type", r"must be one of 'rod', 'beam'; got 'shell'"),
     "missing body type": ("rod_harmonic", {"body.type": DELETE}, "body.type", "required key is missing"),

@@ -4,6 +4,7 @@ Every case in ``cases/`` has one or two headline scalars (``tests/examples/basel
 
 * impact cases: the fem run's peak coupler force (worst coupler, N) and its energy
   balance error (the result file's ``settings.energy_balance_error``);
+* measured cases: every event's peak force of every estimator and coupler (N);
 * single-body cases: the reference model's peak acceleration magnitude over all probes
   (m/s²; ``exact`` where the case runs it, else ``fem``), and for transient fem runs the
   energy balance error.
@@ -44,6 +45,14 @@ def headlines(path: str | Path) -> dict[str, float]:
     with h5py.File(path, "r") as h5:
         kind = yaml.safe_load(h5.attrs["case_yaml"])["kind"]
         out: dict[str, float] = {}
+        if kind == "measured":
+            for k, event in h5["events"].items():
+                for estimator, group in event.items():
+                    if estimator in ("records", "closure"):
+                        continue
+                    for coupler, estimate in group.items():
+                        out[f"events.{k}.{estimator}.{coupler}.peak_force"] = float(estimate.attrs["peak_force"])
+            return out
         if kind == "impact":
             fem = h5["fem"]
             out["fem.peak_coupler_force"] = max(float(np.max(g["force"][()])) for g in fem["couplers"].values())

@@ -1,0 +1,339 @@
+"""The ``kind: measured`` case: coupler forces, impact type, gear closure, wear and alarm from recorded accelerations.
+
+Layout of a measured case file::
+
+    records:     one or more CSV (header row) or HDF5 files: per file its time source
+                 ({column | dataset, unit} or {rate, start}), a clock offset (s, added to its
+                 times) and a channel map <car>/<sensor>: {column | dataset, unit}
+    cars:        >= 2 cars in line order (rear to front), each a rod body (as in impact cases)
+                 or only its mass and length (rigid estimates only), with its sensors' positions
+    couplers:    one between each pair of neighbours that touch: {name, between}
+    events:      {trigger, pre, post}: an event starts where a channel's |a| first exceeds
+                 trigger (m/s²); it spans [t − pre, t + post]
+    estimators:  inverse_rigid, inverse_quasi_rigid, kalman (femref.core.catalog.MEASURED_ESTIMATORS)
+    kalman:      {modes}: elastic modes per car of the kalman estimator's model
+    checks:      {alarm, rated_closure_force, wear_tolerance}: the alarm force limit (N), the
+                 gear's rated closure force (N) and the relative shortfall that counts as worn
+
+Every record file is read when the case is loaded (:mod:`femref.sensing.recordings`): a
+missing file, channel or unit, a time column that does not increase, a channel that is
+all NaN are case errors naming the file, channel and rule. The relations between keys —
+channels against the cars' sensors, couplers against the cars, estimators against what
+they need (a rod body, two sensors on the front car) — are checked once the keys are valid.
+
+:func:`femref.scene.build.scene_from_case` turns the validated case into a
+:class:`femref.scene.measured.MeasuredScene`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Any, ClassVar, Literal
+
+from pydantic import AfterValidator, Field, ValidationInfo, field_validator, model_validator
+from pydantic_core import PydanticCustomError
+
+from femref.case.base import SceneCase
+from femref.case.bodies import RodBody
+from femref.case.cars import CarName
+from femref.case.couplers import Between, CouplerName, _coupler_pair_problems
+from femref.case.errors import Problem, did_you_mean, problems_error
+from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, ProbeName, Real, _duplicates, _name_rule, resolve_case_path
+from femref.core.catalog import MEASURED_ESTIMATORS
+from femref.sensing import recordings
+
+__all__ = ["ChannelSpec", "KalmanSettings", "MeasuredCarSpec", "MeasuredCase", "MeasuredCouplerSpec", "RecordFileSpec", "TimeSpec"]
+
+
+def _unit_rule(units: dict[str, float], what: str):
+    def rule(unit: str) -> str:
+        if unit not in units:
+            raise problems_error([Problem((), f"unknown {what} unit{did_you_mean(unit, list(units))}; units: {', '.join(units)}", unit)])
+        return unit
+
+    return rule
+
+
+AccelerationUnit = Annotated[str, AfterValidator(_unit_rule(recordings.ACCELERATION_UNITS, "acceleration"))]
+TimeUnit = Annotated[str, AfterValidator(_unit_rule(recordings.TIME_UNITS, "time"))]
+Column = int | str
+
+
+def _channel_name(name: str) -> str:
+    car, _, sensor = name.partition("/")
+    if not sensor or "/" in sensor:
+        raise PydanticCustomError("channel_name", "channels are named <car>/<sensor>")
+    _name_rule("car")(car)
+    _name_rule("sensor")(sensor)
+    return name
+
+
+ChannelName = Annotated[str, AfterValidator(_channel_name)]
+
+
+class ChannelSpec(CaseModel):
+    """Where one probe's acceleration is in its file: a CSV ``column`` (header name or 0-based index) or an
+    HDF5 ``dataset`` (path), and its unit."""
+
+    column: Column | None = Field(default=None, description="CSV column: header name or 0-based index. Exactly one of column, dataset.")
+    dataset: str | None = Field(default=None, description="HDF5 dataset path. Exactly one of column, dataset.")
+    unit: AccelerationUnit = Field(description=f"Unit of the values: {', '.join(recordings.ACCELERATION_UNITS)}. Required.")
+
+    @model_validator(mode="after")
+    def _one_source(self) -> "ChannelSpec":
+        if (self.column is None) == (self.dataset is None):
+            raise problems_error([Problem((), "give exactly one of column (CSV) or dataset (HDF5)")])
+        return self
+
+
+class TimeSpec(CaseModel):
+    """A file's sample times: a column or dataset with its unit, or a uniform ``rate`` from ``start``."""
+
+    column: Column | None = Field(default=None, description="CSV time column: header name or 0-based index.")
+    dataset: str | None = Field(default=None, description="HDF5 time dataset path.")
+    unit: TimeUnit = Field(default="s", description=f"Unit of the time column or dataset: {', '.join(recordings.TIME_UNITS)}. Default s.")
+    rate: PositiveReal | None = Field(default=None, description="Sampling rate (Hz) of a file without a time column.")
+    start: Real = Field(default=0.0, description="Time of the first sample (s) with a rate. Default 0.")
+
+    @model_validator(mode="after")
+    def _one_source(self) -> "TimeSpec":
+        sources = [key for key in ("column", "dataset", "rate") if getattr(self, key) is not None]
+        if len(sources) != 1:
+            raise problems_error([Problem((), "give exactly one of column (CSV), dataset (HDF5) or rate (Hz, with start)", sources or None)])
+        return self
+
+
+class RecordFileSpec(CaseModel):
+    """One recorder's file: its time source, clock offset and channels."""
+
+    file: Path = Field(description="CSV (header row) or HDF5 (.h5, .hdf5) file, relative to the case file's directory. Required.")
+    time: TimeSpec = Field(description="Sample times: {column | dataset, unit} or {rate, start}. Required.")
+    clock_offset: Real = Field(default=0.0, description="Added to this file's times (s): recorders' clocks differ. Default 0.")
+    channels: dict[ChannelName, ChannelSpec] = Field(description="<car>/<sensor>: {column | dataset, unit}; at least one. Required.")
+
+    @field_validator("file", mode="after")
+    @classmethod
+    def _resolve(cls, path: Path, info: ValidationInfo) -> Path:
+        return resolve_case_path(path, info)
+
+    @field_validator("channels", mode="after")
+    @classmethod
+    def _some_channels(cls, channels: dict[str, ChannelSpec]) -> dict[str, ChannelSpec]:
+        if not channels:
+            raise problems_error([Problem((), "name at least one channel <car>/<sensor>: {column | dataset, unit}")])
+        return channels
+
+    def source(self) -> recordings.RecordFile:
+        """The file as :mod:`femref.sensing.recordings` reads it."""
+        time = self.time
+        return recordings.RecordFile(
+            path=self.file,
+            time=recordings.TimeSource(column=time.column, dataset=time.dataset, unit=time.unit, rate=time.rate, start=time.start),
+            clock_offset=self.clock_offset,
+            channels=tuple(
+                recordings.ChannelSource(probe=probe, column=channel.column, dataset=channel.dataset, unit=channel.unit)
+                for probe, channel in self.channels.items()
+            ),
+        )
+
+
+class MeasuredCarSpec(CaseModel):
+    """A recorded car: a rod body (any profiles), or only its ``mass`` and ``length`` when only rigid
+    estimates are wanted, and its accelerometers' positions."""
+
+    name: CarName = Field(description="Car name, unique; channels are named <car>/<sensor>. Required.")
+    body: RodBody | None = Field(default=None, description="The car body as a rod (as in impact cases). Give a body, or mass and length.")
+    mass: PositiveReal | None = Field(default=None, description="Total mass (kg) of a car without a body.")
+    length: PositiveReal | None = Field(default=None, description="Length over the ends (m) of a car without a body.")
+    sensors: dict[ProbeName, Real] = Field(description="Accelerometers: name → position x (m) within [−l, l]; at least one. Required.")
+
+    @model_validator(mode="after")
+    def _body_or_mass(self) -> "MeasuredCarSpec":
+        if self.body is not None and (self.mass is not None or self.length is not None):
+            raise problems_error([Problem(("mass",), "give a body or mass and length, not both (the body has its own)")])
+        if self.body is None and (self.mass is None or self.length is None):
+            missing = [key for key in ("mass", "length") if getattr(self, key) is None]
+            raise problems_error([Problem((key,), "required key is missing (a car without a body needs mass and length)") for key in missing])
+        if not self.sensors:
+            raise problems_error([Problem(("sensors",), "must name at least one sensor")])
+        l = self.half_length  # noqa: E741
+        problems = [Problem(("sensors", name), f"must lie on the car, |x| <= l = {l} m", x) for name, x in self.sensors.items() if abs(x) > l]
+        if problems:
+            raise problems_error(problems)
+        return self
+
+    @property
+    def half_length(self) -> float:
+        """``l`` (m)."""
+        return self.body.half_length if self.body is not None else 0.5 * float(self.length)  # type: ignore[arg-type]
+
+
+class MeasuredCouplerSpec(CaseModel):
+    """A coupler between neighbouring recorded cars (its force is what the estimators find)."""
+
+    name: CouplerName | None = Field(default=None, description="Coupler name, unique. Default c<k> for the k-th coupler (1-based).")
+    between: Between = Field(description="The two cars it joins, neighbours in line order: [cars[i].name, cars[i+1].name]. Required.")
+
+
+class EventSettings(CaseModel):
+    """How events are cut from the records: a trigger level and the window around it."""
+
+    trigger: PositiveReal = Field(description="An event starts where a channel's |a| first exceeds this (m/s²), > 0. Required.")
+    pre: NonNegativeReal = Field(default=0.05, description="Window before the trigger (s). Default 0.05.")
+    post: PositiveReal = Field(default=0.5, description="Window after the trigger (s). Default 0.5.")
+
+
+class KalmanSettings(CaseModel):
+    """The ``kalman`` estimator's model of each car: its rigid mode and ``modes`` elastic modes."""
+
+    modes: Annotated[int, Field(ge=1, le=16)] = Field(default=4, description="Elastic modes per car, 1–16. Default 4.")
+
+
+class CheckSettings(CaseModel):
+    """Limits an event is checked against; each optional."""
+
+    alarm: PositiveReal | None = Field(default=None, description="Alarm limit of the coupler force (N). Default null: no alarm check.")
+    rated_closure_force: PositiveReal | None = Field(default=None, description="The draft gear's rated closure force (N). Default null: no wear check.")
+    wear_tolerance: Annotated[float, Field(gt=0.0, lt=1.0)] = Field(
+        default=0.15, description="A gear that closes more than this fraction below its rated force is worn, in (0, 1). Default 0.15."
+    )
+
+
+def _estimators_rule(names: tuple[str, ...]) -> tuple[str, ...]:
+    problems = [
+        Problem((i,), f"unknown estimator{did_you_mean(name, list(MEASURED_ESTIMATORS))}; estimators: {', '.join(MEASURED_ESTIMATORS)}", name)
+        for i, name in enumerate(names)
+        if name not in MEASURED_ESTIMATORS
+    ]
+    problems += _duplicates(list(names), "estimator", lambda i: (i,))
+    if not names:
+        problems.append(Problem((), f"name at least one estimator: {', '.join(MEASURED_ESTIMATORS)}"))
+    if problems:
+        raise problems_error(problems)
+    return names
+
+
+class MeasuredCase(SceneCase):
+    """Recorded accelerations of cars in a line: coupler forces and checks per impact event."""
+
+    #: A measured case runs estimators, not models.
+    models: ClassVar[tuple[str, ...]] = ()
+
+    kind: Literal["measured"] = Field(default="measured", description="measured. Required in the case file.")
+    records: tuple[RecordFileSpec, ...] = Field(description="The record files, one per recorder; at least one. Required.")
+    cars: tuple[MeasuredCarSpec, ...] = Field(description="Two or more cars in line order (rear to front). Required.")
+    couplers: tuple[MeasuredCouplerSpec, ...] = Field(description="One or more couplers between neighbouring cars. Required.")
+    events: EventSettings = Field(description="Event detection: {trigger, pre, post}. Required (trigger at least).")
+    estimators: Annotated[tuple[str, ...], AfterValidator(_estimators_rule)] = Field(
+        default=("inverse_rigid",), description=f"Estimators run on every event: {', '.join(MEASURED_ESTIMATORS)}; unique. Default [inverse_rigid]."
+    )
+    kalman: KalmanSettings = Field(default_factory=KalmanSettings, description="The kalman estimator's car model. Default 4 modes.")
+    checks: CheckSettings = Field(default_factory=CheckSettings, description="Alarm and wear limits. Default: none checked.")
+
+    @field_validator("records", mode="after")
+    @classmethod
+    def _some_records(cls, records: tuple[RecordFileSpec, ...]) -> tuple[RecordFileSpec, ...]:
+        if not records:
+            raise problems_error([Problem((), "name at least one record file")])
+        seen: dict[str, int] = {}
+        problems = []
+        for i, record in enumerate(records):
+            for probe in record.channels:
+                if probe in seen:
+                    problems.append(Problem((i, "channels", probe), f"recorded twice (also in records[{seen[probe]}]); one channel per probe", probe))
+                seen.setdefault(probe, i)
+        if problems:
+            raise problems_error(problems)
+        return records
+
+    @field_validator("cars", mode="after")
+    @classmethod
+    def _two_cars(cls, cars: tuple[MeasuredCarSpec, ...]) -> tuple[MeasuredCarSpec, ...]:
+        if len(cars) < 2:
+            raise problems_error([Problem((), f"a measured impact needs at least 2 cars, in line order (rear to front); got {len(cars)}")])
+        problems = _duplicates([car.name for car in cars], "car", lambda i: (i, "name"))
+        if problems:
+            raise problems_error(problems)
+        return cars
+
+    @field_validator("couplers", mode="after")
+    @classmethod
+    def _couplers_join_neighbours(cls, couplers: tuple[MeasuredCouplerSpec, ...], info: ValidationInfo) -> tuple[MeasuredCouplerSpec, ...]:
+        if not couplers:
+            raise problems_error([Problem((), "name at least one coupler between neighbouring cars")])
+        named = tuple(c if c.name is not None else c.model_copy(update={"name": f"c{k + 1}"}) for k, c in enumerate(couplers))
+        problems = _duplicates([c.name for c in named], "coupler", lambda k: (k, "name"))  # type: ignore[misc]
+        cars = info.data.get("cars")
+        if cars is not None:
+            problems += _coupler_pair_problems(named, [car.name for car in cars])  # type: ignore[arg-type]
+        if problems:
+            raise problems_error(problems)
+        return named
+
+    @model_validator(mode="after")
+    def _relations(self) -> "MeasuredCase":
+        problems = self._channel_problems() + self._estimator_problems()
+        if problems:
+            raise problems_error(problems)
+        problems = self._record_problems()
+        if problems:
+            raise problems_error(problems)
+        return self
+
+    def _channel_problems(self) -> list[Problem]:
+        """Every channel names a declared car and sensor; every car has at least one recorded sensor."""
+        sensors = {car.name: car.sensors for car in self.cars}
+        problems = []
+        recorded: set[str] = set()
+        for i, record in enumerate(self.records):
+            for probe in record.channels:
+                car, sensor = probe.split("/")
+                if car not in sensors:
+                    problems.append(Problem(("records", i, "channels", probe), f"unknown car {car!r}{did_you_mean(car, list(sensors))}; cars: {', '.join(sensors)}", probe))
+                elif sensor not in sensors[car]:
+                    known = list(sensors[car])
+                    problems.append(Problem(("records", i, "channels", probe), f"car {car} has no sensor {sensor!r}{did_you_mean(sensor, known)}; its sensors: {', '.join(known)}", probe))
+                else:
+                    recorded.add(car)
+        for k, car in enumerate(self.cars):
+            if car.name not in recorded and not problems:
+                problems.append(Problem(("cars", k, "sensors"), f"no channel of car {car.name} is recorded; map at least one of its sensors in records"))
+        return problems
+
+    def _estimator_problems(self) -> list[Problem]:
+        """What each estimator needs of the cars (a rod body; two recorded sensors on a coupler's front car)."""
+        problems = []
+        for i, name in enumerate(self.estimators):
+            if name in ("kalman", "inverse_quasi_rigid"):
+                bodiless = [car.name for car in self.cars if car.body is None]
+                if bodiless:
+                    problems.append(Problem(("estimators", i), f"{name} needs every car's body (profiles); cars {', '.join(bodiless)} give only mass and length", name))
+            if name == "kalman" and len(self.couplers) != 1:
+                problems.append(Problem(("estimators", i), f"kalman estimates the force of one coupler between two cars; this case has {len(self.couplers)}", name))
+            if name == "inverse_quasi_rigid":
+                by_name = {car.name: car for car in self.cars}
+                for coupler in self.couplers:
+                    car = by_name[coupler.between[1]]
+                    if len(car.sensors) < 2:
+                        problems.append(Problem(("estimators", i), f"{name} needs two sensors on car {car.name} (the front car of coupler {coupler.name})", name))
+        return problems
+
+    def _record_problems(self) -> list[Problem]:
+        """Each file read as the run will read it: a bad file, channel or unit is the case's error."""
+        problems = []
+        for i, record in enumerate(self.records):
+            try:
+                recordings.read_records([record.source()])
+            except recordings.RecordError as error:
+                problems.append(Problem(("records", i), str(error)))
+        return problems
+
+    def record_sources(self) -> tuple[recordings.RecordFile, ...]:
+        """Every record file as :mod:`femref.sensing.recordings` reads it."""
+        return tuple(record.source() for record in self.records)
+
+    @classmethod
+    def _unknown_key_rule(cls, key: Any, known: list[str]) -> str:
+        if key in ("models", "time", "measurement", "fem", "integrator", "tolerance"):
+            return f"{key!r} is a key of simulated cases; a measured case has records, cars, couplers, events, estimators and checks"
+        return super()._unknown_key_rule(key, known)

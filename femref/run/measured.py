@@ -1,0 +1,261 @@
+"""A measured case, event by event: impact type, closing speed, ε, every estimator's force with its band,
+the gear's closure, wear and alarm.
+
+:func:`run_measured` reads the scene's record files (:mod:`femref.sensing.recordings`),
+cuts the stream into events (:func:`femref.sensing.events.find_events`) and for each event,
+on one common time grid (:func:`femref.sensing.events.window`):
+
+* removes each channel's offset (the mean over the ``pre`` window before the trigger: the
+  cars are at rest or rolling freely there, their acceleration zero);
+* classifies it from the zero-harmonic ratio of the relative acceleration of the first
+  coupler's cars (:func:`reduced.signal_tools.classify_impact`);
+* runs every estimator: ``inverse_rigid`` and ``inverse_quasi_rigid``
+  (:mod:`femref.models.inverse`, no bound yet: ``bound = none``) and ``kalman``
+  (:func:`kalman_estimate`, bands from the smoothed covariance, ``bound = covariance``);
+* takes the **primary** estimate — the first estimator of the case's list with a number and
+  a bound, else the first with a number — for the closing speed, ε, the gear's closure, the
+  wear and the alarm:
+
+  - closing speed ``v = ∫_{t_c}^{t_p} (a_front − a_rear) dt`` from the force's rise ``t_c``
+    to its peak ``t_p``: the relative velocity is zero at the largest closure, which the
+    peak marks for a spring-like coupler (a dashpot moves the peak earlier: on the default
+    scene's draft gear the estimate is 12 % low);
+  - ``ε = T_wave / T_load`` of the stiffest-to-load car, ``T_wave = l/c`` its wave travel
+    time and ``T_load = π √(∫P² / ∫Ṗ²)`` the pulse's time scale (NaN for a car without a body);
+  - closure: :func:`reduced.signal_tools.detect_closure_force` on the primary force;
+  - wear: ``worn`` if the gear closed below ``(1 − tolerance) ×`` its rated closure force,
+    ``ok`` if at or above it, ``unknown`` if it did not close or no rating was given;
+  - alarm: ``certain`` if the peak band's lower end reaches the limit, ``possible`` if only
+    its upper end (or, without a bound, the peak itself) does, else ``none``.
+"""
+
+from __future__ import annotations
+
+import math
+import time as _time
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from femref.events import ClosureResult, EventResult, ForceEstimate
+from femref.fem.build import FemSettings
+from femref.models.inverse import ESTIMATORS as INVERSE_ESTIMATORS
+from femref.models.modal import modal_car
+from femref.scene.impact import Car
+from femref.scene.measured import MeasuredScene
+from femref.sensing import events as event_finder
+from femref.sensing.recordings import Recordings, read_records
+from reduced import kalman
+from reduced.signal_tools import classify_impact, detect_closure_force
+
+KALMAN_FEM = FemSettings(elements=64, order=2)
+"""The mesh whose free-free modes make the kalman estimator's car model."""
+KALMAN_NIS_RANGE = (0.25, 100.0)
+"""Accepted noise scale λ̂ of the kalman filter (innovation variance over the sensor noise variance): below,
+the records are smoother than their own quiet stretch; above 100 (innovations ten times the sensor noise),
+the declared cars are too far from the recorded ones for their force to be trusted."""
+MIN_QUIET_SAMPLES = 10
+"""Samples before the trigger needed to measure a channel's offset and noise."""
+
+
+@dataclass
+class MeasuredOutcome:
+    """The scene, the records as read and every event's result."""
+
+    scene: MeasuredScene
+    recordings: Recordings
+    events: list[EventResult]
+
+
+def run_measured(scene: MeasuredScene) -> MeasuredOutcome:
+    """Every event of the scene's records (module docstring)."""
+    recordings = read_records(scene.records)
+    found = event_finder.find_events(recordings, scene.trigger, scene.pre, scene.post)
+    return MeasuredOutcome(scene, recordings, [_event(scene, recordings, event) for event in found])
+
+
+def _event(scene: MeasuredScene, recordings: Recordings, event: event_finder.Event) -> EventResult:
+    t, raw = event_finder.window(recordings, event)
+    records, noise_std = _quiet_corrected(t, raw, event)
+    result = EventResult(
+        index=event.index, start=event.start, end=event.end, trigger_time=event.trigger_time,
+        trigger_probe=event.trigger_probe, flags=tuple(event.flags), time=t, records=records,
+    )
+    _classify(scene, result)
+    for name in scene.estimators:
+        result.estimates.extend(_estimates(scene, name, t, records, noise_std))
+    primary = _primary(scene, result)
+    for coupler in scene.couplers:
+        estimate = primary.get(coupler.name)
+        if estimate is not None:
+            result.closures.append(_closure(estimate))
+    first = primary.get(scene.couplers[0].name)
+    if first is not None:
+        result.closing_speed = _closing_speed(scene, t, records, first)
+        result.epsilon = _epsilon(scene, first)
+    result.alarm, result.alarm_basis = _alarm(scene, list(primary.values()))
+    result.wear, result.wear_basis = _wear(scene, result.closures)
+    return result
+
+
+def _quiet_corrected(t: NDArray[np.float64], raw: dict[str, NDArray[np.float64]], event: event_finder.Event) -> tuple[dict[str, NDArray[np.float64]], dict[str, float]]:
+    """Each channel less its mean before the trigger (its offset), and its standard deviation there (its
+    noise, m/s²); with fewer than :data:`MIN_QUIET_SAMPLES` quiet samples no offset is removed and the
+    noise is taken equal on every channel (the kalman estimator estimates its scale)."""
+    quiet = t < event.trigger_time
+    if np.count_nonzero(quiet) < MIN_QUIET_SAMPLES:
+        return dict(raw), {probe: 1.0 for probe in raw}
+    records = {probe: a - float(np.mean(a[quiet])) for probe, a in raw.items()}
+    noise = {probe: float(np.std(a[quiet])) for probe, a in records.items()}
+    floor = max(max(noise.values()), 1e-12) * 1e-3
+    return records, {probe: max(value, floor) for probe, value in noise.items()}
+
+
+def _car_record(scene: MeasuredScene, records: dict[str, NDArray[np.float64]], car: int) -> NDArray[np.float64]:
+    """The car's sensor nearest its centre (the rigid-body acceleration, a node of its first axial mode)."""
+    spec = scene.cars[car]
+    sensor = min(spec.sensors, key=lambda name: abs(spec.sensors[name]))
+    return records[f"{spec.name}/{sensor}"]
+
+
+def _classify(scene: MeasuredScene, result: EventResult) -> None:
+    coupler = scene.couplers[0]
+    relative = _car_record(scene, result.records, coupler.front) - _car_record(scene, result.records, coupler.rear)
+    try:
+        found = classify_impact(relative, float(result.time[1] - result.time[0]))
+    except ValueError as error:
+        result.impact_type = "unknown"
+        result.flags = (*result.flags, f"not classified: {error}")
+        return
+    result.impact_type = found.kind
+    result.zero_harmonic_ratio = found.zero_frequency_ratio
+    result.classification_confidence = found.confidence
+
+
+def _estimates(scene: MeasuredScene, name: str, t: NDArray[np.float64], records: dict[str, NDArray[np.float64]], noise_std: dict[str, float]) -> list[ForceEstimate]:
+    started = _time.perf_counter()
+    try:
+        if name == "kalman":
+            estimates = [kalman_estimate(scene, t, records, noise_std)]
+        else:
+            forces = INVERSE_ESTIMATORS[name](scene, t, records)  # type: ignore[arg-type]
+            nan = np.full(t.size, np.nan)
+            estimates = [ForceEstimate(name, coupler, t, force, nan, nan.copy(), bound="none",
+                                       message="no calibration of this estimator's error yet: no band")
+                         for coupler, force in forces.items()]
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as error:
+        nan = np.full(t.size, np.nan)
+        return [ForceEstimate(name, c.name, t, nan, nan, nan, status="failed", message=f"{type(error).__name__}: {error}") for c in scene.couplers]
+    elapsed = _time.perf_counter() - started
+    for estimate in estimates:
+        estimate.wall_time_s = elapsed / len(estimates)
+    return estimates
+
+
+def kalman_estimate(scene: MeasuredScene, t: NDArray[np.float64], records: dict[str, NDArray[np.float64]], noise_std: dict[str, float]) -> ForceEstimate:
+    """The joint input-state estimate of the one coupler's force (:func:`reduced.kalman.estimate_force`) with
+    its covariance band. Each car is its rigid mode and ``scene.kalman_modes`` elastic free-free modes of
+    its fem mesh (:data:`KALMAN_FEM`, no static correction), observed at its recorded sensors; the
+    sensor noise ``noise_std`` (m/s², per probe) sets the channels' relative weights and the noise
+    scale is estimated (model error shows as noise, not as force). A likelihood optimum at the edge
+    of the force-rate range, or innovations outside :data:`KALMAN_NIS_RANGE` times the sensor noise
+    variance, give a status and no number."""
+    coupler = scene.couplers[0]
+    dynamics, probes = [], []
+    for index, coupler_load in ((coupler.rear, (0.0, -1.0)), (coupler.front, (-1.0, 0.0))):
+        car = _impact_car(scene, index, records)
+        system = modal_car(car, KALMAN_FEM, scene.kalman_modes, static_correction=False)
+        dynamics.append(kalman.CarDynamics(system.mass, system.damping, system.stiffness, system.load_matrix, system.sensor_outputs, coupler_load))
+        probes += [f"{car.name}/{sensor}" for sensor in car.sensors]
+    y = np.column_stack([records[probe] for probe in probes])
+    found = kalman.estimate_force(kalman.CoupledCars(*dynamics), t, y, [noise_std[probe] for probe in probes],
+                                  noise_scale="estimated", nis_range=KALMAN_NIS_RANGE)
+    settings = {"modes": scene.kalman_modes, "force_rate": found.force_rate, "noise_scale": found.noise_scale, "probes": probes}
+    if found.status != "ok":
+        nan = np.full(t.size, np.nan)
+        return ForceEstimate("kalman", coupler.name, t, nan, nan, nan.copy(), bound="covariance", status="untrusted",
+                             message=found.status, settings=settings)
+    return ForceEstimate("kalman", coupler.name, t, found.force, found.lower, found.upper, bound="covariance", settings=settings)
+
+
+def _primary(scene: MeasuredScene, result: EventResult) -> dict[str, ForceEstimate]:
+    """Per coupler, the first estimate of the case's list with a number and a bound, else the first with a number."""
+    primary: dict[str, ForceEstimate] = {}
+    for coupler in scene.couplers:
+        estimates = [e for e in result.estimates if e.coupler == coupler.name and e.ok]
+        bounded = [e for e in estimates if e.bound != "none"]
+        if bounded or estimates:
+            primary[coupler.name] = (bounded or estimates)[0]
+    return primary
+
+
+def _closure(estimate: ForceEstimate) -> ClosureResult:
+    try:
+        found = detect_closure_force(estimate.time, np.nan_to_num(estimate.force))
+    except ValueError as error:
+        return ClosureResult(estimate.coupler, estimate.estimator, "ambiguous", message=str(error))
+    if found.closure_force is None:
+        return ClosureResult(estimate.coupler, estimate.estimator, "not closed", message="the force stays on the fitted sine: the gear did not close")
+    return ClosureResult(estimate.coupler, estimate.estimator, "closed", float(found.closure_force), float(found.closure_time))
+
+
+def _closing_speed(scene: MeasuredScene, t: NDArray[np.float64], records: dict[str, NDArray[np.float64]], estimate: ForceEstimate) -> float:
+    coupler = scene.couplers[0]
+    relative = _car_record(scene, records, coupler.front) - _car_record(scene, records, coupler.rear)
+    force = np.nan_to_num(estimate.force)
+    peak = int(np.argmax(force))
+    rising = np.flatnonzero(force[:peak + 1] <= 0.05 * force[peak])
+    contact = int(rising[-1]) if rising.size else 0
+    if peak <= contact:
+        return math.nan
+    return float(np.trapezoid(relative[contact:peak + 1], t[contact:peak + 1]))
+
+
+def _epsilon(scene: MeasuredScene, estimate: ForceEstimate) -> float:
+    force = np.nan_to_num(estimate.force)
+    rate = np.gradient(force, estimate.time)
+    load_time = math.pi * math.sqrt(np.trapezoid(force**2, estimate.time) / max(np.trapezoid(rate**2, estimate.time), 1e-300))
+    waves = [car.body.wave_travel_time for car in scene.cars if car.body is not None]
+    return max(waves) / load_time if waves and len(waves) == len(scene.cars) else math.nan
+
+
+def _alarm(scene: MeasuredScene, estimates: list[ForceEstimate]) -> tuple[str, str]:
+    limit = scene.checks.alarm
+    if limit is None:
+        return "none", "no alarm limit given"
+    level = "none"
+    basis = []
+    for estimate in estimates:
+        peak, lower, upper = estimate.peak
+        if estimate.bound != "none" and math.isfinite(lower):
+            found = "certain" if lower >= limit else "possible" if upper >= limit else "none"
+            basis.append(f"{estimate.coupler}: {estimate.estimator} peak {peak:.4g} N, 95 % band [{lower:.4g}, {upper:.4g}] N against {limit:.4g} N")
+        else:
+            found = "possible" if peak >= limit else "none"
+            basis.append(f"{estimate.coupler}: {estimate.estimator} peak {peak:.4g} N without a bound against {limit:.4g} N")
+        level = max(level, found, key=("none", "possible", "certain").index)
+    return level, "; ".join(basis)
+
+
+def _wear(scene: MeasuredScene, closures: list[ClosureResult]) -> tuple[str, str]:
+    rated = scene.checks.rated_closure_force
+    if rated is None:
+        return "unknown", "no rated closure force given"
+    closed = [c for c in closures if c.status == "closed"]
+    if not closed:
+        return "unknown", "the gear did not close (or its closure is ambiguous): no closure force to compare"
+    least = min(closed, key=lambda c: c.closure_force)
+    threshold = (1.0 - scene.checks.wear_tolerance) * rated
+    state = "worn" if least.closure_force < threshold else "ok"
+    return state, f"{least.coupler} closed at {least.closure_force:.4g} N against {threshold:.4g} N ({1 - scene.checks.wear_tolerance:.0%} of the rated {rated:.4g} N)"
+
+
+def _impact_car(scene: MeasuredScene, index: int, records: dict[str, NDArray[np.float64]]) -> Car:
+    """The recorded car as an impact car with its recorded sensors (at rest: a modal reduction needs no velocity)."""
+    car = scene.cars[index]
+    assert car.body is not None  # the case requires bodies for kalman
+    return Car(car.name, car.body, 0.0, {name: x for name, x in car.sensors.items() if f"{car.name}/{name}" in records})
+
+
+__all__ = ["KALMAN_FEM", "MeasuredOutcome", "kalman_estimate", "run_measured"]

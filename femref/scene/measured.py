@@ -1,0 +1,77 @@
+"""A resolved measured scene: recorded cars in a line, the couplers whose forces are sought, the estimators.
+
+:func:`femref.scene.build.measured_scene_from_case` makes it from a validated
+:class:`femref.case.measured.MeasuredCase`. Geometry and signs are those of impact scenes
+(docs/design.md §2, §3): cars in line order, coupler ``j`` between the front (+l) of car
+``rear`` and the back (−l) of car ``rear + 1``, its force positive in compression.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from femref.core.body import Body
+from femref.sensing.recordings import RecordFile
+
+
+@dataclass(frozen=True, eq=False)
+class MeasuredCar:
+    """A recorded car: its body (None when only the mass and length are known), mass (kg), length (m) and
+    sensors (name → x, m)."""
+
+    name: str
+    body: Body | None
+    mass: float
+    length: float
+    sensors: dict[str, float]
+
+    @property
+    def half_length(self) -> float:
+        return 0.5 * self.length
+
+
+@dataclass(frozen=True)
+class MeasuredCoupler:
+    """Coupler ``name`` between car ``rear`` and car ``rear + 1``."""
+
+    name: str
+    rear: int
+
+    @property
+    def front(self) -> int:
+        return self.rear + 1
+
+
+@dataclass(frozen=True)
+class Checks:
+    """The alarm force limit (N), the gear's rated closure force (N) and the wear tolerance (fraction); None: not checked."""
+
+    alarm: float | None = None
+    rated_closure_force: float | None = None
+    wear_tolerance: float = 0.15
+
+
+@dataclass(frozen=True, eq=False)
+class MeasuredScene:
+    """Record files, cars and couplers, how events are cut (``trigger`` m/s², ``pre``/``post`` s), the
+    estimators run on each event, the kalman car model's elastic modes and the checks."""
+
+    records: tuple[RecordFile, ...]
+    cars: tuple[MeasuredCar, ...]
+    couplers: tuple[MeasuredCoupler, ...]
+    trigger: float
+    pre: float
+    post: float
+    estimators: tuple[str, ...]
+    kalman_modes: int = 4
+    checks: Checks = Checks()
+
+    kind = "measured"
+
+    @property
+    def probes(self) -> dict[str, tuple[int, float]]:
+        """``"<car>/<sensor>"`` → (car index, x)."""
+        return {f"{car.name}/{name}": (i, x) for i, car in enumerate(self.cars) for name, x in car.sensors.items()}
+
+
+__all__ = ["Checks", "MeasuredCar", "MeasuredCoupler", "MeasuredScene"]

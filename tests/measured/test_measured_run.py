@@ -1,0 +1,121 @@
+"""Measured cases end to end: fem impacts recorded through the measurement chain, exported to CSV as
+recorders would write them (in g, with an offset, on their own clock), read back through a measured
+case and estimated event by event."""
+
+from __future__ import annotations
+
+import copy
+
+import h5py
+import numpy as np
+import pytest
+import yaml
+from click.testing import CliRunner
+
+from femref.case import load_case
+from femref.case.defaults import default_scene_data
+from femref.cli import main
+from femref.run.measured import run_measured
+from femref.scene.build import scene_from_case
+from support.measured import simulated_event
+
+
+def _gear_solid(speed: float) -> dict:
+    """The default scene at ``speed`` with cases/impact_gear_solid.yaml's softer gear damping (it closes above ~3 m/s)."""
+    data = default_scene_data()
+    data["cars"][0]["velocity"] = speed
+    data["couplers"][0]["law"]["draft_gear"].update(gear_damping=1.0e5)
+    data["time"] = {"end": 0.4}
+    return data
+
+
+def test_the_default_scene_recorded_gives_the_fem_force_within_its_band(tmp_path):
+    """One free-to-roll event; kalman within 1 % of the fem peak with the fem peak inside its 95 % band;
+    the gear (rated far above the peak) not closed; an alarm limit below the band's lower end is certain."""
+    event = simulated_event(tmp_path, default_scene_data(), estimators=("inverse_rigid", "inverse_quasi_rigid", "kalman"),
+                            checks={"alarm": 1.5e6, "rated_closure_force": 2.8e6})
+    outcome = run_measured(scene_from_case(load_case(event.path)))
+    assert len(outcome.events) == 1
+    found = outcome.events[0]
+    assert found.trigger_time == pytest.approx(event.contact_time, abs=0.01) and not found.flags
+    assert found.impact_type == "free_to_roll" and found.zero_harmonic_ratio > 0.95
+    estimates = {e.estimator: e for e in found.estimates}
+    assert all(e.ok for e in estimates.values()), [e.message for e in estimates.values()]
+    truth = float(np.max(event.force))
+    peak, lower, upper = estimates["kalman"].peak
+    assert abs(peak / truth - 1.0) < 0.01
+    assert lower <= truth <= upper and upper - lower < 0.05 * truth
+    assert estimates["kalman"].bound == "covariance"
+    assert estimates["inverse_rigid"].bound == "none" and np.isnan(estimates["inverse_rigid"].peak[1])
+    assert abs(estimates["inverse_rigid"].peak[0] / truth - 1.0) < 0.10  # body vibration at its sensor: no better
+    assert [c.status for c in found.closures] == ["not closed"]
+    assert found.wear == "unknown" and found.alarm == "certain"
+    assert 1.6 < found.closing_speed < 2.3 and 0.0 < found.epsilon < 1.0
+
+
+def test_alarm_possible_when_only_the_bands_upper_end_crosses(tmp_path):
+    event = simulated_event(tmp_path, default_scene_data(), estimators=("kalman",))
+    scene = scene_from_case(load_case(event.path))
+    peak, lower, upper = run_measured(scene).events[0].estimates[0].peak
+    for limit, expected in ((0.5 * (peak + upper), "possible"), (1.1 * upper, "none"), (0.99 * lower, "certain")):
+        case = copy.deepcopy(event.case)
+        case["checks"] = {"alarm": float(limit)}
+        event.path.write_text(yaml.safe_dump(case, sort_keys=False))
+        assert run_measured(scene_from_case(load_case(event.path))).events[0].alarm == expected, limit
+
+
+@pytest.mark.parametrize("rated, wear", [(1.05, "ok"), (1.5, "worn")])
+def test_a_gear_driven_solid_is_closed_and_judged_against_its_rating(tmp_path, rated, wear):
+    """At 4 m/s the gear closes; its closure force from the kalman force is within 5 % of the fem's
+    (the gear spring at full stroke, 17 MN/m × 0.165 m plus its damper), and the wear check compares it
+    with the rating: a rating 5 % above the measured closure is within tolerance, 50 % above is worn."""
+    event = simulated_event(tmp_path, _gear_solid(4.0), estimators=("kalman",))
+    found = run_measured(scene_from_case(load_case(event.path))).events[0]
+    closure = found.closures[0]
+    assert closure.status == "closed", closure.message
+    from reduced.signal_tools import detect_closure_force
+
+    truth = detect_closure_force(event.time, event.force).closure_force
+    assert truth is not None and abs(closure.closure_force / truth - 1.0) < 0.05
+    case = copy.deepcopy(event.case)
+    case["checks"] = {"rated_closure_force": float(rated * closure.closure_force), "wear_tolerance": 0.15}
+    event.path.write_text(yaml.safe_dump(case, sort_keys=False))
+    assert run_measured(scene_from_case(load_case(event.path))).events[0].wear == wear
+
+
+def test_femref_run_writes_the_events_with_units(tmp_path):
+    event = simulated_event(tmp_path, default_scene_data(), estimators=("inverse_rigid", "kalman"), checks={"alarm": 1.5e6})
+    out = tmp_path / "events.h5"
+    result = CliRunner().invoke(main, ["run", str(event.path), "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    with h5py.File(out) as h5:
+        assert h5["scene"].attrs["kind"] == "measured"
+        group = h5["events/0"]
+        assert group.attrs["impact_type"] == "free_to_roll" and group.attrs["alarm"] == "certain"
+        kalman = group["kalman/c1"]
+        assert kalman["force"].attrs["units"].startswith("N") and kalman.attrs["bound"] == "covariance"
+        assert kalman.attrs["peak_lower"] <= kalman.attrs["peak_force"] <= kalman.attrs["peak_upper"]
+        assert group["records/time"].attrs["units"] == "s" and group["records/hammer/center"].attrs["units"] == "m/s^2"
+    assert not list(tmp_path.glob("*.tmp*"))
+
+
+def test_a_record_file_broken_after_validation_exits_2_and_writes_nothing(tmp_path):
+    event = simulated_event(tmp_path, default_scene_data(), estimators=("inverse_rigid",))
+    (tmp_path / "anvil.csv").write_text("t,rear,center,front\n0,1,2\n")
+    out = tmp_path / "events.h5"
+    result = CliRunner().invoke(main, ["run", str(event.path), "-o", str(out)])
+    assert result.exit_code == 2 and "anvil.csv" in result.output
+    assert not out.exists()
+
+
+def test_the_report_of_an_event_file_shows_the_events_and_their_bands(tmp_path):
+    """``femref report`` on a measured case's file: the event table (type, estimators, band, alarm) and one
+    force plot per event and coupler; no model sections of a simulated run."""
+    event = simulated_event(tmp_path, default_scene_data(), estimators=("inverse_rigid", "kalman"), checks={"alarm": 1.5e6})
+    out = tmp_path / "events.h5"
+    assert CliRunner().invoke(main, ["run", str(event.path), "-o", str(out)]).exit_code == 0
+    result = CliRunner().invoke(main, ["report", str(out), "-o", str(tmp_path / "events.html")])
+    assert result.exit_code == 0, result.output
+    page = (tmp_path / "events.html").read_text()
+    assert "<h2>Events</h2>" in page and "free_to_roll" in page and "covariance" in page and "certain" in page
+    assert page.count("<img ") == 1 and "alt=\"event 0 — c1\"" in page and "<h2>Scores</h2>" not in page
