@@ -162,7 +162,10 @@ def _write_event(group: h5py.Group, event: EventResult) -> None:
         peak, lower, upper = estimate.peak
         sub.attrs.update(peak_force=peak, peak_lower=lower, peak_upper=upper, bound=estimate.bound, status=estimate.status,
                          message=estimate.message, wall_time_s=estimate.wall_time_s, settings=json.dumps(estimate.settings))
-        sub.attrs["in_calibrated_range"] = "unknown" if estimate.in_calibrated_range is None else str(bool(estimate.in_calibrated_range)).lower()
+        if estimate.bound != "calibrated":
+            sub.attrs["in_calibrated_range"] = "n/a"  # only a calibrated bound has a range it holds in
+        else:
+            sub.attrs["in_calibrated_range"] = "unknown" if estimate.in_calibrated_range is None else str(bool(estimate.in_calibrated_range)).lower()
         sub.attrs["units"] = json.dumps({"peak_force": "N", "peak_lower": "N", "peak_upper": "N", "wall_time_s": "s"})
     closures = group.create_group("closure")
     for closure in event.closures:

@@ -184,9 +184,26 @@ class EventSettings(CaseModel):
 
 
 class KalmanSettings(CaseModel):
-    """The ``kalman`` estimator's model of each car: its rigid mode and ``modes`` elastic modes."""
+    """The ``kalman`` estimator's model of each car — its rigid mode and ``modes`` elastic modes — and how far
+    the declared cars may be from the real ones (the band covers every model within these tolerances)."""
 
     modes: Annotated[int, Field(ge=1, le=16)] = Field(default=4, description="Elastic modes per car, 1–16. Default 4.")
+    mass_tolerance: Annotated[float, Field(ge=0.0, lt=0.5)] = Field(
+        default=0.05, description="Relative uncertainty of the declared masses (waybill), in [0, 0.5). Default 0.05."
+    )
+    frequency_tolerance: Annotated[float, Field(ge=0.0, lt=0.5)] = Field(
+        default=0.15, description="Relative uncertainty of the cars' axial mode frequencies (drawing stiffness), in [0, 0.5). Default 0.15."
+    )
+    damping_factors: tuple[PositiveReal, PositiveReal] = Field(
+        default=(0.6, 1.6), description="Lowest and highest factor on the declared viscosity, low <= 1 <= high. Default [0.6, 1.6]."
+    )
+
+    @field_validator("damping_factors", mode="after")
+    @classmethod
+    def _around_one(cls, factors: tuple[float, float]) -> tuple[float, float]:
+        if not factors[0] <= 1.0 <= factors[1]:
+            raise problems_error([Problem((), "must be [low, high] with low <= 1 <= high", list(factors))])
+        return factors
 
 
 class CheckSettings(CaseModel):

@@ -25,7 +25,7 @@ from femref.case.settings import FemSettings as FemSpec
 from femref.core.body import Body
 from femref.fem.build import FemSettings
 from femref.scene.impact import Car, Coupler, ImpactScene, ModelRun
-from femref.scene.measured import Checks, MeasuredCar, MeasuredCoupler, MeasuredScene
+from femref.scene.measured import Checks, KalmanModel, MeasuredCar, MeasuredCoupler, MeasuredScene
 from femref.scene.single import Scene
 from femref.sensing.measurement import Measurement
 from femref.sensing.network import AnnEstimator, NetworkFileError
@@ -118,7 +118,7 @@ def measured_scene_from_case(case: MeasuredCase) -> MeasuredScene:
         pre=case.events.pre,
         post=case.events.post,
         estimators=tuple(case.estimators),
-        kalman_modes=case.kalman.modes,
+        kalman=KalmanModel(case.kalman.modes, case.kalman.mass_tolerance, case.kalman.frequency_tolerance, tuple(case.kalman.damping_factors)),
         checks=Checks(checks.alarm, checks.rated_closure_force, checks.wear_tolerance),
     )
 

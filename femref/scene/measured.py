@@ -51,10 +51,22 @@ class Checks:
     wear_tolerance: float = 0.15
 
 
+@dataclass(frozen=True)
+class KalmanModel:
+    """The kalman estimator's cars — rigid mode and ``modes`` elastic modes — and the tolerances of the
+    declared cars: masses ±``mass_tolerance``, mode frequencies ±``frequency_tolerance``, viscosity × the
+    ``damping_factors`` (low, high)."""
+
+    modes: int = 4
+    mass_tolerance: float = 0.05
+    frequency_tolerance: float = 0.15
+    damping_factors: tuple[float, float] = (0.6, 1.6)
+
+
 @dataclass(frozen=True, eq=False)
 class MeasuredScene:
     """Record files, cars and couplers, how events are cut (``trigger`` m/s², ``pre``/``post`` s), the
-    estimators run on each event, the kalman car model's elastic modes and the checks."""
+    estimators run on each event, the kalman estimator's car model and the checks."""
 
     records: tuple[RecordFile, ...]
     cars: tuple[MeasuredCar, ...]
@@ -63,7 +75,7 @@ class MeasuredScene:
     pre: float
     post: float
     estimators: tuple[str, ...]
-    kalman_modes: int = 4
+    kalman: KalmanModel = KalmanModel()
     checks: Checks = Checks()
 
     kind = "measured"
@@ -74,4 +86,4 @@ class MeasuredScene:
         return {f"{car.name}/{name}": (i, x) for i, car in enumerate(self.cars) for name, x in car.sensors.items()}
 
 
-__all__ = ["Checks", "MeasuredCar", "MeasuredCoupler", "MeasuredScene"]
+__all__ = ["Checks", "KalmanModel", "MeasuredCar", "MeasuredCoupler", "MeasuredScene"]

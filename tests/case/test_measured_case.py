@@ -79,3 +79,15 @@ def _bad(tmp_path, valid, edit):
 def test_a_bad_measured_case_names_the_key_and_rule(tmp_path, valid, edit, key_path, rule):
     message = _bad(tmp_path, valid, edit)
     assert re.search(expect(key_path, rule), message), message
+
+
+def test_kalman_tolerances_are_checked(tmp_path, valid):
+    valid["cars"][1] = {"name": "anvil", "body": BODY, "sensors": {"rear": -8.3}}
+    valid["estimators"] = ["kalman"]
+    for settings, key_path, rule in (
+        ({"damping_factors": [1.2, 1.6]}, "kalman.damping_factors", r"must be \[low, high\] with low <= 1 <= high"),
+        ({"mass_tolerance": 0.6}, "kalman.mass_tolerance", r"must be < 0.5"),
+        ({"modes": 0}, "kalman.modes", r"must be >= 1"),
+    ):
+        message = _bad(tmp_path, valid, lambda d, settings=settings: d.update(kalman=settings))
+        assert re.search(expect(key_path, rule), message), message
