@@ -14,6 +14,7 @@ Layout of a measured case file::
     kalman:      {modes}: elastic modes per car of the kalman estimator's model
     checks:      {alarm, rated_closure_force, wear_tolerance}: the alarm force limit (N), the
                  gear's rated closure force (N) and the relative shortfall that counts as worn
+    calibration: the inverse estimators' error bands (a file of femref calibrate)
 
 Every record file is read when the case is loaded (:mod:`femref.sensing.recordings`): a
 missing file, channel or unit, a time column that does not increase, a channel that is
@@ -41,6 +42,7 @@ from femref.case.errors import Problem, did_you_mean, problems_error
 from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, ProbeName, Real, _duplicates, _name_rule, resolve_case_path
 from femref.core.catalog import MEASURED_ESTIMATORS
 from femref.sensing import recordings
+from femref.sensing.calibration import CalibrationFileError, read_calibration
 
 __all__ = ["ChannelSpec", "KalmanSettings", "MeasuredCarSpec", "MeasuredCase", "MeasuredCouplerSpec", "RecordFileSpec", "TimeSpec"]
 
@@ -246,6 +248,26 @@ class MeasuredCase(SceneCase):
     )
     kalman: KalmanSettings = Field(default_factory=KalmanSettings, description="The kalman estimator's car model. Default 4 modes.")
     checks: CheckSettings = Field(default_factory=CheckSettings, description="Alarm and wear limits. Default: none checked.")
+    calibration: Path | None = Field(
+        default=None,
+        description="Calibration file of the inverse estimators' error bands (femref calibrate), relative to the case file. Default null: no band.",
+    )
+
+    @field_validator("calibration", mode="after")
+    @classmethod
+    def _calibration_readable(cls, path: Path | None, info: ValidationInfo) -> Path | None:
+        if path is None:
+            return None
+        path = resolve_case_path(path, info)
+        try:
+            calibration = read_calibration(path)
+        except CalibrationFileError as error:
+            raise problems_error([Problem((), str(error))]) from None
+        cars = info.data.get("cars")
+        if cars is not None and set(calibration.masses) != {car.name for car in cars}:
+            rule = f"calibrates cars {', '.join(calibration.masses)}, not this case's {', '.join(car.name for car in cars)}"
+            raise problems_error([Problem((), rule)])
+        return path
 
     @field_validator("records", mode="after")
     @classmethod

@@ -1,7 +1,7 @@
 """The ``femref`` command: the only place that prints and exits (docs/design.md §5, §9).
 
 One module per command family — :mod:`.run` (run, validate), :mod:`.sweep` (sweep,
-study), :mod:`.bench`, :mod:`.report`, :mod:`.figures` — sharing :mod:`.common` (exit
+study, calibrate), :mod:`.bench`, :mod:`.report`, :mod:`.figures` — sharing :mod:`.common` (exit
 codes, case loading, progress bars) and :mod:`.tables` (the summaries). Each command
 imports the machinery it drives when it runs.
 """
@@ -14,7 +14,7 @@ from femref.cli.bench import bench_command
 from femref.cli.figures import figures_command
 from femref.cli.report import report_command
 from femref.cli.run import run_command, validate_command
-from femref.cli.sweep import study_command, sweep_command
+from femref.cli.sweep import calibrate_command, study_command, sweep_command
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -23,7 +23,7 @@ def main() -> None:
     """femref: FEM reference solver for freight-car impacts, and the scores of cheaper models against it."""
 
 
-for _command in (run_command, validate_command, sweep_command, study_command, bench_command, report_command, figures_command):
+for _command in (run_command, validate_command, sweep_command, study_command, calibrate_command, bench_command, report_command, figures_command):
     main.add_command(_command)
 
 __all__ = ["main"]

@@ -1,4 +1,5 @@
-"""``femref sweep SWEEP`` and ``femref study STUDY`` (docs/design.md §5, §6): runs on Dask, resumable.
+"""``femref sweep SWEEP``, ``femref study STUDY`` (docs/design.md §5, §6: runs on Dask, resumable) and
+``femref calibrate SWEEP SWEEP_FILE`` (the inverse estimators' error bands from a sweep's fem records).
 
 ``femref sweep`` exits 0 when the sweep ran, even with failed samples (the sweep file
 records them), 1 when the sweep machinery fails, 130 when interrupted (stored samples
@@ -102,3 +103,34 @@ def study_command(study_path: Path, out_dir: Path | None, scheduler: str | None,
         sys.exit(EXIT_INTERRUPTED)
     print_table(study_table(outcome))
     click.echo(f"wrote {out_dir / 'study.h5'}, {out_dir / 'study.md'} and {len(outcome.networks)} networks in {out_dir / 'networks'}")
+
+
+@click.command("calibrate")
+@click.argument("sweep_path", metavar="SWEEP", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("results", metavar="SWEEP_FILE", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), help="calibration file (default: SWEEP stem + .calibration.h5)")
+@click.option("--coupler", help="the coupler whose force is calibrated (default: the first)")
+def calibrate_command(sweep_path: Path, results: Path, output: Path | None, coupler: str | None) -> None:
+    """Calibrate the inverse estimators' error bands on SWEEP's fem records (its file SWEEP_FILE, from
+    femref sweep): the file a measured case names under calibration:."""
+    from femref.case import CaseError
+    from femref.sensing.calibration import write_calibration
+    from femref.study.calibration import calibrate
+    from femref.sweep import load_sweep
+
+    try:
+        calibration = calibrate(load_sweep(sweep_path), results, coupler)
+    except CaseError as error:
+        click.echo(f"error: {error}", err=True)
+        sys.exit(EXIT_BAD_INPUT)
+    except (ValueError, OSError, KeyError, StopIteration) as error:
+        click.echo(f"error: {results}: {error}", err=True)
+        sys.exit(EXIT_BAD_INPUT)
+    written = write_calibration(calibration, output or Path(f"{sweep_path.stem}.calibration.h5"))
+    lo, hi = calibration.closing_speed
+    for name in calibration.errors:
+        e_lo, e_hi = calibration.error_band(name)
+        click.echo(f"{name}: peak error 95 % band [{e_lo:+.1%}, {e_hi:+.1%}] over {calibration.errors[name].size} samples")
+    click.echo(f"valid for closing speeds {lo:.3g}–{hi:.3g} m/s and car masses "
+               + ", ".join(f"{car} {a / 1e3:.0f}–{b / 1e3:.0f} t" for car, (a, b) in calibration.masses.items()))
+    click.echo(f"wrote {written}")

@@ -10,7 +10,8 @@ on one common time grid (:func:`femref.sensing.events.window`):
 * classifies it from the zero-harmonic ratio of the relative acceleration of the first
   coupler's cars (:func:`reduced.signal_tools.classify_impact`);
 * runs every estimator: ``inverse_rigid`` and ``inverse_quasi_rigid``
-  (:mod:`femref.models.inverse`, no bound yet: ``bound = none``) and ``kalman``
+  (:mod:`femref.models.inverse`; with the case's calibration file a calibrated band inside the
+  calibrated ranges, otherwise ``bound = none``) and ``kalman``
   (:func:`kalman_estimate`, bands from the smoothed covariance widened by the declared cars'
   tolerances, ``bound = covariance``);
 * takes the **primary** estimate — the first estimator of the case's list with a number and
@@ -89,15 +90,17 @@ def _event(scene: MeasuredScene, recordings: Recordings, event: event_finder.Eve
     _classify(scene, result)
     for name in scene.estimators:
         result.estimates.extend(_estimates(scene, name, t, records, noise_std))
+    first = _primary(scene, result).get(scene.couplers[0].name)
+    if first is not None:
+        result.closing_speed = _closing_speed(scene, t, records, first)
+        result.epsilon = _epsilon(scene, first)
+    if scene.calibration is not None:
+        _calibrated(scene, result)
     primary = _primary(scene, result)
     for coupler in scene.couplers:
         estimate = primary.get(coupler.name)
         if estimate is not None:
             result.closures.append(_closure(estimate))
-    first = primary.get(scene.couplers[0].name)
-    if first is not None:
-        result.closing_speed = _closing_speed(scene, t, records, first)
-        result.epsilon = _epsilon(scene, first)
     result.alarm, result.alarm_basis = _alarm(scene, list(primary.values()))
     result.wear, result.wear_basis = _wear(scene, result.closures)
     return result
@@ -146,7 +149,7 @@ def _estimates(scene: MeasuredScene, name: str, t: NDArray[np.float64], records:
             forces = INVERSE_ESTIMATORS[name](scene, t, records)  # type: ignore[arg-type]
             nan = np.full(t.size, np.nan)
             estimates = [ForceEstimate(name, coupler, t, force, nan, nan.copy(), bound="none",
-                                       message="no calibration of this estimator's error yet: no band")
+                                       message="no calibration of this estimator's error: no band")
                          for coupler, force in forces.items()]
     except (ValueError, ArithmeticError, np.linalg.LinAlgError) as error:
         nan = np.full(t.size, np.nan)
@@ -200,6 +203,27 @@ def kalman_estimate(scene: MeasuredScene, t: NDArray[np.float64], records: dict[
     m = model.mass_tolerance
     lower, upper = np.minimum(lower * (1.0 - m), lower * (1.0 + m)), np.maximum(upper * (1.0 - m), upper * (1.0 + m))
     return ForceEstimate("kalman", coupler.name, t, found.force, lower, upper, bound="covariance", settings=settings)
+
+
+def _calibrated(scene: MeasuredScene, result: EventResult) -> None:
+    """Calibrated bands on the inverse estimates of the calibrated coupler (:mod:`femref.sensing.calibration`):
+    ``P ∈ [P̂/(1 + e_hi), P̂/(1 + e_lo)]`` inside the calibrated closing speeds and car masses; outside, no
+    band and the reason."""
+    calibration = scene.calibration
+    assert calibration is not None
+    outside = calibration.outside(result.closing_speed, {car.name: car.mass for car in scene.cars})
+    for estimate in result.estimates:
+        if estimate.estimator not in calibration.errors or estimate.coupler != calibration.coupler or not estimate.ok:
+            continue
+        estimate.in_calibrated_range = not outside
+        if outside:
+            estimate.message = "outside the calibrated range: " + "; ".join(outside) + ": no band"
+            continue
+        e_lo, e_hi = calibration.error_band(estimate.estimator)
+        low, high = estimate.force / (1.0 + e_hi), estimate.force / (1.0 + e_lo)
+        estimate.lower, estimate.upper = np.minimum(low, high), np.maximum(low, high)
+        estimate.bound = "calibrated"
+        estimate.message = f"calibrated peak error 95 % band [{e_lo:+.1%}, {e_hi:+.1%}]"
 
 
 def _primary(scene: MeasuredScene, result: EventResult) -> dict[str, ForceEstimate]:

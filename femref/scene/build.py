@@ -27,6 +27,7 @@ from femref.fem.build import FemSettings
 from femref.scene.impact import Car, Coupler, ImpactScene, ModelRun
 from femref.scene.measured import Checks, KalmanModel, MeasuredCar, MeasuredCoupler, MeasuredScene
 from femref.scene.single import Scene
+from femref.sensing.calibration import read_calibration
 from femref.sensing.measurement import Measurement
 from femref.sensing.network import AnnEstimator, NetworkFileError
 from reduced.couplers import Coupling
@@ -120,6 +121,7 @@ def measured_scene_from_case(case: MeasuredCase) -> MeasuredScene:
         estimators=tuple(case.estimators),
         kalman=KalmanModel(case.kalman.modes, case.kalman.mass_tolerance, case.kalman.frequency_tolerance, tuple(case.kalman.damping_factors)),
         checks=Checks(checks.alarm, checks.rated_closure_force, checks.wear_tolerance),
+        calibration=read_calibration(case.calibration) if case.calibration is not None else None,
     )
 
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from femref.core.body import Body
+from femref.sensing.calibration import Calibration
 from femref.sensing.recordings import RecordFile
 
 
@@ -77,6 +78,7 @@ class MeasuredScene:
     estimators: tuple[str, ...]
     kalman: KalmanModel = KalmanModel()
     checks: Checks = Checks()
+    calibration: Calibration | None = None
 
     kind = "measured"
 

@@ -74,6 +74,7 @@ def _bad(tmp_path, valid, edit):
         (lambda d: d["couplers"][0].update(between=["anvil", "hammer"]), "couplers[0].between", r"lists the cars in reverse order"),
         (lambda d: d.update(models=["fem"]), "models", r"'models' is a key of simulated cases"),
         (lambda d: d["events"].update(trigger=0.0), "events.trigger", r"must be > 0"),
+        (lambda d: d.update(calibration="nope.h5"), "calibration", r"calibration file .*nope\.h5 not found"),
     ],
 )
 def test_a_bad_measured_case_names_the_key_and_rule(tmp_path, valid, edit, key_path, rule):

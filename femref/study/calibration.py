@@ -1,0 +1,59 @@
+"""A calibration run: each inverse estimator on the fem records of a sweep, its relative peak errors kept.
+
+:func:`calibrate` reads a sweep's result file (the sweep's impacts — speeds, cars, gears,
+measurement chain — are the distribution the bounds hold for), rebuilds each ok sample's scene,
+runs every inverse estimator (:mod:`femref.models.inverse`) on the sample's stored fixed-length
+fem records (through the measurement chain when the sweep has one) and keeps
+
+    e = P̂ / P − 1      (P̂ the estimator's peak, P fem's peak of the coupler)
+
+per sample, with the ranges the sweep covered: the closing speed ``v_rear − v_front`` of the
+coupler's cars and every car's mass. :mod:`femref.sensing.calibration` holds and reads the
+result; a measured case names the file under ``calibration:``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from femref.core.catalog import ESTIMATORS as INVERSE_ESTIMATORS
+from femref.sensing.calibration import Calibration
+from femref.sensing.records import record_times
+from femref.study.run import read_set
+from femref.sweep.spec import Sweep
+
+
+def calibrate(sweep: Sweep, results: Path, coupler: str | None = None) -> Calibration:
+    """The calibration of every inverse estimator on the ok samples of ``sweep``'s result file ``results``
+    (``coupler``: default the first). ValueError when the sweep has no fem run or too few samples."""
+    from femref.models.inverse import ESTIMATORS
+
+    data = read_set(sweep, Path(results))
+    if "fem" not in data.data.models:
+        raise ValueError(f"{results}: the sweep has no fem run (models: {', '.join(data.data.models)}); the errors are measured against fem")
+    if data.index.size < 20:
+        raise ValueError(f"{results}: {data.index.size} usable samples; a 95 % band needs at least 20")
+    coupler = coupler or data.data.couplers[0]
+    t = record_times(data.data.record_length, data.data.record_end)
+    truth = data.peaks("fem", coupler)
+    records = data.data.records["fem"]
+    errors = {name: np.empty(data.index.size) for name in INVERSE_ESTIMATORS}
+    for row, (i, scene) in enumerate(zip(data.index, data.scenes)):
+        sample = {p: records[i, c] for c, p in enumerate(data.data.probes)}
+        for name in INVERSE_ESTIMATORS:
+            errors[name][row] = float(np.max(ESTIMATORS[name](scene, t, sample)[coupler])) / truth[row] - 1.0
+    pair = next(c for c in data.scenes[0].couplers if c.name == coupler)
+    speeds = [scene.cars[pair.rear].velocity - scene.cars[pair.front].velocity for scene in data.scenes]
+    masses = data.car_masses
+    return Calibration(
+        coupler=coupler,
+        errors=errors,
+        closing_speed=(float(min(speeds)), float(max(speeds))),
+        masses={name: (float(masses[:, k].min()), float(masses[:, k].max())) for k, name in enumerate(data.car_names)},
+        sweep_yaml=data.data.sweep_yaml,
+    )
+
+
+__all__ = ["calibrate"]

@@ -1,0 +1,56 @@
+"""Calibrated bands of the inverse estimators: femref calibrate on a sweep's fem records, then a measured
+case that names the file gets calibrated bands inside the calibrated ranges and none outside."""
+
+from __future__ import annotations
+
+import copy
+
+import distributed
+import numpy as np
+import yaml
+from click.testing import CliRunner
+
+from femref.case import load_case
+from femref.case.defaults import default_scene_data
+from femref.cli import main
+from femref.run.measured import run_measured
+from femref.scene.build import scene_from_case
+from femref.sensing.calibration import read_calibration
+from femref.sweep import run_sweep
+from support.measured import simulated_event
+
+
+def test_inverse_bands_from_a_calibration_sweep(tmp_path):
+    base = default_scene_data()
+    base.update(models=["fem"], estimators=[])
+    sweep = {"case": base, "samples": 24, "seed": 5, "models": ["fem"],
+             "parameters": {"cars.0.velocity": {"uniform": [1.5, 3.0]}}, "outputs": {"record_length": 501, "force_length": 101}}
+    (tmp_path / "cal.yaml").write_text(yaml.safe_dump(sweep, sort_keys=False))
+    with distributed.Client(processes=False, n_workers=1, threads_per_worker=1, dashboard_address=None) as client:
+        summary = run_sweep(tmp_path / "cal.yaml", tmp_path / "cal.h5", client=client)
+    assert summary.complete and summary.failed == 0
+    result = CliRunner().invoke(main, ["calibrate", str(tmp_path / "cal.yaml"), str(tmp_path / "cal.h5"), "-o", str(tmp_path / "calibration.h5")])
+    assert result.exit_code == 0, result.output
+    assert "inverse_rigid: peak error 95 % band" in result.output and "valid for closing speeds" in result.output
+    calibration = read_calibration(tmp_path / "calibration.h5")
+    e_lo, e_hi = calibration.error_band("inverse_rigid")
+    assert calibration.errors["inverse_rigid"].size == 24 and e_lo < e_hi and 1.5 <= calibration.closing_speed[0] < calibration.closing_speed[1] <= 3.0
+
+    def measured(speed: float, folder):
+        folder.mkdir()
+        data = copy.deepcopy(default_scene_data())
+        data["cars"][0]["velocity"] = speed
+        event = simulated_event(folder, data, estimators=("inverse_rigid",))
+        case = copy.deepcopy(event.case)
+        case["calibration"] = str(tmp_path / "calibration.h5")
+        event.path.write_text(yaml.safe_dump(case, sort_keys=False))
+        found = run_measured(scene_from_case(load_case(event.path))).events[0]
+        return found.estimates[0], float(np.max(event.force))
+
+    inside, truth = measured(2.2, tmp_path / "inside")
+    peak, lower, upper = inside.peak
+    assert inside.bound == "calibrated" and inside.in_calibrated_range is True
+    assert lower <= truth <= upper and np.isclose(lower, peak / (1 + e_hi)) and np.isclose(upper, peak / (1 + e_lo))
+    outside, _ = measured(3.8, tmp_path / "outside")
+    assert outside.bound == "none" and outside.in_calibrated_range is False and np.isnan(outside.peak[1])
+    assert "closing speed" in outside.message and "outside the calibrated" in outside.message
