@@ -22,8 +22,8 @@ on one common time grid (:func:`femref.sensing.events.window`):
     to its peak ``t_p``: the relative velocity is zero at the largest closure, which the
     peak marks for a spring-like coupler (a dashpot moves the peak earlier: on the default
     scene's draft gear the estimate is 12 % low);
-  - ``ε = T_wave / T_load`` of the stiffest-to-load car, ``T_wave = l/c`` its wave travel
-    time and ``T_load = π √(∫P² / ∫Ṗ²)`` the pulse's time scale (NaN for a car without a body);
+  - ``ε = T_wave / T_load``, ``T_wave = l/c`` the longest wave travel time of the cars and
+    ``T_load = π √(∫P² / ∫Ṗ²)`` the pulse's time scale (NaN when a car has no body);
   - closure: :func:`reduced.signal_tools.detect_closure_force` on the primary force;
   - wear: ``worn`` if the gear closed below ``(1 − tolerance) ×`` its rated closure force,
     ``ok`` if at or above it, ``unknown`` if it did not close or no rating was given;
@@ -59,7 +59,7 @@ the records are smoother than their own quiet stretch; above 1e4 (innovations a 
 noise) the records are not of the declared cars at all (swapped channels, a wrong unit), and no number is
 given. Measured on simulated yard impacts: λ̂ up to 54 with the declared cars exact (four modes and no
 anti-alias filter in the model, against 64-element fem cars), up to 860 with cars off by their tolerances
-(mass ±5 %, stiffness ±15 %², viscosity × 0.6–1.6, lading spread) while the peak stayed within 5 %."""
+(mass ±5 %, mode frequencies ±15 %, viscosity × 0.6–1.6, lading spread) while the peak stayed within 5 %."""
 MIN_QUIET_SAMPLES = 10
 """Samples before the trigger needed to measure a channel's offset and noise."""
 
