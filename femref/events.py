@@ -83,8 +83,11 @@ class ForceEstimate:
 
 @dataclass
 class ClosureResult:
-    """The draft gear's closure on one coupler: ``status`` closed / not closed / ambiguous, the force (N)
-    and time (s) where the force leaves the closed gear's sine, from ``estimator``'s history."""
+    """The draft gear's closure on one coupler, from ``estimator``'s force history: ``status`` closed /
+    not closed / ambiguous with its reason (``message``); the closure force (N) and time (s) at the
+    change point between the open and the closed gear's branches, the force's 95 % profile interval
+    (N), the slope ratio across the change point, the change point's F-test p-value and the fit's RMS
+    residual over the peak (NaN where not found)."""
 
     coupler: str
     estimator: str
@@ -92,6 +95,11 @@ class ClosureResult:
     closure_force: float = np.nan
     closure_time: float = np.nan
     message: str = ""
+    force_lower: float = np.nan
+    force_upper: float = np.nan
+    stiffening: float = np.nan
+    p_value: float = np.nan
+    residual: float = np.nan
 
 
 @dataclass
@@ -171,8 +179,10 @@ def _write_event(group: h5py.Group, event: EventResult) -> None:
     for closure in event.closures:
         sub = closures.create_group(closure.coupler)
         sub.attrs.update(status=closure.status, closure_force=closure.closure_force, closure_time=closure.closure_time,
-                         estimator=closure.estimator, message=closure.message)
-        sub.attrs["units"] = json.dumps({"closure_force": "N", "closure_time": "s"})
+                         force_lower=closure.force_lower, force_upper=closure.force_upper, stiffening=closure.stiffening,
+                         p_value=closure.p_value, residual=closure.residual, estimator=closure.estimator, message=closure.message)
+        sub.attrs["units"] = json.dumps({"closure_force": "N", "closure_time": "s", "force_lower": "N", "force_upper": "N",
+                                         "stiffening": "1", "p_value": "1", "residual": "1 (of the peak force)"})
 
 
 def _dataset(group: h5py.Group, name: str, data: NDArray, units: str) -> None:

@@ -242,9 +242,12 @@ def _closure(estimate: ForceEstimate) -> ClosureResult:
         found = detect_closure_force(estimate.time, np.nan_to_num(estimate.force))
     except ValueError as error:
         return ClosureResult(estimate.coupler, estimate.estimator, "ambiguous", message=str(error))
+    diagnostics = dict(message=found.reason, stiffening=found.stiffening, p_value=found.p_value, residual=found.residual)
     if found.closure_force is None:
-        return ClosureResult(estimate.coupler, estimate.estimator, "not closed", message="the force stays on the fitted sine: the gear did not close")
-    return ClosureResult(estimate.coupler, estimate.estimator, "closed", float(found.closure_force), float(found.closure_time))
+        return ClosureResult(estimate.coupler, estimate.estimator, found.status, **diagnostics)
+    low, high = found.force_interval
+    return ClosureResult(estimate.coupler, estimate.estimator, found.status, float(found.closure_force), float(found.closure_time),
+                         force_lower=low, force_upper=high, **diagnostics)
 
 
 def _closing_speed(scene: MeasuredScene, t: NDArray[np.float64], records: dict[str, NDArray[np.float64]], estimate: ForceEstimate) -> float:

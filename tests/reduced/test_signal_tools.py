@@ -82,47 +82,69 @@ def test_zero_frequency_ratio_exact_cases() -> None:
     assert zero_frequency_ratio(np.concatenate([np.full(50, 0.3), shifted]), DT, baseline_samples=50) <= 1e-12
 
 
-def _gear_closure_record():
-    """M-901E-class gear (μ = 2e5 N·s/m) at 3.58 m/s: closes at 31 ms under 3.24 MN."""
-    gear = StandardLinearDraftGear.m901e_like(gear_damping=2.0e5)
+def _gear_record(speed: float, gear_damping: float) -> tuple[np.ndarray, np.ndarray, float | None]:
+    """Coupler force of the source study's pair (119 t / 100 t) through an M-901E-like gear at
+    ``speed``, 1 kHz, with 20 ms of zero force before contact (a record starts before the
+    impact), and the exact closure force (the ODE's closure event) or None."""
+    gear = StandardLinearDraftGear.m901e_like(gear_damping=gear_damping)
     t = np.arange(0.0, 0.2, DT)
-    run = simulate_impact(ImpactPair.source_study(3.58), Coupling(gear, "compression_only"), t)
+    run = simulate_impact(ImpactPair.source_study(speed), Coupling(gear, "compression_only"), t)
     assert run.status == "ok", run.message
-    closure = [e for e in run.events if e.kind == "gear_closed"][0]
-    return t, run.coupler_force, closure
+    closures = [e.coupler_force for e in run.events if e.kind == "gear_closed"]
+    force = np.concatenate([np.zeros(20), run.coupler_force])
+    return DT * np.arange(force.size), force, (closures[0] if closures else None)
 
 
-def test_closure_force_recovered_from_gear_record() -> None:
-    """docs/formulas.md §A5 on a synthetic gear-closure record (1 kHz; exact answer: the force at
-    the ODE's closure event, 3.24 MN at 31.4 ms; peak 6.4 MN).
-
-    Noise-free: within 4 % (measured 3.1 %; closure time 0.8 ms late, asserted 2 ms). With
-    1 % white noise, ten seeds: every estimate within 7 %, mean error within 4 % (measured:
-    max 5.4 %, mean 2.5 %). The method's own bias: the closed gear's damper makes the stiff
-    branch deviate slightly from a sine about zero force near closure.
-    """
-    t, force, closure = _gear_closure_record()
-    est = detect_closure_force(t, force)
-    assert est.closure_force == pytest.approx(closure.coupler_force, rel=0.04)
-    assert est.closure_time == pytest.approx(closure.time, abs=2e-3)
-    assert est.peak_force == pytest.approx(np.max(force), rel=0.01)
-    errors = []
-    for seed in range(10):
-        noisy = force + 0.01 * np.max(force) * np.random.default_rng(seed).standard_normal(t.size)
-        errors.append(detect_closure_force(t, noisy).closure_force / closure.coupler_force - 1.0)
-    assert max(abs(e) for e in errors) <= 0.07
-    assert abs(np.mean(errors)) <= 0.04
+# (speed m/s, gear dashpot N·s/m): closures at 86, 65, 51, 44 % of the peak (2e5 N·s/m) and
+# 68, 60, 49 % (5e5 N·s/m, 0.2 of critical)
+CLOSING = [(2.6, 2e5), (3.0, 2e5), (3.58, 2e5), (4.0, 2e5), (3.58, 5e5), (4.0, 5e5), (5.0, 5e5)]
 
 
-def test_no_closure_in_a_linear_pulse() -> None:
-    """An undamped linear coupler gives a pure half-sine: the fitted sine never departs,
-    closure_time and closure_force are None; the peak is m*-exact: w √(c m*)."""
+@pytest.mark.parametrize(("speed", "gear_damping"), CLOSING)
+def test_closure_force_from_40_to_90_percent_of_the_peak(speed: float, gear_damping: float) -> None:
+    """docs/formulas.md §A5 on gear records closing at 44–86 % of the peak (exact answer: the
+    force at the ODE's closure event), noise-free and with white noise of 0.5 % of the peak
+    (five seeds). Every record: never ``not closed``; the estimate within 5 % (measured ≤ 4.9 %)
+    and the 95 % profile interval holding the exact force. The lightly damped gear is
+    ``closed`` every time; the heavily damped one may be ``ambiguous`` (its interval is
+    wider than ±10 % where it closes below half the peak), never wrong."""
+    t, force, exact = _gear_record(speed, gear_damping)
+    assert exact is not None and 0.4 <= exact / force.max() <= 0.9
+    records = [force] + [force + 0.005 * force.max() * np.random.default_rng(seed).standard_normal(force.size) for seed in range(5)]
+    for record in records:
+        found = detect_closure_force(t, record)
+        assert found.status != "not closed", found.reason
+        assert found.status == "closed" or gear_damping > 2e5, found.reason
+        assert found.closure_force == pytest.approx(exact, rel=0.05)
+        low, high = found.force_interval
+        assert low <= exact <= high
+        assert found.peak_force == pytest.approx(force.max(), rel=0.01)
+
+
+@pytest.mark.parametrize(("speed", "gear_damping"), [(2.3, 2e5), (2.6, 5e5)])
+def test_a_gear_that_never_closes_is_not_closed(speed: float, gear_damping: float) -> None:
+    """Below the closing speed the gear stays open: no change point where the record
+    stiffens, status ``not closed`` and no number."""
+    t, force, exact = _gear_record(speed, gear_damping)
+    assert exact is None
+    found = detect_closure_force(t, force)
+    assert found.status == "not closed", found.reason
+    assert found.closure_force is None and found.force_interval is None
+
+
+@pytest.mark.parametrize("damping_ratio", [0.0, 0.2])
+def test_no_closure_in_a_linear_pulse(damping_ratio: float) -> None:
+    """A linear Kelvin-Voigt coupler is one branch from contact to separation: ``not
+    closed``; the peak is found (undamped: m*-exact, w √(c m*))."""
     pair = ImpactPair.source_study()
     t = np.arange(0.0, 0.2, DT)
-    h = kelvin_voigt_impact(pair, 4e7, 0.0, t, contact="compression_only")
-    est = detect_closure_force(t, h.coupler_force, smoother=GaussianKernel(0.5 * DT))
-    assert est.closure_time is None and est.closure_force is None
-    assert est.peak_force == pytest.approx(pair.closing_speed * math.sqrt(4e7 * pair.reduced_mass), rel=1e-3)
+    c = 4e7
+    h = kelvin_voigt_impact(pair, c, 2.0 * damping_ratio * math.sqrt(c * pair.reduced_mass), t, contact="compression_only")
+    force = np.concatenate([np.zeros(20), h.coupler_force])
+    found = detect_closure_force(DT * np.arange(force.size), force)
+    assert found.status == "not closed", found.reason
+    if damping_ratio == 0.0:
+        assert found.peak_force == pytest.approx(pair.closing_speed * math.sqrt(c * pair.reduced_mass), rel=2e-3)
 
 
 def test_resample_and_normalise() -> None:
@@ -176,9 +198,10 @@ def test_spectral_low_pass_keeps_the_passband_and_the_ends() -> None:
         (lambda: classify_impact(np.ones(100), DT, threshold=1.5), "threshold must be in"),
         (lambda: classify_impact(np.ones((2, 50)), DT), "1-D array"),
         (lambda: classify_impact(np.ones(100), 0.0), "dt must be > 0"),
-        (lambda: detect_closure_force(np.arange(10.0), np.ones(9)), "same length"),
+        (lambda: detect_closure_force(np.arange(20.0), np.ones(19)), "same length"),
         (lambda: detect_closure_force(np.arange(20.0), -np.ones(20)), "no compressive peak"),
-        (lambda: detect_closure_force(np.arange(20.0), np.ones(20), fit_level=1.2), "fit_level must be in"),
+        (lambda: detect_closure_force(np.arange(20.0), np.ones(20)), "starts loaded"),
+        (lambda: detect_closure_force(np.arange(40.0), np.r_[np.zeros(20), np.linspace(0.0, 1.0, 20)]), "ends near its peak"),
         (lambda: resample_record([0.0, 1.0, 2.0], [1.0, 2.0, 3.0], 1), "n_samples must be an integer >= 2"),
         (lambda: resample_record([0.0, 2.0, 1.0], [1.0, 2.0, 3.0], 10), "increase strictly"),
         (lambda: peak_normalise(np.zeros((2, 5))), "identically zero"),
