@@ -22,6 +22,7 @@ from scipy.linalg import expm, solve_discrete_are
 from scipy.stats import multivariate_normal
 
 from reduced.kalman import (
+    SensorFilter,
     CarDynamics,
     CoupledCars,
     augmented_model,
@@ -535,3 +536,52 @@ def test_runtime_of_one_estimate_is_printed(half_sine_record) -> None:
     print(f"one estimate with the q_P search: {1e3 * search:.1f} ms; one filter + smoother pass: {1e3 * single:.1f} ms "
           f"(21 states incl. the removed rigid ones, 6 channels, {t.size} samples)")
     assert est.status == "ok" and abs(est.peak_force / truth.max() - 1.0) < 0.03
+
+
+# --------------------------------------------------------------------------------------
+# recorders' anti-alias filter
+# --------------------------------------------------------------------------------------
+
+def test_sensor_filter_state_space_is_the_analogue_butterworth() -> None:
+    """:class:`SensorFilter` sections in cascade have the analogue Butterworth's response,
+    ``|H(iω)|² = 1/(1 + (ω/ω_c)^{2N})``, to 1e-12 for orders 1–6, and unit DC gain."""
+    for order in range(1, 7):
+        a, b, c = SensorFilter(100.0, order).state_space()
+        for f in (0.0, 30.0, 100.0, 250.0, 1000.0):
+            h = c @ np.linalg.solve(2j * math.pi * f * np.eye(order) - a, b)
+            assert abs(h) ** 2 == pytest.approx(1.0 / (1.0 + (f / 100.0) ** (2 * order)), rel=1e-12, abs=1e-15)
+
+
+def test_filtered_records_give_an_undelayed_force() -> None:
+    """The half-sine impact recorded through a 4th-order 100 Hz anti-alias filter (simulated at 10
+    kHz by ``scipy.signal.lsim``, sampled at 1 kHz, 0.05 m/s² noise). Ignoring the filter, the
+    estimate is the force delayed by the filter (its peak ~4 ms late, the force's shape and
+    peak off by more); with :class:`SensorFilter` in the model, five seeds: peak within 2 %,
+    peak time within 1 ms, the RMS error over the pulse below a tenth of the unfiltered
+    model's (measured: peaks within 0.2 %, on time to a sample against 4–5 ms late, RMS 0.14 %
+    of the peak against 9 %)."""
+    from scipy.signal import butter, lsim
+
+    fine_step = STEP / 10
+    t_fine = fine_step * np.arange(int(round(2.0 / fine_step)))
+    model = cars()
+    acc_fine = np.hstack([car_accelerations(model.rear, t_fine, half_sine), car_accelerations(model.front, t_fine, half_sine)])
+    num, den = butter(4, 2 * math.pi * 100.0, analog=True)
+    filtered = np.column_stack([lsim((num, den), acc_fine[:, c], t_fine)[1] for c in range(acc_fine.shape[1])])
+    t, truth = t_fine[::10], half_sine(t_fine[::10])
+    acc = filtered[::10]
+    pulse = truth > 0.01 * truth.max()
+    with_filter = CoupledCars(model.rear, model.front, SensorFilter(100.0, 4))
+    for seed in range(5):
+        y = noisy(acc, seed)
+        plain = estimate_force(model, t, y, NOISE)
+        aware = estimate_force(with_filter, t, y, NOISE)
+        assert aware.status == "ok", aware.status
+        assert aware.peak_force == pytest.approx(PEAK, rel=0.02)
+        assert abs(t[np.argmax(aware.force)] - t[np.argmax(truth)]) <= 1.001e-3
+        rms_aware = np.sqrt(np.mean((aware.force - truth)[pulse] ** 2))
+        rms_plain = np.sqrt(np.mean((plain.force - truth)[pulse] ** 2))
+        print(f"seed {seed}: peak {aware.peak_force / PEAK - 1:+.4f} (ignoring the filter {plain.peak_force / PEAK - 1:+.4f}), "
+              f"peak time {t[np.argmax(aware.force)] - t[np.argmax(truth)]:+.4f} s (ignoring {t[np.argmax(plain.force)] - t[np.argmax(truth)]:+.4f} s), "
+              f"RMS {rms_aware / PEAK:.4f} vs {rms_plain / PEAK:.4f} of the peak")
+        assert rms_aware < rms_plain / 10, (rms_aware, rms_plain)
