@@ -707,6 +707,36 @@ def _dc_states(a_f: FloatArray, b_f: FloatArray) -> FloatArray:
     return -np.linalg.solve(a_f, b_f)
 
 
+def forced_response(model: CoupledCars, time: ArrayLike, force: ArrayLike) -> FloatArray:
+    """The model's samples ``y_k = H z_k`` (N × channels, m/s², no noise) under the prescribed coupler force
+    ``P`` (N, on the uniform ``time``), from rest; exact for ``P`` linear between samples.
+
+    With ``z = [x, P]`` (:func:`augmented_model`), ``ẋ = A_xx x + A_xP P``; over a step ``h`` with
+    ``P = P_k + s τ``: ``x_{k+1} = Φ x_k + Γ₀ P_k + Γ₁ s``, ``[Φ Γ₀ Γ₁]`` the top rows of
+    ``expm([[A_xx, A_xP, 0], [0, 0, 1], [0, 0, 0]] h)``.
+    """
+    t = _checks.time_grid("time", time, uniform=True, min_length=2)
+    p = np.asarray(force, dtype=float)
+    if p.shape != t.shape or not np.all(np.isfinite(p)):
+        raise ValueError(f"force must be finite and of the time's shape {t.shape}")
+    h = float(t[1] - t[0])
+    aug = augmented_model(model, h, 1.0)
+    n = aug.system_matrix.shape[0] - 1
+    block = np.zeros((n + 2, n + 2))
+    block[:n, : n + 1] = aug.system_matrix[:n, :]
+    block[n, n + 1] = 1.0
+    e = expm(block * h)
+    phi, gamma0, gamma1 = e[:n, :n], e[:n, n], e[:n, n + 1]
+    scaled = p / aug.state_unit[-1]
+    slope = np.diff(scaled, append=scaled[-1]) / h
+    states = np.empty((t.size, n))
+    x = np.zeros(n)
+    for k in range(t.size):
+        states[k] = x
+        x = phi @ x + gamma0 * scaled[k] + gamma1 * slope[k]
+    return states @ aug.observation[:, :n].T + np.outer(scaled, aug.observation[:, n])
+
+
 def _undetectable(system: FloatArray, observation: FloatArray) -> tuple[complex, ...]:
     """Marginal eigenvalues λ (Re λ ≥ −1e-9 ‖A‖) with ``rank [λI − A; H] < n`` (PBH)."""
     n = system.shape[0]
@@ -1125,6 +1155,7 @@ __all__ = [
     "augmented_model",
     "estimate_force",
     "estimate_force_with_variants",
+    "forced_response",
     "kalman_smoother",
     "van_loan_discretisation",
 ]

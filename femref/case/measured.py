@@ -4,13 +4,15 @@ Layout of a measured case file::
 
     records:     one or more CSV (header row) or HDF5 files: per file its time source
                  ({column | dataset, unit} or {rate, start}), a clock offset (s, added to its
-                 times) and a channel map <car>/<sensor>: {column | dataset, unit}
+                 times), a channel map <car>/<sensor>: {column | dataset, unit} and the
+                 recorder's anti-alias low-pass {corner, order} (optional)
     cars:        >= 2 cars in line order (rear to front), each a rod body (as in impact cases)
                  or only its mass and length (rigid estimates only), with its sensors' positions
     couplers:    one between each pair of neighbours that touch: {name, between}
     events:      {trigger, pre, post}: an event starts where a channel's |a| first exceeds
                  trigger (m/s²); it spans [t − pre, t + post]
-    estimators:  inverse_rigid, inverse_quasi_rigid, kalman (femref.core.catalog.MEASURED_ESTIMATORS)
+    estimators:  inverse_rigid, inverse_quasi_rigid, kalman (femref.core.catalog.MEASURED_ESTIMATORS), or a
+                 saved network {name: ann_<name>, network: file.npz} (needs kalman: its contact instant)
     kalman:      {modes}: elastic modes per car of the kalman estimator's model
     checks:      {alarm, rated_closure_force, wear_tolerance}: the alarm force limit (N), the
                  gear's rated closure force (N) and the relative shortfall that counts as worn
@@ -28,10 +30,11 @@ they need (a rod body, two sensors on the front car) — are checked once the ke
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
-from typing import Annotated, Any, ClassVar, Literal
+from typing import Annotated, Any, ClassVar, Literal, Union
 
-from pydantic import AfterValidator, Field, ValidationInfo, field_validator, model_validator
+from pydantic import AfterValidator, BeforeValidator, Discriminator, Field, Tag, ValidationInfo, field_validator, model_validator
 from pydantic_core import PydanticCustomError
 
 from femref.case.base import SceneCase
@@ -39,9 +42,11 @@ from femref.case.bodies import RodBody
 from femref.case.cars import CarName
 from femref.case.couplers import Between, CouplerName, _coupler_pair_problems
 from femref.case.errors import Problem, did_you_mean, problems_error
+from femref.case.estimators import AnnEstimatorSpec, _estimator_kind, _estimator_shape
 from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, ProbeName, Real, _duplicates, _name_rule, resolve_case_path
 from femref.core.catalog import MEASURED_ESTIMATORS
 from femref.sensing import recordings
+from femref.sensing.measurement import FILTER_ORDER
 from femref.sensing.calibration import CalibrationFileError, read_calibration
 
 __all__ = ["ChannelSpec", "KalmanSettings", "MeasuredCarSpec", "MeasuredCase", "MeasuredCouplerSpec", "RecordFileSpec", "TimeSpec"]
@@ -105,13 +110,24 @@ class TimeSpec(CaseModel):
         return self
 
 
+class AntiAliasSpec(CaseModel):
+    """The recorder's analogue anti-alias low-pass, applied to every channel of its file before sampling."""
+
+    corner: PositiveReal = Field(description="Corner frequency (Hz), below the file's Nyquist frequency (rate/2). Required.")
+    order: Annotated[int, Field(ge=1, le=8)] = Field(default=4, description="Butterworth order, 1–8. Default 4.")
+
+
 class RecordFileSpec(CaseModel):
-    """One recorder's file: its time source, clock offset and channels."""
+    """One recorder's file: its time source, clock offset, channels and anti-alias filter."""
 
     file: Path = Field(description="CSV (header row) or HDF5 (.h5, .hdf5) file, relative to the case file's directory. Required.")
     time: TimeSpec = Field(description="Sample times: {column | dataset, unit} or {rate, start}. Required.")
     clock_offset: Real = Field(default=0.0, description="Added to this file's times (s): recorders' clocks differ. Default 0.")
     channels: dict[ChannelName, ChannelSpec] = Field(description="<car>/<sensor>: {column | dataset, unit}; at least one. Required.")
+    anti_alias: AntiAliasSpec | None = Field(
+        default=None,
+        description="The recorder's Butterworth low-pass {corner (Hz), order}: kalman models it, networks need it. Default null: not declared.",
+    )
 
     @field_validator("file", mode="after")
     @classmethod
@@ -136,6 +152,7 @@ class RecordFileSpec(CaseModel):
                 recordings.ChannelSource(probe=probe, column=channel.column, dataset=channel.dataset, unit=channel.unit)
                 for probe, channel in self.channels.items()
             ),
+            anti_alias=None if self.anti_alias is None else recordings.AntiAlias(self.anti_alias.corner, self.anti_alias.order),
         )
 
 
@@ -218,18 +235,34 @@ class CheckSettings(CaseModel):
     )
 
 
-def _estimators_rule(names: tuple[str, ...]) -> tuple[str, ...]:
-    problems = [
-        Problem((i,), f"unknown estimator{did_you_mean(name, list(MEASURED_ESTIMATORS))}; estimators: {', '.join(MEASURED_ESTIMATORS)}", name)
-        for i, name in enumerate(names)
-        if name not in MEASURED_ESTIMATORS
-    ]
-    problems += _duplicates(list(names), "estimator", lambda i: (i,))
-    if not names:
+def _known_measured_estimator(name: str) -> str:
+    if name not in MEASURED_ESTIMATORS:
+        hint = did_you_mean(name, list(MEASURED_ESTIMATORS))
+        if not hint and (name == "ann" or name.startswith("ann_")):
+            hint = f" (a network estimator is a mapping {{name: {name}, network: file.npz}})"
+        raise PydanticCustomError(
+            "estimator_name", "unknown estimator{hint}; estimators: {known}, or a network {network}",
+            {"hint": hint, "known": ", ".join(MEASURED_ESTIMATORS), "network": "{name: ann_<name>, network: file.npz}"},
+        )
+    return name
+
+
+#: One entry of a measured case's ``estimators``: an estimator's name or a saved network.
+MeasuredEstimatorEntry = Annotated[
+    Union[Annotated[Annotated[str, AfterValidator(_known_measured_estimator)], Tag("inverse")], Annotated[AnnEstimatorSpec, Tag("ann")]],  # noqa: UP007
+    Discriminator(_estimator_kind),
+    BeforeValidator(_estimator_shape),
+]
+
+
+def _estimators_rule(entries: tuple[str | AnnEstimatorSpec, ...]) -> tuple[str | AnnEstimatorSpec, ...]:
+    names = [entry if isinstance(entry, str) else entry.name for entry in entries]
+    problems = _duplicates(names, "estimator", lambda i: (i,))
+    if not entries:
         problems.append(Problem((), f"name at least one estimator: {', '.join(MEASURED_ESTIMATORS)}"))
     if problems:
         raise problems_error(problems)
-    return names
+    return entries
 
 
 class MeasuredCase(SceneCase):
@@ -243,8 +276,9 @@ class MeasuredCase(SceneCase):
     cars: tuple[MeasuredCarSpec, ...] = Field(description="Two or more cars in line order (rear to front). Required.")
     couplers: tuple[MeasuredCouplerSpec, ...] = Field(description="One or more couplers between neighbouring cars. Required.")
     events: EventSettings = Field(description="Event detection: {trigger, pre, post}. Required (trigger at least).")
-    estimators: Annotated[tuple[str, ...], AfterValidator(_estimators_rule)] = Field(
-        default=("inverse_rigid",), description=f"Estimators run on every event: {', '.join(MEASURED_ESTIMATORS)}; unique. Default [inverse_rigid]."
+    estimators: Annotated[tuple[MeasuredEstimatorEntry, ...], AfterValidator(_estimators_rule)] = Field(
+        default=("inverse_rigid",),
+        description=f"Estimators run on every event: {', '.join(MEASURED_ESTIMATORS)} or a network {{name: ann_<name>, network: file.npz}}; unique. Default [inverse_rigid].",
     )
     kalman: KalmanSettings = Field(default_factory=KalmanSettings, description="The kalman estimator's car model. Default 4 modes.")
     checks: CheckSettings = Field(default_factory=CheckSettings, description="Alarm and wear limits. Default: none checked.")
@@ -340,9 +374,13 @@ class MeasuredCase(SceneCase):
         return problems
 
     def _estimator_problems(self) -> list[Problem]:
-        """What each estimator needs of the cars (a rod body; two recorded sensors on a coupler's front car)."""
+        """What each estimator needs of the cars (a rod body; two recorded sensors on a coupler's front car;
+        a network's contract against the records)."""
         problems = []
         for i, name in enumerate(self.estimators):
+            if isinstance(name, AnnEstimatorSpec):
+                problems += [problem.under(("estimators", i)) for problem in self._network_problems(name)]
+                continue
             if name in ("kalman", "inverse_quasi_rigid"):
                 bodiless = [car.name for car in self.cars if car.body is None]
                 if bodiless:
@@ -357,14 +395,54 @@ class MeasuredCase(SceneCase):
                         problems.append(Problem(("estimators", i), f"{name} needs two sensors on car {car.name} (the front car of coupler {coupler.name})", name))
         return problems
 
+    def _network_problems(self, spec: AnnEstimatorSpec) -> list[Problem]:
+        """A network's contract against this case (:mod:`femref.sensing.network`): its coupler, its probes
+        recorded, its mass inputs declared cars, its records within the event window after contact, the
+        records filtered as its training records were, and ``kalman`` listed (the contact instant the
+        network's records start at is read from the kalman force)."""
+        contract, problems = spec.contract, []
+        couplers = [c.name for c in self.couplers]
+        if contract.coupler not in couplers:
+            problems.append(Problem((), f"the network estimates coupler {contract.coupler!r}, which this case does not have; couplers: {', '.join(couplers)}"))
+        files = {probe: record for record in self.records for probe in record.channels}
+        missing = [probe for probe in contract.probes if probe not in files]
+        if missing:
+            problems.append(Problem((), f"the network reads probe(s) {', '.join(missing)}, which are not recorded; channels: {', '.join(files)}"))
+        cars = [car.name for car in self.cars]
+        unknown = [car for car in contract.mass_inputs if car not in cars]
+        if unknown:
+            problems.append(Problem((), f"the network takes the mass of car(s) {', '.join(unknown)}, which this case does not have; cars: {', '.join(cars)}"))
+        if contract.record_end > self.events.post:
+            problems.append(Problem((), f"the network reads {contract.record_end:g} s after contact, beyond events.post = {self.events.post:g} s"))
+        trained = contract.measurement
+        for probe in (p for p in contract.probes if p in files):
+            declared = files[probe].anti_alias
+            if trained is not None and trained.lowpass is not None:
+                if declared is None:
+                    problems.append(Problem((), f"the network was trained on records low-passed at {trained.lowpass:g} Hz (order {FILTER_ORDER}); "
+                                                f"declare the anti_alias of the file recording {probe}"))
+                elif not (math.isclose(declared.corner, trained.lowpass, rel_tol=1e-6) and declared.order == FILTER_ORDER):
+                    problems.append(Problem((), f"the network was trained on records low-passed at {trained.lowpass:g} Hz (order {FILTER_ORDER}); "
+                                                f"{probe} is recorded through {declared.corner:g} Hz (order {declared.order})"))
+            elif declared is not None:
+                problems.append(Problem((), f"the network was trained on unfiltered records; {probe} is recorded through a {declared.corner:g} Hz low-pass"))
+        if "kalman" not in self.estimators:
+            problems.append(Problem((), "a network's records start at contact, read from the kalman force: list kalman among the estimators"))
+        return problems
+
     def _record_problems(self) -> list[Problem]:
         """Each file read as the run will read it: a bad file, channel or unit is the case's error."""
         problems = []
         for i, record in enumerate(self.records):
             try:
-                recordings.read_records([record.source()])
+                read = recordings.read_records([record.source()])
             except recordings.RecordError as error:
                 problems.append(Problem(("records", i), str(error)))
+                continue
+            rate = min(channel.rate for channel in read.channels.values())
+            if record.anti_alias is not None and record.anti_alias.corner >= 0.5 * rate:
+                rule = f"must be below the file's Nyquist frequency rate/2 = {0.5 * rate:g} Hz"
+                problems.append(Problem(("records", i, "anti_alias", "corner"), rule, record.anti_alias.corner))
         return problems
 
     def record_sources(self) -> tuple[recordings.RecordFile, ...]:

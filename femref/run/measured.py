@@ -13,9 +13,11 @@ on one common time grid (:func:`femref.sensing.events.window`):
   (:mod:`femref.models.inverse`; with the case's calibration file a calibrated band inside the
   calibrated ranges, otherwise ``bound = none``) and ``kalman``
   (:func:`kalman_estimate`, bands from the smoothed covariance widened by the declared cars'
-  tolerances, ``bound = covariance``);
-* takes the **primary** estimate — the first estimator of the case's list with a number and
-  a bound, else the first with a number — for the closing speed, ε, the gear's closure, the
+  tolerances, ``bound = covariance``; the recorders' declared anti-alias filters in its model),
+  then the saved networks (:func:`network_estimate`: a peak from the records started at the
+  contact found in the kalman force);
+* takes the **primary** estimate — the first estimator of the case's list with a force history,
+  a number and a bound, else the first with a history and a number — for the closing speed, ε, the gear's closure, the
   wear and the alarm:
 
   - closing speed ``v = ∫_{t_c}^{t_p} (a_front − a_rear) dt`` from the force's rise ``t_c``
@@ -47,6 +49,8 @@ from femref.models.modal import modal_car
 from femref.scene.impact import Car
 from femref.scene.measured import MeasuredScene
 from femref.sensing import events as event_finder
+from femref.sensing.contact import ContactEstimate, onset_time
+from femref.sensing.network import AnnEstimator
 from femref.sensing.recordings import Recordings, read_records
 from reduced import kalman
 from reduced.signal_tools import classify_impact, detect_closure_force
@@ -90,6 +94,8 @@ def _event(scene: MeasuredScene, recordings: Recordings, event: event_finder.Eve
     _classify(scene, result)
     for name in scene.estimators:
         result.estimates.extend(_estimates(scene, name, t, records, noise_std))
+    for network in scene.networks:
+        result.estimates.append(network_estimate(scene, network, t, records, noise_std, result.estimates))
     first = _primary(scene, result).get(scene.couplers[0].name)
     if first is not None:
         result.closing_speed = _closing_speed(scene, t, records, first)
@@ -177,16 +183,14 @@ def kalman_estimate(scene: MeasuredScene, t: NDArray[np.float64], records: dict[
     """
     coupler = scene.couplers[0]
     model = scene.kalman
-    dynamics, probes = [], []
-    for index, coupler_load in ((coupler.rear, (0.0, -1.0)), (coupler.front, (-1.0, 0.0))):
-        car = _impact_car(scene, index, records)
-        system = modal_car(car, KALMAN_FEM, model.modes, static_correction=False)
-        dynamics.append(kalman.CarDynamics(system.mass, system.damping, system.stiffness, system.load_matrix, system.sensor_outputs, coupler_load))
-        probes += [f"{car.name}/{sensor}" for sensor in car.sensors]
+    cars, probes = kalman_cars(scene, records)
+    dynamics, filters = [cars.rear, cars.front], cars.channel_filters
     y = np.column_stack([records[probe] for probe in probes])
     noise = [noise_std[probe] for probe in probes]
-    found = kalman.estimate_force(kalman.CoupledCars(*dynamics), t, y, noise, noise_scale="estimated", nis_range=KALMAN_NIS_RANGE)
+    found = kalman.estimate_force(cars, t, y, noise, noise_scale="estimated", nis_range=KALMAN_NIS_RANGE)
     settings = {"modes": model.modes, "force_rate": found.force_rate, "noise_scale": found.noise_scale, "probes": probes,
+                "declared_force_rate": found.force_rate / found.noise_scale**2,
+                "anti_alias": [None if f is None else [f.corner, f.order] for f in filters],
                 "mass_tolerance": model.mass_tolerance, "frequency_tolerance": model.frequency_tolerance,
                 "damping_factors": list(model.damping_factors)}
     if found.status != "ok":
@@ -197,12 +201,95 @@ def kalman_estimate(scene: MeasuredScene, t: NDArray[np.float64], records: dict[
     rate = found.force_rate / found.noise_scale**2  # q_P per unit of the declared noise variance
     for frequency in {1.0 - model.frequency_tolerance, 1.0 + model.frequency_tolerance}:
         for damping in set(model.damping_factors):
-            cars = [kalman.CarDynamics(c.mass, damping * c.damping, frequency**2 * c.stiffness, c.load_map, c.sensor_map, c.coupler_load) for c in dynamics]
-            variant = kalman.estimate_force(kalman.CoupledCars(*cars), t, y, noise, force_rate=rate, noise_scale="estimated", nis_range=KALMAN_NIS_RANGE)
+            changed = [kalman.CarDynamics(c.mass, damping * c.damping, frequency**2 * c.stiffness, c.load_map, c.sensor_map, c.coupler_load) for c in dynamics]
+            variant = kalman.estimate_force(kalman.CoupledCars(*changed, filters), t, y, noise, force_rate=rate, noise_scale="estimated", nis_range=KALMAN_NIS_RANGE)
             lower, upper = np.minimum(lower, variant.lower), np.maximum(upper, variant.upper)
     m = model.mass_tolerance
     lower, upper = np.minimum(lower * (1.0 - m), lower * (1.0 + m)), np.maximum(upper * (1.0 - m), upper * (1.0 + m))
     return ForceEstimate("kalman", coupler.name, t, found.force, lower, upper, bound="covariance", settings=settings)
+
+
+def kalman_cars(scene: MeasuredScene, records: dict[str, NDArray[np.float64]]) -> tuple[kalman.CoupledCars, list[str]]:
+    """The kalman estimator's model of the first coupler's two cars — rigid mode and ``scene.kalman.modes``
+    elastic modes of each car's :data:`KALMAN_FEM` mesh, observed at its recorded sensors through their
+    recorders' declared anti-alias filters — and the probes in channel order."""
+    coupler = scene.couplers[0]
+    dynamics, probes = [], []
+    for index, coupler_load in ((coupler.rear, (0.0, -1.0)), (coupler.front, (-1.0, 0.0))):
+        car = _impact_car(scene, index, records)
+        system = modal_car(car, KALMAN_FEM, scene.kalman.modes, static_correction=False)
+        dynamics.append(kalman.CarDynamics(system.mass, system.damping, system.stiffness, system.load_matrix, system.sensor_outputs, coupler_load))
+        probes += [f"{car.name}/{sensor}" for sensor in car.sensors]
+    return kalman.CoupledCars(*dynamics, _sensor_filters(scene, probes)), probes
+
+
+def _sensor_filters(scene: MeasuredScene, probes: list[str]) -> tuple[kalman.SensorFilter | None, ...]:
+    """Each probe's recorder anti-alias filter as the kalman model takes it (None: not declared)."""
+    declared = {source.probe: record.anti_alias for record in scene.records for source in record.channels}
+    return tuple(None if declared.get(probe) is None else kalman.SensorFilter(declared[probe].corner, declared[probe].order) for probe in probes)
+
+
+def kalman_contact(scene: MeasuredScene, t: NDArray[np.float64], records: dict[str, NDArray[np.float64]], noise_std: dict[str, float],
+                   estimate: ForceEstimate) -> ContactEstimate:
+    """The contact instant in the kalman force ``estimate`` (:func:`femref.sensing.contact.onset_time`).
+
+    The smoother spreads a sharp start of the force over a few samples both ways, so the chain the
+    rise is fitted through is the smoother itself: its responses to a unit step and a unit ramp of
+    the force, starting mid-record, are the model's forced response
+    (:func:`reduced.kalman.forced_response`) estimated back at the event's force-rate level (the
+    smoothed mean is linear in the records, and time-invariant away from the ends).
+    """
+    cars, probes = kalman_cars(scene, records)
+    noise = [noise_std[p] for p in probes]
+    rate = float(estimate.settings["declared_force_rate"])
+    middle = t[t.size // 2]
+    lags = t - middle
+    scale = float(np.nanmax(estimate.force))
+    responses = []
+    for unit in (np.where(lags > 0.0, 1.0, 0.0), np.maximum(lags, 0.0) / (t[-1] - t[0])):
+        accelerations = kalman.forced_response(cars, t, scale * unit)
+        smoothed = kalman.estimate_force(cars, t, accelerations, noise, force_rate=rate, nis_range=(1e-300, math.inf)).force / scale
+        responses.append(smoothed)
+    return onset_time(t, np.nan_to_num(estimate.force), lags, responses[0], responses[1] * (t[-1] - t[0]))
+
+
+def network_estimate(scene: MeasuredScene, network: AnnEstimator, t: NDArray[np.float64], records: dict[str, NDArray[np.float64]],
+                     noise_std: dict[str, float], estimates: list[ForceEstimate]) -> ForceEstimate:
+    """A saved network's peak force on the event, its records started at contact as its training records were.
+
+    The contact instant ``t_c`` is where the kalman force of the network's coupler began
+    (:func:`kalman_contact`). The records from ``t_c`` on, on ``t − t_c``, go through the network
+    (:meth:`femref.sensing.network.AnnEstimator.peak_force`) with the declared car masses. A peak,
+    not a history: ``time`` and ``force`` hold the one value at ``t_c``. Bound ``none``: the error
+    a network file reports is measured on its own training source, not on these records (a
+    calibration file that covers the network gives it a calibrated band).
+    """
+    started = _time.perf_counter()
+    nan = np.full(1, np.nan)
+    settings = dict(network.settings)
+    source = next((e for e in estimates if e.estimator == "kalman" and e.coupler == network.coupler), None)
+    if source is None or not source.ok:
+        why = "no kalman force to find the contact in" if source is None else f"the kalman force has no number ({source.message})"
+        return ForceEstimate(network.name, network.coupler, np.full(1, t[0]), nan, nan, nan.copy(), status="failed", message=why, settings=settings)
+    try:
+        contact = kalman_contact(scene, t, records, noise_std, source)
+        after = t >= contact.time
+        histories = {probe: records[probe][after] for probe in network.contract.probes}
+        peak = network.peak_force(t[after] - contact.time, histories, {car.name: car.mass for car in scene.cars})
+    except ValueError as error:
+        return ForceEstimate(network.name, network.coupler, np.full(1, t[0]), nan, nan, nan.copy(), status="failed",
+                             message=f"{type(error).__name__}: {error}", settings=settings)
+    settings.update(contact_time=contact.time, contact_fit_residual=contact.residual)
+    if not math.isfinite(peak):
+        return ForceEstimate(network.name, network.coupler, np.full(1, contact.time), nan, nan, nan.copy(), status="failed",
+                             message="the network gave a non-finite force", settings=settings)
+    training = network.contract.training.get("validation_mean_error")
+    note = f" (its file reports {training:.1%} mean error on its own training source: not a bound here)" if isinstance(training, (int, float)) else ""
+    estimate = ForceEstimate(network.name, network.coupler, np.full(1, contact.time), np.full(1, peak), nan, nan.copy(), bound="none",
+                             message="peak only, records from the contact in the kalman force; no calibration of this network: no band" + note,
+                             settings=settings)
+    estimate.wall_time_s = _time.perf_counter() - started
+    return estimate
 
 
 def _calibrated(scene: MeasuredScene, result: EventResult) -> None:
@@ -227,10 +314,11 @@ def _calibrated(scene: MeasuredScene, result: EventResult) -> None:
 
 
 def _primary(scene: MeasuredScene, result: EventResult) -> dict[str, ForceEstimate]:
-    """Per coupler, the first estimate of the case's list with a number and a bound, else the first with a number."""
+    """Per coupler, the first force history of the case's list with a number and a bound, else the first history
+    with a number (a network's peak is no history)."""
     primary: dict[str, ForceEstimate] = {}
     for coupler in scene.couplers:
-        estimates = [e for e in result.estimates if e.coupler == coupler.name and e.ok]
+        estimates = [e for e in result.estimates if e.coupler == coupler.name and e.ok and e.time.size > 1]
         bounded = [e for e in estimates if e.bound != "none"]
         if bounded or estimates:
             primary[coupler.name] = (bounded or estimates)[0]
@@ -308,4 +396,4 @@ def _impact_car(scene: MeasuredScene, index: int, records: dict[str, NDArray[np.
     return Car(car.name, car.body, 0.0, {name: x for name, x in car.sensors.items() if f"{car.name}/{name}" in records})
 
 
-__all__ = ["KALMAN_FEM", "MeasuredOutcome", "kalman_estimate", "run_measured"]
+__all__ = ["KALMAN_FEM", "MeasuredOutcome", "kalman_cars", "kalman_contact", "kalman_estimate", "network_estimate", "run_measured"]

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 from femref.core.body import Body
 from femref.sensing.calibration import Calibration
+from femref.sensing.network import AnnEstimator
 from femref.sensing.recordings import RecordFile
 
 
@@ -67,7 +68,8 @@ class KalmanModel:
 @dataclass(frozen=True, eq=False)
 class MeasuredScene:
     """Record files, cars and couplers, how events are cut (``trigger`` m/s², ``pre``/``post`` s), the
-    estimators run on each event, the kalman estimator's car model and the checks."""
+    estimators run on each event (by name; the saved ``networks`` run after them), the kalman estimator's
+    car model and the checks."""
 
     records: tuple[RecordFile, ...]
     cars: tuple[MeasuredCar, ...]
@@ -77,6 +79,7 @@ class MeasuredScene:
     post: float
     estimators: tuple[str, ...]
     kalman: KalmanModel = KalmanModel()
+    networks: tuple[AnnEstimator, ...] = ()
     checks: Checks = Checks()
     calibration: Calibration | None = None
 

@@ -78,13 +78,23 @@ class TimeSource:
 
 
 @dataclass(frozen=True)
+class AntiAlias:
+    """A recorder's analogue anti-alias low-pass: Butterworth of ``order`` at ``corner`` Hz."""
+
+    corner: float
+    order: int = 4
+
+
+@dataclass(frozen=True)
 class RecordFile:
-    """One recorder's file: its times, its clock offset (s, added to them) and its channels."""
+    """One recorder's file: its times, its clock offset (s, added to them), its channels and the
+    anti-alias filter its channels passed before sampling (None: not declared)."""
 
     path: Path
     time: TimeSource
     clock_offset: float
     channels: tuple[ChannelSource, ...]
+    anti_alias: AntiAlias | None = None
 
 
 @dataclass(frozen=True)
@@ -98,7 +108,8 @@ class QualityInterval:
 
 @dataclass(frozen=True, eq=False)
 class Channel:
-    """One probe's record: times (s), acceleration (m/s², NaN in gaps), rate (Hz), file and quality."""
+    """One probe's record: times (s), acceleration (m/s², NaN in gaps), rate (Hz), file, quality and the
+    recorder's anti-alias filter (None: not declared)."""
 
     probe: str
     time: NDArray[np.float64]
@@ -106,6 +117,7 @@ class Channel:
     rate: float
     file: str
     quality: tuple[QualityInterval, ...]
+    anti_alias: AntiAlias | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -166,7 +178,7 @@ def _read_file(record: RecordFile) -> list[Channel]:
         if not np.any(np.isfinite(a)):
             raise RecordError(f"{label}: no finite value")
         a = a * ACCELERATION_UNITS[source.unit]
-        channels.append(Channel(source.probe, time, a, rate, name, _quality(time, a)))
+        channels.append(Channel(source.probe, time, a, rate, name, _quality(time, a), record.anti_alias))
     return channels
 
 
@@ -270,6 +282,7 @@ def _runs(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:
 
 
 __all__ = [
+    "AntiAlias",
     "ACCELERATION_UNITS", "TIME_UNITS", "Channel", "ChannelSource", "QualityInterval", "RecordError", "RecordFile",
     "Recordings", "TimeSource", "read_records",
 ]

@@ -75,6 +75,10 @@ def _bad(tmp_path, valid, edit):
         (lambda d: d.update(models=["fem"]), "models", r"'models' is a key of simulated cases"),
         (lambda d: d["events"].update(trigger=0.0), "events.trigger", r"must be > 0"),
         (lambda d: d.update(calibration="nope.h5"), "calibration", r"calibration file .*nope\.h5 not found"),
+        (lambda d: d["records"][0].update(anti_alias={"corner": 600.0}), "records[0].anti_alias.corner", r"must be below the file's Nyquist frequency rate/2 = 500 Hz"),
+        (lambda d: d["records"][0].update(anti_alias={"corner": 100.0, "order": 9}), "records[0].anti_alias.order", r"must be <= 8; got 9"),
+        (lambda d: d["records"][0].update(anti_alias={"order": 4}), "records[0].anti_alias.corner", r"required"),
+        (lambda d: d.update(estimators=["ann_fem"]), "estimators[0]", r"unknown estimator \(a network estimator is a mapping \{name: ann_fem, network: file.npz\}\)"),
     ],
 )
 def test_a_bad_measured_case_names_the_key_and_rule(tmp_path, valid, edit, key_path, rule):
@@ -92,3 +96,25 @@ def test_kalman_tolerances_are_checked(tmp_path, valid):
     ):
         message = _bad(tmp_path, valid, lambda d, settings=settings: d.update(kalman=settings))
         assert re.search(expect(key_path, rule), message), message
+
+
+NETWORK = str((__import__("pathlib").Path(__file__).parents[2] / "cases" / "networks" / "fem_mlp.npz").resolve())
+
+
+def test_a_network_on_measured_records_is_checked_against_them(tmp_path, valid):
+    """A saved network's contract against a measured case: its probes recorded, the recorders' filter
+    that of its training records (100 Hz, 4th order), kalman listed for the contact instant, its
+    records within the event window; each problem names the estimator."""
+    data = copy.deepcopy(valid)
+    data["estimators"] = ["inverse_rigid", {"name": "ann_fem", "network": NETWORK}]
+    data["events"]["post"] = 0.4
+    message = _bad(tmp_path, valid, lambda d: d.update(estimators=data["estimators"], events=data["events"]))
+    for rule in (r"the network reads probe\(s\) anvil/center, anvil/front, which are not recorded",
+                 r"the network was trained on records low-passed at 100 Hz \(order 4\); declare the anti_alias of the file recording hammer/center",
+                 r"a network's records start at contact, read from the kalman force: list kalman among the estimators",
+                 r"the network reads 0\.5 s after contact, beyond events\.post = 0\.4 s"):
+        assert re.search(expect("estimators[1]", rule), message), (rule, message)
+    filtered = copy.deepcopy(valid)
+    filtered["records"][0]["anti_alias"] = {"corner": 200.0}
+    message = _bad(tmp_path, filtered, lambda d: d.update(estimators=data["estimators"]))
+    assert re.search(expect("estimators[1]", r"the network was trained on records low-passed at 100 Hz \(order 4\); hammer/center is recorded through 200 Hz \(order 4\)"), message), message

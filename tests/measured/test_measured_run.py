@@ -45,8 +45,9 @@ def test_the_default_scene_recorded_gives_the_fem_force_within_its_band(tmp_path
     peak, lower, upper = estimates["kalman"].peak
     assert abs(peak / truth - 1.0) < 0.01
     # the declared tolerances (masses ±5 %, frequencies ±15 %, viscosity × 0.6–1.6) widen the band: the
-    # masses alone by ±5 %, since the accelerations cannot tell a heavier car under a larger force
-    assert lower <= truth <= upper and 0.05 * peak < 0.5 * (upper - lower) < 0.12 * peak
+    # masses alone by ±5 %, since the accelerations cannot tell a heavier car under a larger force; the
+    # recorders' 100 Hz filter, modelled, hides what lies above it (measured ±13 %; ±8.6 % ignoring the filter)
+    assert lower <= truth <= upper and 0.05 * peak < 0.5 * (upper - lower) < 0.15 * peak
     assert estimates["kalman"].bound == "covariance"
     assert estimates["inverse_rigid"].bound == "none" and np.isnan(estimates["inverse_rigid"].peak[1])
     assert abs(estimates["inverse_rigid"].peak[0] / truth - 1.0) < 0.10  # body vibration at its sensor: no better
@@ -64,7 +65,7 @@ def test_without_tolerances_the_band_is_the_sensor_noises_alone(tmp_path):
     event.path.write_text(yaml.safe_dump(case, sort_keys=False))
     peak, lower, upper = run_measured(scene_from_case(load_case(event.path))).events[0].estimates[0].peak
     truth = float(np.max(event.force))
-    assert lower <= truth <= upper and 0.5 * (upper - lower) < 0.01 * peak
+    assert lower <= truth <= upper and 0.5 * (upper - lower) < 0.02 * peak  # measured ±1.6 % (the 100 Hz filter modelled)
 
 
 def test_alarm_possible_when_only_the_bands_upper_end_crosses(tmp_path):
@@ -80,19 +81,22 @@ def test_alarm_possible_when_only_the_bands_upper_end_crosses(tmp_path):
 
 @pytest.mark.parametrize("rated, wear", [(1.05, "ok"), (1.5, "worn")])
 def test_a_gear_driven_solid_is_closed_and_judged_against_its_rating(tmp_path, rated, wear):
-    """At 4 m/s the gear closes; its closure force from the kalman force is within 5 % of the fem's
-    (the gear spring at full stroke, 17 MN/m × 0.165 m plus its damper), and the wear check compares it
-    with the rating: a rating 5 % above the measured closure is within tolerance, 50 % above is worn."""
+    """At 4 m/s the gear closes at 67 % of the peak; its closure force from the kalman force is within
+    5 % of the fem's exact one (measured −2.1 %; the fem force where the gear stroke ``x_g = δ − D P``,
+    ``D = 1/c1 + 1/c2``, reaches 0.165 m), and the wear check compares it with the rating: a rating 5 %
+    above the measured closure is within tolerance, 50 % above is worn."""
     event = simulated_event(tmp_path, _gear_solid(4.0), estimators=("kalman",))
     found = run_measured(scene_from_case(load_case(event.path))).events[0]
     peak, lower, upper = found.estimates[0].peak
     assert lower <= float(np.max(event.force)) <= upper and abs(peak / np.max(event.force) - 1.0) < 0.01
     closure = found.closures[0]
     assert closure.status == "closed", closure.message
-    from reduced.signal_tools import detect_closure_force
-
-    truth = detect_closure_force(event.time, event.force).closure_force
-    assert truth is not None and abs(closure.closure_force / truth - 1.0) < 0.05
+    gear = _gear_solid(4.0)["couplers"][0]["law"]["draft_gear"]
+    stroke = event.closure - event.force * (1.0 / gear["series_stiffness_1"] + 1.0 / gear["series_stiffness_2"])
+    solid = int(np.flatnonzero(stroke >= gear["stroke"])[0])
+    truth = float(np.interp(gear["stroke"], stroke[solid - 1 : solid + 1], event.force[solid - 1 : solid + 1]))
+    assert abs(closure.closure_force / truth - 1.0) < 0.05
+    assert closure.force_lower <= closure.closure_force <= closure.force_upper
     case = copy.deepcopy(event.case)
     case["checks"] = {"rated_closure_force": float(rated * closure.closure_force), "wear_tolerance": 0.15}
     event.path.write_text(yaml.safe_dump(case, sort_keys=False))

@@ -25,13 +25,15 @@ G = 9.80665
 
 @dataclass
 class SimulatedEvent:
-    """The measured case (dict and path), the fem truth (time from contact, coupler force) and the contact time in the records (s)."""
+    """The measured case (dict and path), the fem truth (time from contact, coupler force and closure δ) and the
+    contact time in the records (s)."""
 
     case: dict[str, Any]
     path: Path
     time: np.ndarray
     force: np.ndarray
     contact_time: float
+    closure: np.ndarray
 
 
 def simulated_event(
@@ -41,7 +43,7 @@ def simulated_event(
     quiet: float = 0.1,
     clock: float = 100.0,
     offset_g: float = 0.002,
-    estimators: tuple[str, ...] = ("inverse_rigid", "kalman"),
+    estimators: tuple[str | dict[str, str], ...] = ("inverse_rigid", "kalman"),
     checks: dict[str, float] | None = None,
     trigger: float = 3.0,
     seed: int = 0,
@@ -65,11 +67,13 @@ def simulated_event(
             columns[sensor] = np.concatenate([rng.normal(0.0, noise, before.size), a]) / G + offset_g
         np.savetxt(tmp_path / f"{car['name']}.csv", np.column_stack(list(columns.values())), delimiter=",", header=",".join(columns), comments="")
     coupler = data["couplers"][0]
+    lowpass = data["measurement"].get("lowpass")  # the recorder's anti-alias filter, declared
     case = {
         "kind": "measured",
         "records": [
             {"file": f"{car['name']}.csv", "time": {"column": "t", "unit": "s"},
-             "channels": {f"{car['name']}/{s}": {"column": s, "unit": "g"} for s in car["sensors"]}}
+             "channels": {f"{car['name']}/{s}": {"column": s, "unit": "g"} for s in car["sensors"]},
+             **({"anti_alias": {"corner": lowpass, "order": 4}} if lowpass else {})}
             for car in data["cars"]
         ],
         "cars": [{"name": car["name"], "body": car["body"], "sensors": car["sensors"]} for car in data["cars"]],
@@ -82,4 +86,4 @@ def simulated_event(
     path = tmp_path / "measured.yaml"
     path.write_text(yaml.safe_dump(case, sort_keys=False))
     name = case["couplers"][0]["name"]
-    return SimulatedEvent(case, path, fem.axes["time"], fem.couplers[name]["force"], clock)
+    return SimulatedEvent(case, path, fem.axes["time"], fem.couplers[name]["force"], clock, fem.couplers[name]["closure"])
