@@ -131,6 +131,8 @@ def calibrate_command(sweep_path: Path, results: Path, output: Path | None, coup
     for name in calibration.errors:
         e_lo, e_hi = calibration.error_band(name)
         click.echo(f"{name}: peak error 95 % band [{e_lo:+.1%}, {e_hi:+.1%}] over {calibration.errors[name].size} samples")
-    click.echo(f"valid for closing speeds {lo:.3g}–{hi:.3g} m/s and car masses "
-               + ", ".join(f"{car} {a / 1e3:.0f}–{b / 1e3:.0f} t" for car, (a, b) in calibration.masses.items()))
+    chain = "unfiltered records" if calibration.lowpass is None else f"records low-passed at {calibration.lowpass:g} Hz"
+    click.echo(f"valid for closing speeds {lo:.3g}–{hi:.3g} m/s, car masses "
+               + ", ".join(f"{car} {a / 1e3:.0f}–{b / 1e3:.0f} t" for car, (a, b) in calibration.masses.items())
+               + f", {chain} with sensor noise up to {calibration.noise[1]:.3g} m/s²")
     click.echo(f"wrote {written}")

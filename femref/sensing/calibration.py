@@ -9,12 +9,16 @@ the band
     P ∈ [P̂ / (1 + e_hi), P̂ / (1 + e_lo)],   e_lo, e_hi the 2.5 % and 97.5 % quantiles of e
 
 (``bound = calibrated``); outside them the bound is ``none`` and the event says why — a band
-calibrated on other impacts is not made up for this one.
+calibrated on other impacts is not made up for this one. The ranges are the closing speeds and
+car masses the sweep covered, and its measurement chain: the anti-alias corner its records went
+through (a recorder with another filter is outside) and the largest sensor noise (an event
+noisier than 1.25 × that is outside).
 
 File (written atomically)::
 
     /  attrs: femref_version, created, sweep_yaml, coupler, samples, quantiles (JSON),
-              closing_speed (JSON [lo, hi], m/s), masses (JSON {car: [lo, hi]}, kg)
+              closing_speed (JSON [lo, hi], m/s), masses (JSON {car: [lo, hi]}, kg),
+              lowpass (JSON, Hz or null: the chain's anti-alias corner), noise (JSON [lo, hi], m/s²)
     /errors/<estimator>   (samples,) relative peak errors
 """
 
@@ -32,6 +36,9 @@ from numpy.typing import NDArray
 
 QUANTILES = (0.025, 0.975)
 """The band's quantiles of the relative peak error: a 95 % band."""
+NOISE_MARGIN = 1.25
+"""An event's channel noise may exceed the largest calibrated noise by this factor (a std measured on
+50 quiet samples scatters by about 10 %)."""
 
 
 class CalibrationFileError(ValueError):
@@ -46,6 +53,8 @@ class Calibration:
     errors: dict[str, NDArray[np.float64]]
     closing_speed: tuple[float, float]
     masses: dict[str, tuple[float, float]]
+    lowpass: float | None = None
+    noise: tuple[float, float] = (0.0, 0.0)
     sweep_yaml: str = ""
 
     def error_band(self, estimator: str) -> tuple[float, float]:
@@ -53,8 +62,12 @@ class Calibration:
         lo, hi = np.quantile(self.errors[estimator], QUANTILES)
         return float(lo), float(hi)
 
-    def outside(self, closing_speed: float, masses: dict[str, float]) -> list[str]:
-        """Why an event is outside the calibrated ranges (empty when inside)."""
+    def outside(self, closing_speed: float, masses: dict[str, float], lowpass: dict[str, float | None] | None = None,
+                noise: dict[str, float] | None = None) -> list[str]:
+        """Why an event is outside the calibrated ranges (empty when inside): its closing speed (m/s), car
+        masses (kg), and — when given — each channel's anti-alias corner (Hz, None: unfiltered) against the
+        calibration's chain and each channel's noise std (m/s²) against :data:`NOISE_MARGIN` × the largest
+        calibrated one."""
         reasons = []
         lo, hi = self.closing_speed
         if not (math.isfinite(closing_speed) and lo <= closing_speed <= hi):
@@ -66,7 +79,20 @@ class Calibration:
             lo, hi = self.masses[car]
             if not lo <= mass <= hi:
                 reasons.append(f"car {car}'s mass {mass:.4g} kg outside the calibrated [{lo:.4g}, {hi:.4g}] kg")
+        for probe, corner in (lowpass or {}).items():
+            if not (corner is None and self.lowpass is None or corner is not None and self.lowpass is not None
+                    and math.isclose(corner, self.lowpass, rel_tol=1e-6)):
+                reasons.append(f"{probe} is recorded {_chain(corner)}; the calibration's records were {_chain(self.lowpass)}")
+        limit = NOISE_MARGIN * self.noise[1]
+        noisy = {probe: std for probe, std in (noise or {}).items() if std > limit}
+        if noisy:
+            worst = max(noisy, key=noisy.__getitem__)
+            reasons.append(f"{worst}'s noise {noisy[worst]:.3g} m/s² exceeds the calibrated {self.noise[1]:.3g} m/s² (× {NOISE_MARGIN:g})")
         return reasons
+
+
+def _chain(corner: float | None) -> str:
+    return "unfiltered (no anti_alias declared)" if corner is None else f"through a {corner:g} Hz low-pass"
 
 
 def write_calibration(calibration: Calibration, path: str | Path) -> Path:
@@ -80,7 +106,8 @@ def write_calibration(calibration: Calibration, path: str | Path) -> Path:
                         sweep_yaml=calibration.sweep_yaml, coupler=calibration.coupler,
                         samples=int(min((e.size for e in calibration.errors.values()), default=0)),
                         quantiles=json.dumps(list(QUANTILES)), closing_speed=json.dumps(list(calibration.closing_speed)),
-                        masses=json.dumps({car: list(r) for car, r in calibration.masses.items()}))
+                        masses=json.dumps({car: list(r) for car, r in calibration.masses.items()}),
+                        lowpass=json.dumps(calibration.lowpass), noise=json.dumps(list(calibration.noise)))
         for name, errors in calibration.errors.items():
             h5.create_dataset(f"errors/{name}", data=np.asarray(errors, dtype=float))
     return path
@@ -100,6 +127,8 @@ def read_calibration(path: str | Path) -> Calibration:
                 errors=errors,
                 closing_speed=tuple(json.loads(attrs["closing_speed"])),  # type: ignore[arg-type]
                 masses={car: tuple(r) for car, r in json.loads(attrs["masses"]).items()},  # type: ignore[misc]
+                lowpass=json.loads(attrs["lowpass"]),
+                noise=tuple(json.loads(attrs["noise"])),  # type: ignore[arg-type]
                 sweep_yaml=str(attrs.get("sweep_yaml", "")),
             )
     except (OSError, KeyError, ValueError, TypeError) as error:
@@ -110,4 +139,4 @@ def read_calibration(path: str | Path) -> Calibration:
     return calibration
 
 
-__all__ = ["QUANTILES", "Calibration", "CalibrationFileError", "read_calibration", "write_calibration"]
+__all__ = ["NOISE_MARGIN", "QUANTILES", "Calibration", "CalibrationFileError", "read_calibration", "write_calibration"]

@@ -8,7 +8,8 @@ fem records (through the measurement chain when the sweep has one) and keeps
     e = P̂ / P − 1      (P̂ the estimator's peak, P fem's peak of the coupler)
 
 per sample, with the ranges the sweep covered: the closing speed ``v_rear − v_front`` of the
-coupler's cars and every car's mass. :mod:`femref.sensing.calibration` holds and reads the
+coupler's cars, every car's mass, and its measurement chain (one anti-alias corner; the sensor
+noise range). :mod:`femref.sensing.calibration` holds and reads the
 result; a measured case names the file under ``calibration:``.
 """
 
@@ -47,11 +48,18 @@ def calibrate(sweep: Sweep, results: Path, coupler: str | None = None) -> Calibr
     pair = next(c for c in data.scenes[0].couplers if c.name == coupler)
     speeds = [scene.cars[pair.rear].velocity - scene.cars[pair.front].velocity for scene in data.scenes]
     masses = data.car_masses
+    chains = [scene.measurement for scene in data.scenes]
+    corners = {None if chain is None else chain.lowpass for chain in chains}
+    if len(corners) > 1:
+        raise ValueError(f"{results}: the sweep's samples went through different anti-alias filters ({', '.join(map(str, corners))}); calibrate one chain at a time")
+    noise = [0.0 if chain is None else chain.noise for chain in chains]
     return Calibration(
         coupler=coupler,
         errors=errors,
         closing_speed=(float(min(speeds)), float(max(speeds))),
         masses={name: (float(masses[:, k].min()), float(masses[:, k].max())) for k, name in enumerate(data.car_names)},
+        lowpass=corners.pop(),
+        noise=(float(min(noise)), float(max(noise))),
         sweep_yaml=data.data.sweep_yaml,
     )
 

@@ -36,21 +36,32 @@ def test_inverse_bands_from_a_calibration_sweep(tmp_path):
     e_lo, e_hi = calibration.error_band("inverse_rigid")
     assert calibration.errors["inverse_rigid"].size == 24 and e_lo < e_hi and 1.5 <= calibration.closing_speed[0] < calibration.closing_speed[1] <= 3.0
 
-    def measured(speed: float, folder):
+    assert calibration.lowpass == 100.0 and calibration.noise == (0.05, 0.05)
+
+    def measured(speed: float, folder, noise: float = 0.05, declare_filter: bool = True):
         folder.mkdir()
         data = copy.deepcopy(default_scene_data())
         data["cars"][0]["velocity"] = speed
+        data["measurement"]["noise"] = noise
         event = simulated_event(folder, data, estimators=("inverse_rigid",))
         case = copy.deepcopy(event.case)
         case["calibration"] = str(tmp_path / "calibration.h5")
+        if not declare_filter:
+            for record in case["records"]:
+                record.pop("anti_alias")
         event.path.write_text(yaml.safe_dump(case, sort_keys=False))
         found = run_measured(scene_from_case(load_case(event.path))).events[0]
         return found.estimates[0], float(np.max(event.force))
 
     inside, truth = measured(2.2, tmp_path / "inside")
     peak, lower, upper = inside.peak
-    assert inside.bound == "calibrated" and inside.in_calibrated_range is True
+    assert inside.bound == "calibrated" and inside.in_calibrated_range is True, inside.message
     assert lower <= truth <= upper and np.isclose(lower, peak / (1 + e_hi)) and np.isclose(upper, peak / (1 + e_lo))
     outside, _ = measured(3.8, tmp_path / "outside")
     assert outside.bound == "none" and outside.in_calibrated_range is False and np.isnan(outside.peak[1])
     assert "closing speed" in outside.message and "outside the calibrated" in outside.message
+    # the measurement chain is part of the range: another filter, or twice the calibrated noise, is outside
+    unfiltered, _ = measured(2.2, tmp_path / "unfiltered", declare_filter=False)
+    assert unfiltered.bound == "none" and "recorded unfiltered (no anti_alias declared); the calibration's records were through a 100 Hz low-pass" in unfiltered.message
+    noisy, _ = measured(2.2, tmp_path / "noisy", noise=0.1)
+    assert noisy.bound == "none" and "exceeds the calibrated 0.05 m/s²" in noisy.message
