@@ -297,12 +297,12 @@ def network_estimate(scene: MeasuredScene, network: AnnEstimator, t: NDArray[np.
 
 def _calibrated(scene: MeasuredScene, result: EventResult, noise_std: dict[str, float]) -> None:
     """Calibrated bands on the inverse estimates of the calibrated coupler (:mod:`femref.sensing.calibration`):
-    ``P ∈ [P̂/(1 + e_hi), P̂/(1 + e_lo)]`` inside the calibrated closing speeds, car masses, anti-alias filter
-    and sensor noise; outside, no band and the reason."""
+    ``P ∈ [P̂/(1 + e_hi), P̂/(1 + e_lo)]`` inside the calibrated closing speeds, car masses, anti-alias filter,
+    sensor noise and impact type; outside, no band and the reason."""
     calibration = scene.calibration
     assert calibration is not None
     filters = {source.probe: None if record.anti_alias is None else record.anti_alias.corner for record in scene.records for source in record.channels}
-    outside = calibration.outside(result.closing_speed, {car.name: car.mass for car in scene.cars}, filters, noise_std)
+    outside = calibration.outside(result.closing_speed, {car.name: car.mass for car in scene.cars}, filters, noise_std, result.impact_type)
     for estimate in result.estimates:
         if estimate.estimator not in calibration.errors or estimate.coupler != calibration.coupler or not estimate.ok:
             continue

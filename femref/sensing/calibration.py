@@ -12,13 +12,15 @@ the band
 calibrated on other impacts is not made up for this one. The ranges are the closing speeds and
 car masses the sweep covered, and its measurement chain: the anti-alias corner its records went
 through (a recorder with another filter is outside) and the largest sensor noise (an event
-noisier than 1.25 × that is outside).
+noisier than 1.25 × that is outside), and the impact type (a compression-only coupler's
+impacts are free to roll, a bilateral one's coupled; an event classified otherwise is outside).
 
 File (written atomically)::
 
     /  attrs: femref_version, created, sweep_yaml, coupler, samples, quantiles (JSON),
               closing_speed (JSON [lo, hi], m/s), masses (JSON {car: [lo, hi]}, kg),
-              lowpass (JSON, Hz or null: the chain's anti-alias corner), noise (JSON [lo, hi], m/s²)
+              lowpass (JSON, Hz or null: the chain's anti-alias corner), noise (JSON [lo, hi], m/s²),
+              impact_type (free_to_roll | coupled: the coupler's contact in the sweep)
     /errors/<estimator>   (samples,) relative peak errors
 """
 
@@ -55,6 +57,7 @@ class Calibration:
     masses: dict[str, tuple[float, float]]
     lowpass: float | None = None
     noise: tuple[float, float] = (0.0, 0.0)
+    impact_type: str = "free_to_roll"
     sweep_yaml: str = ""
 
     def error_band(self, estimator: str) -> tuple[float, float]:
@@ -63,12 +66,14 @@ class Calibration:
         return float(lo), float(hi)
 
     def outside(self, closing_speed: float, masses: dict[str, float], lowpass: dict[str, float | None] | None = None,
-                noise: dict[str, float] | None = None) -> list[str]:
+                noise: dict[str, float] | None = None, impact_type: str | None = None) -> list[str]:
         """Why an event is outside the calibrated ranges (empty when inside): its closing speed (m/s), car
         masses (kg), and — when given — each channel's anti-alias corner (Hz, None: unfiltered) against the
-        calibration's chain and each channel's noise std (m/s²) against :data:`NOISE_MARGIN` × the largest
-        calibrated one."""
+        calibration's chain, each channel's noise std (m/s²) against :data:`NOISE_MARGIN` × the largest
+        calibrated one, and its impact type against the calibration's."""
         reasons = []
+        if impact_type is not None and impact_type != self.impact_type:
+            reasons.append(f"a {impact_type} impact; the calibration's impacts were {self.impact_type}")
         lo, hi = self.closing_speed
         if not (math.isfinite(closing_speed) and lo <= closing_speed <= hi):
             reasons.append(f"closing speed {closing_speed:.3g} m/s outside the calibrated [{lo:.3g}, {hi:.3g}] m/s")
@@ -107,7 +112,8 @@ def write_calibration(calibration: Calibration, path: str | Path) -> Path:
                         samples=int(min((e.size for e in calibration.errors.values()), default=0)),
                         quantiles=json.dumps(list(QUANTILES)), closing_speed=json.dumps(list(calibration.closing_speed)),
                         masses=json.dumps({car: list(r) for car, r in calibration.masses.items()}),
-                        lowpass=json.dumps(calibration.lowpass), noise=json.dumps(list(calibration.noise)))
+                        lowpass=json.dumps(calibration.lowpass), noise=json.dumps(list(calibration.noise)),
+                        impact_type=calibration.impact_type)
         for name, errors in calibration.errors.items():
             h5.create_dataset(f"errors/{name}", data=np.asarray(errors, dtype=float))
     return path
@@ -129,6 +135,7 @@ def read_calibration(path: str | Path) -> Calibration:
                 masses={car: tuple(r) for car, r in json.loads(attrs["masses"]).items()},  # type: ignore[misc]
                 lowpass=json.loads(attrs["lowpass"]),
                 noise=tuple(json.loads(attrs["noise"])),  # type: ignore[arg-type]
+                impact_type=str(attrs["impact_type"]),
                 sweep_yaml=str(attrs.get("sweep_yaml", "")),
             )
     except (OSError, KeyError, ValueError, TypeError) as error:

@@ -8,8 +8,8 @@ fem records (through the measurement chain when the sweep has one) and keeps
     e = P̂ / P − 1      (P̂ the estimator's peak, P fem's peak of the coupler)
 
 per sample, with the ranges the sweep covered: the closing speed ``v_rear − v_front`` of the
-coupler's cars, every car's mass, and its measurement chain (one anti-alias corner; the sensor
-noise range). :mod:`femref.sensing.calibration` holds and reads the
+coupler's cars, every car's mass, its measurement chain (one anti-alias corner; the sensor
+noise range) and its impact type (one coupler contact). :mod:`femref.sensing.calibration` holds and reads the
 result; a measured case names the file under ``calibration:``.
 """
 
@@ -53,6 +53,9 @@ def calibrate(sweep: Sweep, results: Path, coupler: str | None = None) -> Calibr
     if len(corners) > 1:
         raise ValueError(f"{results}: the sweep's samples went through different anti-alias filters ({', '.join(map(str, corners))}); calibrate one chain at a time")
     noise = [0.0 if chain is None else chain.noise for chain in chains]
+    contacts = {next(c for c in scene.couplers if c.name == coupler).coupling.contact for scene in data.scenes}
+    if len(contacts) > 1:
+        raise ValueError(f"{results}: the sweep's coupler {coupler} is compression-only in some samples and bilateral in others; calibrate one impact type at a time")
     return Calibration(
         coupler=coupler,
         errors=errors,
@@ -60,6 +63,7 @@ def calibrate(sweep: Sweep, results: Path, coupler: str | None = None) -> Calibr
         masses={name: (float(masses[:, k].min()), float(masses[:, k].max())) for k, name in enumerate(data.car_names)},
         lowpass=corners.pop(),
         noise=(float(min(noise)), float(max(noise))),
+        impact_type="free_to_roll" if contacts.pop() == "compression_only" else "coupled",
         sweep_yaml=data.data.sweep_yaml,
     )
 
