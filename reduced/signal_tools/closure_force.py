@@ -130,14 +130,13 @@ def detect_closure_force(time: ArrayLike, force: ArrayLike) -> ClosureForceEstim
         raise ValueError(f"only {n} samples from the force's rise to its fall below 90 % of the peak: sample faster")
     span = float(tw[-1])
     omegas = np.geomspace(0.2 / span, 6.0 * math.pi / span, _OMEGAS)
-    soft_rss, soft_coef, soft_fit = _soft_profile(tw, fw, omegas, np.geomspace(1.0 / span, 100.0 / span, _DECAYS))
-    stiff_rss, stiff_coef = _sine_profile(tw, fw, omegas, from_end=True)
     window = (float(t[start]), float(t[end]))
     peak_time, residual_scale = float(t[i_m]), math.sqrt(1.0 / n) / f_m
-
     # candidate change points between samples k and k+1, above SEARCH_LEVEL·F_m and before the peak
     k = np.arange(_SOFT_PARAMETERS, min(n - _STIFF_PARAMETERS - 2, i_m - start))
     k = k[smooth[start + k] >= SEARCH_LEVEL * f_m]
+    soft_rss, soft_coef, soft_fit = _soft_profile(tw, fw, omegas, np.geomspace(1.0 / span, 100.0 / span, _DECAYS), np.append(k, n - 1))
+    stiff_rss, stiff_coef = _sine_profile(tw, fw, omegas, from_end=True, at=k + 1)
     null_rss = float(soft_fit[-1])
     if k.size == 0:
         return ClosureForceEstimate("not closed", "the force rises too fast for a change point above 20 % of the peak",
@@ -224,10 +223,12 @@ class _SoftFit:
         return float(self.rss_whole[index])
 
 
-def _least_squares_profile(basis: NDArray[np.float64], f: NDArray[np.float64], from_end: bool) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def _least_squares_profile(basis: NDArray[np.float64], f: NDArray[np.float64], from_end: bool,
+                           at: NDArray[np.intp] | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Residual sum and coefficients of the least-squares fit ``basis @ x ≈ f`` over samples
-    ``0..k`` (or ``k..n−1`` with ``from_end``) for every k, from cumulative normal equations.
-    ``basis`` is (grid, n, p); returns (grid, n) and (grid, n, p)."""
+    ``0..k`` (or ``k..n−1`` with ``from_end``) for every k (or the k in ``at``; the others are
+    left at an infinite residual), from cumulative normal equations. ``basis`` is (grid, n, p);
+    returns (grid, n) and (grid, n, p)."""
     gram = basis[..., :, None] * basis[..., None, :]
     rhs = basis * f[None, :, None]
     ff = f * f
@@ -236,25 +237,31 @@ def _least_squares_profile(basis: NDArray[np.float64], f: NDArray[np.float64], f
     gram, rhs, ff = np.cumsum(gram, axis=1), np.cumsum(rhs, axis=1), np.cumsum(ff)
     if from_end:
         gram, rhs, ff = gram[:, ::-1], rhs[:, ::-1], ff[::-1]
+    columns = np.arange(f.size) if at is None else np.asarray(at)
+    gram, rhs, ff = gram[:, columns], rhs[:, columns], ff[columns]
     size = basis.shape[-1]
     ridge = 1e-12 * np.trace(gram, axis1=-2, axis2=-1)[..., None, None] * np.eye(size) + np.finfo(float).tiny * np.eye(size)
     coef = np.linalg.solve(gram + ridge, rhs[..., None])[..., 0]
-    return ff[None, :] - np.einsum("gnp,gnp->gn", coef, rhs), coef
+    rss = np.full((basis.shape[0], f.size), np.inf)
+    full = np.zeros((basis.shape[0], f.size, size))
+    rss[:, columns] = ff[None, :] - np.einsum("gnp,gnp->gn", coef, rhs)
+    full[:, columns] = coef
+    return rss, full
 
 
-def _sine_profile(t: NDArray[np.float64], f: NDArray[np.float64], omegas: NDArray[np.float64], from_end: bool):
+def _sine_profile(t: NDArray[np.float64], f: NDArray[np.float64], omegas: NDArray[np.float64], from_end: bool, at: NDArray[np.intp] | None = None):
     wt = omegas[:, None] * t[None, :]
-    return _least_squares_profile(np.stack([np.sin(wt), np.cos(wt)], axis=-1), f, from_end)
+    return _least_squares_profile(np.stack([np.sin(wt), np.cos(wt)], axis=-1), f, from_end, at)
 
 
-def _soft_profile(t: NDArray[np.float64], f: NDArray[np.float64], omegas: NDArray[np.float64], decays: NDArray[np.float64]):
+def _soft_profile(t: NDArray[np.float64], f: NDArray[np.float64], omegas: NDArray[np.float64], decays: NDArray[np.float64], at: NDArray[np.intp] | None = None):
     """Open-branch profile: the best decay per (ω, k); also the best residual over the grid
     for the whole window (the no-closure model)."""
     wt = omegas[:, None] * t[None, :]
     trig = [np.sin(wt), np.cos(wt), np.ones_like(wt)]
     best_rss = best_coef = best_decay = None
     for decay in decays:
-        rss, coef = _least_squares_profile(np.stack([*trig, np.broadcast_to(np.exp(-decay * t), wt.shape)], axis=-1), f, from_end=False)
+        rss, coef = _least_squares_profile(np.stack([*trig, np.broadcast_to(np.exp(-decay * t), wt.shape)], axis=-1), f, from_end=False, at=at)
         if best_rss is None:
             best_rss, best_coef, best_decay = rss, coef, np.full(rss.shape, decay)
         else:
