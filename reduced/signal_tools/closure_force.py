@@ -33,7 +33,7 @@ CLOSED_P_VALUE, NOT_CLOSED_P_VALUE = 1e-3, 0.05
 #: The closure force is reported as closed only when its 95 % profile interval is within this
 #: relative half-width (a wider interval is ``ambiguous``).
 INTERVAL_HALF_WIDTH = 0.10
-_OMEGAS, _DECAYS = 120, 10
+_OMEGAS, _DECAYS = 120, 10  # grid sizes: coarser (80 × 8) puts a heavily damped gear's closure at 49 % of the peak 6.6 % off
 _REFINE = 1.06  # the fine grids span the coarse grid's step either side
 _SOFT_PARAMETERS, _STIFF_PARAMETERS = 6, 3  # (ω, λ, a, b, c, d) and (ω, a, b); the change point adds one
 
