@@ -110,16 +110,30 @@ def study_command(study_path: Path, out_dir: Path | None, scheduler: str | None,
 @click.argument("results", metavar="SWEEP_FILE", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), help="calibration file (default: SWEEP stem + .calibration.h5)")
 @click.option("--coupler", help="the coupler whose force is calibrated (default: the first)")
-def calibrate_command(sweep_path: Path, results: Path, output: Path | None, coupler: str | None) -> None:
-    """Calibrate the inverse estimators' error bands on SWEEP's fem records (its file SWEEP_FILE, from
-    femref sweep): the file a measured case names under calibration:."""
+@click.option("--network", "networks", multiple=True, metavar="NAME=FILE",
+              help="also calibrate a saved network, under the estimator name a measured case gives it (ann_<name>); repeatable")
+def calibrate_command(sweep_path: Path, results: Path, output: Path | None, coupler: str | None, networks: tuple[str, ...]) -> None:
+    """Calibrate the inverse estimators' (and saved networks') error bands on SWEEP's fem records (its file
+    SWEEP_FILE, from femref sweep): the file a measured case names under calibration:."""
     from femref.case import CaseError
     from femref.sensing.calibration import write_calibration
+    from femref.sensing.network import AnnEstimator, NetworkFileError
     from femref.study.calibration import calibrate
     from femref.sweep import load_sweep
 
+    loaded = []
+    for entry in networks:
+        name, _, file = entry.partition("=")
+        if not file or not (name == "ann" or name.startswith("ann_")):
+            click.echo(f"error: --network {entry}: give NAME=FILE with NAME ann or ann_<name>", err=True)
+            sys.exit(EXIT_BAD_INPUT)
+        try:
+            loaded.append(AnnEstimator.load(name, file))
+        except NetworkFileError as error:
+            click.echo(f"error: --network {entry}: {error}", err=True)
+            sys.exit(EXIT_BAD_INPUT)
     try:
-        calibration = calibrate(load_sweep(sweep_path), results, coupler)
+        calibration = calibrate(load_sweep(sweep_path), results, coupler, loaded)
     except CaseError as error:
         click.echo(f"error: {error}", err=True)
         sys.exit(EXIT_BAD_INPUT)

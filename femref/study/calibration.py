@@ -1,9 +1,11 @@
-"""A calibration run: each inverse estimator on the fem records of a sweep, its relative peak errors kept.
+"""A calibration run: each inverse estimator (and saved network) on the fem records of a sweep, its relative peak errors kept.
 
 :func:`calibrate` reads a sweep's result file (the sweep's impacts — speeds, cars, gears,
 measurement chain — are the distribution the bounds hold for), rebuilds each ok sample's scene,
-runs every inverse estimator (:mod:`femref.models.inverse`) on the sample's stored fixed-length
-fem records (through the measurement chain when the sweep has one) and keeps
+runs every inverse estimator (:mod:`femref.models.inverse`), and any saved networks given, on the
+sample's stored fixed-length fem records (through the measurement chain when the sweep has one;
+they start at contact: a network also reads them started ±:data:`CONTACT_JITTER` from it, the
+error of finding the contact in measured records) and keeps
 
     e = P̂ / P − 1      (P̂ the estimator's peak, P fem's peak of the coupler)
 
@@ -15,20 +17,31 @@ result; a measured case names the file under ``calibration:``.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
 from femref.core.catalog import ESTIMATORS as INVERSE_ESTIMATORS
 from femref.sensing.calibration import Calibration
+from femref.sensing.measurement import Measurement
+from femref.sensing.network import AnnEstimator
 from femref.sensing.records import record_times
 from femref.study.run import read_set
 from femref.sweep.spec import Sweep
 
 
-def calibrate(sweep: Sweep, results: Path, coupler: str | None = None) -> Calibration:
-    """The calibration of every inverse estimator on the ok samples of ``sweep``'s result file ``results``
-    (``coupler``: default the first). ValueError when the sweep has no fem run or too few samples."""
+CONTACT_JITTER = 5.0e-4
+"""s: how far the contact a measured case finds for a network may be off (``femref.run.measured.kalman_contact``:
+within 0.5 ms on the default scene at 1–3 m/s). A network is calibrated on each sample's records started at
+the contact and at ± this, so its band carries that error too."""
+
+
+def calibrate(sweep: Sweep, results: Path, coupler: str | None = None, networks: Sequence[AnnEstimator] = ()) -> Calibration:
+    """The calibration of every inverse estimator, and of the saved ``networks``, on the ok samples of
+    ``sweep``'s result file ``results`` (``coupler``: default the first). ValueError when the sweep has no
+    fem run or too few samples, or a network cannot read the sweep's records (another coupler, probes
+    the sweep did not record, records shorter than it reads, another measurement chain)."""
     from femref.models.inverse import ESTIMATORS
 
     data = read_set(sweep, Path(results))
@@ -45,6 +58,13 @@ def calibrate(sweep: Sweep, results: Path, coupler: str | None = None) -> Calibr
         sample = {p: records[i, c] for c, p in enumerate(data.data.probes)}
         for name in INVERSE_ESTIMATORS:
             errors[name][row] = float(np.max(ESTIMATORS[name](scene, t, sample)[coupler])) / truth[row] - 1.0
+    masses_of = [{name: float(data.car_masses[row, k]) for k, name in enumerate(data.car_names)} for row in range(data.index.size)]
+    for network in networks:
+        _check_network(network, coupler, data.data.probes, data.data.record_end, data.scenes[0].measurement, results)
+        errors[network.name] = np.array([
+            network.peak_force(t - shift, {p: records[i, c] for c, p in enumerate(data.data.probes)}, masses_of[row]) / truth[row] - 1.0
+            for row, i in enumerate(data.index) for shift in (-CONTACT_JITTER, 0.0, CONTACT_JITTER)
+        ])
     pair = next(c for c in data.scenes[0].couplers if c.name == coupler)
     speeds = [scene.cars[pair.rear].velocity - scene.cars[pair.front].velocity for scene in data.scenes]
     masses = data.car_masses
@@ -66,6 +86,23 @@ def calibrate(sweep: Sweep, results: Path, coupler: str | None = None) -> Calibr
         impact_type="free_to_roll" if contacts.pop() == "compression_only" else "coupled",
         sweep_yaml=data.data.sweep_yaml,
     )
+
+
+def _check_network(network: AnnEstimator, coupler: str, probes: Sequence[str], record_end: float, chain: Measurement | None, results: Path) -> None:
+    """A network calibrated on a sweep reads its coupler, from probes the sweep recorded, over a span it
+    stored, through the chain it was trained on."""
+    contract = network.contract
+    if contract.coupler != coupler:
+        raise ValueError(f"network {network.name} estimates coupler {contract.coupler}, not the calibrated {coupler}")
+    missing = [p for p in contract.probes if p not in probes]
+    if missing:
+        raise ValueError(f"network {network.name} reads {', '.join(missing)}, which {results} did not record")
+    if contract.record_end > record_end + 1e-12:
+        raise ValueError(f"network {network.name} reads {contract.record_end:g} s of records; {results} stored {record_end:g} s")
+    trained = contract.measurement
+    same = (trained is None) == (chain is None) and (trained is None or trained.lowpass == chain.lowpass)  # type: ignore[union-attr]
+    if not same:
+        raise ValueError(f"network {network.name} was trained on records through {trained}; {results}'s went through {chain}")
 
 
 __all__ = ["calibrate"]

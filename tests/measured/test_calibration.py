@@ -4,6 +4,7 @@ case that names the file gets calibrated bands inside the calibrated ranges and 
 from __future__ import annotations
 
 import copy
+from pathlib import Path
 
 import distributed
 import numpy as np
@@ -29,7 +30,9 @@ def test_inverse_bands_from_a_calibration_sweep(tmp_path):
     with distributed.Client(processes=False, n_workers=1, threads_per_worker=1, dashboard_address=None) as client:
         summary = run_sweep(tmp_path / "cal.yaml", tmp_path / "cal.h5", client=client)
     assert summary.complete and summary.failed == 0
-    result = CliRunner().invoke(main, ["calibrate", str(tmp_path / "cal.yaml"), str(tmp_path / "cal.h5"), "-o", str(tmp_path / "calibration.h5")])
+    network = str(Path(__file__).parents[2] / "cases" / "networks" / "fem_mlp.npz")
+    result = CliRunner().invoke(main, ["calibrate", str(tmp_path / "cal.yaml"), str(tmp_path / "cal.h5"), "-o", str(tmp_path / "calibration.h5"),
+                                       "--network", f"ann_fem={network}"])
     assert result.exit_code == 0, result.output
     assert "inverse_rigid: peak error 95 % band" in result.output and "valid for closing speeds" in result.output
     calibration = read_calibration(tmp_path / "calibration.h5")
@@ -37,13 +40,18 @@ def test_inverse_bands_from_a_calibration_sweep(tmp_path):
     assert calibration.errors["inverse_rigid"].size == 24 and e_lo < e_hi and 1.5 <= calibration.closing_speed[0] < calibration.closing_speed[1] <= 3.0
 
     assert calibration.lowpass == 100.0 and calibration.noise == (0.05, 0.05)
+    assert calibration.errors["ann_fem"].size == 3 * 24  # each sample at the contact and ±0.5 ms
 
-    def measured(speed: float, folder, noise: float = 0.05, declare_filter: bool = True):
+    def measured(speed: float, folder, noise: float = 0.05, declare_filter: bool = True, network: bool = False):
         folder.mkdir()
         data = copy.deepcopy(default_scene_data())
         data["cars"][0]["velocity"] = speed
         data["measurement"]["noise"] = noise
-        event = simulated_event(folder, data, estimators=("inverse_rigid",))
+        estimators = ("inverse_rigid",)
+        if network:
+            data["time"] = {"end": 0.6}  # the network reads 0.5 s from contact
+            estimators += ("kalman", {"name": "ann_fem", "network": network})
+        event = simulated_event(folder, data, estimators=estimators)
         case = copy.deepcopy(event.case)
         case["calibration"] = str(tmp_path / "calibration.h5")
         if not declare_filter:
@@ -51,6 +59,8 @@ def test_inverse_bands_from_a_calibration_sweep(tmp_path):
                 record.pop("anti_alias")
         event.path.write_text(yaml.safe_dump(case, sort_keys=False))
         found = run_measured(scene_from_case(load_case(event.path))).events[0]
+        if network:
+            return next(e for e in found.estimates if e.estimator == "ann_fem"), float(np.max(event.force))
         return found.estimates[0], float(np.max(event.force))
 
     inside, truth = measured(2.2, tmp_path / "inside")
@@ -65,3 +75,7 @@ def test_inverse_bands_from_a_calibration_sweep(tmp_path):
     assert unfiltered.bound == "none" and "recorded unfiltered (no anti_alias declared); the calibration's records were through a 100 Hz low-pass" in unfiltered.message
     noisy, _ = measured(2.2, tmp_path / "noisy", noise=0.1)
     assert noisy.bound == "none" and "exceeds the calibrated 0.05 m/s²" in noisy.message
+    # a saved network calibrated on the same sweep: a calibrated band on its peak inside the range
+    net, truth = measured(2.2, tmp_path / "network", network=network)
+    e_lo, e_hi = calibration.error_band("ann_fem")
+    assert net.bound == "calibrated" and np.isclose(net.peak[1], net.peak[0] / (1 + e_hi)) and net.peak[1] <= truth <= net.peak[2], net.message
