@@ -17,9 +17,9 @@ on one common time grid (:func:`femref.sensing.events.window`):
   tolerances, ``bound = covariance``; the recorders' declared anti-alias filters in its model),
   then the saved networks (:func:`network_estimate`: a peak from the records started at the
   contact found in the kalman force);
-* takes the **primary** estimate — the first estimator of the case's list with a force history,
-  a number and a bound, else the first with a history and a number — for the closing speed, ε, the gear's closure, the
-  wear and the alarm:
+* takes the **primary** estimate — the first estimator of the case's list with a force
+  history, a number and a bound, else the first with a history and a number — for the closing
+  speed, ε, the gear's closure, the wear and the alarm:
 
   - closing speed ``v = ∫_{t_c}^{t_p} (a_front − a_rear) dt`` from the force's rise ``t_c``
     to its peak ``t_p``: the relative velocity is zero at the largest closure, which the
@@ -201,7 +201,7 @@ def kalman_estimate(scene: MeasuredScene, t: NDArray[np.float64], records: dict[
         return ForceEstimate("kalman", coupler.name, t, nan, nan, nan.copy(), bound="covariance", status="untrusted",
                              message=found.status, settings=settings)
     lower, upper = found.lower.copy(), found.upper.copy()
-    rate = found.force_rate / found.noise_scale**2  # q_P per unit of the declared noise variance
+    rate = settings["declared_force_rate"]  # q_P per unit of the declared noise variance
     for frequency in {1.0 - model.frequency_tolerance, 1.0 + model.frequency_tolerance}:
         for damping in set(model.damping_factors):
             changed = [kalman.CarDynamics(c.mass, damping * c.damping, frequency**2 * c.stiffness, c.load_map, c.sensor_map, c.coupler_load) for c in dynamics]
