@@ -9,14 +9,14 @@ import math
 from collections.abc import Mapping
 from typing import Annotated, Any, ClassVar, Literal, Union
 
-from pydantic import Field, ValidationInfo, field_validator
+from pydantic import Field, ValidationInfo, field_validator, model_validator
 
-from femref.case.errors import problems_error
+from femref.case.errors import Problem, problems_error
 from femref.case.fields import CaseModel, PositiveReal, _foreign_key_rule
 from femref.case.profiles import NonNegativeProfile, PositiveProfile, ProfileSpec, UniformProfile, length_average
 from femref.core import profiles
 
-__all__ = ["BODY_TYPES", "LOAD_OWNERS", "BeamBody", "Body", "BodySpec", "RodBody"]
+__all__ = ["BODY_TYPES", "LOAD_OWNERS", "BeamBody", "Body", "BodySpec", "CarBody", "RodBody"]
 
 
 class Body(CaseModel):
@@ -123,6 +123,37 @@ class BeamBody(Body):
     def wave_time(self) -> float:
         """``T = l² √(m̄ / EĪ)`` with the length averages of ``m`` and ``EI``."""
         return self.half_length**2 * math.sqrt(self.mean_mass_per_length() / self.mean_stiffness())
+
+
+class CarBody(RodBody):
+    """An impact car's body: a rod, and — with ``bending_stiffness`` — also an Euler-Bernoulli beam on the
+    same axis with the same mass (vertical motion and pitch; docs/design.md §3.3)."""
+
+    bending_stiffness: PositiveProfile | None = Field(
+        default=None, description="Bending stiffness EI(x) (N·m²) about the horizontal axis, a profile with values > 0. Default null: the car does not bend."
+    )
+    bending_viscosity: NonNegativeProfile = Field(
+        default=UniformProfile(value=0.0),
+        description="Bending viscosity cI(x) (N·m²·s), Kelvin-Voigt, a profile with values >= 0. Default 0 (elastic); needs bending_stiffness.",
+    )
+
+    @model_validator(mode="after")
+    def _viscosity_needs_stiffness(self) -> "CarBody":
+        zero = isinstance(self.bending_viscosity, UniformProfile) and self.bending_viscosity.value == 0.0
+        if self.bending_stiffness is None and not zero:
+            raise problems_error([Problem(("bending_viscosity",), "needs bending_stiffness: a car without it does not bend")])
+        return self
+
+    @property
+    def bends(self) -> bool:
+        return self.bending_stiffness is not None
+
+    def beam(self) -> BeamBody:
+        """The body's bending as a :class:`BeamBody` (same length and mass); ValueError if it does not bend."""
+        if self.bending_stiffness is None:
+            raise ValueError("this car body has no bending_stiffness")
+        return BeamBody(type="beam", length=self.length, mass_per_length=self.mass_per_length,
+                        bending_stiffness=self.bending_stiffness, bending_viscosity=self.bending_viscosity)
 
 
 #: Body types by case-file name.

@@ -1,8 +1,9 @@
 """The ``cars`` of an impact case: rods in line order, their initial velocities and accelerometers.
 
-Each car has a unique name (probes are named ``<car>/<sensor>``), a rod body exactly as
-in transient cases (:mod:`femref.case.bodies`) and sensors on the car; an impact needs
-at least two cars.
+Each car has a unique name (probes are named ``<car>/<sensor>``), a rod body as in
+transient cases (:mod:`femref.case.bodies`) — which, with a bending stiffness, is also a
+beam on the same axis — sensors on the car and the couplers' offsets below the body's
+neutral axis; an impact needs at least two cars.
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from typing import Annotated, Any
 from pydantic import AfterValidator, Field, ValidationInfo, field_validator
 from pydantic_core import PydanticCustomError
 
-from femref.case.bodies import RodBody
+from femref.case.bodies import CarBody
 from femref.case.errors import Problem, problems_error
 from femref.case.fields import CaseModel, ProbeName, Real, _duplicates, _name_rule
 
@@ -24,15 +25,35 @@ CarName = Annotated[str, AfterValidator(_name_rule("car"))]
 
 
 class CarSpec(CaseModel):
-    """One car: a rod body (longitudinal impact), its initial velocity and its accelerometers."""
+    """One car: a rod body (longitudinal impact) that may also bend, its initial velocity, its accelerometers
+    and how far below the body's neutral axis its couplers act."""
 
     name: CarName = Field(description="Car name, unique; letters, digits, '_', '-', '.'. Probes are named <car>/<sensor>. Required.")
-    body: RodBody = Field(description="The car body: a rod (type: rod) exactly as in transient cases, any profiles. Required.")
+    body: CarBody = Field(
+        description="The car body: a rod (type: rod) as in transient cases, any profiles; with bending_stiffness (and "
+        "bending_viscosity) also a beam on the same axis. Required."
+    )
     velocity: Real = Field(description="Initial velocity (m/s), finite, positive toward the front of the line (+x). Required.")
     sensors: dict[ProbeName, Real] = Field(
         default_factory=lambda: {"center": 0.0},
         description="Accelerometers: name → position x (m) within [−l, l]; at least one. Default {center: 0}.",
     )
+    coupler_offset: tuple[Real, Real] = Field(
+        default=(0.0, 0.0),
+        description="Height of the body's neutral axis above the coupler line at its rear (−l) and front (+l) end (m): "
+        "a coupler force there also bends the car (end moment offset × force). Needs bending_stiffness unless both are 0. Default [0, 0].",
+    )
+
+    @field_validator("coupler_offset", mode="after")
+    @classmethod
+    def _offset_needs_bending(cls, value: tuple[float, float], info: ValidationInfo) -> tuple[float, float]:
+        body = info.data.get("body")
+        if body is not None and not body.bends and any(h != 0.0 for h in value):
+            raise problems_error([Problem((), "a coupler offset bends the car: give the body a bending_stiffness (or offsets [0, 0])", list(value))])
+        l = body.half_length if body is not None else None  # noqa: E741
+        if l is not None and any(abs(h) > l for h in value):
+            raise problems_error([Problem((), f"must be shorter than the car's half-length l = {l} m", list(value))])
+        return value
 
     @field_validator("body", mode="wrap")
     @classmethod
@@ -42,7 +63,8 @@ class CarSpec(CaseModel):
             if "type" not in value:
                 raise problems_error([Problem(("type",), "required key is missing; impact cars are rods (type: rod)")])
             if value["type"] == "beam":
-                raise problems_error([Problem(("type",), "impact cars are rods (longitudinal impact)", "beam")])
+                rule = "impact cars are rods (type: rod); a car that bends is a rod with bending_stiffness (and bending_viscosity)"
+                raise problems_error([Problem(("type",), rule, "beam")])
         return handler(value)
 
     @field_validator("sensors", mode="after")

@@ -49,7 +49,8 @@ def _peak(result, quantity: str) -> str:
 
 
 def impact_table(outcome) -> Table:
-    """Per model run and estimator: peak coupler force and its errors against fem, sensor error, cost.
+    """Per model run and estimator: peak coupler force and its errors against fem, sensor error, cost; with
+    cars that bend also the vertical-acceleration error.
 
     A network estimator gives a peak only (``peak_force``): its row shows that peak and its
     error; the history columns (peak time, rms, acceleration, energy) stay blank.
@@ -57,7 +58,9 @@ def impact_table(outcome) -> Table:
     scene = outcome.scene
     title = f"impact scene, {len(scene.cars)} cars, {len(scene.couplers)} couplers, ε = {scene.epsilon:.3g}; errors against fem"
     table = Table(title=title, title_justify="left")
-    columns = ("model", "status", "steps", "wall time", "speed-up", "peak P kN @coupler", "peak err", "t_peak err ms", "P rms err", "a rms err max", "energy bal.")
+    vertical = any(car.bends for car in scene.cars)
+    columns = ("model", "status", "steps", "wall time", "speed-up", "peak P kN @coupler", "peak err", "t_peak err ms", "P rms err", "a rms err max",
+               *(("a_vert rms err max",) if vertical else ()), "energy bal.")
     for column in columns:
         table.add_column(column, justify="left" if column in ("model", "status") else "right", no_wrap=column == "model")
     for result in outcome.results:
@@ -76,6 +79,7 @@ def impact_table(outcome) -> Table:
             _fmt(score.get(f"coupler_force_peak_time_error_{coupler}"), "{:+.2f}", 1e3),
             _fmt(score.get(f"coupler_force_rms_error_{coupler}"), "{:.2%}"),
             _fmt(score.get("acceleration_rms_error_max"), "{:.2%}"),
+            *((_fmt(score.get("vertical_acceleration_rms_error_max"), "{:.2%}"),) if vertical else ()),
             _fmt(balance, "{:.1e}"),
         )
     return table

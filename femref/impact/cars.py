@@ -175,7 +175,7 @@ class LinearCar:
         """
         stiffness_u = self._stiffness @ self.u
         mass_v = self._mass @ self.v
-        displacement = self._O @ self.u + self.offset
+        displacement = self._O @ self.u + self.offset * (self._O @ self._translation)  # a row reads 1 (axial) or 0 of the travel
         strain = 0.5 * float(self.u @ stiffness_u)
         if self._R_sensor is not None:
             displacement = displacement + self._R_sensor @ self.loads

@@ -15,7 +15,9 @@ from numpy.typing import NDArray
 class ImpactResponse:
     """Histories at the output steps of one model run of an impact scene.
 
-    ``sensors[probe]`` holds ``displacement`` and ``acceleration`` (probe ``"<car>/<sensor>"``),
+    ``sensors[probe]`` holds ``displacement`` and ``acceleration`` (probe ``"<car>/<sensor>"``; on a car
+    that bends also ``vertical_displacement``, ``vertical_acceleration``, ``pitch_displacement`` (rad) and
+    ``pitch_acceleration`` (rad/s²)),
     ``couplers[name]`` ``force`` (N, compression positive) and ``closure`` (m), ``energy``
     the bookkeeping (J): ``kinetic``, ``strain``, ``body_dissipated``, ``coupler_stored``,
     ``coupler_dissipated``, ``total``. ``wall_time`` is the stepping (s); ``setup_time`` the
@@ -55,9 +57,20 @@ class ImpactResponse:
         return float(np.fmax.reduce(np.abs(total - total[0])) / scale)
 
 
+def sensor_histories(channels: tuple[tuple[str, str], ...], displacement: NDArray[np.float64],
+                     acceleration: NDArray[np.float64]) -> dict[str, dict[str, NDArray[np.float64]]]:
+    """Column ``k`` of the output histories (``n_out × channels``) as ``sensors[probe][prefix + quantity]``,
+    ``(probe, prefix)`` the k-th channel (:attr:`femref.scene.ImpactScene.channels`)."""
+    sensors: dict[str, dict[str, NDArray[np.float64]]] = {}
+    for k, (probe, prefix) in enumerate(channels):
+        sensors.setdefault(probe, {})[prefix + "displacement"] = displacement[:, k]
+        sensors[probe][prefix + "acceleration"] = acceleration[:, k]
+    return sensors
+
+
 def failure_message(coupler: str, step: int, steps: int, dt: float, detail: str) -> str:
     """The status message of a run whose coupler iteration failed at ``step`` (of ``steps``, step ``dt``)."""
     return f"coupler {coupler} did not converge at t = {step * dt:.6g} s (step {step} of {steps}): {detail}"
 
 
-__all__ = ["ImpactResponse", "failure_message"]
+__all__ = ["ImpactResponse", "failure_message", "sensor_histories"]

@@ -34,7 +34,7 @@ from femref.core.timegrid import output_steps, steps_to
 from femref.fem import INTEGRATORS
 from femref.impact.cars import CarModel, reference_car
 from femref.impact.couplers import CouplerConvergenceError, CouplerSolve
-from femref.impact.response import ImpactResponse, failure_message
+from femref.impact.response import ImpactResponse, failure_message, sensor_histories
 from femref.impact.systems import CarSystem
 from femref.scene import ImpactScene
 
@@ -130,7 +130,8 @@ class _Recorder:
         self.scene = scene
         self.time = np.asarray(times, dtype=float)
         n_out = self.time.size
-        self.sensors = {p: {"displacement": np.full(n_out, np.nan), "acceleration": np.full(n_out, np.nan)} for p in scene.probes}
+        channels = len(scene.channels)
+        self.displacement, self.acceleration = np.full((n_out, channels), np.nan), np.full((n_out, channels), np.nan)
         self.couplers = {c.name: {"force": np.full(n_out, np.nan), "closure": np.full(n_out, np.nan)} for c in scene.couplers}
         names = ("kinetic", "strain", "body_dissipated", "coupler_stored", "coupler_dissipated")
         self.energy = {name: np.full(n_out, np.nan) for name in names}
@@ -138,12 +139,12 @@ class _Recorder:
     def record(self, k: int, cars: list[CarModel], couplers: CouplerSolve) -> None:
         for name in self.energy:
             self.energy[name][k] = 0.0
-        for car_spec, car in zip(self.scene.cars, cars):
+        column = 0
+        for car in cars:
             displacement, acceleration, energy = car.observe()
-            for s, name in enumerate(car_spec.sensors):
-                probe = self.sensors[f"{car_spec.name}/{name}"]
-                probe["displacement"][k] = displacement[s]
-                probe["acceleration"][k] = acceleration[s]
+            self.displacement[k, column : column + displacement.size] = displacement
+            self.acceleration[k, column : column + acceleration.size] = acceleration
+            column += displacement.size
             self.energy["kinetic"][k] += energy.kinetic
             self.energy["strain"][k] += energy.strain
             self.energy["body_dissipated"][k] += energy.dissipated
@@ -156,4 +157,4 @@ class _Recorder:
     def response(self) -> ImpactResponse:
         energy = dict(self.energy)
         energy["total"] = sum(energy.values())
-        return ImpactResponse(self.time, self.sensors, self.couplers, energy)
+        return ImpactResponse(self.time, sensor_histories(self.scene.channels, self.displacement, self.acceleration), self.couplers, energy)

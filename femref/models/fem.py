@@ -5,16 +5,18 @@
 * single body, transient: generalized-α / Newmark on ``M ü + C u̇ + K u = B f(t)``
   (:class:`femref.fem.Stepper`), energies and optional fields;
 * impact car: the rod's operators as a second-order system
-  (:class:`femref.impact.systems.SecondOrderSystem`), built once per geometry.
+  (:class:`femref.impact.systems.SecondOrderSystem`), built once per geometry; a car that
+  bends adds Hermite beam elements on the same nodes, driven through the coupler offsets.
 """
 
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
 
 from femref.fem import INTEGRATORS, Stepper, harmonic_response
 from femref.fem.build import FemSettings, build_operators
-from femref.fem.operators import Operators
+from femref.fem.operators import Operators, assemble_beam
 from femref.impact.systems import SecondOrderSystem
 from femref.models.base import Progress, built_once
 from femref.results import ModelResult
@@ -59,9 +61,11 @@ class FemModel:
 
 
 def fem_car(car: Car, settings: FemSettings) -> SecondOrderSystem:
-    """The car body as scikit-fem rod elements (P1/P2), nodes on every profile jump; built once per
-    geometry, sensors and mesh (:func:`femref.models.base.built_once`)."""
-    key = ("fem", car.body.geometry, tuple(car.sensors.values()), settings.elements, settings.order, settings.grading)
+    """The car body as scikit-fem rod elements (P1/P2), nodes on every profile jump — and, on a car that
+    bends, Hermite beam elements on the same nodes (:func:`bending_system`); built once per geometry,
+    sensors, offsets and mesh (:func:`femref.models.base.built_once`)."""
+    bending = None if car.bending is None else car.bending.geometry
+    key = ("fem", car.body.geometry, bending, car.coupler_offset, tuple(car.sensors.values()), settings.elements, settings.order, settings.grading)
     return built_once(key, lambda: _fem_system(car, settings))
 
 
@@ -76,7 +80,7 @@ def _fem_system(car: Car, settings: FemSettings) -> SecondOrderSystem:
     ops = car_operators(car, settings)
     l = car.body.half_length
     outputs = ops.interpolation(np.concatenate([[-l, l], car.sensor_x])).toarray()  # the ends, then the sensors
-    return SecondOrderSystem(
+    rod = SecondOrderSystem(
         "fem",
         ops.mass,
         ops.damping,
@@ -86,6 +90,57 @@ def _fem_system(car: Car, settings: FemSettings) -> SecondOrderSystem:
         outputs[2:],
         translation=np.asarray(ops.rigid_modes[:, 0], dtype=float),
         settings={"element": ops.element, "elements": ops.elements, "dofs": ops.ndof, "nodes": ops.nodes},
+    )
+    if car.bending is None:
+        return rod
+    beam = assemble_beam(ops.nodes, car.bending.mass_per_length, car.bending.stiffness, car.bending.viscosity)
+    return bending_system(rod, beam, car.sensor_x, car.coupler_offset)
+
+
+def bending_system(rod: SecondOrderSystem, beam: Operators, sensor_x: np.ndarray, offset: tuple[float, float]) -> SecondOrderSystem:
+    """A car that bends: its rod and its Euler-Bernoulli beam (``beam``, DOFs ``(w, θ)`` per node) side by
+    side, ``u = (u_rod, u_beam)``, joined only where the couplers act (docs/formulas.md §X7).
+
+    A coupler acts on the coupler line, ``h`` (``offset``) below the neutral axis, where a section's
+    axial displacement is ``u − z θ = u + h θ`` (Euler-Bernoulli: plane sections stay normal to the axis,
+    ``θ = w'``). So the ends the couplers read and the loads they put on the car are, with the rod's
+    end loads ``L = (F1, F2)`` (internal axial force at ∓l, tension positive)::
+
+        end outputs:   u(−l) + h₁ θ(−l),   u(l) + h₂ θ(l)
+        loads:         −F1 at u(−l), −h₁ F1 at θ(−l);   F2 at u(l), h₂ F2 at θ(l)
+
+    — the beam takes the end moments ``G₁ = h₁ F1``, ``G₂ = h₂ F2`` (the beam's
+    ``−G1 v'(−l) + G2 v'(l)``), and the loads are the outputs' transpose, so the coupler does
+    the work ``F·Δ(u + hθ)`` and energy balances. The sensors record the rod's axial
+    displacement, then the beam's ``w`` (vertical), then ``θ`` (pitch), each at every sensor.
+    Zero offsets leave the beam unloaded and the rod exactly as alone.
+    """
+    n_rod, n_beam = rod.dofs, beam.ndof
+    l = beam.half_length
+    ends = beam.interpolation(np.array([-l, l]), derivative=1).toarray()  # θ at the ends
+    hooks = np.hstack([np.zeros((2, n_rod)), np.array(offset)[:, None] * ends])
+    end_outputs = np.hstack([rod.end_outputs, np.zeros((2, n_beam))]) + hooks
+    load_matrix = np.vstack([rod.load_matrix, np.zeros((n_beam, 2))])
+    load_matrix[:, 0] -= hooks[0]
+    load_matrix[:, 1] += hooks[1]
+    vertical = beam.interpolation(sensor_x, derivative=0).toarray()
+    pitch = beam.interpolation(sensor_x, derivative=1).toarray()
+    sensors = np.vstack([
+        np.hstack([rod.sensor_outputs, np.zeros((sensor_x.size, n_beam))]),
+        np.hstack([np.zeros((sensor_x.size, n_rod)), vertical]),
+        np.hstack([np.zeros((sensor_x.size, n_rod)), pitch]),
+    ])
+    settings = dict(rod.settings, dofs=n_rod + n_beam, beam_element=beam.element, coupler_offset=list(offset))
+    return SecondOrderSystem(
+        rod.fidelity,
+        sp.block_diag([rod.mass, beam.mass], format="csr"),
+        sp.block_diag([rod.damping, beam.damping], format="csr"),
+        sp.block_diag([rod.stiffness, beam.stiffness], format="csr"),
+        load_matrix,
+        end_outputs,
+        sensors,
+        translation=np.concatenate([rod.translation, np.zeros(n_beam)]),
+        settings=settings,
     )
 
 

@@ -80,8 +80,46 @@ class RigidModel:
 
 
 def rigid_car(car: Car) -> SecondOrderSystem:
-    """The car as a point mass: ``M ü = F2 − F1``, every point moving together."""
+    """The car as a point mass: ``M ü = F2 − F1``, every point moving together; a car that bends as a rigid
+    body that also heaves and pitches (:func:`rigid_pitching_system`)."""
+    if car.bending is not None:
+        key = ("rigid", car.body.geometry, car.coupler_offset, tuple(car.sensors.values()))
+        return built_once(key, lambda: rigid_pitching_system(car.body, car.sensor_x, car.coupler_offset))
     return built_once(("rigid", car.body.geometry, len(car.sensors)), lambda: _rigid_system(car.mass, len(car.sensors)))
+
+
+def rigid_pitching_system(body: Body, sensor_x: NDArray, offset: tuple[float, float]) -> SecondOrderSystem:
+    """A rigid car that moves along the line, heaves and pitches: DOFs ``(x, z, θ)`` (θ about the body's
+    centre ``x = 0``, positive when the front rises), so a point at ``x`` moves ``(x_c, z + x θ)``::
+
+        M = [[m, 0, 0], [0, m, S], [0, S, J]],   m = ∫ m dx,  S = ∫ m x dx,  J = ∫ m x² dx,   K = C = 0
+
+    The couplers act ``h`` (``offset``) below the neutral axis, as on the fem car
+    (:func:`femref.models.fem.bending_system`): end outputs ``x_c + h₁ θ``, ``x_c + h₂ θ``, loads their
+    transpose, ``M ẍ = F2 − F1`` and ``J θ̈ + S z̈ = h₂ F2 − h₁ F1``. Sensors: axial ``x_c``, vertical
+    ``z + x θ``, pitch ``θ``. The rigid limit of the bending fem car (its rigid modes).
+    """
+    x, w = body.quadrature()
+    m = w * body.mass_per_length(x)
+    mass, first, second = float(np.sum(m)), float(np.sum(m * x)), float(np.sum(m * x * x))
+    h1, h2 = offset
+    n = np.asarray(sensor_x, dtype=float).size
+    sensors = np.vstack([
+        np.column_stack([np.ones(n), np.zeros(n), np.zeros(n)]),
+        np.column_stack([np.zeros(n), np.ones(n), sensor_x]),
+        np.column_stack([np.zeros(n), np.zeros(n), np.ones(n)]),
+    ])
+    return SecondOrderSystem(
+        "rigid",
+        np.array([[mass, 0.0, 0.0], [0.0, mass, first], [0.0, first, second]]),
+        np.zeros((3, 3)),
+        np.zeros((3, 3)),
+        np.array([[-1.0, 1.0], [0.0, 0.0], [-h1, h2]]),
+        np.array([[1.0, 0.0, h1], [1.0, 0.0, h2]]),
+        sensors,
+        translation=np.array([1.0, 0.0, 0.0]),
+        settings={"dofs": 3, "mass": mass, "pitch_inertia": second, "coupler_offset": list(offset)},
+    )
 
 
 def _rigid_system(mass: float, sensors: int) -> SecondOrderSystem:

@@ -25,9 +25,9 @@ on the result's samples inside the common interval ``[max(t0, t0_ref), min(t1, t
 with the reference linearly interpolated there (``np.interp``); a peak the result's grid
 does not sample is missed by both alike. Per coupler ``coupler_force_peak_error_<c>``,
 ``coupler_force_peak_time_error_<c>``, ``coupler_force_rms_error_<c>``; per probe
-``acceleration_rms_error_<p>``, ``acceleration_peak_error_<p>``; aggregates
-``coupler_force_peak_error_max``, ``coupler_force_rms_error_max``,
-``acceleration_rms_error_max``; with a measurement chain the same again on the measured
+``acceleration_rms_error_<p>``, ``acceleration_peak_error_<p>`` — and on cars that bend the same for
+``vertical_acceleration`` — ; aggregates ``coupler_force_peak_error_max``,
+``coupler_force_rms_error_max``, ``acceleration_rms_error_max``, ``vertical_acceleration_rms_error_max``; with a measurement chain the same again on the measured
 records, prefixed ``measured_``. A result of peak estimates only — a network estimator,
 ``couplers[c]["peak_force"]`` and no time axis — is scored on those peaks alone
 (:func:`score_peak_estimates`).
@@ -74,10 +74,11 @@ def score_impact(reference: ModelResult, result: ModelResult) -> Metrics:
         ref = np.interp(tw, t_ref, _series(reference.couplers[name], "force", reference.model, f"coupler {name}", t_ref.size))
         mine = _series(result.couplers[name], "force", result.model, f"coupler {name}", t.size)[window]
         metrics.update(coupler_force_errors(name, tw, mine, ref))
-    for name in sorted(p for p in set(reference.probes) & set(result.probes) if _has_acceleration(reference, result, p)):
-        ref = np.interp(tw, t_ref, _series(reference.probes[name], "acceleration", reference.model, f"probe {name}", t_ref.size))
-        mine = _series(result.probes[name], "acceleration", result.model, f"probe {name}", t.size)[window]
-        metrics.update(acceleration_errors(name, mine, ref))
+    for quantity in ("acceleration", "vertical_acceleration"):
+        for name in sorted(p for p in set(reference.probes) & set(result.probes) if _has(reference, result, p, quantity)):
+            ref = np.interp(tw, t_ref, _series(reference.probes[name], quantity, reference.model, f"probe {name}", t_ref.size))
+            mine = _series(result.probes[name], quantity, result.model, f"probe {name}", t.size)[window]
+            metrics.update(acceleration_errors(name, mine, ref, quantity))
     metrics.update(_aggregates(metrics))
     return metrics
 
@@ -133,13 +134,14 @@ def coupler_force_errors(name: str, time: NDArray[np.float64], force: NDArray[np
     }
 
 
-def acceleration_errors(name: str, acceleration: NDArray[np.float64], reference: NDArray[np.float64]) -> Metrics:
-    """Rms and peak-magnitude errors of one probe's acceleration (NaN where the reference is zero)."""
+def acceleration_errors(name: str, acceleration: NDArray[np.float64], reference: NDArray[np.float64], quantity: str = "acceleration") -> Metrics:
+    """Rms and peak-magnitude errors of one probe's ``quantity`` (axial ``acceleration`` or
+    ``vertical_acceleration``; NaN where the reference is zero)."""
     peak_ref = float(np.max(np.abs(reference)))
     peak = float(np.max(np.abs(acceleration)))
     return {
-        f"acceleration_rms_error_{name}": _relative_rms(acceleration, reference),
-        f"acceleration_peak_error_{name}": abs(peak - peak_ref) / peak_ref if peak_ref > 0.0 else math.nan,
+        f"{quantity}_rms_error_{name}": _relative_rms(acceleration, reference),
+        f"{quantity}_peak_error_{name}": abs(peak - peak_ref) / peak_ref if peak_ref > 0.0 else math.nan,
     }
 
 
@@ -156,6 +158,7 @@ AGGREGATES: dict[str, str] = {
     "coupler_force_rms_error_max": "coupler_force_rms_error_",
     "acceleration_rms_error_max": "acceleration_rms_error_",
     "acceleration_max_error_max": "acceleration_max_error_",
+    "vertical_acceleration_rms_error_max": "vertical_acceleration_rms_error_",
 }
 """Aggregate metric → prefix of the per-item metrics it is the maximum of."""
 
@@ -202,8 +205,8 @@ def _series(outputs: dict[str, NDArray], key: str, model: str, what: str, sample
     return values
 
 
-def _has_acceleration(reference: ModelResult, result: ModelResult, probe: str) -> bool:
-    return "acceleration" in reference.probes[probe] and "acceleration" in result.probes[probe]
+def _has(reference: ModelResult, result: ModelResult, probe: str, quantity: str) -> bool:
+    return quantity in reference.probes[probe] and quantity in result.probes[probe]
 
 
 def score_results(kind: str, results: list[ModelResult]) -> dict[str, dict[str, Any]]:

@@ -127,7 +127,9 @@ def measured_scene_from_case(case: MeasuredCase) -> MeasuredScene:
 
 
 def _car_of(spec: CarSpec) -> Car:
-    return Car(name=spec.name, body=body_from_spec(spec.body), velocity=spec.velocity, sensors=dict(spec.sensors))
+    bending = body_from_spec(spec.body.beam()) if spec.body.bends else None
+    return Car(name=spec.name, body=body_from_spec(spec.body), velocity=spec.velocity, sensors=dict(spec.sensors),
+               bending=bending, coupler_offset=(float(spec.coupler_offset[0]), float(spec.coupler_offset[1])))
 
 
 def _coupler_of(k: int, spec: CouplerSpec, index: dict[str, int]) -> Coupler:

@@ -26,19 +26,43 @@ from femref.sensing.network import AnnEstimator
 from reduced.couplers import Coupling
 
 
+#: What a sensor records, in the order of a car's sensor outputs: every sensor's axial motion, then — on a
+#: car that bends — every sensor's vertical motion, then its pitch. Result names: ``<prefix>displacement``
+#: and ``<prefix>acceleration`` (m, m/s²; pitch: rad, rad/s²).
+AXIAL, VERTICAL, PITCH = "", "vertical_", "pitch_"
+
+
 @dataclass(frozen=True, eq=False)
 class Car:
-    """One car body (a rod on ``x ∈ [−l, l]``), its initial velocity (m/s) and sensors (name → x, m)."""
+    """One car body (a rod on ``x ∈ [−l, l]``), its initial velocity (m/s) and sensors (name → x, m).
+
+    ``bending`` is the body's bending as a beam on the same axis (same length and mass; None: the car
+    does not bend); ``coupler_offset`` the height (m) of the neutral axis above the coupler line at the
+    rear (−l) and front (+l) end: the coupler force ``F`` there also loads the car with the end moment
+    ``offset · F`` (docs/design.md §2)."""
 
     name: str
     body: Body
     velocity: float
     sensors: dict[str, float]
+    bending: Body | None = None
+    coupler_offset: tuple[float, float] = (0.0, 0.0)
 
     @property
     def mass(self) -> float:
         """Total mass ``M = ∫ m dx`` (kg)."""
         return self.body.total_mass
+
+    @property
+    def bends(self) -> bool:
+        return self.bending is not None
+
+    @property
+    def channels(self) -> tuple[tuple[str, str], ...]:
+        """``(probe, quantity prefix)`` of each sensor output row, in row order (:data:`AXIAL`, :data:`VERTICAL`,
+        :data:`PITCH`)."""
+        kinds = (AXIAL, VERTICAL, PITCH) if self.bends else (AXIAL,)
+        return tuple((f"{self.name}/{sensor}", kind) for kind in kinds for sensor in self.sensors)
 
     @property
     def sensor_x(self) -> np.ndarray:
@@ -106,6 +130,11 @@ class ImpactScene:
     def probes(self) -> dict[str, tuple[int, float]]:
         """``"<car>/<sensor>"`` → (car index, x)."""
         return {f"{car.name}/{name}": (i, x) for i, car in enumerate(self.cars) for name, x in car.sensors.items()}
+
+    @property
+    def channels(self) -> tuple[tuple[str, str], ...]:
+        """Every car's sensor output rows in line order: ``(probe, quantity prefix)`` (:attr:`Car.channels`)."""
+        return tuple(channel for car in self.cars for channel in car.channels)
 
     def contact_time(self) -> float:
         """Shortest rigid-body contact half-period ``π √(M_eff / k)`` over the couplers (s).

@@ -592,15 +592,17 @@ def observe(layout: NDArray, w: NDArray, c: int, k: int, displacement: NDArray, 
     stiffness_u, mass_v = at[WORK1], at[WORK2]
     band_product(w, at[STIFFNESS], p, n, u, stiffness_u)
     band_product(w, at[MASS], p, n, v, mass_v)
-    sensor_outputs, sensor_feedthrough = at[SENSOR_OUTPUTS], at[SENSOR_FEEDTHROUGH]
+    sensor_outputs, sensor_feedthrough, t = at[SENSOR_OUTPUTS], at[SENSOR_FEEDTHROUGH], at[TRANSLATION]
     for i in range(S):
         s = 0.0
+        travel = 0.0  # what the row reads from a unit rigid translation: 1 axially, 0 vertically and in pitch
         for j in range(n):
             s += w[sensor_outputs + i * n + j] * w[u + j]
+            travel += w[sensor_outputs + i * n + j] * w[t + j]
         feedthrough = 0.0
         for j in range(J):
             feedthrough += w[sensor_feedthrough + i * J + j] * w[loads + j]
-        displacement[k, first + i] = s + feedthrough + w[scalars + OFFSET]
+        displacement[k, first + i] = s + feedthrough + travel * w[scalars + OFFSET]
     strain = 0.5 * dot(w, u, stiffness_u, n) + 0.5 * quadratic(w, at[FEEDTHROUGH_ENERGY], J, loads)
     accelerations = at[A]
     if w[at[COEFFICIENTS] + EQUILIBRIUM] != 0.0:

@@ -49,7 +49,7 @@ from femref.impact.kernels.cars import (
     COUPLER_LOADS, COUPLER_OUTPUTS, END_COUNT, END_FREE, END_RATE_FREE, LOAD_COUNT, NEW_LOADS, SCALARS,
     SUM_LOAD2, SUM_RATE2, pack_cars,
 )
-from femref.impact.response import ImpactResponse, failure_message
+from femref.impact.response import ImpactResponse, failure_message, sensor_histories
 from femref.impact.systems import CarSystem
 from femref.scene import ImpactScene
 
@@ -105,7 +105,7 @@ def line_plan(scene: ImpactScene) -> LinePlan:
         coupler_kernels.start(laws, couplers, closure_rate)
         sensor_starts = [0]
         for car in scene.cars:
-            sensor_starts.append(sensor_starts[-1] + len(car.sensors))
+            sensor_starts.append(sensor_starts[-1] + len(car.channels))
         plan = LinePlan(laws, maps, couplers, [loads @ couplers.force for loads, _ in maps], velocities,
                         sensor_starts[:-1], sensor_starts[-1], force_tolerance(scene))
         _line_plans[scene] = plan
@@ -166,8 +166,7 @@ def solve_compiled(
     energy["total"] = np.sum(history["energy"], axis=1)
     return ImpactResponse(
         dt * outputs,
-        {probe: {"displacement": history["displacement"][:, k], "acceleration": history["acceleration"][:, k]}
-         for k, probe in enumerate(scene.probes)},
+        sensor_histories(scene.channels, history["displacement"], history["acceleration"]),
         {c.name: {"force": history["force"][:, j], "closure": history["closure"][:, j]} for j, c in enumerate(scene.couplers)},
         energy,
         steps=steps if not failed else int(counters[FAILED_STEP]) - 1,
