@@ -55,13 +55,6 @@ def _bending_cars(case: Any) -> list[str]:
     return [car.name for car in case.cars if car.body.bends]
 
 
-def _modal(case: Any) -> str | None:
-    """The modal car reduces the rod's modes; a car that bends is not reduced yet."""
-    if case.kind in catalog.IMPACT_KINDS and _bending_cars(case):
-        return f"the modal car does not bend yet, and cars {', '.join(_bending_cars(case))} bend; run fem and rigid on them"
-    return None
-
-
 def _quasi_rigid(case: Any) -> str | None:
     """The quasi-rigid beam expands about the rigid modes of a symmetric body: even profiles only.
 
@@ -70,7 +63,7 @@ def _quasi_rigid(case: Any) -> str | None:
     """
     if case.kind in catalog.IMPACT_KINDS:
         if _bending_cars(case):
-            return f"the quasi-rigid car does not bend yet, and cars {', '.join(_bending_cars(case))} bend; run fem and rigid on them"
+            return f"the quasi-rigid car does not bend yet, and cars {', '.join(_bending_cars(case))} bend; run fem, modal and rigid on them"
         return None
     if case.body.type != "beam":
         return None
@@ -95,7 +88,7 @@ def _ann(case: Any) -> str | None:
 
 
 #: The case-specific limits, by model name: each reads any case kind and gives the more specific reason.
-LIMITS: Mapping[str, Capability] = {"exact": _exact, "modal": _modal, "quasi_rigid": _quasi_rigid, "ann": _ann}
+LIMITS: Mapping[str, Capability] = {"exact": _exact, "quasi_rigid": _quasi_rigid, "ann": _ann}
 
 #: Every model name a case may list (the catalog's, in its order).
 MODELS: tuple[str, ...] = tuple(catalog.MODELS)

@@ -174,7 +174,7 @@ class ImpactCase(SceneCase):
         problems = [p.under(("models",)) for p in problems]
         bending = [car.name for car in self.cars if car.body.bends]
         if self.tolerance is not None and bending:
-            rule = f"the choice climbs quasi_rigid and modal, which do not bend yet, and cars {', '.join(bending)} bend; list fem and rigid under models"
+            rule = f"the choice climbs quasi_rigid, which does not bend yet, and cars {', '.join(bending)} bend; list fem, modal and rigid under models"
             problems.append(Problem(("tolerance",), rule))
         if problems:
             raise problems_error(problems)

@@ -37,9 +37,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import scipy.linalg
 from numpy.typing import NDArray
 
 from femref.fem.build import FemSettings
+from femref.fem.operators import assemble_beam
 from femref.fem.modes import free_free_modes, residual_flexibility
 from femref.impact.systems import SecondOrderSystem
 from femref.models.base import built_once
@@ -68,7 +70,11 @@ def modal_car(car: Car, settings: FemSettings, modes: int, *, static_correction:
     """
     if car.body.kind != "rod":
         raise ValueError(f"a modal car is a rod, got a {car.body.kind}")
-    key = ("modal", car.body.geometry, tuple(car.sensors.values()), settings.elements, settings.order, settings.grading, modes, static_correction)
+    bending = None if car.bending is None else car.bending.geometry
+    key = ("modal", car.body.geometry, bending, car.coupler_offset, tuple(car.sensors.values()), settings.elements, settings.order,
+           settings.grading, modes, static_correction)
+    if car.bending is not None:
+        return built_once(key, lambda: _bending_modal_system(car, settings, modes, static_correction))
     return built_once(key, lambda: _modal_system(car, settings, modes, static_correction))
 
 
@@ -105,6 +111,67 @@ def _modal_system(car: Car, settings: FemSettings, modes: int, static_correction
             "element": ops.element,
             "elements": ops.elements,
         },
+    )
+
+
+def _bending_modal_system(car: Car, settings: FemSettings, modes: int, static_correction: bool) -> SecondOrderSystem:
+    """A car that bends, reduced: the rod's modal car (above) beside the beam's heave and pitch and its
+    ``modes`` lowest elastic bending modes, with the beam's own static correction, joined at the coupler
+    line as the fem car is (:func:`femref.models.fem.bending_system`)::
+
+        q = (q_rod, q_beam),   q̈_b + Φ_bᵀ C_b Φ_b q̇_b + diag(0, 0, ω_b²) q_b = Φ_bᵀ B_b L,
+        u_beam = Φ_b q_b + R_b L,   R_b = Σ_{dropped bending modes} φ φᵀ B_b / ω²
+
+    ``B_b`` are the end moments of the loads (``−h₁`` at ``θ(−l)`` for F1, ``h₂`` at ``θ(l)`` for F2). The
+    beam's modes come from the dense generalised eigenproblem of its Hermite mesh (all of them, so the
+    residual flexibility is the exact sum over the dropped ones; its two zero eigenvalues are the rigid
+    heave and pitch). Sensors: the rod's rows, then ``w`` and ``θ`` rows.
+    """
+    rod = _modal_system(car, settings, modes, static_correction)
+    ops = car_operators(car, settings)
+    assert car.bending is not None
+    beam = assemble_beam(ops.nodes, car.bending.mass_per_length, car.bending.stiffness, car.bending.viscosity)
+    omega2, phi = scipy.linalg.eigh(beam.stiffness.toarray(), beam.mass.toarray())
+    omega2[:2] = 0.0  # heave and pitch
+    keep = min(2 + modes, omega2.size)
+    l, x = car.body.half_length, car.sensor_x
+    theta_ends = beam.interpolation(np.array([-l, l]), derivative=1).toarray()
+    hooks = np.array(car.coupler_offset)[:, None] * theta_ends  # (2, n_beam): h θ at the ends
+    beam_loads = np.column_stack([-hooks[0], hooks[1]])  # columns F1, F2
+    beam_outputs = np.vstack([hooks, beam.interpolation(x, 0).toarray(), beam.interpolation(x, 1).toarray()])
+    kept = phi[:, :keep]
+    modal_outputs = beam_outputs @ kept
+    n_rod, n_beam, S = rod.dofs, keep, x.size
+    end_rod, sensor_rod = rod.end_outputs, rod.sensor_outputs
+    feedthrough = {}
+    if static_correction:
+        dropped = phi[:, keep:]
+        residual = dropped @ ((dropped.T @ beam_loads) / omega2[keep:, None])
+        beam_feedthrough = beam_outputs @ residual
+        feedthrough = dict(
+            end_feedthrough=rod.end_feedthrough + beam_feedthrough[:2],
+            sensor_feedthrough=np.vstack([rod.sensor_feedthrough, beam_feedthrough[2:]]),
+            feedthrough_energy=rod.feedthrough_energy + _symmetric(beam_loads.T @ residual),
+        )
+    damping = np.zeros((n_rod + n_beam, n_rod + n_beam))
+    damping[:n_rod, :n_rod] = rod.damping
+    damping[n_rod:, n_rod:] = _symmetric(kept.T @ (beam.damping @ kept))
+    bending_hz = np.sqrt(omega2[2:keep]) / (2.0 * math.pi)
+    return SecondOrderSystem(
+        "modal",
+        np.eye(n_rod + n_beam),
+        damping,
+        np.diag(np.concatenate([np.diag(rod.stiffness), omega2[:keep]])),
+        np.vstack([rod.load_matrix, kept.T @ beam_loads]),
+        np.hstack([end_rod, modal_outputs[:2]]),
+        np.vstack([
+            np.hstack([sensor_rod, np.zeros((S, n_beam))]),
+            np.hstack([np.zeros((2 * S, n_rod)), modal_outputs[2:]]),
+        ]),
+        translation=np.concatenate([rod.translation, np.zeros(n_beam)]),
+        **feedthrough,
+        settings=dict(rod.settings, bending_modes=keep - 2, bending_frequencies_hz=[float(f) for f in bending_hz],
+                      coupler_offset=list(car.coupler_offset)),
     )
 
 

@@ -129,7 +129,8 @@ def _union(keys: Iterable[Iterable[str]]) -> list[str]:
 
 
 def impact_figures(result: ResultFile) -> list[Picture]:
-    """Coupler force per coupler, then sensor acceleration per probe."""
+    """Coupler force per coupler, then sensor acceleration per probe, then — on cars that bend — vertical
+    acceleration per probe."""
     reference = reference_model(result)
     styles = model_styles(result.models, reference)
     models = _ordered(result, reference)
@@ -137,6 +138,8 @@ def impact_figures(result: ResultFile) -> list[Picture]:
     probes = _union(m.probes for m in ([reference] if reference else []) + models)
     pictures = [_coupler_force_picture(c, models, reference, result, styles) for c in couplers]
     pictures += [_time_acceleration_picture(p, models, reference, result, styles, measured=True) for p in probes]
+    bending = [p for p in probes if any("vertical_acceleration" in m.probes.get(p, {}) for m in models)]
+    pictures += [_time_acceleration_picture(p, models, reference, result, styles, quantity="vertical_acceleration") for p in bending]
     return pictures
 
 
@@ -194,14 +197,16 @@ def _time_acceleration_picture(
     result: ResultFile,
     styles: dict[str, dict],
     measured: bool = False,
+    quantity: str = "acceleration",
 ) -> Picture:
-    """Acceleration (m/s²) at ``probe`` against time; with ``measured``, the reference's measured record thinner."""
+    """Acceleration (m/s², ``quantity``: the axial ``acceleration`` or the ``vertical_acceleration`` of a car
+    that bends) at ``probe`` against time; with ``measured``, the reference's measured record thinner."""
     figure, (ax,) = _new_figure()
     undrawn = []
     for model in models:
-        if "acceleration" not in model.probes.get(probe, {}):
+        if quantity not in model.probes.get(probe, {}):
             continue
-        acceleration = np.asarray(model.probes[probe]["acceleration"], dtype=float)
+        acceleration = np.asarray(model.probes[probe][quantity], dtype=float)
         time = _time_axis(model, acceleration.size, result, reference)
         if time is None:
             undrawn.append(model.name)
@@ -211,14 +216,16 @@ def _time_acceleration_picture(
     if shows_measured:
         record = {"color": "#7f7f7f", "lw": MEASURED_WIDTH, "zorder": 2.5, "label": f"{reference.name} measured"}
         ax.plot(reference.measured_time, reference.measured[probe], **record)
+    vertical = quantity == "vertical_acceleration"
     ax.set_xlabel("time t (s)")
-    ax.set_ylabel("acceleration (m/s²)")
-    ax.set_title(f"probe {probe}")
+    ax.set_ylabel("vertical acceleration (m/s², up +)" if vertical else "acceleration (m/s²)")
+    ax.set_title(f"probe {probe}" + (", vertical" if vertical else ""))
     _legend(ax)
-    caption = f"Acceleration at probe {probe} against time, models overlaid"
+    caption = f"{'Vertical acceleration' if vertical else 'Acceleration'} at probe {probe} against time, models overlaid"
     if shows_measured:
         caption += f"; thin grey: the {reference.name} record through the measurement chain"
-    return Picture(f"acceleration — {probe}", caption + _undrawn_note(undrawn) + ".", figure_png(figure))
+    title = f"{'vertical acceleration' if vertical else 'acceleration'} — {probe}"
+    return Picture(title, caption + _undrawn_note(undrawn) + ".", figure_png(figure))
 
 
 # --- one body ------------------------------------------------------------------------

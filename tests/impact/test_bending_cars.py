@@ -163,7 +163,7 @@ def test_rigid_car_pitches_under_the_end_moment():
     assert np.max(np.abs(rigid.probes["anvil/center"]["vertical_acceleration"])) <= 1e-9 * np.max(np.abs(pitch))
 
 
-@pytest.mark.parametrize("model", ["fem", "rigid"])
+@pytest.mark.parametrize("model", ["fem", "modal", "rigid"])
 def test_both_engines_step_a_bending_car_alike(model):
     """The compiled loop and the readable reference loop step the same bending cars to the same histories
     (1e-8 of each quantity's largest value; round-off of a different summation order): no kernel of its own — only more sensor rows."""
@@ -179,3 +179,23 @@ def test_both_engines_step_a_bending_car_alike(model):
             scale = max(np.max(np.abs(values)), 1e-300)
             assert np.max(np.abs(fast.sensors[probe][quantity] - values)) <= 1e-8 * scale, (probe, quantity)
     assert np.max(np.abs(fast.couplers["c1"]["force"] - slow.couplers["c1"]["force"])) <= 1e-9 * np.max(slow.couplers["c1"]["force"])
+
+
+def test_modal_bending_car_converges_to_the_fem_car():
+    """The modal car of a bending car — the rod's modes beside the beam's heave, pitch and lowest bending
+    modes, each with its static correction — against the fem car (64 elements) on the front car's
+    vertical acceleration: the rms error falls as modes are added (measured 30 %, 18 %, 5.5 %, 1.1 % with
+    1, 2, 4, 8 bending modes), and the coupler force peaks within 0.2 % of the fem's."""
+    fem = run(bending_case(OFFSET, elements=64))["fem"]
+    reference = np.column_stack([fem.probes[f"anvil/{s}"]["vertical_acceleration"] for s in ("center", "front")])
+    errors = []
+    for modes in (1, 2, 4, 8):
+        data = bending_case(OFFSET, models=("modal",), elements=64)
+        data["modal"] = {"modes": modes}
+        modal = run(data)["modal"]
+        got = np.column_stack([np.interp(fem.axes["time"], modal.axes["time"], modal.probes[f"anvil/{s}"]["vertical_acceleration"]) for s in ("center", "front")])
+        errors.append(float(np.sqrt(np.mean((got - reference) ** 2)) / np.sqrt(np.mean(reference**2))))
+        peak = np.max(modal.couplers["c1"]["force"]) / np.max(fem.couplers["c1"]["force"]) - 1.0
+        print(f"{modes} modes: vertical acceleration rms error {errors[-1]:.3e}, peak force {peak:+.2%}")
+    assert all(b < a for a, b in zip(errors, errors[1:])), errors
+    assert errors[-1] < 0.03 and abs(peak) < 0.002
