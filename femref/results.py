@@ -14,6 +14,7 @@ Layout::
                                      impacts: kinetic, strain, body_dissipated, coupler_stored,
                                      coupler_dissipated, total
     /<model>/measured/time, /<model>/measured/<probe>/acceleration   (measurement chain)
+    /<model>/measured/<probe>/vertical_acceleration                  (measurement chain, cars that bend)
     /<model>/fields/x, /<model>/fields/u
     /scores/<model>/                 attrs: reference, one per metric
     /choice/                         a model choice (femref run --tolerance; femref.choice.output)
@@ -90,6 +91,7 @@ class ModelResult:
     energy: dict[str, NDArray] = field(default_factory=dict)
     fields: dict[str, NDArray] = field(default_factory=dict)  # "x" (Nx,), "u" (Nt_out, Nx), "time"
     measured: dict[str, NDArray] = field(default_factory=dict)  # "time" and probe → measured acceleration
+    measured_vertical: dict[str, NDArray] = field(default_factory=dict)  # probe → measured vertical acceleration (cars that bend)
 
     @classmethod
     def failed(cls, model: str, message: str, wall_time_s: float = 0.0, settings: dict | None = None) -> "ModelResult":
@@ -202,6 +204,8 @@ def _write_model(group: h5py.Group, result: ModelResult) -> None:
                 _dataset(sub, "time", data)
             else:
                 _dataset(sub.require_group(name), "acceleration", data)
+        for name, data in result.measured_vertical.items():
+            _dataset(sub.require_group(name), "vertical_acceleration", data)
     if result.fields:
         sub = group.create_group("fields")
         for name, data in result.fields.items():

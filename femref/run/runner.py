@@ -185,11 +185,15 @@ def _public(settings: dict[str, Any]) -> dict[str, Any]:
 
 
 def add_measured_records(scene: ImpactScene, result: ModelResult) -> None:
-    """Sensor accelerations as the measurement chain delivers them, under ``result.measured``."""
+    """Sensor accelerations as the measurement chain delivers them, under ``result.measured`` — and on cars
+    that bend the vertical accelerations through the same chain, under ``result.measured_vertical``."""
     probes = list(result.probes)
-    accelerations = np.column_stack([result.probes[p]["acceleration"] for p in probes])
+    vertical = [p for p in probes if "vertical_acceleration" in result.probes[p]]
+    accelerations = np.column_stack([result.probes[p]["acceleration"] for p in probes]
+                                    + [result.probes[p]["vertical_acceleration"] for p in vertical])
     t, records = measure(result.axes["time"], accelerations, scene.measurement)
     result.measured = {"time": t, **{p: records[:, k] for k, p in enumerate(probes)}}
+    result.measured_vertical = {p: records[:, len(probes) + k] for k, p in enumerate(vertical)}
 
 
 def run_estimators(scene: ImpactScene, reference: ModelResult) -> list[ModelResult]:

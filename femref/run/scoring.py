@@ -252,10 +252,13 @@ def score_single_body(kind: str, results: list[ModelResult]) -> dict[str, dict[s
 
 
 def _measured_view(result: ModelResult) -> ModelResult:
-    """The measured records of a result as a result of their own (time axis, probe accelerations)."""
+    """The measured records of a result as a result of their own (time axis, probe accelerations, vertical ones
+    on cars that bend)."""
     view = ModelResult(result.model)
     view.axes = {"time": result.measured["time"]}
     view.probes = {p: {"acceleration": a} for p, a in result.measured.items() if p != "time"}
+    for p, a in result.measured_vertical.items():
+        view.probes[p]["vertical_acceleration"] = a
     return view
 
 

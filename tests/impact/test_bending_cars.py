@@ -199,3 +199,19 @@ def test_modal_bending_car_converges_to_the_fem_car():
         print(f"{modes} modes: vertical acceleration rms error {errors[-1]:.3e}, peak force {peak:+.2%}")
     assert all(b < a for a, b in zip(errors, errors[1:])), errors
     assert errors[-1] < 0.03 and abs(peak) < 0.002
+
+
+def test_the_measurement_chain_records_vertical_accelerations_too():
+    """With a measurement chain each sensor's vertical acceleration goes through it as the axial one does
+    (same filter, rate and noise stream), is written under measured/<probe>/vertical_acceleration, and
+    scored: ``measured_vertical_acceleration_rms_error_max``."""
+    from femref.sensing.measurement import Measurement, measure
+
+    data = bending_case(OFFSET, models=("fem", "modal"))
+    data["measurement"] = {"rate": 1000.0, "lowpass": 100.0, "noise": 0.0}
+    outcome = run_scene(scene_from_case(parse_case(data, source="<bending>")))
+    fem = next(r for r in outcome.results if r.model == "fem")
+    assert set(fem.measured_vertical) == set(fem.probes)
+    _, expected = measure(fem.axes["time"], fem.probes["anvil/front"]["vertical_acceleration"], Measurement(rate=1000.0, lowpass=100.0))
+    assert np.allclose(fem.measured_vertical["anvil/front"], expected, rtol=0.0, atol=1e-12 * np.max(np.abs(expected)))
+    assert np.isfinite(outcome.scores["modal"]["measured_vertical_acceleration_rms_error_max"])
