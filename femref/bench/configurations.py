@@ -11,8 +11,7 @@ Rules (docs/design.md §7: each model at several resolutions, scored against the
   :data:`femref.run.resolutions.MODE_COUNTS` elastic modes and the case's ``modal.modes``,
   each at its own step; counts the mesh cannot hold (more than ``ndof − 2`` of its
   smallest car) are left out.
-* **quasi_rigid** and **rigid**, every car so: one run each at its own step (no quasi_rigid run
-  when a car bends: the quasi-rigid car does not bend yet).
+* **quasi_rigid** and **rigid**, every car so: one run each at its own step.
 * **estimators** the case lists (``estimators:``, inverse and network): one row each,
   reading the records of the fem run at the case's settings (``N`` elements, ``dt × 1``),
   measured as the case says — as ``femref run`` feeds them.
@@ -129,8 +128,7 @@ def bench_plan(scene: ImpactScene) -> BenchPlan:
         configurations.append(_solve("fem", fem_scene, "dt_factor", factor, dt_factor=factor))
     for modes in mode_counts(scene):
         configurations.append(_solve("modal", dataclasses.replace(scene, modal_modes=modes), "modes", modes))
-    if not any(car.bends for car in scene.cars):  # the quasi-rigid car does not bend yet
-        configurations.append(_solve("quasi_rigid", scene))
+    configurations.append(_solve("quasi_rigid", scene))
     configurations.append(_solve("rigid", scene))
     for name in (*scene.estimators, *(network.name for network in scene.networks)):
         configurations.append(Configuration(name, ESTIMATOR))

@@ -58,21 +58,29 @@ def _bending_cars(case: Any) -> list[str]:
 def _quasi_rigid(case: Any) -> str | None:
     """The quasi-rigid beam expands about the rigid modes of a symmetric body: even profiles only.
 
-    Impact cars are rods, which the quasi-rigid rod serves with any profile; a car that bends is not
-    served yet.
+    Impact cars are rods, which the quasi-rigid rod serves with any profile; a car that bends is also
+    a quasi-rigid beam, which needs even profiles.
     """
     if case.kind in catalog.IMPACT_KINDS:
-        if _bending_cars(case):
-            return f"the quasi-rigid car does not bend yet, and cars {', '.join(_bending_cars(case))} bend; run fem, modal and rigid on them"
+        for car in case.cars:
+            if car.body.bends:
+                odd = _odd_profile(car.body.beam())
+                if odd:
+                    return f"the quasi-rigid beam needs even profiles m(x), EI(x), cI(x), but car {car.name}'s body.{odd} is not even in x"
         return None
     if case.body.type != "beam":
         return None
-    body = case.body
+    odd = _odd_profile(case.body)
+    if odd:
+        return f"the quasi-rigid beam needs even profiles m(x), EI(x), cI(x), but body.{odd} is not even in x"
+    return None
+
+
+def _odd_profile(body: Any) -> str | None:
+    """The first of a beam body's profiles that is not even in x (case-file name), or None."""
     x = np.linspace(0.0, body.half_length, 257)
     odd = [name for name, profile in body.profiles().items() if not np.allclose(profile(x), profile(-x), rtol=1e-12, atol=0.0)]
-    if odd:
-        return f"the quasi-rigid beam needs even profiles m(x), EI(x), cI(x), but body.{odd[0]} is not even in x"
-    return None
+    return odd[0] if odd else None
 
 
 def _ann(case: Any) -> str | None:

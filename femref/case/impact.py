@@ -172,10 +172,6 @@ class ImpactCase(SceneCase):
                 if reason is not None:
                     problems.append(Problem((i,) if isinstance(run, str) else (i, "fidelity"), f"{model} cannot serve this case: {reason}", model))
         problems = [p.under(("models",)) for p in problems]
-        bending = [car.name for car in self.cars if car.body.bends]
-        if self.tolerance is not None and bending:
-            rule = f"the choice climbs quasi_rigid, which does not bend yet, and cars {', '.join(bending)} bend; list fem, modal and rigid under models"
-            problems.append(Problem(("tolerance",), rule))
         if problems:
             raise problems_error(problems)
         return self

@@ -180,7 +180,7 @@ class _Climb:
         rigid, quasi_rigid = self.by_label["rigid"], self.by_label["quasi_rigid"]
         if not (rigid.ran and quasi_rigid.ran):
             return math.inf, "no estimate: rigid and quasi_rigid must both run"
-        wave_time = max(car.body.wave_travel_time for car in self.scene.cars)
+        wave_time = self.scene.wave_travel_time
         time_axis = rigid.result.axes["time"]
         self.epsilon_load = max(load_epsilon(time_axis, out["force"], wave_time) for out in rigid.result.couplers.values())
         if not self.epsilon_load <= EPS_LOAD_VALID:

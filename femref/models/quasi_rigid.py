@@ -27,6 +27,7 @@ to 1e-6; the Voigt car's dissipated energy is within 3 % of the FEM car's.
 from __future__ import annotations
 
 import numpy as np
+import scipy.linalg
 from numpy.typing import NDArray
 
 from femref.core.body import Body
@@ -87,8 +88,9 @@ def quasi_rigid_rod(car: Car) -> QuasiRigidRod:
     return quasi_rigid_body(car.body)
 
 
-def _energy_forms(rod: QuasiRigidRod) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """``(∫ m C Cᵀ, ∫ m C, ∫ EA C' C'ᵀ)`` over the body's Gauss rule; C flattened as ``(g, j)``.
+def _energy_forms(rod: QuasiRigidRod | QuasiRigidBeam) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """``(∫ m C Cᵀ, ∫ m C, ∫ EA C' C'ᵀ)`` over the body's Gauss rule; C flattened as ``(g, j)`` (a beam:
+    ``∫ EI C'' C''ᵀ``, its ψ being the curvature per unit filtered load).
 
     ``C[x, j, g]`` (:meth:`CreepCorrection.node_coefficients`) and its x-derivative ψ, the strain
     per unit filtered load (:attr:`CreepCorrection.psi_at_nodes`), at the quadrature nodes
@@ -120,7 +122,10 @@ def quasi_rigid_car(car: Car, dt: float) -> StateSpaceSystem:
     measures the model's energy error (small, either sign: the correction's own kinetic
     energy, O(ε) of the strain energy, is not balanced by the model).
     """
-    key = ("quasi_rigid", car.body.geometry, tuple(car.sensors.values()), float(dt))
+    bending = None if car.bending is None else car.bending.geometry
+    key = ("quasi_rigid", car.body.geometry, bending, car.coupler_offset, tuple(car.sensors.values()), float(dt))
+    if car.bending is not None:
+        return built_once(key, lambda: _bending_quasi_rigid_system(car, dt))
     return built_once(key, lambda: _quasi_rigid_system(car, dt))
 
 
@@ -164,3 +169,94 @@ def _quasi_rigid_system(car: Car, dt: float) -> StateSpaceSystem:
         settings={"tau_groups": [float(t) for t in rod.tau_groups]},
         settings_of_time_scale=lambda time_scale: {"epsilon": rod.epsilon_of_time_scale(time_scale)},
     )
+
+
+def _bending_quasi_rigid_system(car: Car, dt: float) -> StateSpaceSystem:
+    """A car that bends, quasi-rigid: the rod car above beside the quasi-rigid beam (docs/formulas.md §E) —
+    heave and pitch plus the creep bending under the inertia-balanced end moments — joined at the coupler
+    line as the fem car is (:func:`femref.models.fem.bending_system`)::
+
+        x = (x_rod, x_beam),   beam loads (N1, N2, G1, G2) = (0, 0, h₁ F1, h₂ F2),
+        end outputs  u(∓l) + h θ(∓l),   sensors: the rod's axial rows, then w, then θ = ∂w/∂x
+
+    The beam block is the stepper's own (:meth:`QuasiRigidStepper.transition`, its load samples in
+    beam units, ``T L``); its slopes come from the rigid modes' and the correction's x-derivatives
+    (no numerical differentiation). Energies: the rod's forms plus the beam's, ``½ ∫ m v_w² dx`` and
+    ``½ ∫ EI κ² dx`` by the same quadrature Gram matrices. The beam needs even profiles.
+    """
+    rod = _quasi_rigid_system(car, dt)
+    assert car.bending is not None
+    beam = quasi_rigid_body(car.bending)
+    stepper = QuasiRigidStepper(beam, car.sensor_x, initial_shape="undeformed")
+    step = stepper.transition(dt)
+    h1, h2 = car.coupler_offset
+    to_beam = np.array([[0.0, 0.0], [0.0, 0.0], [h1, 0.0], [0.0, h2]])  # (N1, N2, G1, G2) from (F1, F2)
+    n_b = step.transition.shape[0]
+    K, J = beam.rigid_gain.shape
+    gj = beam.tau_groups.size * J
+    qd, y, z, w = K, 2 * K, 2 * K + gj, 2 * K + 2 * gj
+    history = 2 * K + 3 * gj + J
+    current = slice(history + 2 * J, history + 3 * J)
+    positions = stepper.positions
+
+    def flat(table: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.ascontiguousarray(table.transpose(0, 2, 1).reshape(table.shape[0], -1))
+
+    slope_modes, slope_table = beam.rigid_modes(positions, 1), flat(beam.coefficients(positions, 1))
+    slope = np.zeros((positions.size, n_b))
+    slope[:, 0:K] = slope_modes
+    slope[:, y:y + gj] = slope_table
+    slope_rate = np.zeros((positions.size, n_b))
+    slope_rate[:, qd:qd + K] = slope_modes
+    slope_rate[:, z:z + gj] = slope_table
+    slope_acceleration = np.zeros((positions.size, n_b))
+    slope_acceleration[:, current] = slope_modes @ beam.rigid_gain
+    slope_acceleration[:, w:w + gj] = slope_table
+    hooks = np.array([h1, h2])[:, None]
+    n_r, S = rod.transition.shape[0], car.sensor_x.size
+
+    def side_by_side(rod_rows: NDArray[np.float64], beam_rows: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.hstack([rod_rows, beam_rows])
+
+    kinetic_form, kinetic_cross, strain_form = _energy_forms(beam)
+    beam_kinetic = np.zeros((n_b, n_b))
+    beam_kinetic[qd:qd + K, qd:qd + K] = np.diag([beam.mass, beam.moment_of_inertia])
+    beam_kinetic[z:z + gj, z:z + gj] = kinetic_form
+    cross = np.stack([kinetic_cross, _first_moment_cross(beam)])  # ∫ m C and ∫ m x C: zero to rounding
+    beam_kinetic[qd:qd + K, z:z + gj] = cross
+    beam_kinetic[z:z + gj, qd:qd + K] = cross.T
+    beam_strain = np.zeros((n_b, n_b))
+    beam_strain[y:y + gj, y:y + gj] = strain_form
+    load_state = np.zeros((n_b, 2))
+    for k in range(3):
+        load_state[history + k * J:history + (k + 1) * J] = to_beam
+    return StateSpaceSystem(
+        "quasi_rigid",
+        dt,
+        scipy.linalg.block_diag(rod.transition, step.transition),
+        np.vstack([rod.input, step.input @ to_beam]),
+        side_by_side(rod.end_displacement, hooks * slope[:2]),
+        side_by_side(rod.end_velocity, hooks * slope_rate[:2]),
+        np.vstack([side_by_side(rod.sensor_displacement, np.zeros((S, n_b))),
+                   side_by_side(np.zeros((S, n_r)), step.displacement[2:]),
+                   side_by_side(np.zeros((S, n_r)), slope[2:])]),
+        np.vstack([side_by_side(rod.sensor_acceleration, np.zeros((S, n_b))),
+                   side_by_side(np.zeros((S, n_r)), step.acceleration[2:]),
+                   side_by_side(np.zeros((S, n_r)), slope_acceleration[2:])]),
+        np.concatenate([rod.velocity_state, np.zeros(n_b)]),
+        np.vstack([rod.load_state, load_state]),
+        scipy.linalg.block_diag(rod.kinetic_form, beam_kinetic),
+        scipy.linalg.block_diag(rod.strain_form, beam_strain),
+        rod.work_map,
+        np.concatenate([rod.momentum, np.zeros(n_b)]),
+        settings=dict(rod.settings, bending_tau_groups=[float(t) for t in beam.tau_groups], coupler_offset=list(car.coupler_offset)),
+        settings_of_time_scale=rod.settings_of_time_scale,
+    )
+
+
+def _first_moment_cross(body: QuasiRigidBeam) -> NDArray[np.float64]:
+    """``∫ m x C dx`` over the body's Gauss rule (C flattened as ``(g, j)``): the pitch's kinetic coupling to the correction."""
+    q, correction = body.quadrature, body.correction
+    C = correction.node_coefficients()
+    C = C.transpose(0, 2, 1).reshape(q.nodes.size, -1)
+    return (q.weights * q.mass * q.nodes).ravel() @ C

@@ -150,10 +150,16 @@ class ImpactScene:
         return min(times, default=math.inf)
 
     @property
+    def wave_travel_time(self) -> float:
+        """The longest wave travel time of the cars (s): axial ``l√(m/EA)``, and ``l²√(m/EI)`` of a car that
+        bends (its first bending mode is usually far below its first axial one)."""
+        return max(max(car.body.wave_travel_time, car.bending.wave_travel_time if car.bending is not None else 0.0) for car in self.cars)
+
+    @property
     def epsilon(self) -> float:
-        """``ε = (T_wave / T_load)²`` of the softest car, ``T_load`` the contact time (the pulse length)."""
-        t_load = self.contact_time()
-        return max((car.body.wave_travel_time / t_load) ** 2 for car in self.cars)
+        """``ε = (T_wave / T_load)²`` of the softest car (axially or, if it bends, in bending), ``T_load`` the
+        contact time (the pulse length)."""
+        return (self.wave_travel_time / self.contact_time()) ** 2
 
     def facts(self) -> dict[str, float | str]:
         """What the result file records of the scene (``/scene`` attributes, docs/design.md §4): the kind,
@@ -162,6 +168,6 @@ class ImpactScene:
         return {
             "kind": self.kind,
             "epsilon": float(self.epsilon),
-            "wave_travel_time": max(car.body.wave_travel_time for car in self.cars),
+            "wave_travel_time": self.wave_travel_time,
             "load_time": self.contact_time(),
         }
