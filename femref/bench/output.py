@@ -28,7 +28,7 @@ import h5py
 import numpy as np
 
 from femref import __version__
-from femref.bench.run import PRIMARY_ERROR, RATIO_BASE, SECONDARY_ERROR, BenchOutcome, BenchRow
+from femref.bench.run import PRIMARY_ERROR, RATIO_BASE, SECONDARY_ERROR, VERTICAL_ERROR, BenchOutcome, BenchRow
 from femref.results import atomic_path
 
 __all__ = ["COLUMNS", "plot_pareto", "write_bench_table"]
@@ -48,6 +48,7 @@ COLUMNS: dict[str, tuple[Any, str, Callable[[BenchRow], Any]]] = {
     "time_ratio_rigid": (np.float64, "1 (wall_time_s / rigid wall_time_s)", lambda r: r.time_ratio_rigid),
     "peak_error": (np.float64, f"1 ({PRIMARY_ERROR})", lambda r: r.peak_error),
     "rms_error": (np.float64, f"1 ({SECONDARY_ERROR})", lambda r: r.rms_error),
+    "vertical_error": (np.float64, f"1 ({VERTICAL_ERROR}; NaN: no car bends)", lambda r: r.vertical_error),
     "pareto": (np.bool_, "Pareto-optimal in (wall_time_s, peak_error)", lambda r: r.pareto),
     "status": (_STR, "ok | failed", lambda r: r.status),
     "message": (_STR, "", lambda r: r.message),

@@ -41,6 +41,8 @@ __all__ = ["PRIMARY_ERROR", "SECONDARY_ERROR", "BenchOutcome", "BenchRow", "Refe
 
 PRIMARY_ERROR = "coupler_force_peak_error_max"
 SECONDARY_ERROR = "coupler_force_rms_error_max"
+VERTICAL_ERROR = "vertical_acceleration_rms_error_max"
+"""On cars that bend, the worst sensor's vertical-acceleration rms error (NaN on rods)."""
 RATIO_BASE = "rigid"
 """The family whose median time every time is divided by."""
 
@@ -62,6 +64,7 @@ class BenchRow:
     wall_times_s: tuple[float, ...] = ()
     peak_error: float = math.nan
     rms_error: float = math.nan
+    vertical_error: float = math.nan
     time_ratio_rigid: float = math.nan
     pareto: bool = False
 
@@ -159,6 +162,7 @@ def _solve_row(configuration: Configuration, reference: ModelResult, repeats: in
         wall_times_s=times,
         peak_error=float(metrics.get(PRIMARY_ERROR, math.nan)),
         rms_error=float(metrics.get(SECONDARY_ERROR, math.nan)),
+        vertical_error=float(metrics.get(VERTICAL_ERROR, math.nan)),
     )
     return row, result
 

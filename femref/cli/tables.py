@@ -113,10 +113,12 @@ def study_table(outcome) -> Table:
 
 
 def bench_table(outcome) -> Table:
-    """Every configuration: step, work, median time, ratio to rigid, errors, Pareto flag."""
+    """Every configuration: step, work, median time, ratio to rigid, errors (with cars that bend also the worst
+    vertical-acceleration rms error), Pareto flag."""
     title = f"femref bench: median of {outcome.repeats} wall times; errors against {outcome.plan.reference_description}"
     table = Table(title=title, title_justify="left")
-    columns = ("configuration", "dt ms", "steps", "wall time ms", "× rigid", "peak err", "rms err", "Pareto", "status")
+    vertical = any(math.isfinite(row.vertical_error) for row in outcome.rows)
+    columns = ("configuration", "dt ms", "steps", "wall time ms", "× rigid", "peak err", "rms err", *(("a_vert err",) if vertical else ()), "Pareto", "status")
     for column in columns:
         table.add_column(column, justify="left" if column in ("configuration", "status", "Pareto") else "right", no_wrap=column == "configuration")
     for row in outcome.rows:
@@ -129,6 +131,7 @@ def bench_table(outcome) -> Table:
             _fmt(row.time_ratio_rigid, "{:.3g}"),
             _percent(row.peak_error),
             _percent(row.rms_error),
+            *((_percent(row.vertical_error),) if vertical else ()),
             "✓" if row.pareto else "",
             row.status if row.ok else f"{row.status}: {row.message}",
         )
