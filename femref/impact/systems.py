@@ -35,8 +35,9 @@ class SecondOrderSystem:
     ``mass``, ``damping``, ``stiffness`` (n × n; scipy sparse for a FEM car, dense numpy
     for a few modal or rigid DOFs), ``load_matrix`` B (n × J), ``end_outputs`` E (Y × n),
     ``sensor_outputs`` O (S × n), all dense but M, C, K. ``translation`` t is the DOF vector
-    of a unit rigid translation (``K t = C t = 0``, every output reads 1 from it): the car
-    starts undeformed at ``velocity · t``. The optional static correction (modal
+    of a unit rigid translation (``K t = C t = 0``; every end output reads 1 from it, a sensor
+    row 1 if axial and 0 if vertical or pitch on a car that bends): the car starts undeformed
+    at ``velocity · t``. The optional static correction (modal
     truncation) is massless: ``end_feedthrough`` R_e (Y × J), ``sensor_feedthrough`` R_s
     (S × J), strain energy ``½ Lᵀ Q L`` (``feedthrough_energy`` Q, J × J).
     """
