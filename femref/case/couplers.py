@@ -202,13 +202,31 @@ class CouplerSpec(CaseModel):
     tension_slack: NonNegativeReal = Field(
         default=0.0, description="Free play in tension (m), >= 0, bilateral contact only. Default 0."
     )
+    vertical_offset: Real = Field(
+        default=0.0,
+        description="Height of the front car's coupler line above the rear car's (m): the coupler is inclined, so its force "
+        "also pushes the cars vertically. Needs pivot_distance and both cars bending. Default 0.",
+    )
+    pivot_distance: PositiveReal | None = Field(
+        default=None, description="Distance between the two cars' coupler pivots (m), > 0: the inclined coupler's length. Required with a vertical_offset."
+    )
 
     @model_validator(mode="after")
     def _tension_slack_bilateral(self) -> "CouplerSpec":
         if self.contact == "compression_only" and self.tension_slack != 0.0:
             rule = "applies to bilateral contact only; compression_only never transmits tension"
             raise problems_error([Problem(("tension_slack",), rule, self.tension_slack)])
+        if self.vertical_offset != 0.0:
+            if self.pivot_distance is None:
+                raise problems_error([Problem(("pivot_distance",), "required with a vertical_offset: the coupler's inclination is offset / pivot_distance")])
+            if abs(self.vertical_offset) >= 0.5 * self.pivot_distance:
+                raise problems_error([Problem(("vertical_offset",), f"must be below half the pivot distance ({0.5 * self.pivot_distance:g} m): a coupler inclined so far is no longer a buff coupler", self.vertical_offset)])
         return self
+
+    @property
+    def slope(self) -> float:
+        """``s = vertical_offset / pivot_distance``: the coupler's inclination (small-angle, up toward the front)."""
+        return 0.0 if self.vertical_offset == 0.0 else self.vertical_offset / float(self.pivot_distance)
 
 
 def _line_order_rule(rear: int, front: int, names: list[str]) -> str:

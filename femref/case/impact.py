@@ -172,6 +172,12 @@ class ImpactCase(SceneCase):
                 if reason is not None:
                     problems.append(Problem((i,) if isinstance(run, str) else (i, "fidelity"), f"{model} cannot serve this case: {reason}", model))
         problems = [p.under(("models",)) for p in problems]
+        bends = {car.name: car.body.bends for car in self.cars}
+        for k, coupler in enumerate(self.couplers):
+            flat = [name for name in coupler.between if not bends.get(name, True)]
+            if coupler.vertical_offset != 0.0 and flat:
+                rule = f"an inclined coupler pushes its cars vertically: cars {', '.join(flat)} need a bending_stiffness"
+                problems.append(Problem(("couplers", k, "vertical_offset"), rule, coupler.vertical_offset))
         if problems:
             raise problems_error(problems)
         return self

@@ -65,7 +65,8 @@ def fem_car(car: Car, settings: FemSettings) -> SecondOrderSystem:
     bends, Hermite beam elements on the same nodes (:func:`bending_system`); built once per geometry,
     sensors, offsets and mesh (:func:`femref.models.base.built_once`)."""
     bending = None if car.bending is None else car.bending.geometry
-    key = ("fem", car.body.geometry, bending, car.coupler_offset, tuple(car.sensors.values()), settings.elements, settings.order, settings.grading)
+    key = ("fem", car.body.geometry, bending, car.coupler_offset, car.coupler_slope, tuple(car.sensors.values()), settings.elements,
+           settings.order, settings.grading)
     return built_once(key, lambda: _fem_system(car, settings))
 
 
@@ -94,10 +95,11 @@ def _fem_system(car: Car, settings: FemSettings) -> SecondOrderSystem:
     if car.bending is None:
         return rod
     beam = assemble_beam(ops.nodes, car.bending.mass_per_length, car.bending.stiffness, car.bending.viscosity)
-    return bending_system(rod, beam, car.sensor_x, car.coupler_offset)
+    return bending_system(rod, beam, car.sensor_x, car.coupler_offset, car.coupler_slope)
 
 
-def bending_system(rod: SecondOrderSystem, beam: Operators, sensor_x: np.ndarray, offset: tuple[float, float]) -> SecondOrderSystem:
+def bending_system(rod: SecondOrderSystem, beam: Operators, sensor_x: np.ndarray, offset: tuple[float, float],
+                   slope: tuple[float, float] = (0.0, 0.0)) -> SecondOrderSystem:
     """A car that bends: its rod and its Euler-Bernoulli beam (``beam``, DOFs ``(w, θ)`` per node) side by
     side, ``u = (u_rod, u_beam)``, joined only where the couplers act (docs/formulas.md §X7).
 
@@ -111,14 +113,17 @@ def bending_system(rod: SecondOrderSystem, beam: Operators, sensor_x: np.ndarray
 
     — the beam takes the end moments ``G₁ = h₁ F1``, ``G₂ = h₂ F2`` (the beam's
     ``−G1 v'(−l) + G2 v'(l)``), and the loads are the outputs' transpose, so the coupler does
-    the work ``F·Δ(u + hθ)`` and energy balances. The sensors record the rod's axial
+    the work ``F·Δ(u + hθ)`` and energy balances. A coupler inclined by ``s`` (``slope``, up toward
+    the front) also reads ``s w`` at its end and pushes the car vertically by ``s F`` there
+    (``N₁ = −s₁ F1``, ``N₂ = −s₂ F2``): its closure is the relative motion along its own line. The sensors record the rod's axial
     displacement, then the beam's ``w`` (vertical), then ``θ`` (pitch), each at every sensor.
     Zero offsets leave the beam unloaded and the rod exactly as alone.
     """
     n_rod, n_beam = rod.dofs, beam.ndof
     l = beam.half_length
-    ends = beam.interpolation(np.array([-l, l]), derivative=1).toarray()  # θ at the ends
-    hooks = np.hstack([np.zeros((2, n_rod)), np.array(offset)[:, None] * ends])
+    ends = np.array([-l, l])
+    rotation, deflection = beam.interpolation(ends, derivative=1).toarray(), beam.interpolation(ends, derivative=0).toarray()
+    hooks = np.hstack([np.zeros((2, n_rod)), np.array(offset)[:, None] * rotation + np.array(slope)[:, None] * deflection])
     end_outputs = np.hstack([rod.end_outputs, np.zeros((2, n_beam))]) + hooks
     load_matrix = np.vstack([rod.load_matrix, np.zeros((n_beam, 2))])
     load_matrix[:, 0] -= hooks[0]
@@ -130,7 +135,7 @@ def bending_system(rod: SecondOrderSystem, beam: Operators, sensor_x: np.ndarray
         np.hstack([np.zeros((sensor_x.size, n_rod)), vertical]),
         np.hstack([np.zeros((sensor_x.size, n_rod)), pitch]),
     ])
-    settings = dict(rod.settings, dofs=n_rod + n_beam, beam_element=beam.element, coupler_offset=list(offset))
+    settings = dict(rod.settings, dofs=n_rod + n_beam, beam_element=beam.element, coupler_offset=list(offset), coupler_slope=list(slope))
     return SecondOrderSystem(
         rod.fidelity,
         sp.block_diag([rod.mass, beam.mass], format="csr"),

@@ -71,7 +71,7 @@ def modal_car(car: Car, settings: FemSettings, modes: int, *, static_correction:
     if car.body.kind != "rod":
         raise ValueError(f"a modal car is a rod, got a {car.body.kind}")
     bending = None if car.bending is None else car.bending.geometry
-    key = ("modal", car.body.geometry, bending, car.coupler_offset, tuple(car.sensors.values()), settings.elements, settings.order,
+    key = ("modal", car.body.geometry, bending, car.coupler_offset, car.coupler_slope, tuple(car.sensors.values()), settings.elements, settings.order,
            settings.grading, modes, static_correction)
     if car.bending is not None:
         return built_once(key, lambda: _bending_modal_system(car, settings, modes, static_correction))
@@ -122,7 +122,8 @@ def _bending_modal_system(car: Car, settings: FemSettings, modes: int, static_co
         q = (q_rod, q_beam),   q̈_b + Φ_bᵀ C_b Φ_b q̇_b + diag(0, 0, ω_b²) q_b = Φ_bᵀ B_b L,
         u_beam = Φ_b q_b + R_b L,   R_b = Σ_{dropped bending modes} φ φᵀ B_b / ω²
 
-    ``B_b`` are the end moments of the loads (``−h₁`` at ``θ(−l)`` for F1, ``h₂`` at ``θ(l)`` for F2). The
+    ``B_b`` are the end moments and vertical forces of the loads (``−h₁`` at ``θ(−l)`` and ``−s₁`` at ``w(−l)``
+    for F1, ``h₂`` at ``θ(l)`` and ``s₂`` at ``w(l)`` for F2). The
     beam's modes come from the dense generalised eigenproblem of its Hermite mesh (all of them, so the
     residual flexibility is the exact sum over the dropped ones; its two zero eigenvalues are the rigid
     heave and pitch). Sensors: the rod's rows, then ``w`` and ``θ`` rows.
@@ -135,8 +136,9 @@ def _bending_modal_system(car: Car, settings: FemSettings, modes: int, static_co
     omega2[:2] = 0.0  # heave and pitch
     keep = min(2 + modes, omega2.size)
     l, x = car.body.half_length, car.sensor_x
-    theta_ends = beam.interpolation(np.array([-l, l]), derivative=1).toarray()
-    hooks = np.array(car.coupler_offset)[:, None] * theta_ends  # (2, n_beam): h θ at the ends
+    ends = np.array([-l, l])
+    hooks = (np.array(car.coupler_offset)[:, None] * beam.interpolation(ends, derivative=1).toarray()
+             + np.array(car.coupler_slope)[:, None] * beam.interpolation(ends, derivative=0).toarray())  # (2, n_beam): h θ + s w at the ends
     beam_loads = np.column_stack([-hooks[0], hooks[1]])  # columns F1, F2
     beam_outputs = np.vstack([hooks, beam.interpolation(x, 0).toarray(), beam.interpolation(x, 1).toarray()])
     kept = phi[:, :keep]

@@ -123,7 +123,7 @@ def quasi_rigid_car(car: Car, dt: float) -> StateSpaceSystem:
     energy, O(ε) of the strain energy, is not balanced by the model).
     """
     bending = None if car.bending is None else car.bending.geometry
-    key = ("quasi_rigid", car.body.geometry, bending, car.coupler_offset, tuple(car.sensors.values()), float(dt))
+    key = ("quasi_rigid", car.body.geometry, bending, car.coupler_offset, car.coupler_slope, tuple(car.sensors.values()), float(dt))
     if car.bending is not None:
         return built_once(key, lambda: _bending_quasi_rigid_system(car, dt))
     return built_once(key, lambda: _quasi_rigid_system(car, dt))
@@ -176,8 +176,8 @@ def _bending_quasi_rigid_system(car: Car, dt: float) -> StateSpaceSystem:
     heave and pitch plus the creep bending under the inertia-balanced end moments — joined at the coupler
     line as the fem car is (:func:`femref.models.fem.bending_system`)::
 
-        x = (x_rod, x_beam),   beam loads (N1, N2, G1, G2) = (0, 0, h₁ F1, h₂ F2),
-        end outputs  u(∓l) + h θ(∓l),   sensors: the rod's axial rows, then w, then θ = ∂w/∂x
+        x = (x_rod, x_beam),   beam loads (N1, N2, G1, G2) = (−s₁ F1, −s₂ F2, h₁ F1, h₂ F2),
+        end outputs  u(∓l) + h θ(∓l) + s w(∓l),   sensors: the rod's axial rows, then w, then θ = ∂w/∂x
 
     The beam block is the stepper's own (:meth:`QuasiRigidStepper.transition`, its load samples in
     beam units, ``T L``); its slopes come from the rigid modes' and the correction's x-derivatives
@@ -189,8 +189,8 @@ def _bending_quasi_rigid_system(car: Car, dt: float) -> StateSpaceSystem:
     beam = quasi_rigid_body(car.bending)
     stepper = QuasiRigidStepper(beam, car.sensor_x, initial_shape="undeformed")
     step = stepper.transition(dt)
-    h1, h2 = car.coupler_offset
-    to_beam = np.array([[0.0, 0.0], [0.0, 0.0], [h1, 0.0], [0.0, h2]])  # (N1, N2, G1, G2) from (F1, F2)
+    (h1, h2), (s1, s2) = car.coupler_offset, car.coupler_slope
+    to_beam = np.array([[-s1, 0.0], [0.0, -s2], [h1, 0.0], [0.0, h2]])  # (N1, N2, G1, G2) from (F1, F2)
     n_b = step.transition.shape[0]
     K, J = beam.rigid_gain.shape
     gj = beam.tau_groups.size * J
@@ -212,7 +212,7 @@ def _bending_quasi_rigid_system(car: Car, dt: float) -> StateSpaceSystem:
     slope_acceleration = np.zeros((positions.size, n_b))
     slope_acceleration[:, current] = slope_modes @ beam.rigid_gain
     slope_acceleration[:, w:w + gj] = slope_table
-    hooks = np.array([h1, h2])[:, None]
+    offsets, slopes = np.array([[h1], [h2]]), np.array([[s1], [s2]])
     n_r, S = rod.transition.shape[0], car.sensor_x.size
 
     def side_by_side(rod_rows: NDArray[np.float64], beam_rows: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -235,8 +235,8 @@ def _bending_quasi_rigid_system(car: Car, dt: float) -> StateSpaceSystem:
         dt,
         scipy.linalg.block_diag(rod.transition, step.transition),
         np.vstack([rod.input, step.input @ to_beam]),
-        side_by_side(rod.end_displacement, hooks * slope[:2]),
-        side_by_side(rod.end_velocity, hooks * slope_rate[:2]),
+        side_by_side(rod.end_displacement, offsets * slope[:2] + slopes * step.displacement[:2]),
+        side_by_side(rod.end_velocity, offsets * slope_rate[:2] + slopes * step.velocity[:2]),
         np.vstack([side_by_side(rod.sensor_displacement, np.zeros((S, n_b))),
                    side_by_side(np.zeros((S, n_r)), step.displacement[2:]),
                    side_by_side(np.zeros((S, n_r)), slope[2:])]),
@@ -249,7 +249,8 @@ def _bending_quasi_rigid_system(car: Car, dt: float) -> StateSpaceSystem:
         scipy.linalg.block_diag(rod.strain_form, beam_strain),
         rod.work_map,
         np.concatenate([rod.momentum, np.zeros(n_b)]),
-        settings=dict(rod.settings, bending_tau_groups=[float(t) for t in beam.tau_groups], coupler_offset=list(car.coupler_offset)),
+        settings=dict(rod.settings, bending_tau_groups=[float(t) for t in beam.tau_groups], coupler_offset=list(car.coupler_offset),
+                      coupler_slope=list(car.coupler_slope)),
         settings_of_time_scale=rod.settings_of_time_scale,
     )
 

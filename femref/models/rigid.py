@@ -83,27 +83,30 @@ def rigid_car(car: Car) -> SecondOrderSystem:
     """The car as a point mass: ``M ü = F2 − F1``, every point moving together; a car that bends as a rigid
     body that also heaves and pitches (:func:`rigid_pitching_system`)."""
     if car.bending is not None:
-        key = ("rigid", car.body.geometry, car.coupler_offset, tuple(car.sensors.values()))
-        return built_once(key, lambda: rigid_pitching_system(car.body, car.sensor_x, car.coupler_offset))
+        key = ("rigid", car.body.geometry, car.coupler_offset, car.coupler_slope, tuple(car.sensors.values()))
+        return built_once(key, lambda: rigid_pitching_system(car.body, car.sensor_x, car.coupler_offset, car.coupler_slope))
     return built_once(("rigid", car.body.geometry, len(car.sensors)), lambda: _rigid_system(car.mass, len(car.sensors)))
 
 
-def rigid_pitching_system(body: Body, sensor_x: NDArray, offset: tuple[float, float]) -> SecondOrderSystem:
+def rigid_pitching_system(body: Body, sensor_x: NDArray, offset: tuple[float, float], slope: tuple[float, float] = (0.0, 0.0)) -> SecondOrderSystem:
     """A rigid car that moves along the line, heaves and pitches: DOFs ``(x, z, θ)`` (θ about the body's
     centre ``x = 0``, positive when the front rises), so a point at ``x`` moves ``(x_c, z + x θ)``::
 
         M = [[m, 0, 0], [0, m, S], [0, S, J]],   m = ∫ m dx,  S = ∫ m x dx,  J = ∫ m x² dx,   K = C = 0
 
     The couplers act ``h`` (``offset``) below the neutral axis, as on the fem car
-    (:func:`femref.models.fem.bending_system`): end outputs ``x_c + h₁ θ``, ``x_c + h₂ θ``, loads their
-    transpose, ``M ẍ = F2 − F1`` and ``J θ̈ + S z̈ = h₂ F2 − h₁ F1``. Sensors: axial ``x_c``, vertical
-    ``z + x θ``, pitch ``θ``. The rigid limit of the bending fem car (its rigid modes).
+    (:func:`femref.models.fem.bending_system`): end outputs ``x_c + h θ + s w(∓l)`` with ``w(∓l) = z ∓ l θ``
+    (``s`` the inclination of the coupler there), loads their transpose: ``M ẍ = F2 − F1``,
+    ``m z̈ + S θ̈ = s₂ F2 − s₁ F1`` and ``S z̈ + J θ̈ = h₂ F2 − h₁ F1 + l (s₁ F1 + s₂ F2)``. Sensors: axial ``x_c``,
+    vertical ``z + x θ``, pitch ``θ``. The rigid limit of the bending fem car (its rigid modes).
     """
     x, w = body.quadrature()
     m = w * body.mass_per_length(x)
     mass, first, second = float(np.sum(m)), float(np.sum(m * x)), float(np.sum(m * x * x))
-    h1, h2 = offset
+    (h1, h2), (s1, s2) = offset, slope
     n = np.asarray(sensor_x, dtype=float).size
+    l = body.half_length
+    ends = np.array([[1.0, s1, h1 - s1 * l], [1.0, s2, h2 + s2 * l]])
     sensors = np.vstack([
         np.column_stack([np.ones(n), np.zeros(n), np.zeros(n)]),
         np.column_stack([np.zeros(n), np.ones(n), sensor_x]),
@@ -114,11 +117,11 @@ def rigid_pitching_system(body: Body, sensor_x: NDArray, offset: tuple[float, fl
         np.array([[mass, 0.0, 0.0], [0.0, mass, first], [0.0, first, second]]),
         np.zeros((3, 3)),
         np.zeros((3, 3)),
-        np.array([[-1.0, 1.0], [0.0, 0.0], [-h1, h2]]),
-        np.array([[1.0, 0.0, h1], [1.0, 0.0, h2]]),
+        np.column_stack([-ends[0], ends[1]]),
+        ends,
         sensors,
         translation=np.array([1.0, 0.0, 0.0]),
-        settings={"dofs": 3, "mass": mass, "pitch_inertia": second, "coupler_offset": list(offset)},
+        settings={"dofs": 3, "mass": mass, "pitch_inertia": second, "coupler_offset": list(offset), "coupler_slope": list(slope)},
     )
 
 

@@ -86,7 +86,7 @@ def impact_scene_from_case(case: ImpactCase) -> ImpactScene:
     index = {name: i for i, name in enumerate(case.car_names)}
     integrator = case.integrator
     return ImpactScene(
-        cars=tuple(_car_of(spec) for spec in case.cars),
+        cars=tuple(_car_of(spec, _coupler_slopes(case, i)) for i, spec in enumerate(case.cars)),
         couplers=tuple(_coupler_of(k, spec, index) for k, spec in enumerate(case.couplers)),
         runs=tuple(ModelRun(name, fidelity) for name, fidelity in case.run_fidelities().items()),
         end=case.time.end,
@@ -126,10 +126,18 @@ def measured_scene_from_case(case: MeasuredCase) -> MeasuredScene:
     )
 
 
-def _car_of(spec: CarSpec) -> Car:
+def _car_of(spec: CarSpec, slopes: tuple[float, float] = (0.0, 0.0)) -> Car:
     bending = body_from_spec(spec.body.beam()) if spec.body.bends else None
     return Car(name=spec.name, body=body_from_spec(spec.body), velocity=spec.velocity, sensors=dict(spec.sensors),
-               bending=bending, coupler_offset=(float(spec.coupler_offset[0]), float(spec.coupler_offset[1])))
+               bending=bending, coupler_offset=(float(spec.coupler_offset[0]), float(spec.coupler_offset[1])), coupler_slope=slopes)
+
+
+def _coupler_slopes(case: ImpactCase, car: int) -> tuple[float, float]:
+    """The inclination of the couplers at car ``car``'s rear and front end (0 where none is attached)."""
+    names = case.car_names
+    rear = next((c.slope for c in case.couplers if c.between[1] == names[car]), 0.0)
+    front = next((c.slope for c in case.couplers if c.between[0] == names[car]), 0.0)
+    return (float(rear), float(front))
 
 
 def _coupler_of(k: int, spec: CouplerSpec, index: dict[str, int]) -> Coupler:

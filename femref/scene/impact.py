@@ -39,7 +39,8 @@ class Car:
     ``bending`` is the body's bending as a beam on the same axis (same length and mass; None: the car
     does not bend); ``coupler_offset`` the height (m) of the neutral axis above the coupler line at the
     rear (−l) and front (+l) end: the coupler force ``F`` there also loads the car with the end moment
-    ``offset · F`` (docs/design.md §2)."""
+    ``offset · F``; ``coupler_slope`` the inclination of the coupler at each end (up toward the front):
+    its force also pushes the car vertically, ``slope · F`` (docs/design.md §2)."""
 
     name: str
     body: Body
@@ -47,6 +48,7 @@ class Car:
     sensors: dict[str, float]
     bending: Body | None = None
     coupler_offset: tuple[float, float] = (0.0, 0.0)
+    coupler_slope: tuple[float, float] = (0.0, 0.0)
 
     @property
     def mass(self) -> float:

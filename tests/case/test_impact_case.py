@@ -181,7 +181,7 @@ def test_resolved_yaml_round_trips(tmp_path: Path, text: str) -> None:
     assert resolved["kind"] == "impact"
     assert {"cars", "couplers", "time", "integrator", "models", "fem", "modal", "measurement", "estimators"} <= set(resolved)
     for coupler in resolved["couplers"]:
-        assert {"name", "between", "law", "contact", "slack", "tension_slack"} == set(coupler)
+        assert {"name", "between", "law", "contact", "slack", "tension_slack", "vertical_offset", "pivot_distance"} == set(coupler)
     again = parse_case(resolved)
     assert again == case
     assert resolved_yaml(again) == resolved_text

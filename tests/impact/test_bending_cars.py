@@ -163,21 +163,24 @@ def test_rigid_car_pitches_under_the_end_moment():
     assert np.max(np.abs(rigid.probes["anvil/center"]["vertical_acceleration"])) <= 1e-9 * np.max(np.abs(pitch))
 
 
-@pytest.mark.parametrize("model", ["fem", "modal", "rigid"])
+@pytest.mark.parametrize("model", ["fem", "modal", "quasi_rigid", "rigid"])
 def test_both_engines_step_a_bending_car_alike(model):
     """The compiled loop and the readable reference loop step the same bending cars to the same histories
-    (1e-8 of each quantity's largest value; round-off of a different summation order): no kernel of its own — only more sensor rows."""
+    (1e-7 of each quantity's largest value: round-off of a different summation order, carried over 1000 steps of
+    a coupler iteration converged to 1e-10 of the force; measured up to 1.1e-8): no kernel of its own — only more sensor rows."""
     from femref.impact.solver import solve_impact
     from femref.models import REGISTRY
 
-    scene = scene_from_case(parse_case(bending_case(OFFSET, models=(model,), end=0.2), source="<bending>"))
+    data = bending_case(OFFSET, models=(model,), end=0.2)
+    data["couplers"][0].update(vertical_offset=0.03, pivot_distance=1.8)  # an inclined coupler too
+    scene = scene_from_case(parse_case(data, source="<bending>"))
     systems = [REGISTRY[model].car(car, scene, 2e-4) for car in scene.cars]
     fast, slow = solve_impact(scene, systems, 2e-4), solve_impact(scene, systems, 2e-4, compiled=False)
     assert fast.ok and slow.ok
     for probe, outputs in slow.sensors.items():
         for quantity, values in outputs.items():
             scale = max(np.max(np.abs(values)), 1e-300)
-            assert np.max(np.abs(fast.sensors[probe][quantity] - values)) <= 1e-8 * scale, (probe, quantity)
+            assert np.max(np.abs(fast.sensors[probe][quantity] - values)) <= 1e-7 * scale, (probe, quantity)
     assert np.max(np.abs(fast.couplers["c1"]["force"] - slow.couplers["c1"]["force"])) <= 1e-9 * np.max(slow.couplers["c1"]["force"])
 
 
@@ -292,3 +295,37 @@ def test_extremes_of_bending_stiffness_and_viscosity(stiffness, beta):
         t = fem.axes["time"]
         gained, expected = np.trapezoid(pitch, t), np.trapezoid(rigid, t)
         assert abs(gained - expected) <= 0.01 * abs(expected)
+
+
+def _inclined(offset: float, models=("rigid",)) -> dict:
+    """:func:`bending_case` with the anvil's coupler line 30 mm above the hammer's, pivots 1.8 m apart."""
+    data = bending_case(OFFSET, models=models)
+    data["couplers"][0].update(vertical_offset=offset, pivot_distance=1.8)
+    return data
+
+
+def test_an_inclined_coupler_pushes_the_cars_vertically():
+    """The anvil's coupler line 30 mm above the hammer's (s = 0.03/1.8): the compressed coupler pushes the
+    anvil up and the hammer down by ``s P``. Rigid cars (symmetric, ``S = 0``): the anvil's centre heaves at
+    ``s P/m`` and the hammer's at ``−s P/m`` at every output step (1e-9); lifting the anvil's rear end
+    takes ``l s P`` off its nose-up pitch, ``J θ̈ = (h − l s) P``. fem: energy still balances, and the
+    vertical response changes."""
+    rigid = run(_inclined(0.03))["rigid"]
+    s, mass, inertia, l = 0.03 / 1.8, MASS_PER_LENGTH * LENGTH, MASS_PER_LENGTH * LENGTH**3 / 12.0, 0.5 * LENGTH
+    force = rigid.couplers["c1"]["force"]
+    heave = rigid.probes["anvil/center"]["vertical_acceleration"]
+    assert np.max(np.abs(heave - s * force / mass)) <= 1e-9 * np.max(np.abs(heave))
+    assert np.max(np.abs(rigid.probes["hammer/center"]["vertical_acceleration"] + s * force / mass)) <= 1e-9 * np.max(np.abs(heave))
+    pitch = rigid.probes["anvil/center"]["pitch_acceleration"]
+    assert np.max(np.abs(pitch - (OFFSET - l * s) * force / inertia)) <= 1e-9 * np.max(np.abs(pitch))
+    level = run(_inclined(0.0, ("fem",)))["fem"]
+    fem = run(_inclined(0.03, ("fem",)))["fem"]
+    assert fem.settings["energy_balance_error"] <= 1.1 * level.settings["energy_balance_error"] + 1e-9
+    assert np.max(np.abs(fem.probes["anvil/center"]["vertical_acceleration"] - level.probes["anvil/center"]["vertical_acceleration"])) > 0.1
+
+
+def test_a_level_coupler_with_pivots_changes_nothing():
+    """``vertical_offset: 0`` with a pivot distance is the level coupler to the last bit."""
+    plain, level = run(bending_case(OFFSET, models=("fem",)))["fem"], run(_inclined(0.0, ("fem",)))["fem"]
+    assert np.array_equal(plain.couplers["c1"]["force"], level.couplers["c1"]["force"])
+    assert np.array_equal(plain.probes["anvil/front"]["vertical_acceleration"], level.probes["anvil/front"]["vertical_acceleration"])
