@@ -173,6 +173,8 @@ class ImpactCase(SceneCase):
                     problems.append(Problem((i,) if isinstance(run, str) else (i, "fidelity"), f"{model} cannot serve this case: {reason}", model))
         problems = [p.under(("models",)) for p in problems]
         bends = {car.name: car.body.bends for car in self.cars}
+        if self.tolerance is not None and self.tolerance.output == "vertical_acceleration" and not any(bends.values()):
+            problems.append(Problem(("tolerance", "output"), "no car bends: vertical accelerations are recorded on cars with a bending_stiffness", "vertical_acceleration"))
         for k, coupler in enumerate(self.couplers):
             flat = [name for name in coupler.between if not bends.get(name, True)]
             if coupler.vertical_offset != 0.0 and flat:

@@ -151,7 +151,7 @@ class ModalSettings(CaseModel):
 
 
 #: Outputs a tolerance may be set on (femref.choice.estimates.OUTPUTS; kept here so the case needs no solver import).
-TOLERANCE_OUTPUTS: tuple[str, ...] = ("peak_coupler_force", "coupler_force")
+TOLERANCE_OUTPUTS: tuple[str, ...] = ("peak_coupler_force", "coupler_force", "vertical_acceleration")
 
 
 class ToleranceSpec(CaseModel):
@@ -163,7 +163,8 @@ class ToleranceSpec(CaseModel):
     )
     output: Literal[TOLERANCE_OUTPUTS] = Field(  # type: ignore[valid-type]
         default="peak_coupler_force",
-        description="What the tolerance is on: peak_coupler_force (peak compression, worst coupler) or coupler_force (force history, rms). Default peak_coupler_force.",
+        description="What the tolerance is on: peak_coupler_force (peak compression, worst coupler), coupler_force (force history, rms) "
+        "or vertical_acceleration (sensors of cars that bend, rms, worst sensor). Default peak_coupler_force.",
     )
 
     @model_validator(mode="before")

@@ -6,7 +6,6 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-import yaml
 
 from femref.case import CaseError, load_case
 from support.case_helpers import DELETE, edited_copy, expect, load_bad

@@ -86,6 +86,8 @@ RULES = {
                                         r"required with a vertical_offset: the coupler's inclination is offset / pivot_distance"),
     "inclined coupler on cars that do not bend": ({"couplers.0.vertical_offset": 0.03, "couplers.0.pivot_distance": 1.8}, "couplers[0].vertical_offset",
                                                   r"an inclined coupler pushes its cars vertically: cars hammer, anvil need a bending_stiffness"),
+    "vertical tolerance without a car that bends": ({"tolerance": {"value": 0.1, "output": "vertical_acceleration"}}, "tolerance.output",
+                                                    r"no car bends: vertical accelerations are recorded on cars with a bending_stiffness"),
     "coupler offset beyond the car": ({"cars.1.body.bending_stiffness": 1.0e10, "cars.1.coupler_offset": [0.6, 9.0]}, "cars[1].coupler_offset", r"must be shorter than the car's half-length"),
     "velocity not finite": ({"cars.0.velocity": math.inf}, "cars[0].velocity", r"must be a finite number \(not NaN or infinity\); got inf"),
     "velocity NaN": ({"cars.0.velocity": math.nan}, "cars[0].velocity", "must be a finite number"),
