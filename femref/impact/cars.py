@@ -120,6 +120,7 @@ class LinearCar:
         self._displacement_gain = self._step.ca * self._EZ + self._R_end
         self._velocity_gain = self._step.cv_new * self._EZ + self._R_end / dt
         self._translation = system.translation
+        self._sensor_travel = self._O @ self._translation  # what each sensor row reads of the travel: 1 axial, 0 vertical or pitch
         self._pivot = int(np.argmax(np.abs(self._translation)))
         self.offset = 0.0
         self.u = np.zeros(ndof)
@@ -175,7 +176,7 @@ class LinearCar:
         """
         stiffness_u = self._stiffness @ self.u
         mass_v = self._mass @ self.v
-        displacement = self._O @ self.u + self.offset * (self._O @ self._translation)  # a row reads 1 (axial) or 0 of the travel
+        displacement = self._O @ self.u + self.offset * self._sensor_travel
         strain = 0.5 * float(self.u @ stiffness_u)
         if self._R_sensor is not None:
             displacement = displacement + self._R_sensor @ self.loads

@@ -77,6 +77,15 @@ def car_operators(car: Car, settings: FemSettings) -> Operators:
     return built_once(key, lambda: build_operators(car.body, settings))
 
 
+def car_beam_operators(car: Car, settings: FemSettings) -> Operators:
+    """The bending of a car that bends as Hermite beam operators on the nodes of its rod mesh, once per
+    geometry and mesh (shared by the fem and the modal car, as :func:`car_operators`)."""
+    assert car.bending is not None
+    key = ("beam_operators", car.body.geometry, car.bending.geometry, settings.elements, settings.order, settings.grading)
+    bending = car.bending
+    return built_once(key, lambda: assemble_beam(car_operators(car, settings).nodes, bending.mass_per_length, bending.stiffness, bending.viscosity))
+
+
 def _fem_system(car: Car, settings: FemSettings) -> SecondOrderSystem:
     ops = car_operators(car, settings)
     l = car.body.half_length
@@ -94,8 +103,16 @@ def _fem_system(car: Car, settings: FemSettings) -> SecondOrderSystem:
     )
     if car.bending is None:
         return rod
-    beam = assemble_beam(ops.nodes, car.bending.mass_per_length, car.bending.stiffness, car.bending.viscosity)
-    return bending_system(rod, beam, car.sensor_x, car.coupler_offset, car.coupler_slope)
+    return bending_system(rod, car_beam_operators(car, settings), car.sensor_x, car.coupler_offset, car.coupler_slope)
+
+
+def coupler_line(beam: Operators, offset: tuple[float, float], slope: tuple[float, float]) -> np.ndarray:
+    """What the coupler line at each end reads of the beam's DOFs (2 × n_beam): ``h θ(∓l) + s w(∓l)``
+    (``offset`` h below the neutral axis, ``slope`` s the coupler's inclination; docs/formulas.md §X7)."""
+    l = beam.half_length
+    ends = np.array([-l, l])
+    rotation, deflection = beam.interpolation(ends, derivative=1).toarray(), beam.interpolation(ends, derivative=0).toarray()
+    return np.array(offset)[:, None] * rotation + np.array(slope)[:, None] * deflection
 
 
 def bending_system(rod: SecondOrderSystem, beam: Operators, sensor_x: np.ndarray, offset: tuple[float, float],
@@ -120,10 +137,7 @@ def bending_system(rod: SecondOrderSystem, beam: Operators, sensor_x: np.ndarray
     Zero offsets leave the beam unloaded and the rod exactly as alone.
     """
     n_rod, n_beam = rod.dofs, beam.ndof
-    l = beam.half_length
-    ends = np.array([-l, l])
-    rotation, deflection = beam.interpolation(ends, derivative=1).toarray(), beam.interpolation(ends, derivative=0).toarray()
-    hooks = np.hstack([np.zeros((2, n_rod)), np.array(offset)[:, None] * rotation + np.array(slope)[:, None] * deflection])
+    hooks = np.hstack([np.zeros((2, n_rod)), coupler_line(beam, offset, slope)])
     end_outputs = np.hstack([rod.end_outputs, np.zeros((2, n_beam))]) + hooks
     load_matrix = np.vstack([rod.load_matrix, np.zeros((n_beam, 2))])
     load_matrix[:, 0] -= hooks[0]

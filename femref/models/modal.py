@@ -41,11 +41,10 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from femref.fem.build import FemSettings
-from femref.fem.operators import assemble_beam
 from femref.fem.modes import free_free_modes, residual_flexibility
 from femref.impact.systems import SecondOrderSystem
 from femref.models.base import built_once
-from femref.models.fem import car_operators
+from femref.models.fem import car_beam_operators, car_operators, coupler_line
 from femref.scene import Car, ImpactScene
 
 
@@ -129,16 +128,12 @@ def _bending_modal_system(car: Car, settings: FemSettings, modes: int, static_co
     heave and pitch). Sensors: the rod's rows, then ``w`` and ``θ`` rows.
     """
     rod = _modal_system(car, settings, modes, static_correction)
-    ops = car_operators(car, settings)
-    assert car.bending is not None
-    beam = assemble_beam(ops.nodes, car.bending.mass_per_length, car.bending.stiffness, car.bending.viscosity)
+    beam = car_beam_operators(car, settings)
     omega2, phi = scipy.linalg.eigh(beam.stiffness.toarray(), beam.mass.toarray())
     omega2[:2] = 0.0  # heave and pitch
     keep = min(2 + modes, omega2.size)
-    l, x = car.body.half_length, car.sensor_x
-    ends = np.array([-l, l])
-    hooks = (np.array(car.coupler_offset)[:, None] * beam.interpolation(ends, derivative=1).toarray()
-             + np.array(car.coupler_slope)[:, None] * beam.interpolation(ends, derivative=0).toarray())  # (2, n_beam): h θ + s w at the ends
+    x = car.sensor_x
+    hooks = coupler_line(beam, car.coupler_offset, car.coupler_slope)  # (2, n_beam): h θ + s w at the ends
     beam_loads = np.column_stack([-hooks[0], hooks[1]])  # columns F1, F2
     beam_outputs = np.vstack([hooks, beam.interpolation(x, 0).toarray(), beam.interpolation(x, 1).toarray()])
     kept = phi[:, :keep]

@@ -88,9 +88,10 @@ def quasi_rigid_rod(car: Car) -> QuasiRigidRod:
     return quasi_rigid_body(car.body)
 
 
-def _energy_forms(rod: QuasiRigidRod | QuasiRigidBeam) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """``(∫ m C Cᵀ, ∫ m C, ∫ EA C' C'ᵀ)`` over the body's Gauss rule; C flattened as ``(g, j)`` (a beam:
-    ``∫ EI C'' C''ᵀ``, its ψ being the curvature per unit filtered load).
+def _energy_forms(rod: QuasiRigidRod | QuasiRigidBeam) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """``(∫ m C Cᵀ, ∫ m C, ∫ m x C, ∫ EA C' C'ᵀ)`` over the body's Gauss rule; C flattened as ``(g, j)`` (a
+    beam: ``∫ EI C'' C''ᵀ``, its ψ being the curvature per unit filtered load; ``∫ m x C`` its pitch's
+    kinetic coupling to the correction).
 
     ``C[x, j, g]`` (:meth:`CreepCorrection.node_coefficients`) and its x-derivative ψ, the strain
     per unit filtered load (:attr:`CreepCorrection.psi_at_nodes`), at the quadrature nodes
@@ -104,7 +105,7 @@ def _energy_forms(rod: QuasiRigidRod | QuasiRigidBeam) -> tuple[NDArray[np.float
     C = flat(correction.node_coefficients())
     D = flat(correction.psi_at_nodes.reshape(q.nodes.size, *correction.psi_at_nodes.shape[2:]))
     mass, stiffness = (q.weights * q.mass).ravel(), (q.weights * q.stiffness).ravel()
-    return C.T @ (mass[:, None] * C), mass @ C, D.T @ (stiffness[:, None] * D)
+    return C.T @ (mass[:, None] * C), mass @ C, (mass * q.nodes.ravel()) @ C, D.T @ (stiffness[:, None] * D)
 
 
 def quasi_rigid_car(car: Car, dt: float) -> StateSpaceSystem:
@@ -137,7 +138,7 @@ def _quasi_rigid_system(car: Car, dt: float) -> StateSpaceSystem:
     K, J = rod.rigid_gain.shape
     gj = rod.tau_groups.size * J
     qd, y, z, history = K, 2 * K, 2 * K + gj, 2 * K + 3 * gj + J
-    kinetic_form, kinetic_cross, strain_form = _energy_forms(rod)
+    kinetic_form, kinetic_cross, _, strain_form = _energy_forms(rod)
     kinetic = np.zeros((n, n))
     kinetic[qd, qd] = rod.mass
     kinetic[qd, z:z + gj] = kinetic[z:z + gj, qd] = kinetic_cross
@@ -218,11 +219,11 @@ def _bending_quasi_rigid_system(car: Car, dt: float) -> StateSpaceSystem:
     def side_by_side(rod_rows: NDArray[np.float64], beam_rows: NDArray[np.float64]) -> NDArray[np.float64]:
         return np.hstack([rod_rows, beam_rows])
 
-    kinetic_form, kinetic_cross, strain_form = _energy_forms(beam)
+    kinetic_form, kinetic_cross, pitch_cross, strain_form = _energy_forms(beam)
     beam_kinetic = np.zeros((n_b, n_b))
     beam_kinetic[qd:qd + K, qd:qd + K] = np.diag([beam.mass, beam.moment_of_inertia])
     beam_kinetic[z:z + gj, z:z + gj] = kinetic_form
-    cross = np.stack([kinetic_cross, _first_moment_cross(beam)])  # ∫ m C and ∫ m x C: zero to rounding
+    cross = np.stack([kinetic_cross, pitch_cross])  # ∫ m C and ∫ m x C: zero to rounding
     beam_kinetic[qd:qd + K, z:z + gj] = cross
     beam_kinetic[z:z + gj, qd:qd + K] = cross.T
     beam_strain = np.zeros((n_b, n_b))
@@ -254,10 +255,3 @@ def _bending_quasi_rigid_system(car: Car, dt: float) -> StateSpaceSystem:
         settings_of_time_scale=rod.settings_of_time_scale,
     )
 
-
-def _first_moment_cross(body: QuasiRigidBeam) -> NDArray[np.float64]:
-    """``∫ m x C dx`` over the body's Gauss rule (C flattened as ``(g, j)``): the pitch's kinetic coupling to the correction."""
-    q, correction = body.quadrature, body.correction
-    C = correction.node_coefficients()
-    C = C.transpose(0, 2, 1).reshape(q.nodes.size, -1)
-    return (q.weights * q.mass * q.nodes).ravel() @ C

@@ -95,8 +95,9 @@ def _event(scene: MeasuredScene, recordings: Recordings, event: event_finder.Eve
     _classify(scene, result)
     for name in scene.estimators:
         result.estimates.extend(_estimates(scene, name, t, records, noise_std))
+    contacts: dict[str, ContactEstimate | ValueError] = {}  # per coupler: its kalman force's onset, found once
     for network in scene.networks:
-        result.estimates.append(network_estimate(scene, network, t, records, noise_std, result.estimates))
+        result.estimates.append(network_estimate(scene, network, t, records, noise_std, result.estimates, contacts))
     first = _primary(scene, result).get(scene.couplers[0].name)
     if first is not None:
         result.closing_speed = _closing_speed(scene, t, records, first)
@@ -228,7 +229,7 @@ def kalman_cars(scene: MeasuredScene, records: dict[str, NDArray[np.float64]]) -
 
 def _sensor_filters(scene: MeasuredScene, probes: list[str]) -> tuple[kalman.SensorFilter | None, ...]:
     """Each probe's recorder anti-alias filter as the kalman model takes it (None: not declared)."""
-    declared = {source.probe: record.anti_alias for record in scene.records for source in record.channels}
+    declared = scene.anti_alias
     return tuple(None if declared.get(probe) is None else kalman.SensorFilter(declared[probe].corner, declared[probe].order) for probe in probes)
 
 
@@ -257,7 +258,8 @@ def kalman_contact(scene: MeasuredScene, t: NDArray[np.float64], records: dict[s
 
 
 def network_estimate(scene: MeasuredScene, network: AnnEstimator, t: NDArray[np.float64], records: dict[str, NDArray[np.float64]],
-                     noise_std: dict[str, float], estimates: list[ForceEstimate]) -> ForceEstimate:
+                     noise_std: dict[str, float], estimates: list[ForceEstimate],
+                     contacts: dict[str, ContactEstimate | ValueError] | None = None) -> ForceEstimate:
     """A saved network's peak force on the event, its records started at contact as its training records were.
 
     The contact instant ``t_c`` is where the kalman force of the network's coupler began
@@ -265,27 +267,37 @@ def network_estimate(scene: MeasuredScene, network: AnnEstimator, t: NDArray[np.
     (:meth:`femref.sensing.network.AnnEstimator.peak_force`) with the declared car masses. A peak,
     not a history: ``time`` and ``force`` hold the one value at ``t_c``. Bound ``none``: the error
     a network file reports is measured on its own training source, not on these records (a
-    calibration file that covers the network gives it a calibrated band).
+    calibration file that covers the network gives it a calibrated band). ``contacts`` (per coupler) keeps
+    the contact found for one network for the next networks of the event.
     """
     started = _time.perf_counter()
     nan = np.full(1, np.nan)
     settings = dict(network.settings)
+
+    def failed(at: float, why: str) -> ForceEstimate:
+        return ForceEstimate(network.name, network.coupler, np.full(1, at), nan, nan, nan.copy(), status="failed", message=why, settings=settings)
+
     source = next((e for e in estimates if e.estimator == "kalman" and e.coupler == network.coupler), None)
     if source is None or not source.ok:
-        why = "no kalman force to find the contact in" if source is None else f"the kalman force has no number ({source.message})"
-        return ForceEstimate(network.name, network.coupler, np.full(1, t[0]), nan, nan, nan.copy(), status="failed", message=why, settings=settings)
+        return failed(t[0], "no kalman force to find the contact in" if source is None else f"the kalman force has no number ({source.message})")
+    contacts = {} if contacts is None else contacts
+    if network.coupler not in contacts:
+        try:
+            contacts[network.coupler] = kalman_contact(scene, t, records, noise_std, source)
+        except ValueError as error:
+            contacts[network.coupler] = error
+    contact = contacts[network.coupler]
     try:
-        contact = kalman_contact(scene, t, records, noise_std, source)
+        if isinstance(contact, ValueError):
+            raise contact
         after = t >= contact.time
         histories = {probe: records[probe][after] for probe in network.contract.probes}
         peak = network.peak_force(t[after] - contact.time, histories, {car.name: car.mass for car in scene.cars})
     except ValueError as error:
-        return ForceEstimate(network.name, network.coupler, np.full(1, t[0]), nan, nan, nan.copy(), status="failed",
-                             message=f"{type(error).__name__}: {error}", settings=settings)
+        return failed(t[0], f"{type(error).__name__}: {error}")
     settings.update(contact_time=contact.time, contact_fit_residual=contact.residual)
     if not math.isfinite(peak):
-        return ForceEstimate(network.name, network.coupler, np.full(1, contact.time), nan, nan, nan.copy(), status="failed",
-                             message="the network gave a non-finite force", settings=settings)
+        return failed(contact.time, "the network gave a non-finite force")
     training = network.contract.training.get("validation_mean_error")
     note = f" (its file reports {training:.1%} mean error on its own training source: not a bound here)" if isinstance(training, (int, float)) else ""
     estimate = ForceEstimate(network.name, network.coupler, np.full(1, contact.time), np.full(1, peak), nan, nan.copy(), bound="none",
@@ -301,7 +313,7 @@ def _calibrated(scene: MeasuredScene, result: EventResult, noise_std: dict[str, 
     sensor noise and impact type; outside, no band and the reason."""
     calibration = scene.calibration
     assert calibration is not None
-    filters = {source.probe: None if record.anti_alias is None else record.anti_alias.corner for record in scene.records for source in record.channels}
+    filters = {probe: None if declared is None else declared.corner for probe, declared in scene.anti_alias.items()}
     outside = calibration.outside(result.closing_speed, {car.name: car.mass for car in scene.cars}, filters, noise_std, result.impact_type)
     for estimate in result.estimates:
         if estimate.estimator not in calibration.errors or estimate.coupler != calibration.coupler or not estimate.ok:

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from femref.core.body import Body
 from femref.sensing.calibration import Calibration
 from femref.sensing.network import AnnEstimator
-from femref.sensing.recordings import RecordFile
+from femref.sensing.recordings import AntiAlias, RecordFile
 
 
 @dataclass(frozen=True, eq=False)
@@ -84,6 +84,11 @@ class MeasuredScene:
     calibration: Calibration | None = None
 
     kind = "measured"
+
+    @property
+    def anti_alias(self) -> dict[str, AntiAlias | None]:
+        """``"<car>/<sensor>"`` → the anti-alias filter its recorder declared (None: not declared)."""
+        return {source.probe: record.anti_alias for record in self.records for source in record.channels}
 
     @property
     def probes(self) -> dict[str, tuple[int, float]]:

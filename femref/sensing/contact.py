@@ -73,26 +73,27 @@ def onset_time(time: ArrayLike, record: ArrayLike, lags: ArrayLike, step_respons
         raise ValueError(f"fewer than {QUIET_SAMPLES} quiet samples before the record rises")
     low = int(below_start[-1]) - QUIET_SAMPLES
     ts, ds = t[low : high + 1], d[low : high + 1]
-    _, start = _best_start(ts, ds, lag, shapes, np.arange(ts[0], ts[-1], 0.1 * dt))
-    rss, start = _best_start(ts, ds, lag, shapes, np.arange(start - 0.1 * dt, start + 0.1 * dt, 0.005 * dt))
-    basis = _basis(ts, lag, shapes, np.array([start]))[0]
+    splines = [CubicSpline(lag, shape) for shape in shapes]
+    _, start = _best_start(ts, ds, lag, splines, np.arange(ts[0], ts[-1], 0.1 * dt))
+    rss, start = _best_start(ts, ds, lag, splines, np.arange(start - 0.1 * dt, start + 0.1 * dt, 0.005 * dt))
+    basis = _basis(ts, lag, splines, np.array([start]))[0]
     (jump, slope), *_ = np.linalg.lstsq(basis, ds, rcond=None)
     return ContactEstimate(float(start), float(jump), float(slope), float(np.sqrt(rss / ts.size)) / d_max)
 
 
-def _basis(ts: NDArray[np.float64], lag: NDArray[np.float64], shapes: Sequence[NDArray[np.float64]], starts: NDArray[np.float64]) -> NDArray[np.float64]:
-    """(starts, samples, 2): each response shifted to each candidate start (cubic between its lags,
-    constant beyond them)."""
+def _basis(ts: NDArray[np.float64], lag: NDArray[np.float64], splines: Sequence[CubicSpline], starts: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(starts, samples, 2): each response (a cubic spline on its lags, constant beyond them) shifted to
+    each candidate start."""
     shift = np.clip(ts[None, :] - starts[:, None], lag[0], lag[-1])
-    return np.stack([CubicSpline(lag, shape)(shift) for shape in shapes], axis=-1)
+    return np.stack([spline(shift) for spline in splines], axis=-1)
 
 
-def _best_start(ts: NDArray[np.float64], ds: NDArray[np.float64], lag: NDArray[np.float64], shapes: Sequence[NDArray[np.float64]],
+def _best_start(ts: NDArray[np.float64], ds: NDArray[np.float64], lag: NDArray[np.float64], splines: Sequence[CubicSpline],
                 starts: NDArray[np.float64]) -> tuple[float, float]:
     """Least residual sum of ``d ≈ J g(t − t0) + s r(t − t0)`` over the candidate ``starts``, and its start."""
-    basis = _basis(ts, lag, shapes, starts)
+    basis = _basis(ts, lag, splines, starts)
     gram = np.einsum("snp,snq->spq", basis, basis)
-    gram = gram + (1e-12 * np.trace(gram, axis1=1, axis2=2) + 1e-300)[:, None, None] * np.eye(len(shapes))
+    gram = gram + (1e-12 * np.trace(gram, axis1=1, axis2=2) + 1e-300)[:, None, None] * np.eye(len(splines))
     rhs = np.einsum("snp,n->sp", basis, ds)
     coef = np.linalg.solve(gram, rhs[..., None])[..., 0]
     rss = float(ds @ ds) - np.einsum("sp,sp->s", coef, rhs)

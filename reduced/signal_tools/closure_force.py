@@ -135,9 +135,9 @@ def detect_closure_force(time: ArrayLike, force: ArrayLike) -> ClosureForceEstim
     # candidate change points between samples k and k+1, above SEARCH_LEVEL·F_m and before the peak
     k = np.arange(_SOFT_PARAMETERS, min(n - _STIFF_PARAMETERS - 2, i_m - start))
     k = k[smooth[start + k] >= SEARCH_LEVEL * f_m]
-    soft_rss, soft_coef, soft_fit = _soft_profile(tw, fw, omegas, np.geomspace(1.0 / span, 100.0 / span, _DECAYS), np.append(k, n - 1))
+    soft_rss, soft_coef, soft_decay = _soft_profile(tw, fw, omegas, np.geomspace(1.0 / span, 100.0 / span, _DECAYS), np.append(k, n - 1))
     stiff_rss, stiff_coef = _sine_profile(tw, fw, omegas, from_end=True, at=k + 1)
-    null_rss = float(soft_fit[-1])
+    null_rss = float(soft_rss[:, -1].min())  # the open branch alone over the whole window
     if k.size == 0:
         return ClosureForceEstimate("not closed", "the force rises too fast for a change point above 20 % of the peak",
                                     None, None, None, peak_time, f_m, 1.0, 1.0, math.sqrt(null_rss) * residual_scale, window)
@@ -145,7 +145,7 @@ def detect_closure_force(time: ArrayLike, force: ArrayLike) -> ClosureForceEstim
     i_stiff = stiff_rss[:, k + 1].argmin(axis=0)
     total = soft_rss[i_soft, k] + stiff_rss[i_stiff, k + 1]
     tau = 0.5 * (tw[k] + tw[k + 1])
-    soft_slope = _soft_slope(soft_coef[i_soft, k], soft_fit.decays[i_soft, k], omegas[i_soft], tau)
+    soft_slope = _soft_slope(soft_coef[i_soft, k], soft_decay[i_soft, k], omegas[i_soft], tau)
     stiff_slope = _sine_slope(stiff_coef[i_stiff, k + 1], omegas[i_stiff], tau)
     rising = soft_slope > 0.0
     ratio = np.where(rising, stiff_slope, 0.0) / np.where(rising, soft_slope, 1.0)
@@ -161,7 +161,7 @@ def detect_closure_force(time: ArrayLike, force: ArrayLike) -> ClosureForceEstim
     p_value = float(f_distribution.sf(statistic, q, dof))
     kb = int(k[best])
     stiffening = _local_slope_ratio(tw, fw, kb, i_m - start)
-    soft = _refined_soft(tw[: kb + 1], fw[: kb + 1], float(omegas[i_soft[best]]), float(soft_fit.decays[i_soft[best], kb]))
+    soft = _refined_soft(tw[: kb + 1], fw[: kb + 1], float(omegas[i_soft[best]]), float(soft_decay[i_soft[best], kb]))
     stiff = _refined_stiff(tw[kb + 1 :], fw[kb + 1 :], float(omegas[i_stiff[best]]))
     t_c = _intersection(soft, stiff, tw[kb] - dt, tw[kb + 1] + dt, float(tau[best]))
     f_c = stiff(t_c)
@@ -212,17 +212,6 @@ class _SoftBranch:
         return float(a * math.sin(self.omega * x) + b * math.cos(self.omega * x) + c + d * math.exp(-self.decay * x))
 
 
-@dataclass(frozen=True)
-class _SoftFit:
-    """Best soft-branch residual over ω for each end sample, and the decay it used."""
-
-    rss_whole: NDArray[np.float64]
-    decays: NDArray[np.float64]
-
-    def __getitem__(self, index: int) -> float:
-        return float(self.rss_whole[index])
-
-
 def _least_squares_profile(basis: NDArray[np.float64], f: NDArray[np.float64], from_end: bool,
                            at: NDArray[np.intp] | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Residual sum and coefficients of the least-squares fit ``basis @ x ≈ f`` over samples
@@ -255,8 +244,8 @@ def _sine_profile(t: NDArray[np.float64], f: NDArray[np.float64], omegas: NDArra
 
 
 def _soft_profile(t: NDArray[np.float64], f: NDArray[np.float64], omegas: NDArray[np.float64], decays: NDArray[np.float64], at: NDArray[np.intp] | None = None):
-    """Open-branch profile: the best decay per (ω, k); also the best residual over the grid
-    for the whole window (the no-closure model)."""
+    """Open-branch profile over samples ``0..k``: per (ω, k) the residual, coefficients and decay of the
+    best λ of ``decays``."""
     wt = omegas[:, None] * t[None, :]
     trig = [np.sin(wt), np.cos(wt), np.ones_like(wt)]
     best_rss = best_coef = best_decay = None
@@ -269,28 +258,22 @@ def _soft_profile(t: NDArray[np.float64], f: NDArray[np.float64], omegas: NDArra
             best_rss = np.where(better, rss, best_rss)
             best_coef = np.where(better[..., None], coef, best_coef)
             best_decay = np.where(better, decay, best_decay)
-    return best_rss, best_coef, _SoftFit(best_rss.min(axis=0), best_decay)
+    return best_rss, best_coef, best_decay
 
 
 def _refined_soft(t: NDArray[np.float64], f: NDArray[np.float64], omega: float, decay: float) -> _SoftBranch:
     """The open branch refitted on a fine grid about the coarse grid's (ω, λ)."""
     omegas = omega * np.geomspace(1.0 / _REFINE, _REFINE, 25)
-    best = None
-    wt = omegas[:, None] * t[None, :]
-    for lam in decay * np.geomspace(1.0 / _REFINE**2, _REFINE**2, 9):
-        basis = np.stack([np.sin(wt), np.cos(wt), np.ones_like(wt), np.broadcast_to(np.exp(-lam * t), wt.shape)], axis=-1)
-        rss, coef = _least_squares_profile(basis, f, from_end=True)
-        i = int(np.argmin(rss[:, 0]))
-        if best is None or rss[i, 0] < best[0]:
-            best = (rss[i, 0], coef[i, 0], lam, omegas[i])
-    return _SoftBranch(best[1], float(best[2]), float(best[3]))
+    whole = np.array([t.size - 1])
+    rss, coef, decays = _soft_profile(t, f, omegas, decay * np.geomspace(1.0 / _REFINE**2, _REFINE**2, 9), whole)
+    i = int(np.argmin(rss[:, -1]))
+    return _SoftBranch(coef[i, -1], float(decays[i, -1]), float(omegas[i]))
 
 
 def _refined_stiff(t: NDArray[np.float64], f: NDArray[np.float64], omega: float) -> _Sine:
     """The closed branch refitted on a fine grid about the coarse grid's ω."""
     omegas = omega * np.geomspace(1.0 / _REFINE, _REFINE, 41)
-    wt = omegas[:, None] * t[None, :]
-    rss, coef = _least_squares_profile(np.stack([np.sin(wt), np.cos(wt)], axis=-1), f, from_end=True)
+    rss, coef = _sine_profile(t, f, omegas, from_end=True, at=np.array([0]))
     i = int(np.argmin(rss[:, 0]))
     return _Sine(coef[i, 0], float(omegas[i]))
 

@@ -68,6 +68,7 @@ FIELDS = (
     "load",                  # (n, J) B: loads to generalized forces, or the state-space input
     "response",              # (n, J) Z = (1−αf) S⁻¹ B
     "translation",           # (n,)
+    "sensor_travel",         # (S,) what each sensor row reads of a unit rigid translation: O t (1 axial, 0 vertical, pitch)
     "transition",            # state space: (n, n) A
     "kinetic_form", "strain_form",  # (n, n)
     "work_map",              # (J, Y)
@@ -95,7 +96,7 @@ FIELDS = (
     "work1", "work2", "work3",  # (n,) scratch
 )
 (COEFFICIENTS, HISTORY_U, HISTORY_V, HISTORY_A, DAMPING, STIFFNESS, MASS, EFFECTIVE_FACTOR, MASS_FACTOR,
- LOAD, RESPONSE, TRANSLATION, TRANSITION, KINETIC_FORM, STRAIN_FORM, WORK_MAP, END_OUTPUTS, END_RATES,
+ LOAD, RESPONSE, TRANSLATION, SENSOR_TRAVEL, TRANSITION, KINETIC_FORM, STRAIN_FORM, WORK_MAP, END_OUTPUTS, END_RATES,
  SENSOR_OUTPUTS, SENSOR_ACCELERATIONS, END_FEEDTHROUGH, SENSOR_FEEDTHROUGH, FEEDTHROUGH_ENERGY, GAIN_U,
  GAIN_V, COUPLER_LOADS, COUPLER_OUTPUTS, U, V, A, U_FREE, V_FREE, A_FREE, X, X_FREE, LOADS, NEW_LOADS,
  END_FREE, END_RATE_FREE, END_NOW, SCALARS, WORK1, WORK2, WORK3) = range(COUPLER_COUNT + 1, COUPLER_COUNT + 1 + len(FIELDS))
@@ -298,6 +299,7 @@ def _second_order_fields(
         "damping": damping, "stiffness": stiffness, "mass": mass,
         "effective_factor": _lower_columns(effective, p, n), "mass_factor": _lower_columns(mass, p, n),
         "load": _matrix(system.load_matrix, (n, J)), "response": np.zeros((n, J)), "translation": translation,
+        "sensor_travel": _matrix(system.sensor_outputs, (S, n)) @ translation,
         "end_outputs": _matrix(system.end_outputs, (Y, n)), "sensor_outputs": _matrix(system.sensor_outputs, (S, n)),
         "end_feedthrough": _matrix(system.end_feedthrough, (Y, J)),
         "sensor_feedthrough": _matrix(system.sensor_feedthrough, (S, J)),
@@ -592,17 +594,15 @@ def observe(layout: NDArray, w: NDArray, c: int, k: int, displacement: NDArray, 
     stiffness_u, mass_v = at[WORK1], at[WORK2]
     band_product(w, at[STIFFNESS], p, n, u, stiffness_u)
     band_product(w, at[MASS], p, n, v, mass_v)
-    sensor_outputs, sensor_feedthrough, t = at[SENSOR_OUTPUTS], at[SENSOR_FEEDTHROUGH], at[TRANSLATION]
+    sensor_outputs, sensor_feedthrough, travel = at[SENSOR_OUTPUTS], at[SENSOR_FEEDTHROUGH], at[SENSOR_TRAVEL]
     for i in range(S):
         s = 0.0
-        travel = 0.0  # what the row reads from a unit rigid translation: 1 axially, 0 vertically and in pitch
         for j in range(n):
             s += w[sensor_outputs + i * n + j] * w[u + j]
-            travel += w[sensor_outputs + i * n + j] * w[t + j]
         feedthrough = 0.0
         for j in range(J):
             feedthrough += w[sensor_feedthrough + i * J + j] * w[loads + j]
-        displacement[k, first + i] = s + feedthrough + travel * w[scalars + OFFSET]
+        displacement[k, first + i] = s + feedthrough + w[travel + i] * w[scalars + OFFSET]
     strain = 0.5 * dot(w, u, stiffness_u, n) + 0.5 * quadratic(w, at[FEEDTHROUGH_ENERGY], J, loads)
     accelerations = at[A]
     if w[at[COEFFICIENTS] + EQUILIBRIUM] != 0.0:
