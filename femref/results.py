@@ -7,14 +7,15 @@ Layout::
     /<model>/                        attrs: status, message, wall_time_s, settings (JSON); a failed impact
                                      run keeps its histories up to the failing step (NaN after)
     /<model>/time | omega, lambda
-    /<model>/probes/<probe>/acceleration, displacement (, axial_force)
+    /<model>/probes/<probe>/acceleration, displacement (, axial_force; impacts: velocity, and on cars that
+                                     bend vertical_* and pitch_* with pitch_rate)
     /<model>/couplers/<coupler>/force
     /<model>/couplers/<coupler>/peak_force   () N, network estimators (ann_<name>): the estimated peak, no time axis
     /<model>/energy/kinetic, strain, dissipated, external_work   (+ attr balance_error)
                                      impacts: kinetic, strain, body_dissipated, coupler_stored,
                                      coupler_dissipated, total
     /<model>/measured/time, /<model>/measured/<probe>/acceleration   (measurement chain)
-    /<model>/measured/<probe>/vertical_acceleration                  (measurement chain, cars that bend)
+    /<model>/measured/<probe>/vertical_acceleration, pitch_rate      (measurement chain, cars that bend)
     /<model>/fields/x, /<model>/fields/u
     /scores/<model>/                 attrs: reference, one per metric
     /choice/                         a model choice (femref run --tolerance; femref.choice.output)
@@ -50,6 +51,9 @@ UNITS = {
     "lambda": "1",
     "acceleration": "m/s^2",
     "displacement": "m",
+    "velocity": "m/s",
+    "vertical_velocity": "m/s (up positive)",
+    "pitch_rate": "rad/s (front rising positive)",
     "vertical_acceleration": "m/s^2 (up positive)",
     "vertical_displacement": "m (up positive)",
     "pitch_acceleration": "rad/s^2 (front rising positive)",
@@ -91,7 +95,7 @@ class ModelResult:
     energy: dict[str, NDArray] = field(default_factory=dict)
     fields: dict[str, NDArray] = field(default_factory=dict)  # "x" (Nx,), "u" (Nt_out, Nx), "time"
     measured: dict[str, NDArray] = field(default_factory=dict)  # "time" and probe → measured acceleration
-    measured_vertical: dict[str, NDArray] = field(default_factory=dict)  # probe → measured vertical acceleration (cars that bend)
+    measured_bending: dict[str, dict[str, NDArray]] = field(default_factory=dict)  # probe → measured vertical_acceleration, pitch_rate (cars that bend)
 
     @classmethod
     def failed(cls, model: str, message: str, wall_time_s: float = 0.0, settings: dict | None = None) -> "ModelResult":
@@ -204,8 +208,9 @@ def _write_model(group: h5py.Group, result: ModelResult) -> None:
                 _dataset(sub, "time", data)
             else:
                 _dataset(sub.require_group(name), "acceleration", data)
-        for name, data in result.measured_vertical.items():
-            _dataset(sub.require_group(name), "vertical_acceleration", data)
+        for name, outputs in result.measured_bending.items():
+            for quantity, data in outputs.items():
+                _dataset(sub.require_group(name), quantity, data)
     if result.fields:
         sub = group.create_group("fields")
         for name, data in result.fields.items():

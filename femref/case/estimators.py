@@ -48,6 +48,9 @@ class MeasurementSpec(CaseModel):
     seed: Annotated[int, BeforeValidator(_reject_bool), Field(ge=0)] = Field(
         default=0, description="Seed of the noise generator, an integer >= 0. Default 0."
     )
+    pitch_rate_noise: NonNegativeReal = Field(
+        default=0.0, description="Standard deviation of white noise on the pitch-rate records of cars that bend (rad/s), >= 0. Default 0."
+    )
 
     @model_validator(mode="after")
     def _below_nyquist(self) -> "MeasurementSpec":

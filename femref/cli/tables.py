@@ -60,7 +60,7 @@ def impact_table(outcome) -> Table:
     table = Table(title=title, title_justify="left")
     vertical = any(car.bends for car in scene.cars)
     columns = ("model", "status", "steps", "wall time", "speed-up", "peak P kN @coupler", "peak err", "t_peak err ms", "P rms err", "a rms err max",
-               *(("a_vert rms err max",) if vertical else ()), "energy bal.")
+               *(("a_vert rms err max", "pitch rate rms err max") if vertical else ()), "energy bal.")
     for column in columns:
         table.add_column(column, justify="left" if column in ("model", "status") else "right", no_wrap=column == "model")
     for result in outcome.results:
@@ -79,7 +79,8 @@ def impact_table(outcome) -> Table:
             _fmt(score.get(f"coupler_force_peak_time_error_{coupler}"), "{:+.2f}", 1e3),
             _fmt(score.get(f"coupler_force_rms_error_{coupler}"), "{:.2%}"),
             _fmt(score.get("acceleration_rms_error_max"), "{:.2%}"),
-            *((_fmt(score.get("vertical_acceleration_rms_error_max"), "{:.2%}"),) if vertical else ()),
+            *((_fmt(score.get("vertical_acceleration_rms_error_max"), "{:.2%}"), _fmt(score.get("pitch_rate_rms_error_max"), "{:.2%}"))
+              if vertical else ()),
             _fmt(balance, "{:.1e}"),
         )
     return table

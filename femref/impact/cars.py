@@ -59,6 +59,17 @@ class CarEnergy:
     dissipated: float
 
 
+@dataclass(frozen=True)
+class Observation:
+    """A car's sensor rows now — displacements (m or rad), velocities (m/s or rad/s: a pitch row's is the pitch
+    rate), accelerations (m/s² or rad/s²) — and its energies."""
+
+    displacement: NDArray[np.float64]
+    velocity: NDArray[np.float64]
+    acceleration: NDArray[np.float64]
+    energy: CarEnergy
+
+
 class CarModel(Protocol):
     """What the coupled solver needs of a car, whatever its fidelity."""
 
@@ -70,8 +81,8 @@ class CarModel(Protocol):
 
     def advance(self, loads: NDArray[np.float64]) -> None: ...
 
-    def observe(self) -> tuple[NDArray[np.float64], NDArray[np.float64], CarEnergy]:
-        """Displacement (m) and acceleration (m/s²) at the sensors, and the car's energies, now."""
+    def observe(self) -> Observation:
+        """The sensor rows' displacements, velocities and accelerations, and the car's energies, now."""
         ...
 
     def momentum(self) -> float:
@@ -126,6 +137,7 @@ class LinearCar:
         self.u = np.zeros(ndof)
         self.v = velocity * self._translation
         self.loads = np.array(loads, dtype=float)
+        self._load_rate = np.zeros_like(self.loads)  # (L_{n+1} − L_n)/dt of the last step: the feedthrough's velocity
         self.a = self._equilibrium(np.zeros(ndof))
         self._dissipated = 0.0
         self._free: tuple[NDArray, NDArray, NDArray] | None = None
@@ -161,15 +173,18 @@ class LinearCar:
         self.v = v_free + self._step.cv_new * response
         v_mid += 0.5 * self.v
         self._dissipated += self.dt * float(v_mid @ (self._damping @ v_mid))
-        self.loads = np.array(loads, dtype=float)
+        new_loads = np.array(loads, dtype=float)
+        self._load_rate = (new_loads - self.loads) / self.dt
+        self.loads = new_loads
         self._free = None
 
     @property
     def end_displacement(self) -> NDArray[np.float64]:
         return self._E @ self.u + self.offset + self._R_end @ self.loads
 
-    def observe(self) -> tuple[NDArray[np.float64], NDArray[np.float64], CarEnergy]:
-        """Sensor displacements (m) and accelerations (m/s²), and the energies, now.
+    def observe(self) -> Observation:
+        """Sensor displacements ``O u + R_s L``, velocities ``O v + R_s (L_n − L_{n−1})/dt`` (the feedthrough's
+        backward difference, as at the ends) and accelerations ``O a``, and the energies, now.
 
         The products ``K u`` and ``C v`` serve both the equilibrium acceleration and the
         strain energy, so an output sample costs three banded products and one solve.
@@ -177,14 +192,17 @@ class LinearCar:
         stiffness_u = self._stiffness @ self.u
         mass_v = self._mass @ self.v
         displacement = self._O @ self.u + self.offset * self._sensor_travel
+        velocity = self._O @ self.v
         strain = 0.5 * float(self.u @ stiffness_u)
         if self._R_sensor is not None:
             displacement = displacement + self._R_sensor @ self.loads
+            velocity = velocity + self._R_sensor @ self._load_rate
             strain += 0.5 * float(self.loads @ self._Q @ self.loads)
         acceleration = self.a
         if self._equilibrium_acceleration:
             acceleration = self._equilibrium(stiffness_u)
-        return displacement, self._O @ acceleration, CarEnergy(0.5 * float(self.v @ mass_v), strain, self._dissipated)
+        energy = CarEnergy(0.5 * float(self.v @ mass_v), strain, self._dissipated)
+        return Observation(displacement, velocity, self._O @ acceleration, energy)
 
     def momentum(self) -> float:
         """Linear momentum ``tᵀ M v`` (kg·m/s), t the unit translation."""
@@ -254,11 +272,12 @@ class StateSpaceCar:
     def end_velocity(self) -> NDArray[np.float64]:
         return self.system.end_velocity @ self.x
 
-    def observe(self) -> tuple[NDArray[np.float64], NDArray[np.float64], CarEnergy]:
+    def observe(self) -> Observation:
         kinetic = 0.5 * float(self.x @ self.system.kinetic_form @ self.x)
         strain = 0.5 * float(self.x @ self.system.strain_form @ self.x)
         energy = CarEnergy(kinetic, strain, self._initial_energy + self._work - kinetic - strain)
-        return self.system.sensor_displacement @ self.x, self.system.sensor_acceleration @ self.x, energy
+        system = self.system
+        return Observation(system.sensor_displacement @ self.x, system.sensor_velocity @ self.x, system.sensor_acceleration @ self.x, energy)
 
     def momentum(self) -> float:
         return float(self.system.momentum @ self.x)

@@ -10,14 +10,16 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from femref.scene.impact import PITCH
+
 
 @dataclass
 class ImpactResponse:
     """Histories at the output steps of one model run of an impact scene.
 
-    ``sensors[probe]`` holds ``displacement`` and ``acceleration`` (probe ``"<car>/<sensor>"``; on a car
-    that bends also ``vertical_displacement``, ``vertical_acceleration``, ``pitch_displacement`` (rad) and
-    ``pitch_acceleration`` (rad/s²)),
+    ``sensors[probe]`` holds ``displacement``, ``velocity`` and ``acceleration`` (probe ``"<car>/<sensor>"``;
+    on a car that bends also ``vertical_displacement``, ``vertical_velocity``, ``vertical_acceleration``,
+    ``pitch_displacement`` (rad), ``pitch_rate`` (rad/s) and ``pitch_acceleration`` (rad/s²)),
     ``couplers[name]`` ``force`` (N, compression positive) and ``closure`` (m), ``energy``
     the bookkeeping (J): ``kinetic``, ``strain``, ``body_dissipated``, ``coupler_stored``,
     ``coupler_dissipated``, ``total``. ``wall_time`` is the stepping (s); ``setup_time`` the
@@ -57,15 +59,22 @@ class ImpactResponse:
         return float(np.fmax.reduce(np.abs(total - total[0])) / scale)
 
 
-def sensor_histories(channels: tuple[tuple[str, str], ...], displacement: NDArray[np.float64],
+def sensor_histories(channels: tuple[tuple[str, str], ...], displacement: NDArray[np.float64], velocity: NDArray[np.float64],
                      acceleration: NDArray[np.float64]) -> dict[str, dict[str, NDArray[np.float64]]]:
     """Column ``k`` of the output histories (``n_out × channels``) as ``sensors[probe][prefix + quantity]``,
-    ``(probe, prefix)`` the k-th channel (:attr:`femref.scene.ImpactScene.channels`)."""
+    ``(probe, prefix)`` the k-th channel (:attr:`femref.scene.ImpactScene.channels`); a pitch row's velocity
+    is its ``pitch_rate``."""
     sensors: dict[str, dict[str, NDArray[np.float64]]] = {}
     for k, (probe, prefix) in enumerate(channels):
         sensors.setdefault(probe, {})[prefix + "displacement"] = displacement[:, k]
+        sensors[probe][rate_name(prefix)] = velocity[:, k]
         sensors[probe][prefix + "acceleration"] = acceleration[:, k]
     return sensors
+
+
+def rate_name(prefix: str) -> str:
+    """The velocity output of a channel prefix: ``velocity``, ``vertical_velocity``, and ``pitch_rate`` for pitch."""
+    return "pitch_rate" if prefix == PITCH else prefix + "velocity"
 
 
 def failure_message(coupler: str, step: int, steps: int, dt: float, detail: str) -> str:
@@ -73,4 +82,4 @@ def failure_message(coupler: str, step: int, steps: int, dt: float, detail: str)
     return f"coupler {coupler} did not converge at t = {step * dt:.6g} s (step {step} of {steps}): {detail}"
 
 
-__all__ = ["ImpactResponse", "failure_message", "sensor_histories"]
+__all__ = ["ImpactResponse", "failure_message", "rate_name", "sensor_histories"]

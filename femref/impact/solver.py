@@ -131,7 +131,7 @@ class _Recorder:
         self.time = np.asarray(times, dtype=float)
         n_out = self.time.size
         channels = len(scene.channels)
-        self.displacement, self.acceleration = np.full((n_out, channels), np.nan), np.full((n_out, channels), np.nan)
+        self.displacement, self.velocity, self.acceleration = (np.full((n_out, channels), np.nan) for _ in range(3))
         self.couplers = {c.name: {"force": np.full(n_out, np.nan), "closure": np.full(n_out, np.nan)} for c in scene.couplers}
         names = ("kinetic", "strain", "body_dissipated", "coupler_stored", "coupler_dissipated")
         self.energy = {name: np.full(n_out, np.nan) for name in names}
@@ -141,13 +141,13 @@ class _Recorder:
             self.energy[name][k] = 0.0
         column = 0
         for car in cars:
-            displacement, acceleration, energy = car.observe()
-            self.displacement[k, column : column + displacement.size] = displacement
-            self.acceleration[k, column : column + acceleration.size] = acceleration
-            column += displacement.size
-            self.energy["kinetic"][k] += energy.kinetic
-            self.energy["strain"][k] += energy.strain
-            self.energy["body_dissipated"][k] += energy.dissipated
+            seen = car.observe()
+            rows = slice(column, column + seen.displacement.size)
+            self.displacement[k, rows], self.velocity[k, rows], self.acceleration[k, rows] = seen.displacement, seen.velocity, seen.acceleration
+            column = rows.stop
+            self.energy["kinetic"][k] += seen.energy.kinetic
+            self.energy["strain"][k] += seen.energy.strain
+            self.energy["body_dissipated"][k] += seen.energy.dissipated
         for j, c in enumerate(self.scene.couplers):
             self.couplers[c.name]["force"][k] = couplers.force[j]
             self.couplers[c.name]["closure"][k] = couplers.closure[j]
@@ -157,4 +157,4 @@ class _Recorder:
     def response(self) -> ImpactResponse:
         energy = dict(self.energy)
         energy["total"] = sum(energy.values())
-        return ImpactResponse(self.time, sensor_histories(self.scene.channels, self.displacement, self.acceleration), self.couplers, energy)
+        return ImpactResponse(self.time, sensor_histories(self.scene.channels, self.displacement, self.velocity, self.acceleration), self.couplers, energy)

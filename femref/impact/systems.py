@@ -16,7 +16,8 @@ readable reference (:mod:`femref.impact.cars`) and the compiled loop
 ``L`` is the car's end-load vector (rod: ``(F1, F2)``, internal axial force at ``−l`` and
 ``+l``, tension positive); the end outputs are what the couplers read (rod: the
 displacements at ``−l`` and ``+l``). Sensor outputs are displacements (and, for the
-state-space car, accelerations) at the sensor positions.
+state-space car, velocities and accelerations) at the sensor positions: a second-order car's
+sensor velocities are ``O u̇`` (plus ``R_s L̇``).
 """
 
 from __future__ import annotations
@@ -65,7 +66,7 @@ class StateSpaceSystem:
     """``x_{n+1} = A x_n + B L_{n+1}`` for one fixed step ``dt`` (s), outputs linear in x.
 
     ``end_displacement`` and ``end_velocity`` (Y × n) give the end outputs and their rates,
-    ``sensor_displacement`` and ``sensor_acceleration`` (S × n) the sensors. The state starts at ``velocity · velocity_state + load_state @ L₀``.
+    ``sensor_displacement``, ``sensor_velocity`` and ``sensor_acceleration`` (S × n) the sensors. The state starts at ``velocity · velocity_state + load_state @ L₀``.
 
     Energy: kinetic ``½ xᵀ T x`` and strain ``½ xᵀ V x`` (``kinetic_form`` T,
     ``strain_form`` V), and — the model having no dissipation of its own to book —
@@ -82,6 +83,7 @@ class StateSpaceSystem:
     end_displacement: NDArray[np.float64]
     end_velocity: NDArray[np.float64]
     sensor_displacement: NDArray[np.float64]
+    sensor_velocity: NDArray[np.float64]
     sensor_acceleration: NDArray[np.float64]
     velocity_state: NDArray[np.float64]
     load_state: NDArray[np.float64]

@@ -186,14 +186,19 @@ def _public(settings: dict[str, Any]) -> dict[str, Any]:
 
 def add_measured_records(scene: ImpactScene, result: ModelResult) -> None:
     """Sensor accelerations as the measurement chain delivers them, under ``result.measured`` — and on cars
-    that bend the vertical accelerations through the same chain, under ``result.measured_vertical``."""
+    that bend the vertical accelerations through the same chain and the pitch rates through the gyroscopes'
+    (same filter and rate, their own noise), under ``result.measured_bending[probe]``."""
     probes = list(result.probes)
-    vertical = [p for p in probes if "vertical_acceleration" in result.probes[p]]
+    bending = [p for p in probes if "vertical_acceleration" in result.probes[p]]
     accelerations = np.column_stack([result.probes[p]["acceleration"] for p in probes]
-                                    + [result.probes[p]["vertical_acceleration"] for p in vertical])
+                                    + [result.probes[p]["vertical_acceleration"] for p in bending])
     t, records = measure(result.axes["time"], accelerations, scene.measurement)
     result.measured = {"time": t, **{p: records[:, k] for k, p in enumerate(probes)}}
-    result.measured_vertical = {p: records[:, len(probes) + k] for k, p in enumerate(vertical)}
+    result.measured_bending = {p: {"vertical_acceleration": records[:, len(probes) + k]} for k, p in enumerate(bending)}
+    if bending:
+        _, rates = measure(result.axes["time"], np.column_stack([result.probes[p]["pitch_rate"] for p in bending]), scene.measurement, stream=1)
+        for k, p in enumerate(bending):
+            result.measured_bending[p]["pitch_rate"] = rates[:, k]
 
 
 def run_estimators(scene: ImpactScene, reference: ModelResult) -> list[ModelResult]:

@@ -26,8 +26,9 @@ with the reference linearly interpolated there (``np.interp``); a peak the resul
 does not sample is missed by both alike. Per coupler ``coupler_force_peak_error_<c>``,
 ``coupler_force_peak_time_error_<c>``, ``coupler_force_rms_error_<c>``; per probe
 ``acceleration_rms_error_<p>``, ``acceleration_peak_error_<p>`` — and on cars that bend the same for
-``vertical_acceleration`` — ; aggregates ``coupler_force_peak_error_max``,
-``coupler_force_rms_error_max``, ``acceleration_rms_error_max``, ``vertical_acceleration_rms_error_max``; with a measurement chain the same again on the measured
+``vertical_acceleration`` and ``pitch_rate`` — ; aggregates ``coupler_force_peak_error_max``,
+``coupler_force_rms_error_max``, ``acceleration_rms_error_max``, ``vertical_acceleration_rms_error_max``,
+``pitch_rate_rms_error_max``; with a measurement chain the same again on the measured
 records, prefixed ``measured_``. A result of peak estimates only — a network estimator,
 ``couplers[c]["peak_force"]`` and no time axis — is scored on those peaks alone
 (:func:`score_peak_estimates`).
@@ -56,6 +57,9 @@ from femref.results import UNDEFINED, ModelResult
 
 Metrics = dict[str, float]
 
+SCORED_SENSOR_QUANTITIES: tuple[str, ...] = ("acceleration", "vertical_acceleration", "pitch_rate")
+"""The sensor histories an impact is scored on: what accelerometers and rate gyroscopes record."""
+
 
 def score_impact(reference: ModelResult, result: ModelResult) -> Metrics:
     """Coupler-force and acceleration errors of ``result`` against ``reference`` (module docstring).
@@ -74,11 +78,11 @@ def score_impact(reference: ModelResult, result: ModelResult) -> Metrics:
         ref = np.interp(tw, t_ref, _series(reference.couplers[name], "force", reference.model, f"coupler {name}", t_ref.size))
         mine = _series(result.couplers[name], "force", result.model, f"coupler {name}", t.size)[window]
         metrics.update(coupler_force_errors(name, tw, mine, ref))
-    for quantity in ("acceleration", "vertical_acceleration"):
+    for quantity in SCORED_SENSOR_QUANTITIES:
         for name in sorted(p for p in set(reference.probes) & set(result.probes) if _has(reference, result, p, quantity)):
             ref = np.interp(tw, t_ref, _series(reference.probes[name], quantity, reference.model, f"probe {name}", t_ref.size))
             mine = _series(result.probes[name], quantity, result.model, f"probe {name}", t.size)[window]
-            metrics.update(acceleration_errors(name, mine, ref, quantity))
+            metrics.update(sensor_errors(name, mine, ref, quantity))
     metrics.update(_aggregates(metrics))
     return metrics
 
@@ -134,13 +138,13 @@ def coupler_force_errors(name: str, time: NDArray[np.float64], force: NDArray[np
     }
 
 
-def acceleration_errors(name: str, acceleration: NDArray[np.float64], reference: NDArray[np.float64], quantity: str = "acceleration") -> Metrics:
-    """Rms and peak-magnitude errors of one probe's ``quantity`` (axial ``acceleration`` or
-    ``vertical_acceleration``; NaN where the reference is zero)."""
+def sensor_errors(name: str, values: NDArray[np.float64], reference: NDArray[np.float64], quantity: str = "acceleration") -> Metrics:
+    """Rms and peak-magnitude errors of one probe's ``quantity`` (:data:`SCORED_SENSOR_QUANTITIES`; NaN
+    where the reference is zero)."""
     peak_ref = float(np.max(np.abs(reference)))
-    peak = float(np.max(np.abs(acceleration)))
+    peak = float(np.max(np.abs(values)))
     return {
-        f"{quantity}_rms_error_{name}": _relative_rms(acceleration, reference),
+        f"{quantity}_rms_error_{name}": _relative_rms(values, reference),
         f"{quantity}_peak_error_{name}": abs(peak - peak_ref) / peak_ref if peak_ref > 0.0 else math.nan,
     }
 
@@ -159,6 +163,7 @@ AGGREGATES: dict[str, str] = {
     "acceleration_rms_error_max": "acceleration_rms_error_",
     "acceleration_max_error_max": "acceleration_max_error_",
     "vertical_acceleration_rms_error_max": "vertical_acceleration_rms_error_",
+    "pitch_rate_rms_error_max": "pitch_rate_rms_error_",
 }
 """Aggregate metric → prefix of the per-item metrics it is the maximum of."""
 
@@ -257,8 +262,8 @@ def _measured_view(result: ModelResult) -> ModelResult:
     view = ModelResult(result.model)
     view.axes = {"time": result.measured["time"]}
     view.probes = {p: {"acceleration": a} for p, a in result.measured.items() if p != "time"}
-    for p, a in result.measured_vertical.items():
-        view.probes[p]["vertical_acceleration"] = a
+    for p, outputs in result.measured_bending.items():
+        view.probes[p].update(outputs)
     return view
 
 
@@ -316,4 +321,4 @@ def undefined_reasons(metrics: dict[str, Any]) -> dict[str, str]:
     return reasons
 
 
-__all__ = ["AGGREGATES", "acceleration_errors", "coupler_force_errors", "score_impact", "score_peak_estimates", "score_results", "undefined_reasons"]
+__all__ = ["AGGREGATES", "SCORED_SENSOR_QUANTITIES", "coupler_force_errors", "score_impact", "score_peak_estimates", "score_results", "sensor_errors", "undefined_reasons"]

@@ -169,4 +169,4 @@ def _network_of(i: int, spec: AnnEstimatorSpec) -> AnnEstimator:
 def _measurement_of(spec: MeasurementSpec | None) -> Measurement | None:
     if spec is None:
         return None
-    return Measurement(rate=spec.rate, lowpass=spec.lowpass, noise=spec.noise, seed=spec.seed)
+    return Measurement(rate=spec.rate, lowpass=spec.lowpass, noise=spec.noise, seed=spec.seed, pitch_rate_noise=spec.pitch_rate_noise)

@@ -14,6 +14,11 @@ Three steps, in the order a data-acquisition system applies them, each optional
 3. **white noise** of standard deviation ``noise`` (m/s²), Gaussian, from
    ``numpy.random.default_rng(seed)`` (reproducible; one draw per sample and sensor).
 
+A car that bends may also carry rate gyroscopes: its pitch rates go through the same filter and
+sampling, with their own noise ``pitch_rate_noise`` (rad/s) from an independent stream
+(``stream = 1``: ``default_rng((seed, 1))``), so adding gyroscopes leaves the accelerometers'
+records as they were.
+
 ``lowpass = None`` and ``rate = None`` skip their steps, ``noise = 0`` skips the noise.
 The filter must lie below the model's Nyquist frequency ``1/(2 dt)`` (the case schema
 also keeps it below the record's Nyquist ``rate/2``, where it does its anti-alias job).
@@ -35,13 +40,15 @@ class Measurement:
 
     ``lowpass`` (Hz) anti-alias filter corner (None: no filter); ``rate`` (Hz) the sampling
     rate of the records (None: the model's time grid); ``noise`` (m/s², standard deviation
-    of white noise added after filtering) with ``seed``.
+    of white noise added after filtering) with ``seed``; ``pitch_rate_noise`` (rad/s) the
+    gyroscopes' (cars that bend).
     """
 
     rate: float | None = None
     lowpass: float | None = None
     noise: float = 0.0
     seed: int = 0
+    pitch_rate_noise: float = 0.0
 
 
 FILTER_ORDER = 4
@@ -49,24 +56,26 @@ FILTER_ORDER = 4
 
 
 def measure(
-    time: ArrayLike, acceleration: ArrayLike, measurement: Measurement
+    time: ArrayLike, acceleration: ArrayLike, measurement: Measurement, stream: int = 0,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Records ``(t_meas (Nm,), a_meas (Nm, S))`` from sensor accelerations ``(Nt, S)`` on a uniform ``time`` (s).
 
-    Low-pass (at the model's rate), resample, add noise — module docstring. A 1-D
+    Low-pass (at the model's rate), resample, add noise — module docstring. ``stream = 1`` makes
+    the gyroscopes' records: noise ``pitch_rate_noise`` (rad/s) from ``default_rng((seed, 1))``. A 1-D
     ``acceleration`` (one sensor) gives a 1-D record. With every step skipped the
     input comes back (as a copy). Raises ValueError for a non-uniform or
     non-increasing time axis, mismatched shapes, non-finite values, a low-pass at or
     above the model's Nyquist frequency, or settings out of range.
     """
     t, a, dt = _checked_input(time, acceleration)
-    lowpass, rate, noise = _checked_settings(measurement, dt)
+    lowpass, rate, noise = _checked_settings(measurement, dt, stream)
     if lowpass is not None:
         a = lowpass_filter(a, dt, lowpass)
     if rate is not None:
         t, a = resample(t, a, rate)
     if noise > 0.0:
-        a = a + np.random.default_rng(measurement.seed).normal(0.0, noise, size=a.shape)
+        rng = np.random.default_rng((measurement.seed, stream) if stream else measurement.seed)
+        a = a + rng.normal(0.0, noise, size=a.shape)
     return t.copy(), a.copy()
 
 
@@ -129,13 +138,14 @@ def _checked_input(time: ArrayLike, acceleration: ArrayLike) -> tuple[NDArray[np
     return t, a, dt
 
 
-def _checked_settings(measurement: Measurement, dt: float) -> tuple[float | None, float | None, float]:
-    """``(lowpass, rate, noise)`` checked against the model's step ``dt``."""
+def _checked_settings(measurement: Measurement, dt: float, stream: int = 0) -> tuple[float | None, float | None, float]:
+    """``(lowpass, rate, noise)`` checked against the model's step ``dt``; the noise of the stream's sensors."""
     lowpass = None if measurement.lowpass is None else _positive("lowpass", measurement.lowpass, "Hz")
     rate = None if measurement.rate is None else _positive("rate", measurement.rate, "Hz")
-    noise = float(measurement.noise)
+    name, unit, given = ("pitch_rate_noise", "rad/s", measurement.pitch_rate_noise) if stream else ("noise", "m/s^2", measurement.noise)
+    noise = float(given)
     if not (math.isfinite(noise) and noise >= 0.0):
-        raise ValueError(f"measurement noise must be finite and >= 0 (m/s^2), got {measurement.noise!r}")
+        raise ValueError(f"measurement {name} must be finite and >= 0 ({unit}), got {given!r}")
     if noise > 0.0 and (isinstance(measurement.seed, bool) or int(measurement.seed) != measurement.seed):
         raise ValueError(f"measurement seed must be an integer, got {measurement.seed!r}")
     nyquist = 0.5 / dt

@@ -62,7 +62,12 @@ def test_zero_offset_gives_the_rod_exactly():
 def _free_free_beam(modes: int) -> tuple[np.ndarray, list]:
     """Angular frequencies (rad/s) and mass-normalised shapes ``(φ, φ')`` of x ∈ [−l, l] of the homogeneous
     free-free beam: ``cosh βL cos βL = 1``, ``ψ = cosh βy + cos βy − σ (sinh βy + sin βy)``, ``y = x + l``,
-    ``σ = (cosh βL − cos βL)/(sinh βL − sin βL)``, ``∫ψ² dy = L``; the rigid pitch ``x/√J`` first."""
+    ``σ = (cosh βL − cos βL)/(sinh βL − sin βL)``, ``∫ψ² dy = L``; the rigid pitch ``x/√J`` first.
+
+    Evaluated without cancellation: ``cosh βy − σ sinh βy = ½(1 + σ) e^{−βy} + ½(1 − σ) e^{βy}`` with
+    ``½(1 − σ) e^{βy} = (cos βL − sin βL − e^{−βL}) e^{β(y − L)} / (1 − e^{−2βL} − 2 e^{−βL} sin βL)``. The
+    printed form loses the free end's boundary layer above the 12th mode (σ rounds to 1 while ``(1 − σ) e^{βy}``
+    is of order one near ``y = L``): 0.5 % of the slope near the far end."""
     L, m = LENGTH, MASS_PER_LENGTH
     roots = [brentq(lambda b: math.cosh(b) * math.cos(b) - 1.0, (n + 0.5) * math.pi - 0.3, (n + 0.5) * math.pi + 0.3) for n in range(1, modes + 1)]
     J = m * L**3 / 12.0
@@ -70,56 +75,62 @@ def _free_free_beam(modes: int) -> tuple[np.ndarray, list]:
     omegas = [0.0]
     for root in roots:
         b = root / L
-        # σ by the stable form for large βL: (cosh − cos)/(sinh − sin) → 1
-        sigma = (math.cosh(root) - math.cos(root)) / (math.sinh(root) - math.sin(root))
+        decay = math.exp(-root)
+        growth = (math.cos(root) - math.sin(root) - decay) / (1.0 - decay * decay - 2.0 * decay * math.sin(root))  # ½(1 − σ) e^{βL}
+        sigma = 1.0 - 2.0 * growth * decay
 
-        def phi(x, b=b, sigma=sigma):
+        def phi(x, b=b, sigma=sigma, growth=growth, root=root):
             y = b * (x + 0.5 * L)
-            return (np.cosh(y) + np.cos(y) - sigma * (np.sinh(y) + np.sin(y))) / math.sqrt(m * L)
+            exponentials = 0.5 * (1.0 + sigma) * np.exp(-y) + growth * np.exp(y - root)
+            return (exponentials + np.cos(y) - sigma * np.sin(y)) / math.sqrt(m * L)
 
-        def slope(x, b=b, sigma=sigma):
+        def slope(x, b=b, sigma=sigma, growth=growth, root=root):
             y = b * (x + 0.5 * L)
-            return b * (np.sinh(y) - np.sin(y) - sigma * (np.cosh(y) + np.cos(y))) / math.sqrt(m * L)
+            exponentials = -0.5 * (1.0 + sigma) * np.exp(-y) + growth * np.exp(y - root)
+            return b * (exponentials - np.sin(y) - sigma * np.cos(y)) / math.sqrt(m * L)
 
         shapes.append((phi, slope))
         omegas.append(b * b * math.sqrt(EI / m))
     return np.array(omegas), shapes
 
 
-def exact_vertical_response(t: np.ndarray, moment_load: np.ndarray, x: np.ndarray, viscosity: float, modes: int = 60) -> tuple[np.ndarray, np.ndarray]:
-    """Vertical displacement (m) and acceleration (m/s²), N × len(x), of the homogeneous Voigt free-free beam
-    from rest under a generalised force ``moment_load(t)`` on the rotation at its rear end (N·m, linear
-    between samples). A uniform Voigt viscosity keeps the modes apart (``C = (cI/EI) K``)::
+def exact_vertical_response(t: np.ndarray, moment_load: np.ndarray, x: np.ndarray, viscosity: float,
+                            modes: int = 60) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Vertical displacement (m), acceleration (m/s²) and pitch rate (rad/s), N × len(x), of the homogeneous
+    Voigt free-free beam from rest under a generalised force ``moment_load(t)`` on the rotation at its rear
+    end (N·m, linear between samples). A uniform Voigt viscosity keeps the modes apart (``C = (cI/EI) K``)::
 
-        q̈_n + (cI/EI) ω_n² q̇_n + ω_n² q_n = φ_n'(−l) moment_load,   w(x) = Σ φ_n(x) q_n,   a(x) = Σ φ_n(x) q̈_n
+        q̈_n + (cI/EI) ω_n² q̇_n + ω_n² q_n = φ_n'(−l) moment_load,
+        w(x) = Σ φ_n(x) q_n,   a(x) = Σ φ_n(x) q̈_n,   θ̇(x) = Σ φ_n'(x) q̇_n
     """
     omegas, shapes = _free_free_beam(modes)
     h = float(t[1] - t[0])
     slope = np.diff(moment_load, append=moment_load[-1]) / h
-    displacement, acceleration = np.zeros((t.size, x.size)), np.zeros((t.size, x.size))
+    displacement, acceleration, pitch_rate = (np.zeros((t.size, x.size)) for _ in range(3))
     for omega, (phi, dphi) in zip(omegas, shapes):
         gain = float(dphi(np.array(-0.5 * LENGTH)))
         damping = viscosity / EI * omega**2
         a = np.array([[0.0, 1.0, 0.0, 0.0], [-omega**2, -damping, gain, 0.0], [0.0, 0.0, 0.0, 1.0], [0.0, 0.0, 0.0, 0.0]])
         e = expm(a * h)
-        q, qs, acc = np.zeros(2), np.empty(t.size), np.empty(t.size)
+        q, qs, rates, acc = np.zeros(2), np.empty(t.size), np.empty(t.size), np.empty(t.size)
         for k in range(t.size):
-            qs[k] = q[0]
+            qs[k], rates[k] = q
             acc[k] = gain * moment_load[k] - omega**2 * q[0] - damping * q[1]
             q = e[:2, :2] @ q + e[:2, 2] * moment_load[k] + e[:2, 3] * slope[k]
         displacement += np.outer(qs, phi(x))
         acceleration += np.outer(acc, phi(x))
-    return displacement, acceleration
+        pitch_rate += np.outer(rates, dphi(x))
+    return displacement, acceleration, pitch_rate
 
 
 def test_fem_bending_converges_to_the_exact_free_free_beam():
     """The front car (anvil) takes the coupler force ``P`` at its rear end, ``h`` below its axis: an end
-    moment. Its fem vertical acceleration and displacement at the centre and front sensors against the
-    exact modal solution under the fem's own ``P(t)`` (a linear 40 MN/m coupler, so the force starts
-    without a jump; Voigt bending viscosity 4e6 N·m²·s; dt = 2e-5 s), after the integrator's start-up
-    (t > 5 ms). The acceleration error falls at the Hermite elements' order, ≈ 3 to 4 (measured 3.15,
-    3.71, 3.24 from 2 to 16 elements, 2.3e-4 of the peak at 16); the displacement is within 1e-3 from 8
-    elements on (measured 1.4e-4: the generalized-α start-up, independent of mesh and step, floors it).
+    moment. Its fem vertical displacement, vertical acceleration and pitch rate at the centre and front
+    sensors against the exact modal solution under the fem's own ``P(t)`` (a linear 40 MN/m coupler, so the
+    force starts without a jump; Voigt bending viscosity 4e6 N·m²·s; dt = 2e-5 s), after the integrator's
+    start-up (t > 5 ms), from 2 to 16 Hermite elements. Measured orders: displacement 3.49, 3.47, 3.48
+    (4.4e-6 of the peak at 16), acceleration 3.14, 3.66, 3.87 (1.6e-4), pitch rate 3.44, 3.06, 2.88
+    (1.4e-4: the slope is one derivative down, ≈ h³ between the nodes).
     """
     x = np.array([0.0, 8.3])
     errors = []
@@ -128,17 +139,18 @@ def test_fem_bending_converges_to_the_exact_free_free_beam():
         data["couplers"][0]["law"] = {"kelvin_voigt": {"stiffness": 4.0e7}}
         fem = run(data)["fem"]
         t, force = fem.axes["time"], fem.couplers["c1"]["force"]
-        w, a = exact_vertical_response(t, OFFSET * force, x, 4.0e6)
+        w, a, rate = exact_vertical_response(t, OFFSET * force, x, 4.0e6)
         late = t > 0.005
-        got_w = np.column_stack([fem.probes[f"anvil/{s}"]["vertical_displacement"] for s in ("center", "front")])
-        got_a = np.column_stack([fem.probes[f"anvil/{s}"]["vertical_acceleration"] for s in ("center", "front")])
-        errors.append((np.max(np.abs(got_w - w)[late]) / np.max(np.abs(w)), np.max(np.abs(got_a - a)[late]) / np.max(np.abs(a))))
-        print(f"{elements} elements: vertical displacement error {errors[-1][0]:.3e}, acceleration {errors[-1][1]:.3e}")
-    orders = [math.log2(coarse[1] / fine[1]) for coarse, fine in zip(errors, errors[1:])]
-    print("acceleration orders", [round(o, 2) for o in orders])
-    assert all(2.8 <= order <= 4.2 for order in orders), orders
-    assert errors[-1][1] < 5e-4
-    assert all(e[0] < 1e-3 for e in errors[2:])
+        got_w, got_a, got_rate = (np.column_stack([fem.probes[f"anvil/{s}"][q] for s in ("center", "front")])
+                                  for q in ("vertical_displacement", "vertical_acceleration", "pitch_rate"))
+        errors.append([np.max(np.abs(got - exact)[late]) / np.max(np.abs(exact)) for got, exact in ((got_w, w), (got_a, a), (got_rate, rate))])
+        print(f"{elements} elements: vertical displacement error {errors[-1][0]:.3e}, acceleration {errors[-1][1]:.3e}, pitch rate {errors[-1][2]:.3e}")
+    orders = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))  # rows: refinements; columns: w, a, θ̇
+    print("orders (displacement, acceleration, pitch rate)", np.round(orders, 2).tolist())
+    assert np.all((orders[:, 0] >= 3.2) & (orders[:, 0] <= 4.2)), orders
+    assert np.all((orders[:, 1] >= 2.8) & (orders[:, 1] <= 4.2)), orders
+    assert np.all((orders[:, 2] >= 2.6) & (orders[:, 2] <= 4.0)), orders
+    assert max(errors[-1]) < 3e-4
 
 
 def test_bending_keeps_the_energy_balance_and_lowers_the_peak():
@@ -161,6 +173,31 @@ def test_rigid_car_pitches_under_the_end_moment():
     pitch = rigid.probes["anvil/center"]["pitch_acceleration"]
     assert np.max(np.abs(pitch - OFFSET * force / inertia)) <= 1e-9 * np.max(np.abs(pitch))
     assert np.max(np.abs(rigid.probes["anvil/center"]["vertical_acceleration"])) <= 1e-9 * np.max(np.abs(pitch))
+
+
+def test_sensor_velocities_are_the_rates_of_the_displacements():
+    """Every fidelity's sensor velocities — axial, vertical and the pitch rate — are the time derivatives of
+    its sensor displacements: against their central differences (dt = 2.5e-5 s, after the first samples, where
+    the modal car's massless static correction jumps with the load) within 2e-3 rms of each history (measured
+    at most 1.3e-3 modal, at the coupler ends, where the force's kink at separation puts one sample off;
+    2.1e-4 quasi-rigid, 4.7e-6 fem, 3.2e-8 rigid). The rigid car's pitch rate is the impulse of its end moment, ``J θ̇ = h ∫ P dt`` (1e-6 of the
+    peak: the trapezoid rule is generalized-α's own velocity update for a rigid body)."""
+    from scipy.integrate import cumulative_trapezoid
+
+    results = run(bending_case(OFFSET, models=("fem", "modal", "quasi_rigid", "rigid"), dt=2.5e-5, end=0.2))
+    for model, result in results.items():
+        t = result.axes["time"]
+        for probe, outputs in result.probes.items():
+            for prefix, rate in (("", "velocity"), ("vertical_", "vertical_velocity"), ("pitch_", "pitch_rate")):
+                velocity = outputs[rate][3:]
+                difference = np.gradient(outputs[prefix + "displacement"], t)[3:]
+                scale = np.sqrt(np.mean(velocity**2))
+                if scale > 0.0:
+                    assert np.sqrt(np.mean((difference - velocity) ** 2)) <= 2e-3 * scale, (model, probe, rate)
+    rigid = results["rigid"]
+    impulse = OFFSET * cumulative_trapezoid(rigid.couplers["c1"]["force"], rigid.axes["time"], initial=0.0) / (MASS_PER_LENGTH * LENGTH**3 / 12.0)
+    pitch_rate = rigid.probes["anvil/front"]["pitch_rate"]
+    assert np.max(np.abs(pitch_rate - impulse)) <= 1e-6 * np.max(np.abs(pitch_rate))
 
 
 @pytest.mark.parametrize("model", ["fem", "modal", "quasi_rigid", "rigid"])
@@ -204,29 +241,41 @@ def test_modal_bending_car_converges_to_the_fem_car():
     assert errors[-1] < 0.03 and abs(peak) < 0.002
 
 
-def test_the_measurement_chain_records_vertical_accelerations_too():
+def test_the_measurement_chain_records_vertical_accelerations_and_pitch_rates_too():
     """With a measurement chain each sensor's vertical acceleration goes through it as the axial one does
-    (same filter, rate and noise stream), is written under measured/<probe>/vertical_acceleration, and
-    scored: ``measured_vertical_acceleration_rms_error_max``."""
+    (same filter, rate and noise stream) and its pitch rate through the same filter and rate with the
+    gyroscopes' own noise (``pitch_rate_noise``, rad/s, an independent stream: the accelerometers' records do
+    not change when gyroscope noise is added); written under measured/<probe>/ and scored
+    (``measured_vertical_acceleration_rms_error_max``, ``measured_pitch_rate_rms_error_max``)."""
     from femref.sensing.measurement import Measurement, measure
 
     data = bending_case(OFFSET, models=("fem", "modal"))
     data["measurement"] = {"rate": 1000.0, "lowpass": 100.0, "noise": 0.0}
     outcome = run_scene(scene_from_case(parse_case(data, source="<bending>")))
     fem = next(r for r in outcome.results if r.model == "fem")
-    assert set(fem.measured_vertical) == set(fem.probes)
-    _, expected = measure(fem.axes["time"], fem.probes["anvil/front"]["vertical_acceleration"], Measurement(rate=1000.0, lowpass=100.0))
-    assert np.allclose(fem.measured_vertical["anvil/front"], expected, rtol=0.0, atol=1e-12 * np.max(np.abs(expected)))
-    assert np.isfinite(outcome.scores["modal"]["measured_vertical_acceleration_rms_error_max"])
+    assert set(fem.measured_bending) == set(fem.probes)
+    chain = Measurement(rate=1000.0, lowpass=100.0)
+    for quantity in ("vertical_acceleration", "pitch_rate"):
+        _, expected = measure(fem.axes["time"], fem.probes["anvil/front"][quantity], chain)
+        assert np.allclose(fem.measured_bending["anvil/front"][quantity], expected, rtol=0.0, atol=1e-12 * np.max(np.abs(expected)))
+        assert np.isfinite(outcome.scores["modal"][f"measured_{quantity}_rms_error_max"])
+    data["measurement"].update(noise=0.05, pitch_rate_noise=1e-3)
+    noisy = next(r for r in run_scene(scene_from_case(parse_case(data, source="<bending>"))).results if r.model == "fem")
+    data["measurement"].update(pitch_rate_noise=0.0)
+    quiet_gyros = next(r for r in run_scene(scene_from_case(parse_case(data, source="<bending>"))).results if r.model == "fem")
+    assert np.array_equal(noisy.measured_bending["anvil/front"]["vertical_acceleration"], quiet_gyros.measured_bending["anvil/front"]["vertical_acceleration"])
+    gyro_noise = noisy.measured_bending["anvil/front"]["pitch_rate"] - quiet_gyros.measured_bending["anvil/front"]["pitch_rate"]
+    assert 0.9e-3 < np.std(gyro_noise) < 1.1e-3
 
 
 def test_quasi_rigid_bending_car_matches_the_fem_car_to_order_epsilon_squared():
     """A free homogeneous car (l = 8 m, EI 4e9 N·m², cI 2e6 N·m²·s, couplers 0.6 m below the axis) under
     a smooth end-force pulse ``F1 = −A sin⁴(πt/T)``, ``T = π T_b/√ε`` (``T_b = l²√(m/EI)``, 1000 steps per
     pulse), stepped as the coupled solver steps a car: the quasi-rigid car's vertical and pitch
-    accelerations against the fem car's (32 elements) during the pulse. Errors fall like ε²:
+    accelerations and pitch rate against the fem car's (32 elements) during the pulse. Errors fall like ε²:
     vertical 3.9e-3, 2.0e-4, 1.2e-5 of the peak at ε = 0.16, 0.04, 0.01 (orders 2.1, 2.0); pitch
-    9.7e-3, 5.3e-4 (order 2.1; at ε = 0.01 the fem's own 1e-4 shows)."""
+    9.7e-3, 5.3e-4 (order 2.1; at ε = 0.01 the fem's own 1e-4 shows); pitch rate 1.8e-3, 1.1e-4, 8.9e-6
+    (orders 2.0, 1.8)."""
     from femref.core.body import Body
     from femref.core.profiles import Uniform
     from femref.fem.build import FemSettings
@@ -252,21 +301,25 @@ def test_quasi_rigid_bending_car_matches_the_fem_car_to_order_epsilon_squared():
                 LinearCar(fem_car(car, FemSettings(elements=32, order=2)), Integrator.generalized_alpha(0.8), dt, 0.0, loads[0])]
         histories = []
         for stepper in cars:
-            out = [stepper.observe()[1].copy()]
+            out = [np.concatenate([stepper.observe().acceleration, stepper.observe().velocity])]
             for load in loads[1:]:
                 stepper.predict()
                 stepper.advance(load)
-                out.append(stepper.observe()[1].copy())
+                seen = stepper.observe()
+                out.append(np.concatenate([seen.acceleration, seen.velocity]))
             histories.append(np.array(out))
         qr, fem = histories
         inside = t <= duration
-        vertical, pitch = slice(sensors, 2 * sensors), slice(2 * sensors, 3 * sensors)
-        errors.append(tuple(np.max(np.abs(qr[inside, part] - fem[inside, part])) / np.max(np.abs(fem[:, part])) for part in (vertical, pitch)))
-        print(f"ε = {epsilon}: vertical acceleration error {errors[-1][0]:.3e}, pitch {errors[-1][1]:.3e}")
+        rows = 3 * sensors  # accelerations (axial, vertical, pitch), then the velocities
+        vertical, pitch, pitch_rate = slice(sensors, 2 * sensors), slice(2 * sensors, rows), slice(rows + 2 * sensors, 2 * rows)
+        errors.append(tuple(np.max(np.abs(qr[inside, part] - fem[inside, part])) / np.max(np.abs(fem[:, part])) for part in (vertical, pitch, pitch_rate)))
+        print(f"ε = {epsilon}: vertical acceleration error {errors[-1][0]:.3e}, pitch {errors[-1][1]:.3e}, pitch rate {errors[-1][2]:.3e}")
     vertical_orders = [math.log(a[0] / b[0]) / math.log(4.0) for a, b in zip(errors, errors[1:])]
     pitch_order = math.log(errors[0][1] / errors[1][1]) / math.log(4.0)
     assert all(1.8 <= order <= 2.4 for order in vertical_orders), vertical_orders
     assert 1.8 <= pitch_order <= 2.4, pitch_order
+    rate_orders = [math.log(a[2] / b[2]) / math.log(4.0) for a, b in zip(errors, errors[1:])]
+    assert all(1.7 <= order <= 2.4 for order in rate_orders), rate_orders
     assert errors[-1][0] < 3e-5
 
 

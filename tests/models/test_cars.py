@@ -162,7 +162,7 @@ def test_feedthrough_energy_is_symmetric_positive_semidefinite_and_the_cars_stra
         previous = Q
         L0 = np.array([-3e5, 1e5])
         model = modal_stepper(car, k, 1e-4, L0)
-        assert model.observe()[2].strain == pytest.approx(0.5 * L0 @ Q @ L0, rel=1e-10)
+        assert model.observe().energy.strain == pytest.approx(0.5 * L0 @ Q @ L0, rel=1e-10)
     homogeneous = build_operators(make_car().body, FEM)
     phi, omega2 = free_free_modes(homogeneous, 0, T_WAVE)
     Q0 = homogeneous.load_matrix.T @ residual_flexibility(homogeneous, phi, omega2)
@@ -283,7 +283,7 @@ def test_quasi_rigid_car_predicts_the_exact_affine_step():
     assert model.fidelity == "quasi_rigid"
     np.testing.assert_array_equal(model.end_displacement, 0.0)
     np.testing.assert_allclose(model.end_velocity, 1.5)
-    start = model.observe()[2]
+    start = model.observe().energy
     assert start.strain == 0.0 and start.kinetic == pytest.approx(0.5 * rod.mass * 1.5**2, rel=1e-12)
     for trial in ([-2.5e5, 1e4], [-3e5, 5e4], [-1e5, -2e4]):
         prediction = model.predict()
@@ -295,10 +295,11 @@ def test_quasi_rigid_car_predicts_the_exact_affine_step():
         np.testing.assert_allclose(model.end_velocity, expected_v, rtol=1e-13, atol=1e-16)
         np.testing.assert_allclose(model.x, stepper.state_vector(), rtol=1e-13, atol=1e-13 * np.max(np.abs(stepper.state_vector())))
         np.testing.assert_array_equal(model.loads, trial)
-    displacement, acceleration, _ = model.observe()
-    np.testing.assert_allclose(displacement, stepper.displacement[2:], rtol=1e-13)
-    np.testing.assert_allclose(acceleration, stepper.acceleration[2:], rtol=1e-12)
-    assert displacement.shape == (2,)
+    seen = model.observe()
+    np.testing.assert_allclose(seen.displacement, stepper.displacement[2:], rtol=1e-13)
+    np.testing.assert_allclose(seen.velocity, stepper.velocity[2:], rtol=1e-12)
+    np.testing.assert_allclose(seen.acceleration, stepper.acceleration[2:], rtol=1e-12)
+    assert seen.displacement.shape == (2,)
     settings = model.car_settings()
     assert set(settings) == {"epsilon", "tau_groups"} and settings["epsilon"] == pytest.approx(stepper.epsilon, rel=1e-12)
 
@@ -383,7 +384,7 @@ def test_quasi_rigid_car_momentum_and_energy(viscosity):
 
     def energies(m, stepper):
         """(T, V) from observe() and by direct quadrature of ½∫ m v², ½∫ EA u_x² at the Gauss nodes."""
-        energy = m.observe()[2]
+        energy = m.observe().energy
         _, velocity = stepper.at(nodes)
         strain, _ = stepper.at(nodes, derivative=1)
         stiffness = (q.weights * q.stiffness).ravel()
@@ -393,14 +394,14 @@ def test_quasi_rigid_car_momentum_and_energy(viscosity):
     history = beside(model, loads, energies)
     np.testing.assert_allclose(history[:, 0], history[:, 2], rtol=1e-12)
     np.testing.assert_allclose(history[:, 1], history[:, 3], rtol=1e-10, atol=1e-12 * np.max(history[:, 3]))
-    final = model.observe()[2]
+    final = model.observe().energy
     if viscosity == 0.0:
         assert abs(final.dissipated) < 1e-12 * 0.5 * rod.mass * car.velocity**2
     else:
         fem = fem_stepper(car, dt, loads[0])
         drive(fem, loads, lambda m: None)
         assert final.dissipated > 0.0
-        assert final.dissipated == pytest.approx(fem.observe()[2].dissipated, rel=0.05)
+        assert final.dissipated == pytest.approx(fem.observe().energy.dissipated, rel=0.05)
 
 
 def test_stiff_car_every_fidelity_agrees():

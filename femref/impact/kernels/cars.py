@@ -75,6 +75,7 @@ FIELDS = (
     "end_outputs",           # (Y, n) E, or the state-space end displacement map
     "end_rates",             # (Y, n) state-space end velocity map
     "sensor_outputs",        # (S, n) O, or the state-space sensor displacement map
+    "sensor_rates",          # (S, n) state-space sensor velocity map
     "sensor_accelerations",  # (S, n) state-space sensor acceleration map
     "end_feedthrough",       # (Y, J)
     "sensor_feedthrough",    # (S, J)
@@ -88,6 +89,7 @@ FIELDS = (
     "u_free", "v_free", "a_free",  # and the free step
     "x", "x_free",           # state space: the state and its free step
     "loads",                 # (J,) L_n
+    "load_rate",             # (J,) (L_n − L_{n−1})/dt: the sensor feedthrough's velocity
     "new_loads",             # (J,) L_{n+1}, set by the loop
     "end_free",              # (Y,) free end outputs of the step being solved
     "end_rate_free",         # (Y,) and their rates
@@ -97,8 +99,8 @@ FIELDS = (
 )
 (COEFFICIENTS, HISTORY_U, HISTORY_V, HISTORY_A, DAMPING, STIFFNESS, MASS, EFFECTIVE_FACTOR, MASS_FACTOR,
  LOAD, RESPONSE, TRANSLATION, SENSOR_TRAVEL, TRANSITION, KINETIC_FORM, STRAIN_FORM, WORK_MAP, END_OUTPUTS, END_RATES,
- SENSOR_OUTPUTS, SENSOR_ACCELERATIONS, END_FEEDTHROUGH, SENSOR_FEEDTHROUGH, FEEDTHROUGH_ENERGY, GAIN_U,
- GAIN_V, COUPLER_LOADS, COUPLER_OUTPUTS, U, V, A, U_FREE, V_FREE, A_FREE, X, X_FREE, LOADS, NEW_LOADS,
+ SENSOR_OUTPUTS, SENSOR_RATES, SENSOR_ACCELERATIONS, END_FEEDTHROUGH, SENSOR_FEEDTHROUGH, FEEDTHROUGH_ENERGY, GAIN_U,
+ GAIN_V, COUPLER_LOADS, COUPLER_OUTPUTS, U, V, A, U_FREE, V_FREE, A_FREE, X, X_FREE, LOADS, LOAD_RATE, NEW_LOADS,
  END_FREE, END_RATE_FREE, END_NOW, SCALARS, WORK1, WORK2, WORK3) = range(COUPLER_COUNT + 1, COUPLER_COUNT + 1 + len(FIELDS))
 
 # entries of the coefficients field
@@ -248,6 +250,7 @@ def _car_fields(
             "end_outputs": _matrix(system.end_displacement, (Y, n)),
             "end_rates": _matrix(system.end_velocity, (Y, n)),
             "sensor_outputs": _matrix(system.sensor_displacement, (S, n)),
+            "sensor_rates": _matrix(system.sensor_velocity, (S, n)),
             "sensor_accelerations": _matrix(system.sensor_acceleration, (S, n)),
             "x": np.zeros(n), "x_free": np.zeros(n),
             "work1": np.zeros(n), "work2": np.zeros(n), "work3": np.zeros(n),
@@ -257,7 +260,7 @@ def _car_fields(
     fields.update({
         "gain_u": np.zeros((Y, J)), "gain_v": np.zeros((Y, J)),
         "coupler_loads": coupler_loads, "coupler_outputs": coupler_outputs,
-        "loads": np.zeros(J), "new_loads": np.zeros(J),
+        "loads": np.zeros(J), "load_rate": np.zeros(J), "new_loads": np.zeros(J),
         "end_free": np.zeros(Y), "end_rate_free": np.zeros(Y), "end_now": np.zeros(Y), "scalars": np.zeros(5),
     })
     empty = np.zeros(0)
@@ -517,11 +520,12 @@ def advance(layout: NDArray, w: NDArray, c: int) -> None:
     n, p, J, Y = at[DOFS], at[BAND], at[LOAD_COUNT], at[END_COUNT]
     scalars = at[SCALARS]
     dt = w[at[COEFFICIENTS] + DT]
-    L0, L1 = at[LOADS], at[NEW_LOADS]
+    L0, L1, load_rate = at[LOADS], at[NEW_LOADS], at[LOAD_RATE]
     rate2 = 0.0
     load2 = 0.0
     for j in range(J):
         slope = (w[L1 + j] - w[L0 + j]) / dt
+        w[load_rate + j] = slope
         rate2 += slope * slope
         load2 += w[L0 + j] * w[L0 + j] + w[L1 + j] * w[L1 + j]
     w[scalars + SUM_LOAD2] += 0.5 * dt * load2
@@ -566,10 +570,11 @@ def advance(layout: NDArray, w: NDArray, c: int) -> None:
 
 
 @njit(cache=True, _nrt=False)
-def observe(layout: NDArray, w: NDArray, c: int, k: int, displacement: NDArray, acceleration: NDArray, energy: NDArray) -> None:
-    """Car ``c``'s sensor displacements (m) and accelerations (m/s²) now into row ``k`` of the histories
-    (its columns from its sensor start), and add its kinetic, strain and dissipated energy (J) to
-    ``energy[k, 0:3]``."""
+def observe(layout: NDArray, w: NDArray, c: int, k: int, displacement: NDArray, velocity: NDArray, acceleration: NDArray,
+            energy: NDArray) -> None:
+    """Car ``c``'s sensor displacements, velocities and accelerations now into row ``k`` of the histories
+    (its columns from its sensor start; a second-order car's velocities ``O v + R_s (L_n − L_{n−1})/dt``),
+    and add its kinetic, strain and dissipated energy (J) to ``energy[k, 0:3]``."""
     at = layout[c]
     n, p, J, S = at[DOFS], at[BAND], at[LOAD_COUNT], at[SENSOR_COUNT]
     first = at[SENSOR_START]
@@ -580,11 +585,14 @@ def observe(layout: NDArray, w: NDArray, c: int, k: int, displacement: NDArray, 
         strain = 0.5 * quadratic(w, at[STRAIN_FORM], n, x)
         for i in range(S):
             sd = 0.0
+            sv = 0.0
             sa = 0.0
             for j in range(n):
                 sd += w[at[SENSOR_OUTPUTS] + i * n + j] * w[x + j]
+                sv += w[at[SENSOR_RATES] + i * n + j] * w[x + j]
                 sa += w[at[SENSOR_ACCELERATIONS] + i * n + j] * w[x + j]
             displacement[k, first + i] = sd
+            velocity[k, first + i] = sv
             acceleration[k, first + i] = sa
         energy[k, 0] += kinetic
         energy[k, 1] += strain
@@ -595,14 +603,20 @@ def observe(layout: NDArray, w: NDArray, c: int, k: int, displacement: NDArray, 
     band_product(w, at[STIFFNESS], p, n, u, stiffness_u)
     band_product(w, at[MASS], p, n, v, mass_v)
     sensor_outputs, sensor_feedthrough, travel = at[SENSOR_OUTPUTS], at[SENSOR_FEEDTHROUGH], at[SENSOR_TRAVEL]
+    load_rate = at[LOAD_RATE]
     for i in range(S):
         s = 0.0
+        sv = 0.0
         for j in range(n):
             s += w[sensor_outputs + i * n + j] * w[u + j]
+            sv += w[sensor_outputs + i * n + j] * w[v + j]
         feedthrough = 0.0
+        feedthrough_rate = 0.0
         for j in range(J):
             feedthrough += w[sensor_feedthrough + i * J + j] * w[loads + j]
+            feedthrough_rate += w[sensor_feedthrough + i * J + j] * w[load_rate + j]
         displacement[k, first + i] = s + feedthrough + w[travel + i] * w[scalars + OFFSET]
+        velocity[k, first + i] = sv + feedthrough_rate
     strain = 0.5 * dot(w, u, stiffness_u, n) + 0.5 * quadratic(w, at[FEEDTHROUGH_ENERGY], J, loads)
     accelerations = at[A]
     if w[at[COEFFICIENTS] + EQUILIBRIUM] != 0.0:

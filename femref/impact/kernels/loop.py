@@ -137,6 +137,7 @@ def solve_compiled(
     n_out, n_c = outputs.size, len(scene.couplers)
     history = {
         "displacement": np.full((n_out, line.sensors), np.nan),
+        "velocity": np.full((n_out, line.sensors), np.nan),
         "acceleration": np.full((n_out, line.sensors), np.nan),
         "force": np.full((n_out, n_c), np.nan),
         "closure": np.full((n_out, n_c), np.nan),
@@ -151,7 +152,7 @@ def solve_compiled(
     while (counters[STEP] <= steps or counters[OUTPUT] == 0) and counters[WORST] < 0:
         stop = min(steps, int(counters[STEP]) + chunk - 1)
         run_steps(pool.layout, pool.values, laws, couplers, dt, tolerance, gain_u, gain_v, outputs, stop, counters, change,
-                  history["displacement"], history["acceleration"], history["force"], history["closure"], history["energy"],
+                  history["displacement"], history["velocity"], history["acceleration"], history["force"], history["closure"], history["energy"],
                   np.zeros(n_c), np.zeros(n_c), np.zeros(n_c, dtype=np.int64))
         if progress is not None:
             progress(stop if counters[WORST] < 0 else int(counters[FAILED_STEP]) - 1, steps)
@@ -166,7 +167,7 @@ def solve_compiled(
     energy["total"] = np.sum(history["energy"], axis=1)
     return ImpactResponse(
         dt * outputs,
-        sensor_histories(scene.channels, history["displacement"], history["acceleration"]),
+        sensor_histories(scene.channels, history["displacement"], history["velocity"], history["acceleration"]),
         {c.name: {"force": history["force"][:, j], "closure": history["closure"][:, j]} for j, c in enumerate(scene.couplers)},
         energy,
         steps=steps if not failed else int(counters[FAILED_STEP]) - 1,
@@ -183,12 +184,12 @@ def solve_compiled(
 
 
 @njit(cache=True, _nrt=False, inline="always")
-def record(layout, values, couplers, k: int, displacement, acceleration, force, closure, energy) -> None:
+def record(layout, values, couplers, k: int, displacement, velocity, acceleration, force, closure, energy) -> None:
     """Row ``k`` of the histories: every car's sensors and energies, the couplers' forces and closures."""
     for e in range(energy.shape[1]):
         energy[k, e] = 0.0
     for c in range(layout.shape[0]):
-        car_kernels.observe(layout, values, c, k, displacement, acceleration, energy)
+        car_kernels.observe(layout, values, c, k, displacement, velocity, acceleration, energy)
     for j in range(couplers.force.size):
         force[k, j] = couplers.force[j]
         closure[k, j] = couplers.closure[j]
@@ -198,13 +199,13 @@ def record(layout, values, couplers, k: int, displacement, acceleration, force, 
 
 @njit(cache=True, _nrt=False)
 def run_steps(layout, w, laws, couplers, dt, tolerance, gain_u, gain_v, outputs, stop, counters, change,
-              displacement, acceleration, force, closure, energy, closure_free, rate_free, previous_modes) -> None:
+              displacement, velocity, acceleration, force, closure, energy, closure_free, rate_free, previous_modes) -> None:
     """Steps ``counters[STEP] … stop`` (module docstring), after recording row 0 (t = 0) if
     ``counters[OUTPUT]`` is 0; a failing coupler iteration stops the run with ``counters[FAILED_STEP]``,
     ``counters[WORST]`` (the coupler) and ``counters[FAILURE_KIND]`` set."""
     n_c = couplers.force.size
     if counters[OUTPUT] == 0:
-        record(layout, w, couplers, 0, displacement, acceleration, force, closure, energy)
+        record(layout, w, couplers, 0, displacement, velocity, acceleration, force, closure, energy)
         counters[OUTPUT] = 1
     for step in range(counters[STEP], stop + 1):
         for j in range(n_c):
@@ -243,7 +244,7 @@ def run_steps(layout, w, laws, couplers, dt, tolerance, gain_u, gain_v, outputs,
             car_kernels.advance(layout, w, c)
         k = counters[OUTPUT]
         if k < outputs.size and step == outputs[k]:
-            record(layout, w, couplers, k, displacement, acceleration, force, closure, energy)
+            record(layout, w, couplers, k, displacement, velocity, acceleration, force, closure, energy)
             counters[OUTPUT] = k + 1
     counters[STEP] = stop + 1
 
