@@ -3,7 +3,8 @@
 ``measurement`` (:class:`MeasurementSpec`) makes accelerometer records from the model's
 sensor accelerations. An ``estimators`` entry is an inverse estimator's name
 (``femref.core.catalog.ESTIMATORS``) or a saved network ``{name: ann_<name>, network:
-file.npz}`` (:class:`AnnEstimatorSpec`, read when the case is loaded). The checks of
+file.npz}`` — or one network per impact type, ``network: {free_to_roll: a.npz, coupled:
+b.npz}`` — (:class:`AnnEstimatorSpec`, read when the case is loaded). The checks of
 the estimators against the scene — sensors of ``inverse_quasi_rigid``, a network's
 contract against the couplers, probes, ``time.end`` and measurement — are here too;
 the case runs them once the keys they relate are valid.
@@ -26,7 +27,7 @@ from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, _name_r
 from femref.core.catalog import ESTIMATORS as ESTIMATOR_NAMES
 from femref.sensing.network import NetworkContract, NetworkFileError, read_network
 
-__all__ = ["QUASI_RIGID_INVERSE_SENSORS", "AnnEstimatorSpec", "EstimatorEntry", "MeasurementSpec"]
+__all__ = ["ANY_IMPACT", "QUASI_RIGID_INVERSE_SENSORS", "AnnEstimatorSpec", "EstimatorEntry", "MeasurementSpec", "NetworksByImpactType"]
 
 #: Minimum sensors on the front car of every coupler that ``inverse_quasi_rigid`` needs.
 QUASI_RIGID_INVERSE_SENSORS = 2
@@ -90,38 +91,106 @@ def _network_name(name: str) -> str:
     return name
 
 
+class NetworksByImpactType(CaseModel):
+    """One network file per impact type (``reduced.signal_tools.IMPACT_KINDS``): each record set is
+    classified by the zero harmonic of its relative acceleration and read by its type's network."""
+
+    free_to_roll: Path | None = Field(default=None, description="Network file for free-to-roll impacts, relative to the case file's directory.")
+    coupled: Path | None = Field(default=None, description="Network file for coupled impacts, relative to the case file's directory.")
+
+    @field_validator("free_to_roll", "coupled", mode="after")
+    @classmethod
+    def _resolve(cls, path: Path | None, info: ValidationInfo) -> Path | None:
+        return None if path is None else resolve_case_path(path, info)
+
+    @model_validator(mode="after")
+    def _at_least_one(self) -> "NetworksByImpactType":
+        if self.free_to_roll is None and self.coupled is None:
+            raise problems_error([Problem((), "give a network file for free_to_roll, coupled or both")])
+        return self
+
+
+def _network_file_kind(value: Any) -> str | None:
+    """The union tag of ``network``: one file, or a mapping by impact type."""
+    if isinstance(value, (str, Path)):
+        return "file"
+    if isinstance(value, (Mapping, NetworksByImpactType)):
+        return "by_type"
+    return None
+
+
+def _network_file_shape(value: Any) -> Any:
+    if _network_file_kind(value) is None:
+        raise PydanticCustomError("network_shape", "must be a network file or {shape}", {"shape": "{free_to_roll: file.npz, coupled: file.npz}"})
+    return value
+
+
+NetworkFiles = Annotated[
+    Union[Annotated[Path, Tag("file")], Annotated[NetworksByImpactType, Tag("by_type")]],  # noqa: UP007
+    Discriminator(_network_file_kind),
+    BeforeValidator(_network_file_shape),
+]
+
+#: The key of :attr:`AnnEstimatorSpec.files` of an estimator with one network for every impact type.
+ANY_IMPACT = "any"
+
+
 class AnnEstimatorSpec(CaseModel):
     """A trained network (an ``ann.storage`` file) that estimates one coupler's peak force from the fem
-    sensor records (:mod:`femref.sensing.network`).
+    sensor records (:mod:`femref.sensing.network`) — or one network per impact type, each record set
+    read by the network of its type (:class:`femref.sensing.network.ImpactTypeNetworks`).
 
-    The file is read and its metadata contract checked when the case is loaded; the
-    case then checks the contract against the scene (coupler, probes, time.end,
-    measurement). A relative ``network`` path is relative to the case file's directory
-    and is stored resolved (absolute), so the resolved case reads the same file from anywhere.
+    Each file is read and its metadata contract checked when the case is loaded; the
+    case then checks the contracts against the scene (coupler, probes, time.end,
+    measurement), and the networks of one estimator must estimate one coupler. A relative path is
+    relative to the case file's directory and is stored resolved (absolute), so the resolved case
+    reads the same files from anywhere.
     """
 
     name: Annotated[str, AfterValidator(_network_name)] = Field(description="Result-group name: ann or ann_<name>, unique. Required.")
-    network: Path = Field(description="Network file (ann.storage .npz), relative to the case file's directory. Required.")
-    _contract: NetworkContract | None = PrivateAttr(default=None)
+    network: NetworkFiles = Field(
+        description="Network file (ann.storage .npz), or {free_to_roll: file, coupled: file} for one per impact type; "
+        "relative to the case file's directory. Required."
+    )
+    _contracts: dict[str, NetworkContract] = PrivateAttr(default_factory=dict)
 
     @field_validator("network", mode="after")
     @classmethod
-    def _resolve(cls, path: Path, info: ValidationInfo) -> Path:
-        return resolve_case_path(path, info)
+    def _resolve(cls, network: Path | NetworksByImpactType, info: ValidationInfo) -> Path | NetworksByImpactType:
+        return resolve_case_path(network, info) if isinstance(network, Path) else network
 
     @model_validator(mode="after")
     def _readable(self) -> "AnnEstimatorSpec":
-        try:
-            _, self._contract = read_network(self.network)
-        except NetworkFileError as error:
-            raise problems_error([Problem(("network",), str(error))]) from None
+        problems, contracts = [], {}
+        for kind, path in self.files.items():
+            try:
+                _, contracts[kind] = read_network(path)
+            except NetworkFileError as error:
+                problems.append(Problem(self.where(kind), str(error)))
+        couplers = {kind: contract.coupler for kind, contract in contracts.items()}
+        if not problems and len(set(couplers.values())) > 1:
+            listed = ", ".join(f"{kind} estimates {coupler}" for kind, coupler in couplers.items())
+            problems.append(Problem(("network",), f"the networks of one estimator must estimate one coupler; {listed}"))
+        if problems:
+            raise problems_error(problems)
+        self._contracts = contracts
         return self
 
     @property
-    def contract(self) -> NetworkContract:
-        """The network file's contract, as read at validation."""
-        assert self._contract is not None  # set by the validator
-        return self._contract
+    def files(self) -> dict[str, Path]:
+        """Impact type → network file; one file for every type is under :data:`ANY_IMPACT`."""
+        if isinstance(self.network, Path):
+            return {ANY_IMPACT: self.network}
+        return {kind: path for kind, path in (("free_to_roll", self.network.free_to_roll), ("coupled", self.network.coupled)) if path is not None}
+
+    @property
+    def contracts(self) -> dict[str, NetworkContract]:
+        """Impact type → the network file's contract, as read at validation (keys of :attr:`files`)."""
+        return self._contracts
+
+    def where(self, kind: str) -> tuple[str, ...]:
+        """The key path, under this entry, of the file of ``kind``."""
+        return ("network",) if kind == ANY_IMPACT else ("network", kind)
 
 
 def _estimator_kind(value: Any) -> str | None:

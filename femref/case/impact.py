@@ -157,7 +157,8 @@ class ImpactCase(SceneCase):
             problems += _quasi_rigid_sensor_problems(names.index("inverse_quasi_rigid"), cars, couplers)
         for i, entry in enumerate(entries):
             if isinstance(entry, AnnEstimatorSpec):
-                problems += [p.under((i, "network")) for p in _network_problems(entry.contract, cars, couplers, info.data)]
+                for kind, contract in entry.contracts.items():
+                    problems += [p.under((i, *entry.where(kind))) for p in _network_problems(contract, cars, couplers, info.data)]
         if problems:
             raise problems_error(problems)
         return entries

@@ -42,11 +42,12 @@ from femref.case.bodies import RodBody
 from femref.case.cars import CarName
 from femref.case.couplers import Between, CouplerName, _coupler_pair_problems
 from femref.case.errors import Problem, did_you_mean, problems_error
-from femref.case.estimators import AnnEstimatorSpec, _estimator_kind, _estimator_shape
+from femref.case.estimators import ANY_IMPACT, AnnEstimatorSpec, _estimator_kind, _estimator_shape
 from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, ProbeName, Real, _duplicates, _name_rule, resolve_case_path
 from femref.core.catalog import MEASURED_ESTIMATORS
 from femref.sensing import recordings
 from femref.sensing.measurement import FILTER_ORDER
+from femref.sensing.network import NetworkContract
 from femref.sensing.calibration import CalibrationFileError, read_calibration
 
 __all__ = ["ChannelSpec", "KalmanSettings", "MeasuredCarSpec", "MeasuredCase", "MeasuredCouplerSpec", "RecordFileSpec", "TimeSpec"]
@@ -379,7 +380,11 @@ class MeasuredCase(SceneCase):
         problems = []
         for i, name in enumerate(self.estimators):
             if isinstance(name, AnnEstimatorSpec):
-                problems += [problem.under(("estimators", i)) for problem in self._network_problems(name)]
+                for kind, contract in name.contracts.items():
+                    where = ("estimators", i) if kind == ANY_IMPACT else ("estimators", i, *name.where(kind))
+                    problems += [problem.under(where) for problem in self._network_problems(contract)]
+                if "kalman" not in self.estimators:
+                    problems.append(Problem(("estimators", i), "a network's records start at contact, read from the kalman force: list kalman among the estimators"))
                 continue
             if name in ("kalman", "inverse_quasi_rigid"):
                 bodiless = [car.name for car in self.cars if car.body is None]
@@ -395,12 +400,12 @@ class MeasuredCase(SceneCase):
                         problems.append(Problem(("estimators", i), f"{name} needs two sensors on car {car.name} (the front car of coupler {coupler.name})", name))
         return problems
 
-    def _network_problems(self, spec: AnnEstimatorSpec) -> list[Problem]:
+    def _network_problems(self, contract: NetworkContract) -> list[Problem]:
         """A network's contract against this case (:mod:`femref.sensing.network`): its coupler, its probes
         recorded, its mass inputs declared cars, its records within the event window after contact, the
-        records filtered as its training records were, and ``kalman`` listed (the contact instant the
-        network's records start at is read from the kalman force)."""
-        contract, problems = spec.contract, []
+        records filtered as its training records were (``kalman`` listed is checked by the caller, once per
+        estimator: the contact instant the network's records start at is read from the kalman force)."""
+        problems: list[Problem] = []
         couplers = [c.name for c in self.couplers]
         if contract.coupler not in couplers:
             problems.append(Problem((), f"the network estimates coupler {contract.coupler!r}, which this case does not have; couplers: {', '.join(couplers)}"))
@@ -426,8 +431,6 @@ class MeasuredCase(SceneCase):
                                                 f"{probe} is recorded through {declared.corner:g} Hz (order {declared.order})"))
             elif declared is not None:
                 problems.append(Problem((), f"the network was trained on unfiltered records; {probe} is recorded through a {declared.corner:g} Hz low-pass"))
-        if "kalman" not in self.estimators:
-            problems.append(Problem((), "a network's records start at contact, read from the kalman force: list kalman among the estimators"))
         return problems
 
     def _record_problems(self) -> list[Problem]:

@@ -9,7 +9,7 @@ on one common time grid (:func:`femref.sensing.events.window`):
   cars are at rest or rolling freely there, their acceleration zero) and measures its noise
   there (1.4826 × the median absolute deviation);
 * classifies it from the zero-harmonic ratio of the relative acceleration of the first
-  coupler's cars (:func:`reduced.signal_tools.classify_impact`);
+  coupler's cars (:func:`femref.sensing.impact_type.classify_records`);
 * runs every estimator: ``inverse_rigid`` and ``inverse_quasi_rigid``
   (:mod:`femref.models.inverse`; with the case's calibration file a calibrated band inside the
   calibrated ranges, otherwise ``bound = none``) and ``kalman``
@@ -51,10 +51,11 @@ from femref.scene.impact import Car
 from femref.scene.measured import MeasuredScene
 from femref.sensing import events as event_finder
 from femref.sensing.contact import ContactEstimate, onset_time
-from femref.sensing.network import AnnEstimator
+from femref.sensing.impact_type import classify_records, relative_acceleration
+from femref.sensing.network import ImpactTypeNetworks, NetworkEstimator
 from femref.sensing.recordings import Recordings, read_records
 from reduced import kalman
-from reduced.signal_tools import classify_impact, detect_closure_force
+from reduced.signal_tools import detect_closure_force
 
 KALMAN_FEM = FemSettings(elements=64, order=2)
 """The mesh whose free-free modes make the kalman estimator's car model."""
@@ -97,7 +98,7 @@ def _event(scene: MeasuredScene, recordings: Recordings, event: event_finder.Eve
         result.estimates.extend(_estimates(scene, name, t, records, noise_std))
     contacts: dict[str, ContactEstimate | ValueError] = {}  # per coupler: its kalman force's onset, found once
     for network in scene.networks:
-        result.estimates.append(network_estimate(scene, network, t, records, noise_std, result.estimates, contacts))
+        result.estimates.append(network_estimate(scene, network, t, records, noise_std, result.estimates, contacts, result.impact_type))
     first = _primary(scene, result).get(scene.couplers[0].name)
     if first is not None:
         result.closing_speed = _closing_speed(scene, t, records, first)
@@ -129,18 +130,9 @@ def _quiet_corrected(t: NDArray[np.float64], raw: dict[str, NDArray[np.float64]]
     return records, {probe: max(value, floor) for probe, value in noise.items()}
 
 
-def _car_record(scene: MeasuredScene, records: dict[str, NDArray[np.float64]], car: int) -> NDArray[np.float64]:
-    """The car's sensor nearest its centre (the rigid-body acceleration, a node of its first axial mode)."""
-    spec = scene.cars[car]
-    sensor = min(spec.sensors, key=lambda name: abs(spec.sensors[name]))
-    return records[f"{spec.name}/{sensor}"]
-
-
 def _classify(scene: MeasuredScene, result: EventResult) -> None:
-    coupler = scene.couplers[0]
-    relative = _car_record(scene, result.records, coupler.front) - _car_record(scene, result.records, coupler.rear)
     try:
-        found = classify_impact(relative, float(result.time[1] - result.time[0]))
+        found = classify_records(scene.cars, scene.couplers[0], result.time, result.records)
     except ValueError as error:
         result.impact_type = "unknown"
         result.flags = (*result.flags, f"not classified: {error}")
@@ -257,10 +249,14 @@ def kalman_contact(scene: MeasuredScene, t: NDArray[np.float64], records: dict[s
     return onset_time(t, np.nan_to_num(estimate.force), lags, responses[0], responses[1] * (t[-1] - t[0]))
 
 
-def network_estimate(scene: MeasuredScene, network: AnnEstimator, t: NDArray[np.float64], records: dict[str, NDArray[np.float64]],
+def network_estimate(scene: MeasuredScene, estimator: NetworkEstimator, t: NDArray[np.float64], records: dict[str, NDArray[np.float64]],
                      noise_std: dict[str, float], estimates: list[ForceEstimate],
-                     contacts: dict[str, ContactEstimate | ValueError] | None = None) -> ForceEstimate:
+                     contacts: dict[str, ContactEstimate | ValueError] | None = None, impact_type: str = "unknown") -> ForceEstimate:
     """A saved network's peak force on the event, its records started at contact as its training records were.
+
+    An estimator with one network per impact type (:class:`ImpactTypeNetworks`) reads the event with the
+    network of its ``impact_type`` (the event's classification); an unclassified event, or one of a type
+    the estimator has no network for, gets no estimate, with the reason.
 
     The contact instant ``t_c`` is where the kalman force of the network's coupler began
     (:func:`kalman_contact`). The records from ``t_c`` on, on ``t − t_c``, go through the network
@@ -272,10 +268,19 @@ def network_estimate(scene: MeasuredScene, network: AnnEstimator, t: NDArray[np.
     """
     started = _time.perf_counter()
     nan = np.full(1, np.nan)
-    settings = dict(network.settings)
+    settings = dict(estimator.settings)
 
     def failed(at: float, why: str) -> ForceEstimate:
-        return ForceEstimate(network.name, network.coupler, np.full(1, at), nan, nan, nan.copy(), status="failed", message=why, settings=settings)
+        return ForceEstimate(estimator.name, estimator.coupler, np.full(1, at), nan, nan, nan.copy(), status="failed", message=why, settings=settings)
+
+    if isinstance(estimator, ImpactTypeNetworks):
+        try:
+            network = estimator.network_for(impact_type)
+        except ValueError as error:
+            return failed(t[0], str(error))
+        settings = dict(network.settings, impact_type=impact_type)
+    else:
+        network = estimator
 
     source = next((e for e in estimates if e.estimator == "kalman" and e.coupler == network.coupler), None)
     if source is None or not source.ok:
@@ -300,7 +305,7 @@ def network_estimate(scene: MeasuredScene, network: AnnEstimator, t: NDArray[np.
         return failed(contact.time, "the network gave a non-finite force")
     training = network.contract.training.get("validation_mean_error")
     note = f" (its file reports {training:.1%} mean error on its own training source: not a bound here)" if isinstance(training, (int, float)) else ""
-    estimate = ForceEstimate(network.name, network.coupler, np.full(1, contact.time), np.full(1, peak), nan, nan.copy(), bound="none",
+    estimate = ForceEstimate(estimator.name, network.coupler, np.full(1, contact.time), np.full(1, peak), nan, nan.copy(), bound="none",
                              message="peak only, records from the contact in the kalman force; no calibration of this network: no band" + note,
                              settings=settings)
     estimate.wall_time_s = _time.perf_counter() - started
@@ -356,7 +361,7 @@ def _closure(estimate: ForceEstimate) -> ClosureResult:
 
 def _closing_speed(scene: MeasuredScene, t: NDArray[np.float64], records: dict[str, NDArray[np.float64]], estimate: ForceEstimate) -> float:
     coupler = scene.couplers[0]
-    relative = _car_record(scene, records, coupler.front) - _car_record(scene, records, coupler.rear)
+    relative = relative_acceleration(scene.cars, coupler, records)
     force = np.nan_to_num(estimate.force)
     peak = int(np.argmax(force))
     rising = np.flatnonzero(force[:peak + 1] <= 0.05 * force[peak])

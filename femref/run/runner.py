@@ -39,7 +39,9 @@ from femref.run.capture import capture
 from femref.run.scoring import score_results
 from femref.run.timestep import impact_time_step, single_body_time_step
 from femref.scene import ImpactScene, ModelRun, Scene
+from femref.sensing.impact_type import classify_records
 from femref.sensing.measurement import measure
+from femref.sensing.network import ImpactTypeNetworks, NetworkEstimator
 from femref.sensing.records import acceleration_histories
 
 ProgressFor = Callable[[str], "Progress | None"]
@@ -220,14 +222,24 @@ def run_networks(scene: ImpactScene, reference: ModelResult) -> list[ModelResult
 
     The records are made as the sweep files that trained it store them
     (:meth:`femref.sensing.network.AnnEstimator.peak_force`); the wall time covers making
-    them and the prediction.
+    them and the prediction. An estimator with one network per impact type classifies the records
+    first (:func:`femref.sensing.impact_type.classify_records`, at the network's coupler) and reads
+    them with that type's network; the settings record the type and the zero-harmonic ratio.
     """
     t, records = acceleration_histories(reference)
     masses = {car.name: car.mass for car in scene.cars}
 
-    def estimate(network) -> ModelResult:
+    def estimate(estimator: NetworkEstimator) -> ModelResult:
+        settings: dict[str, Any] = {"records": _records_source(reference)}
+        if isinstance(estimator, ImpactTypeNetworks):
+            coupler = next(c for c in scene.couplers if c.name == estimator.coupler)
+            found = classify_records(scene.cars, coupler, t, records)
+            network = estimator.network_for(found.kind)
+            settings.update(impact_type=found.kind, zero_harmonic_ratio=found.zero_frequency_ratio)
+        else:
+            network = estimator
         peak = network.peak_force(t, records, masses)
-        result = ModelResult(network.name, settings={"records": _records_source(reference), **network.settings})
+        result = ModelResult(estimator.name, settings={**settings, **network.settings})
         result.couplers = {network.coupler: {"peak_force": np.array(peak)}}
         return result
 

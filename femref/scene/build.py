@@ -6,7 +6,7 @@ cases a :class:`femref.scene.impact.ImpactScene`, measured cases a
 this module only converts: body specs to :class:`femref.core.body.Body` (the same way
 for a single body and for a car), coupler specs to :class:`reduced.couplers.Coupling`,
 runs to per-car fidelity tuples in line order, network estimator specs to loaded
-:class:`femref.sensing.network.AnnEstimator` networks.
+:class:`femref.sensing.network.AnnEstimator` networks (or :class:`~femref.sensing.network.ImpactTypeNetworks`).
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from femref.case.measured import MeasuredCase
 from femref.case.bodies import Body as BodySpec
 from femref.case.cars import CarSpec
 from femref.case.couplers import CouplerSpec
-from femref.case.estimators import AnnEstimatorSpec, MeasurementSpec
+from femref.case.estimators import ANY_IMPACT, AnnEstimatorSpec, MeasurementSpec
 from femref.case.settings import FemSettings as FemSpec
 from femref.core.body import Body
 from femref.fem.build import FemSettings
@@ -29,7 +29,7 @@ from femref.scene.measured import Checks, KalmanModel, MeasuredCar, MeasuredCoup
 from femref.scene.single import Scene
 from femref.sensing.calibration import read_calibration
 from femref.sensing.measurement import Measurement
-from femref.sensing.network import AnnEstimator, NetworkFileError
+from femref.sensing.network import AnnEstimator, ImpactTypeNetworks, NetworkEstimator, NetworkFileError
 from reduced.couplers import Coupling
 
 __all__ = ["body_from_spec", "scene_from_case"]
@@ -154,16 +154,18 @@ def _coupler_of(k: int, spec: CouplerSpec, index: dict[str, int]) -> Coupler:
     return Coupler(name=spec.name, rear=index[spec.between[0]], coupling=coupling)
 
 
-def _network_of(i: int, spec: AnnEstimatorSpec) -> AnnEstimator:
-    """Load network estimator ``estimators[i]``; the file must still hold what the case validated."""
-    where = f"estimators[{i}].network"
-    try:
-        network = AnnEstimator.load(spec.name, spec.network)
-    except NetworkFileError as error:
-        raise CaseError.at(where, str(error)) from None
-    if network.contract != spec.contract:
-        raise CaseError.at(where, f"network file {spec.network} changed since the case was validated; load the case again")
-    return network
+def _network_of(i: int, spec: AnnEstimatorSpec) -> NetworkEstimator:
+    """Load network estimator ``estimators[i]``; each file must still hold what the case validated."""
+    networks = {}
+    for kind, path in spec.files.items():
+        where = ".".join([f"estimators[{i}]", *spec.where(kind)])
+        try:
+            networks[kind] = AnnEstimator.load(spec.name, path)
+        except NetworkFileError as error:
+            raise CaseError.at(where, str(error)) from None
+        if networks[kind].contract != spec.contracts[kind]:
+            raise CaseError.at(where, f"network file {path} changed since the case was validated; load the case again")
+    return networks[ANY_IMPACT] if ANY_IMPACT in networks else ImpactTypeNetworks(spec.name, networks)
 
 
 def _measurement_of(spec: MeasurementSpec | None) -> Measurement | None:

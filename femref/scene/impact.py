@@ -22,7 +22,7 @@ import numpy as np
 from femref.core.body import Body
 from femref.fem.build import FemSettings
 from femref.sensing.measurement import Measurement
-from femref.sensing.network import AnnEstimator
+from femref.sensing.network import NetworkEstimator
 from reduced.couplers import Coupling
 
 
@@ -105,7 +105,7 @@ class ImpactScene:
     elastic modes per car a ``modal`` car keeps (plus its rigid mode and a static
     correction). ``estimators`` are the inverse estimators run on the fem sensor records
     (names of :data:`femref.core.catalog.ESTIMATORS`), ``networks`` the network estimators
-    (:class:`femref.sensing.network.AnnEstimator`, loaded) run on the same records.
+    (:class:`femref.sensing.network.AnnEstimator` or one per impact type, loaded) run on the same records.
     """
 
     cars: tuple[Car, ...]
@@ -120,7 +120,7 @@ class ImpactScene:
     modal_modes: int = 4
     measurement: Measurement | None = None
     estimators: tuple[str, ...] = ()
-    networks: tuple[AnnEstimator, ...] = ()
+    networks: tuple[NetworkEstimator, ...] = ()
 
     kind = "impact"
 

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 from femref.core.body import Body
 from femref.sensing.calibration import Calibration
-from femref.sensing.network import AnnEstimator
+from femref.sensing.network import NetworkEstimator
 from femref.sensing.recordings import AntiAlias, RecordFile
 
 
@@ -79,7 +79,7 @@ class MeasuredScene:
     post: float
     estimators: tuple[str, ...]
     kalman: KalmanModel = KalmanModel()
-    networks: tuple[AnnEstimator, ...] = ()
+    networks: tuple[NetworkEstimator, ...] = ()
     checks: Checks = Checks()
     calibration: Calibration | None = None
 

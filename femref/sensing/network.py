@@ -264,4 +264,40 @@ class AnnEstimator:
         }
 
 
-__all__ = ["RECORD_SOURCES", "REQUIRED_KEYS", "TARGETS", "AnnEstimator", "NetworkContract", "NetworkFileError", "read_network"]
+@dataclass(frozen=True, eq=False)
+class ImpactTypeNetworks:
+    """One network per impact type under one estimator ``name``: a record set goes to the network of its
+    impact type, ``P̂ = P̂_k(records)`` with ``k`` = free_to_roll or coupled from the zero harmonic of the
+    relative acceleration (:func:`femref.sensing.impact_type.classify_records`).
+
+    The source study trained its networks on one kind of impact at a time; a network trained on
+    free-to-roll impacts has never seen the rebound of a coupled one. ``by_type`` maps impact types
+    (``reduced.signal_tools.IMPACT_KINDS``) to networks of one coupler; an impact of a type without a
+    network gets no estimate, with the reason.
+    """
+
+    name: str
+    by_type: Mapping[str, AnnEstimator]
+
+    @property
+    def coupler(self) -> str:
+        return next(iter(self.by_type.values())).coupler
+
+    def network_for(self, impact_type: str) -> AnnEstimator:
+        """The network of ``impact_type``; ValueError naming the types this estimator has."""
+        if impact_type not in self.by_type:
+            have = ", ".join(self.by_type)
+            raise ValueError(f"estimator {self.name} has no network for {impact_type.replace('_', '-')} impacts (it has: {have})")
+        return self.by_type[impact_type]
+
+    @property
+    def settings(self) -> dict[str, Any]:
+        """Each network's :attr:`AnnEstimator.settings` under its impact type."""
+        return {"by_impact_type": {kind: network.settings for kind, network in self.by_type.items()}}
+
+
+NetworkEstimator = AnnEstimator | ImpactTypeNetworks
+"""A network estimator of a scene: one network, or one per impact type."""
+
+__all__ = ["RECORD_SOURCES", "REQUIRED_KEYS", "TARGETS", "AnnEstimator", "ImpactTypeNetworks", "NetworkContract", "NetworkEstimator",
+           "NetworkFileError", "read_network"]

@@ -27,11 +27,13 @@ def test_networks_read_measured_records_from_the_contact(tmp_path, speed):
     network within 2 % of the fem peak (measured −0.6 %, −0.03 %; from the trigger's instant instead,
     10 ms late, it was 9 % low); the rigid-trained one 30–40 % high — its file reports 0.7 % on its own
     training source, which is no bound here: both have ``bound`` none and say so. A network's
-    estimate is a peak, not a history: the closure and closing speed come from kalman."""
+    estimate is a peak, not a history: the closure and closing speed come from kalman. An estimator with one
+    network per impact type reads this free-to-roll event with its free-to-roll network."""
     data = default_scene_data()
     data["cars"][0]["velocity"] = speed
     data["time"] = {"end": 0.6}  # the networks read 0.5 s from contact
-    networks = ({"name": "ann_fem", "network": str(NETWORKS / "fem_mlp.npz")}, {"name": "ann_rigid", "network": str(NETWORKS / "rigid_mlp.npz")})
+    networks = ({"name": "ann_fem", "network": str(NETWORKS / "fem_mlp.npz")}, {"name": "ann_rigid", "network": str(NETWORKS / "rigid_mlp.npz")},
+                {"name": "ann_typed", "network": {"free_to_roll": str(NETWORKS / "fem_mlp.npz"), "coupled": str(NETWORKS / "rigid_mlp.npz")}})
     event = simulated_event(tmp_path, data, estimators=("kalman", *networks))
     found = run_measured(scene_from_case(load_case(event.path))).events[0]
     estimates = {e.estimator: e for e in found.estimates}
@@ -44,6 +46,9 @@ def test_networks_read_measured_records_from_the_contact(tmp_path, speed):
         assert estimate.bound == "none" and np.isnan(estimate.peak[1]) and estimate.time.size == 1
         assert "not a bound here" in estimate.message
         assert abs(estimate.settings["contact_time"] - event.contact_time) < 1e-3
+    typed = estimates["ann_typed"]  # one network per impact type: this free-to-roll event goes to the fem-trained one
+    assert found.impact_type == "free_to_roll" and typed.settings["impact_type"] == "free_to_roll"
+    assert typed.peak[0] == fem_net.peak[0]
     assert found.closures[0].estimator == "kalman"
     path = write_events(tmp_path / "events.h5", {}, [found])
     with h5py.File(path) as h5:

@@ -229,6 +229,75 @@ def test_network_file_changed_after_validation_is_a_case_error(trained, tmp_path
         scene_from_case(loaded, tmp_path)
 
 
+# One network per impact type
+
+
+def _doubled(trained) -> tuple[FeaturePipeline, RBFNetwork]:
+    """The fixture's network refitted to twice the peak forces: a second network whose estimate differs."""
+    records, peaks = trained_records()
+    pipeline = trained[0]
+    network = RBFNetwork(centres=8, basis="multiquadric", width_factor=3.0, seed=0).fit(pipeline.transform(records, record_rate(RECORD_LENGTH, RECORD_END)), 2.0 * peaks)
+    return pipeline, network
+
+
+@pytest.mark.parametrize(("contact", "kind"), [("compression_only", "free_to_roll"), ("bilateral", "coupled")])
+def test_one_network_per_impact_type_reads_each_impact_with_its_own(trained, tmp_path: Path, contact: str, kind: str) -> None:
+    """``network: {free_to_roll: a.npz, coupled: b.npz}``: the fem records are classified by the zero harmonic
+    of the relative acceleration (free to roll with the compression-only coupler, coupled with the bilateral
+    one) and read by that type's network — its estimate is the plain estimator's of the same file to the last
+    bit, and the result says which type it read; an estimator without a network for the type gives no number,
+    with the reason."""
+    save_network(tmp_path / "free.npz", trained)
+    save_network(tmp_path / "coupled.npz", _doubled(trained))
+    data = case({
+        "couplers.0.contact": contact,
+        "models": ["fem"],
+        "estimators": [
+            {"name": "ann_free", "network": "free.npz"},
+            {"name": "ann_coupled", "network": "coupled.npz"},
+            {"name": "ann_typed", "network": {"free_to_roll": "free.npz", "coupled": "coupled.npz"}},
+            {"name": "ann_other", "network": {"coupled" if kind == "free_to_roll" else "free_to_roll": "free.npz"}},
+        ],
+    })
+    scene = scene_from_case(load_case(write_case(tmp_path, data)), tmp_path)
+    results = {r.model: r for r in run_scene(scene).results}
+    typed, plain = results["ann_typed"], results["ann_free" if kind == "free_to_roll" else "ann_coupled"]
+    assert typed.ok and typed.settings["impact_type"] == kind
+    assert typed.couplers["c1"]["peak_force"] == plain.couplers["c1"]["peak_force"]
+    assert results["ann_coupled"].couplers["c1"]["peak_force"] == pytest.approx(2.0 * results["ann_free"].couplers["c1"]["peak_force"], rel=1e-6)
+    other = results["ann_other"]
+    assert other.status == "failed" and f"has no network for {kind.replace('_', '-')} impacts" in other.message
+
+
+def _two_couplers(path: Path, trained) -> None:
+    save_network(path, trained)
+    save_network(path.with_name("other.npz"), trained, {**METADATA, "coupler": "c9"})
+
+
+#: id → (network file writer, case edits, key path, rule (regex)): one network per impact type.
+BAD_BY_TYPE: dict[str, tuple[Any, dict[str, Any], str, str]] = {
+    "unknown impact type": (None, {"estimators.1.network": {"free_roll": "net.npz"}}, "estimators[1].network.free_roll", "unknown key"),
+    "no impact type": (None, {"estimators.1.network": {}}, "estimators[1].network", "give a network file for free_to_roll, coupled or both"),
+    "a list of files": (None, {"estimators.1.network": ["net.npz"]}, "estimators[1].network", r"must be a network file or \{free_to_roll: file\.npz, coupled: file\.npz\}"),
+    "one file missing": (None, {"estimators.1.network": {"free_to_roll": "net.npz", "coupled": "gone.npz"}}, "estimators[1].network.coupled", r"network file \S+gone\.npz does not exist"),
+    "two couplers": (_two_couplers, {"estimators.1.network": {"free_to_roll": "net.npz", "coupled": "other.npz"}}, "estimators[1].network",
+                     "the networks of one estimator must estimate one coupler; free_to_roll estimates c1, coupled estimates c9"),
+    "a type's network against the case": (lambda p, t: save_network(p, t, _metadata(probes=[*PROBES[:3], "anvil/front"])),
+                                          {"estimators.1.network": {"coupled": "net.npz"}}, "estimators[1].network.coupled", r"the network reads probe\(s\) anvil/front"),
+}
+
+
+@pytest.mark.parametrize(("writer", "edits", "key_path", "rule"), list(BAD_BY_TYPE.values()), ids=list(BAD_BY_TYPE))
+def test_bad_networks_by_impact_type_exit_2_naming_the_key(trained, tmp_path: Path, writer, edits, key_path: str, rule: str) -> None:
+    (writer or save_network)(tmp_path / "net.npz", trained)
+    path = write_case(tmp_path, case(edits))
+    output = tmp_path / "out.h5"
+    result = CliRunner().invoke(main, ["run", str(path), "-o", str(output)])
+    assert result.exit_code == 2, result.output
+    assert re.search(rf"{re.escape(f'{path}: {key_path}: ')}[^\n]*{rule}", result.output), result.output
+    assert not output.exists()
+
+
 def _mass_network(extras: tuple[str, ...]) -> tuple[FeaturePipeline, RBFNetwork]:
     """The fixture's network retrained on the same records with car masses as extra inputs."""
     records, peaks = trained_records()
