@@ -1,7 +1,8 @@
 """Power-law gear: ``P = sgn(δ) (c |δ|ⁿ + N0) + γ(δ) δ̇``, ``γ(δ) = Σ_k γ_k |δ|^k`` (N).
 
 :class:`PowerLawGear`: preload ``N0`` and closure-dependent damping ``γ``
-(docs/formulas.md §A3); :func:`reduced.nonlinear.power_law_peak_estimate` estimates its peak.
+(docs/formulas.md §A3); :func:`reduced.nonlinear.power_law_peak_series` estimates its peak
+closure and force in a free impact to second order in the damping.
 """
 
 from __future__ import annotations

@@ -6,8 +6,9 @@ All records are uniformly sampled 1-D arrays with sampling interval ``dt`` (s);
 every setting is an explicit argument or a field of a small frozen class. Modules:
 
 * :mod:`.smoothing` — :class:`SavitzkyGolay`, :class:`SpectralLowPass`,
-  :class:`GaussianKernel` (registry :data:`SMOOTHERS`, protocol :class:`Smoother`)
-  and :func:`integrate_twice`;
+  :class:`GaussianKernel`, the adaptive-bandwidth :class:`AdaptiveBandwidth` (result
+  :class:`AdaptiveFit`; registry :data:`SMOOTHERS`, protocol :class:`Smoother`),
+  :func:`robust_noise_std` and :func:`integrate_twice`;
 * :mod:`.classification` — :func:`zero_frequency_ratio`, :func:`classify_impact`,
   :class:`ImpactClassification` (free to roll vs coupled, docs/formulas.md §B);
 * :mod:`.closure_force` — :func:`detect_closure_force`, :class:`ClosureForceEstimate`
@@ -18,12 +19,24 @@ every setting is an explicit argument or a field of a small frozen class. Module
 from .classification import IMPACT_KINDS, ImpactClassification, classify_impact, zero_frequency_ratio
 from .closure_force import ClosureForceEstimate, detect_closure_force
 from .records import SCALER_KINDS, FeatureScaler, peak_normalise, resample_record
-from .smoothing import SMOOTHERS, GaussianKernel, SavitzkyGolay, Smoother, SpectralLowPass, integrate_twice
+from .smoothing import (
+    SMOOTHERS,
+    AdaptiveBandwidth,
+    AdaptiveFit,
+    GaussianKernel,
+    SavitzkyGolay,
+    Smoother,
+    SpectralLowPass,
+    integrate_twice,
+    robust_noise_std,
+)
 
 __all__ = [
     "IMPACT_KINDS",
     "SCALER_KINDS",
     "SMOOTHERS",
+    "AdaptiveBandwidth",
+    "AdaptiveFit",
     "ClosureForceEstimate",
     "FeatureScaler",
     "GaussianKernel",
@@ -36,5 +49,6 @@ __all__ = [
     "integrate_twice",
     "peak_normalise",
     "resample_record",
+    "robust_noise_std",
     "zero_frequency_ratio",
 ]

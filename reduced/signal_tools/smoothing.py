@@ -1,20 +1,24 @@
 """Smoothing and differentiation of uniformly sampled records, and their double integral.
 
 * :class:`SavitzkyGolay` (``scipy.signal.savgol_filter``), :class:`SpectralLowPass`
-  (FFT with a raised-cosine roll-off) and :class:`GaussianKernel`
-  (``scipy.ndimage.gaussian_filter1d``) smooth; the first two also differentiate
+  (FFT with a raised-cosine roll-off), :class:`GaussianKernel`
+  (``scipy.ndimage.gaussian_filter1d``) and :class:`AdaptiveBandwidth` (local
+  polynomial fits whose Gaussian bandwidth is chosen per sample by the ICI rule,
+  with :func:`robust_noise_std`) smooth; the first two also differentiate
   (registry :data:`SMOOTHERS`); :class:`Smoother` is their common protocol.
 * :func:`integrate_twice` — exact double integral of the piecewise-linear record.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.ndimage import gaussian_filter1d
+from scipy.fft import next_fast_len
 from scipy.signal import savgol_filter
 
 from reduced import _checks
@@ -161,7 +165,209 @@ class GaussianKernel:
         return gaussian_filter1d(y, self.sigma / dt, mode="nearest", truncate=4.0)
 
 
-SMOOTHERS: dict[str, type] = {"savgol": SavitzkyGolay, "spectral": SpectralLowPass, "gaussian": GaussianKernel}
+_KERNEL_REACH = 4.0
+"""The Gaussian weights of :class:`AdaptiveBandwidth` are cut at ``|t − t_i| > 4h`` (as in
+:class:`GaussianKernel`): the dropped weight is below 3.4e-4 of the peak weight."""
+
+
+def robust_noise_std(signal: ArrayLike) -> float:
+    """``σ̂ = 1.4826 · median|Δ²y − median Δ²y| / √6``, ``Δ²y_k = y_{k+1} − 2y_k + y_{k−1}`` (units of y).
+
+    White noise of standard deviation σ gives second differences of variance 6σ²; the
+    median absolute deviation (scaled by 1.4826, exact for Gaussian noise) ignores the
+    few large second differences at kinks and steps, and a record sampled fast enough
+    for its smooth part to change little between samples adds almost nothing to it.
+    Zero for a straight line or a parabola sampled without noise.
+    """
+    y = _checks.record("signal", signal, min_length=3)
+    second = y[2:] - 2.0 * y[1:-1] + y[:-2]
+    return float(1.482602218505602 * np.median(np.abs(second - np.median(second))) / math.sqrt(6.0))
+
+
+@dataclass(frozen=True)
+class AdaptiveFit:
+    """Result of :meth:`AdaptiveBandwidth.fit` (arrays of the record's length).
+
+    ``smoothed`` (units of the record); the bandwidths h chosen at each sample (s) by
+    the symmetric fit (``bandwidth``), the fit on the samples at and before it
+    (``left_bandwidth``) and the fit on those at and after it (``right_bandwidth``);
+    the ``noise_std`` σ used (units of the record) and the ``ladder`` of bandwidths
+    tried (s, increasing).
+    """
+
+    smoothed: NDArray[np.float64]
+    bandwidth: NDArray[np.float64]
+    left_bandwidth: NDArray[np.float64]
+    right_bandwidth: NDArray[np.float64]
+    noise_std: float
+    ladder: NDArray[np.float64]
+
+
+_SIDES = (0, -1, 1)
+"""Kernel supports of :class:`AdaptiveBandwidth`: symmetric, left (t_k ≤ t_i), right (t_k ≥ t_i)."""
+
+
+@dataclass(frozen=True)
+class AdaptiveBandwidth:
+    """Local polynomial fits with Gaussian kernels whose bandwidths are chosen per sample (LPA-ICI).
+
+    At each sample time ``t_i``, for a kernel support s (symmetric, left: t_k ≤ t_i,
+    right: t_k ≥ t_i) and a bandwidth h, the local fit of degree p (1 or 2)::
+
+        min_β Σ_k K_s((t_k − t_i)/h) (y_k − Σ_{r≤p} β_r ((t_k − t_i)/h)^r)²,   K(u) = e^{−u²/2} (|u| ≤ 4)
+        ŷ_{s,h}(t_i) = β₀ = Σ_k ℓ_ik y_k,      std ŷ_{s,h}(t_i) = σ g_{s,h}(t_i),   g² = Σ_k ℓ_ik²
+
+    over the ladder ``h_j = h_min ρ^j`` (j = 0…J−1). Intersection of confidence
+    intervals (ICI, Lepski's rule), for each support and sample: with
+    ``D_j = [ŷ_j − Γσ g_j, ŷ_j + Γσ g_j]``, the chosen ``h_s`` is the largest h_j for
+    which ``D_0 ∩ … ∩ D_j`` is not empty. The three estimates are then fused by
+    their inverse variances::
+
+        ŷ(t_i) = Σ_s ŷ_{s,h_s} / g²_{s,h_s}  /  Σ_s 1/g²_{s,h_s}
+
+    Why: while the bias is small against the noise the estimates of growing h stay
+    inside each other's intervals, which shrink like h^{−1/2}; where a kink or a peak
+    makes the bias grow faster, the intersection empties and a small h is kept. At a
+    kink the symmetric fit must stay narrow, but the one-sided fit that looks away
+    from it may grow, and the fusion weights it up — the kink keeps its shape
+    without the noise of a narrow window. The noise σ is ``noise_std`` or, if None,
+    :func:`robust_noise_std` of the record.
+
+    Sums ``Σ_k K u^r``, ``Σ_k K² u^r`` and ``Σ_k K u^r y_k`` over the samples inside the
+    record are FFT correlations (one batch per bandwidth) and the (p+1)×(p+1) normal
+    equations of all samples are solved in closed form together. The record ends need
+    no special rule: there the fit is one-sided and its larger g widens its interval
+    (a one-sided fit with fewer than p + 2 samples gets no weight). A polynomial of
+    degree ≤ p is reproduced exactly by every fit, so whatever the bandwidths (tests:
+    1e-10 of its size, measured ≤ 2.3e-12). A record without noise (σ = 0) keeps the smallest bandwidth
+    wherever the estimates differ by rounding.
+
+    Settings: ``degree`` p (2); ``threshold`` Γ (2.0; smaller keeps more detail and
+    more noise); ``min_bandwidth`` h_min (s, at least the sample interval; None: one
+    sample interval); ``bandwidth_ratio`` ρ > 1 and ``bandwidth_count`` J (1.5 and 12:
+    h_max ≈ 86 h_min); ``noise_std`` σ (units of the record; None: estimated).
+
+    Measured (tests/reduced/test_adaptive_smoother.py; 0.1 s unit half-sine force pulse
+    with slope jumps at both ends, 2000 samples at 10 kHz, 2 % white noise, five seeds;
+    defaults): against the fixed-width Gaussian whose width (1.2–1.3 ms) is the best for
+    the whole record — chosen knowing the exact pulse — the rms error within ±2 ms of
+    the kinks is 0.41–0.76 of the Gaussian's and over the record 0.77–1.03 of it. A
+    Gaussian tuned for the kinks alone (0.45–0.8 ms) does about as well there (the
+    adaptive error is 0.85–1.34 of its) but is 1.14–1.40 × worse over the record.
+    The symmetric bandwidth is 1.7–2.6 ms at the kinks and 8.65 ms (the top of the
+    ladder) on the smooth parts. About 20 ms for 2000 samples.
+    """
+
+    degree: int = 2
+    threshold: float = 2.0
+    min_bandwidth: float | None = None
+    bandwidth_ratio: float = 1.5
+    bandwidth_count: int = 12
+    noise_std: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.degree not in (1, 2):
+            raise ValueError(f"degree must be 1 or 2, got {self.degree!r}")
+        _checks.positive("threshold", self.threshold)
+        if self.min_bandwidth is not None:
+            _checks.positive("min_bandwidth", self.min_bandwidth)
+        ratio = _checks.finite("bandwidth_ratio", self.bandwidth_ratio)
+        if ratio <= 1.0:
+            raise ValueError(f"bandwidth_ratio must be > 1, got {ratio!r}")
+        if int(self.bandwidth_count) != self.bandwidth_count or self.bandwidth_count < 1:
+            raise ValueError(f"bandwidth_count must be an integer >= 1, got {self.bandwidth_count!r}")
+        if self.noise_std is not None:
+            _checks.non_negative("noise_std", self.noise_std)
+
+    def ladder(self, dt: float) -> NDArray[np.float64]:
+        """The bandwidths ``h_j = h_min ρ^j`` (s)."""
+        dt = _checks.sample_step("dt", dt)
+        h_min = dt if self.min_bandwidth is None else float(self.min_bandwidth)
+        if h_min < dt * (1.0 - 1e-12):
+            raise ValueError(f"min_bandwidth must be at least the sample interval dt = {dt!r} s, got {h_min!r}")
+        return h_min * float(self.bandwidth_ratio) ** np.arange(int(self.bandwidth_count))
+
+    def smooth(self, signal: ArrayLike, dt: float) -> NDArray[np.float64]:
+        return self.fit(signal, dt).smoothed
+
+    def fit(self, signal: ArrayLike, dt: float) -> AdaptiveFit:
+        """The smoothed record with the bandwidths chosen at each sample."""
+        y = _checks.record("signal", signal, min_length=2 * self.degree + 3)
+        ladder = self.ladder(dt)
+        dt = float(dt)
+        sigma = robust_noise_std(y) if self.noise_std is None else float(self.noise_std)
+        n_side, n_h = len(_SIDES), ladder.size
+        estimates = np.empty((n_side, n_h, y.size))
+        gains = np.empty((n_side, n_h, y.size))
+        n_fft = next_fast_len(y.size + 2 * int(math.floor(_KERNEL_REACH * ladder[-1] / dt)) + 1, real=True)
+        y_spectrum = np.fft.rfft(y, n_fft)
+        for j, h in enumerate(ladder):
+            estimates[:, j], gains[:, j] = _local_polynomials(y_spectrum, y.size, n_fft, h / dt, self.degree)
+        # ICI per support; a fit without enough samples (gain inf) constrains nothing
+        finite = np.isfinite(gains)
+        half_width = np.where(finite, self.threshold * sigma * np.where(finite, gains, 0.0), np.inf)
+        lower = np.maximum.accumulate(np.where(finite, estimates - half_width, -np.inf), axis=1)
+        upper = np.minimum.accumulate(np.where(finite, estimates + half_width, np.inf), axis=1)
+        chosen = np.maximum(np.sum(lower <= upper, axis=1) - 1, 0)  # (side, sample)
+        est = np.take_along_axis(estimates, chosen[:, None, :], axis=1)[:, 0]
+        gain = np.take_along_axis(gains, chosen[:, None, :], axis=1)[:, 0]
+        weight = np.where(np.isfinite(gain), 1.0 / np.where(np.isfinite(gain), gain, 1.0) ** 2, 0.0)
+        smoothed = np.sum(weight * np.where(weight > 0.0, est, 0.0), axis=0) / np.sum(weight, axis=0)
+        h = ladder[chosen]
+        return AdaptiveFit(smoothed, h[0], h[1], h[2], sigma, ladder)
+
+
+def _local_polynomials(
+    y_spectrum: NDArray[np.complex128], n: int, n_fft: int, bandwidth_samples: float, degree: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Local polynomial estimates ``ŷ_i = Σ_k ℓ_ik y_k`` and noise gains ``(Σ_k ℓ_ik²)^{1/2}`` at
+    every sample for the symmetric, left and right Gaussian kernels of ``bandwidth_samples``
+    (in sample intervals); shape (3, n). ``y_spectrum`` is ``rfft(y, n_fft)`` with
+    ``n_fft ≥ n + 2·reach``. Gain inf where a support holds fewer than degree + 2 samples."""
+    reach = int(math.floor(_KERNEL_REACH * bandwidth_samples))
+    offset = np.arange(-reach, reach + 1)
+    u = offset / bandwidth_samples
+    kernel = np.exp(-0.5 * u * u)
+    m = 2 * degree + 1
+    powers = u[None, :] ** np.arange(m)[:, None]
+    k_side = np.stack([kernel * (side * offset >= 0) for side in _SIDES])  # (3, 2 reach + 1)
+    # Σ over the offsets d with t_{i+d} inside the record, from cumulative sums of the weights
+    i = np.arange(n)
+    before, after = np.minimum(reach, i), np.minimum(reach, n - 1 - i)
+    first, last = reach - before, reach + after  # index range of d in the weight arrays
+
+    def window_sums(g: NDArray[np.float64]) -> NDArray[np.float64]:
+        c = np.concatenate([np.zeros(g.shape[:-1] + (1,)), np.cumsum(g, axis=-1)], axis=-1)
+        return c[..., last + 1] - c[..., first]
+
+    s = window_sums(k_side[:, None, :] * powers[None])  # Σ K u^r        (3, m, n)
+    q = window_sums((k_side * k_side)[:, None, :] * powers[None])  # Σ K² u^r   (3, m, n)
+    # Σ_d K u^r y_{i+d}: correlation = convolution with the reversed weights (zero outside the record)
+    rows = (k_side[:, None, :] * powers[None, : degree + 1])[..., ::-1].reshape(-1, 2 * reach + 1)
+    conv = np.fft.irfft(np.fft.rfft(rows, n_fft, axis=-1) * y_spectrum[None, :], n_fft, axis=-1)
+    data = conv[:, reach : reach + n].reshape(3, degree + 1, n)
+    # first column of the inverse of the Hankel normal matrix [s_{a+b}], in closed form
+    if degree == 1:
+        a = np.stack([s[:, 2], -s[:, 1]])
+        det = s[:, 0] * s[:, 2] - s[:, 1] ** 2
+    else:
+        a = np.stack([s[:, 2] * s[:, 4] - s[:, 3] ** 2, s[:, 2] * s[:, 3] - s[:, 1] * s[:, 4], s[:, 1] * s[:, 3] - s[:, 2] ** 2])
+        det = s[:, 0] * a[0] + s[:, 1] * a[1] + s[:, 2] * a[2]
+    count = np.stack([before + after + 1, before + 1, after + 1])
+    ok = count >= degree + 2
+    a = a / np.where(ok, det, 1.0)  # (p+1, side, n)
+    estimate = np.einsum("rjn,jrn->jn", a, data)
+    r = np.arange(degree + 1)
+    gain2 = np.einsum("rjn,jrsn,sjn->jn", a, q[:, r[:, None] + r[None, :]], a)
+    return np.where(ok, estimate, 0.0), np.where(ok, np.sqrt(np.maximum(gain2, 0.0)), np.inf)
+
+
+SMOOTHERS: dict[str, type] = {
+    "savgol": SavitzkyGolay,
+    "spectral": SpectralLowPass,
+    "gaussian": GaussianKernel,
+    "adaptive": AdaptiveBandwidth,
+}
 """Name → smoother class (the first two also differentiate)."""
 
 
@@ -178,4 +384,14 @@ def integrate_twice(values: ArrayLike, dt: float) -> NDArray[np.float64]:
     return np.concatenate([[0.0], np.cumsum(du)])
 
 
-__all__ = ["SMOOTHERS", "GaussianKernel", "SavitzkyGolay", "Smoother", "SpectralLowPass", "integrate_twice"]
+__all__ = [
+    "SMOOTHERS",
+    "AdaptiveBandwidth",
+    "AdaptiveFit",
+    "GaussianKernel",
+    "SavitzkyGolay",
+    "Smoother",
+    "SpectralLowPass",
+    "integrate_twice",
+    "robust_noise_std",
+]

@@ -27,7 +27,17 @@ HOMES = {
         "coupling": ["CONTACT_KINDS", "COUPLER_LAWS", "CouplerResponse", "Coupling", "coupling_from_name"],
     },
     "reduced.signal_tools": {
-        "smoothing": ["SMOOTHERS", "GaussianKernel", "SavitzkyGolay", "Smoother", "SpectralLowPass", "integrate_twice"],
+        "smoothing": [
+            "SMOOTHERS",
+            "AdaptiveBandwidth",
+            "AdaptiveFit",
+            "GaussianKernel",
+            "SavitzkyGolay",
+            "Smoother",
+            "SpectralLowPass",
+            "integrate_twice",
+            "robust_noise_std",
+        ],
         "classification": ["IMPACT_KINDS", "ImpactClassification", "classify_impact", "zero_frequency_ratio"],
         "closure_force": ["ClosureForceEstimate", "detect_closure_force"],
         "records": ["SCALER_KINDS", "FeatureScaler", "peak_normalise", "resample_record"],
