@@ -18,11 +18,11 @@ from typing import Any
 import numpy as np
 
 from ann.features import FeaturePipeline
-from ann.networks import NETWORKS, MLPForceRegressor, RBFNetwork
+from ann.networks import NETWORKS, MLPForceRegressor, MomentumMLP, RBFNetwork
 
 FORMAT_VERSION = 1
 
-Network = MLPForceRegressor | RBFNetwork
+Network = MLPForceRegressor | MomentumMLP | RBFNetwork
 
 
 @dataclass(frozen=True)

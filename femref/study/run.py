@@ -8,12 +8,19 @@
    a feature pipeline fitted on ``s``'s records of the training split, the network trained
    on ``log`` of ``s``'s peak force (:mod:`ann.networks`), scored on the held-out
    validation split of its own source, saved as ``networks/<s>_<n>.npz`` with the
-   metadata contract of :mod:`femref.sensing.network` (so ``femref run`` can use it);
-3. on every evaluation set: each network and each inverse estimator
+   metadata contract of :mod:`femref.sensing.network` (so ``femref run`` can use it) and
+   its loss per epoch; a network with ``initial`` keeps that saved network's feature
+   pipeline and continues training from its weights (checked before the sweeps run:
+   :func:`initial_networks`). With ``impact_types`` each training record is classified
+   (:func:`impact_types`) and a network is trained per type, ``networks/<s>_<n>_<type>.npz``
+   — the pair a case reads as ``network: {free_to_roll: …, coupled: …}``;
+3. on every evaluation set: each network (with ``impact_types``, ``<s>_<n>`` reading each
+   record with the network of its classified type) and each inverse estimator
    (:mod:`femref.models.inverse`, on the same fixed-length fem records) against the fem
    peak force, ``e = |P̂ − P_fem| / P_fem`` per sample, summarised by its mean and 95th
    percentile (:func:`error_summary`);
-4. ``study.h5`` (every per-sample estimate and error) and ``study.md`` (the table).
+4. ``study.h5`` (every per-sample estimate and error, each network's loss curve) and
+   ``study.md`` (the table); ``femref report study.h5`` draws them (:mod:`femref.report.study`).
 
 The networks see what a railroad has: the records of the sensors (``probes``) and, if the
 study says so, the car masses (waybill). The inverse estimators also know the body
@@ -53,10 +60,17 @@ class ErrorSummary:
 
 
 def error_summary(estimate: NDArray[np.float64], reference: NDArray[np.float64]) -> ErrorSummary:
-    """``e = |P̂ − P|/P``: mean, 95th percentile (linear interpolation), mean signed error ``(P̂ − P)/P``."""
+    """``e = |P̂ − P|/P``: mean, 95th percentile (linear interpolation), mean signed error ``(P̂ − P)/P``.
+
+    Samples without an estimate (NaN: an impact of a type its estimator has no network for) are left
+    out; ``samples`` counts the rest (all NaN: NaN statistics over 0 samples)."""
     estimate, reference = np.asarray(estimate, dtype=float), np.asarray(reference, dtype=float)
     if estimate.shape != reference.shape or reference.size == 0:
         raise ValueError(f"need matching non-empty arrays, got {estimate.shape} and {reference.shape}")
+    kept = ~np.isnan(estimate)
+    if not np.any(kept):
+        return ErrorSummary(float("nan"), float("nan"), float("nan"), 0)
+    estimate, reference = estimate[kept], reference[kept]
     signed = (estimate - reference) / reference
     error = np.abs(signed)
     return ErrorSummary(float(np.mean(error)), float(np.percentile(error, 95.0)), float(np.mean(signed)), int(reference.size))
@@ -74,6 +88,8 @@ class TrainedNetwork:
     validation: ErrorSummary
     training_time_s: float
     estimator: Any = field(repr=False)
+    loss_curve: NDArray[np.float64] = field(default_factory=lambda: np.empty(0), repr=False)
+    impact_type: str | None = None  # the type it was trained on and reads (``impact_types``), None: every type
 
 
 @dataclass
@@ -100,7 +116,11 @@ class StudyOutcome:
         rows = []
         for trained in self.networks:
             row = {"estimator": trained.name, "trained on": trained.source, "network": trained.network, "own source": trained.validation}
-            row.update({name: scores.summaries[trained.name] for name, scores in self.sets.items()})
+            row.update({name: scores.summaries[trained.name] for name, scores in self.sets.items() if trained.name in scores.summaries})
+            rows.append(row)
+        for label, (source, network) in _routed_labels(self.networks).items():
+            row = {"estimator": label, "trained on": source, "network": f"{network} by impact type", "own source": None}
+            row.update({name: scores.summaries[label] for name, scores in self.sets.items() if label in scores.summaries})
             rows.append(row)
         for name in INVERSE_ESTIMATORS:
             row = {"estimator": name, "trained on": "—", "network": "inverse", "own source": None}
@@ -213,52 +233,211 @@ def feature_settings(study: StudyFile, train: SetData) -> Any:
     return FeatureSettings(length=f.length, rate=train.data.record_rate, lowpass=f.lowpass, spectrum=f.spectrum, normalise=f.normalise, extras=extras)
 
 
-def train_networks(study: StudyFile, train: SetData, probes: list[str], out_dir: Path) -> list[TrainedNetwork]:
-    """A pipeline and network per (source, network), saved with the femref network contract."""
+@dataclass(frozen=True)
+class InitialNetwork:
+    """A saved network a study network continues training from: its file, pipeline, network and metadata."""
+
+    path: Path
+    pipeline: Any
+    network: Any
+    metadata: dict[str, Any]
+
+
+def _initial_problem(name: str, rule: str, value: Any) -> Problem:
+    return Problem(("networks", name, "mlp", "initial"), rule, value)
+
+
+def initial_networks(study: StudyFile, study_dir: Path, source: str = "<study>") -> dict[str, InitialNetwork]:
+    """Read every ``initial`` network (relative to the study file) and check that training can continue from it.
+
+    Checked before any sweep runs: the file is an ``ann`` network file; its network has the
+    entry's layout (hidden layers, units per layer, log target); its feature pipeline computes
+    what the study's ``features`` and ``car_masses`` ask for. The records' rate, the probes and
+    the coupler are checked in :func:`train_networks`, once the records exist. Raises
+    :class:`CaseError` at ``networks.<name>.mlp.initial``.
+    """
+    import ann.storage as storage
+
+    found: dict[str, InitialNetwork] = {}
+    problems: list[Problem] = []
+    cars: list[str] | None = None
+    for name, spec in study.networks.items():
+        if getattr(spec, "initial", None) is None:
+            continue
+        path = study_dir / spec.initial
+        if not path.is_file():
+            problems.append(_initial_problem(name, f"saved network file not found: {path}", spec.initial))
+            continue
+        try:
+            pipeline, network, metadata = storage.load(path)
+            spec.build().continue_from(network)
+        except (ValueError, OSError, KeyError) as error:
+            problems.append(_initial_problem(name, f"{path}: {error}", spec.initial))
+            continue
+        if cars is None:
+            cars = [car["name"] for car in base_case_data(study, study_dir, source)["cars"]]
+        wanted = _feature_fields(study, cars)
+        saved = {key: getattr(pipeline.settings, key) for key in wanted}
+        if saved != wanted:
+            problems.append(_initial_problem(name, f"{path}: its feature pipeline {_describe(saved)} is not this study's {_describe(wanted)}", spec.initial))
+            continue
+        found[name] = InitialNetwork(path, pipeline, network, metadata)
+    if problems:
+        raise CaseError(problems, source)
+    return found
+
+
+def _feature_fields(study: StudyFile, cars: list[str]) -> dict[str, Any]:
+    """The study's feature settings without the records' rate."""
+    f = study.features
+    extras = tuple(f"car_mass/{car}" for car in cars) if study.car_masses else ()
+    return {"length": f.length, "lowpass": f.lowpass, "spectrum": f.spectrum, "normalise": f.normalise, "extras": extras}
+
+
+def _describe(fields: dict[str, Any]) -> str:
+    return "(" + ", ".join(f"{key} {list(value) if isinstance(value, tuple) else value}" for key, value in fields.items()) + ")"
+
+
+def _check_initial_contract(name: str, initial: InitialNetwork, settings: Any, study: StudyFile, probes: list[str]) -> list[Problem]:
+    """What only the records tell: the rate the pipeline reads, the probes and the coupler of the saved network."""
+    problems = []
+    if initial.pipeline.settings != settings:
+        problems.append(_initial_problem(name, f"{initial.path}: its pipeline reads records at {initial.pipeline.settings.rate:g} Hz, these are at {settings.rate:g} Hz", str(initial.path)))
+    for key, wanted in (("probes", probes), ("coupler", study.coupler)):
+        if initial.metadata.get(key) != wanted:
+            problems.append(_initial_problem(name, f"{initial.path}: it was trained with {key} {initial.metadata.get(key)}, this study has {wanted}", str(initial.path)))
+    return problems
+
+
+def train_networks(
+    study: StudyFile,
+    train: SetData,
+    probes: list[str],
+    out_dir: Path,
+    initial: dict[str, InitialNetwork] | None = None,
+    source: str = "<study>",
+) -> list[TrainedNetwork]:
+    """A pipeline and network per (source, network), saved with the femref network contract.
+
+    A network named in ``initial`` (:func:`initial_networks`) keeps that saved pipeline and
+    continues training from the saved weights; the others start afresh. With ``impact_types``,
+    a pipeline and network per (source, network, impact type), each on the training and
+    validation records of its type only (:func:`impact_types` of the source's own records).
+    """
+    from ann.splits import split_indices
+
+    from reduced.signal_tools import IMPACT_KINDS
+
+    initial = initial or {}
+    fit_rows, validation_rows, _ = split_indices(train.index.size, (1.0 - study.validation_fraction, study.validation_fraction, 0.0), seed=0)
+    settings = feature_settings(study, train)
+    problems = [p for name, start in initial.items() for p in _check_initial_contract(name, start, settings, study, probes)]
+    if problems:
+        raise CaseError(problems, source)
+    (out_dir / "networks").mkdir(parents=True, exist_ok=True)
+    trained = []
+    for source_model in study.sets[TRAIN].models:
+        if not study.impact_types:
+            splits = {None: (fit_rows, validation_rows)}
+        else:
+            kinds = impact_types(study, train, source_model)
+            splits = {kind: (fit_rows[kinds[fit_rows] == kind], validation_rows[kinds[validation_rows] == kind]) for kind in IMPACT_KINDS}
+            short = {kind: rows[0].size for kind, rows in splits.items() if rows[0].size < MIN_TYPE_SAMPLES or rows[1].size == 0}
+            if short:
+                counts = ", ".join(f"{np.count_nonzero(kinds == kind)} {kind.replace('_', '-')}" for kind in IMPACT_KINDS)
+                rule = (f"a network per impact type needs at least {MIN_TYPE_SAMPLES} training and 1 validation impacts of each type; "
+                        f"the train set's {source_model} records classify as {counts} — vary the coupler contact "
+                        "(e.g. couplers.0.contact: {choice: [compression_only, bilateral]}) or add samples")
+                raise CaseError(Problem(("impact_types",), rule), source)
+        for name, spec in study.networks.items():
+            for kind, (fit, validation) in splits.items():
+                trained.append(_train_network(study, train, probes, out_dir, source, settings, source_model, name, spec, initial.get(name),
+                                              fit, validation, kind))
+    return trained
+
+
+MIN_TYPE_SAMPLES = 4
+"""Fewest training records of an impact type a per-type network is trained on."""
+
+
+def _train_network(study: StudyFile, train: SetData, probes: list[str], out_dir: Path, source: str, settings: Any, source_model: str,
+                   name: str, spec: Any, start: InitialNetwork | None, fit_rows: NDArray[np.int64], validation_rows: NDArray[np.int64],
+                   kind: str | None) -> TrainedNetwork:
+    """One pipeline and network trained on ``source_model``'s records of ``fit_rows``, scored on ``validation_rows``, saved as
+    ``networks/<source_model>_<name>[_<kind>].npz``."""
     import ann.storage as storage
     from ann.features import FeaturePipeline
-    from ann.splits import split_indices
 
     data = train.data
     masses = train.car_masses if study.car_masses else None
-    fit_rows, validation_rows, _ = split_indices(train.index.size, (1.0 - study.validation_fraction, study.validation_fraction, 0.0), seed=0)
-    settings = feature_settings(study, train)
-    (out_dir / "networks").mkdir(parents=True, exist_ok=True)
-    trained = []
-    for source in study.sets[TRAIN].models:
-        records, peaks = train.records(source, probes), train.peaks(source, study.coupler)
-        for name, spec in study.networks.items():
-            started = time.perf_counter()
-            pipeline = FeaturePipeline(settings).fit(records[fit_rows], data.record_rate, _rows(masses, fit_rows))
-            network = spec.build().fit(pipeline.transform(records[fit_rows], data.record_rate, _rows(masses, fit_rows)), peaks[fit_rows])
-            elapsed = time.perf_counter() - started
-            estimator = storage.Estimator(pipeline, network)
-            validation = error_summary(estimator.predict(records[validation_rows], data.record_rate, _rows(masses, validation_rows)), peaks[validation_rows])
-            label = f"{source}_{name}"
-            path = out_dir / "networks" / f"{label}.npz"
-            metadata = {
-                "target": "peak_coupler_force",
-                "coupler": study.coupler,
-                "probes": probes,
-                "record_length": data.record_length,
-                "record_end": data.record_end,
-                "record_source": data.record_source,
-                "measurement": data.measurement,
-                "training": {
-                    "source_model": source,
-                    "network": name,
-                    "samples": int(fit_rows.size),
-                    "validation_samples": int(validation_rows.size),
-                    "validation_mean_error": validation.mean,
-                    "validation_p95_error": validation.p95,
-                    "training_time_s": elapsed,
-                    "sweep": str(data.path),
-                    "spec_hash": data.spec_hash,
-                },
-            }
-            storage.save(path, pipeline, network, metadata)
-            trained.append(TrainedNetwork(label, source, name, path, int(fit_rows.size), validation, elapsed, estimator))
-    return trained
+    records, peaks = train.records(source_model, probes), train.peaks(source_model, study.coupler)
+    started = time.perf_counter()
+    if start is None:
+        pipeline = FeaturePipeline(settings).fit(records[fit_rows], data.record_rate, _rows(masses, fit_rows))
+        network = spec.build()
+    else:
+        pipeline = start.pipeline
+        network = spec.build().continue_from(start.network)
+    features = pipeline.transform(records[fit_rows], data.record_rate, _rows(masses, fit_rows))
+    try:
+        network.fit(features, peaks[fit_rows])
+    except ValueError as error:  # a diverging momentum run: the settings are at fault
+        raise CaseError(Problem(("networks", name), f"training on {source_model} records failed: {error}"), source) from None
+    elapsed = time.perf_counter() - started
+    estimator = storage.Estimator(pipeline, network)
+    validation = error_summary(estimator.predict(records[validation_rows], data.record_rate, _rows(masses, validation_rows)), peaks[validation_rows])
+    label = f"{source_model}_{name}" + ("" if kind is None else f"_{kind}")
+    path = out_dir / "networks" / f"{label}.npz"
+    loss_curve = np.asarray(getattr(network, "loss_curve_", ()), dtype=float)  # an RBF network has none
+    metadata = {
+        "target": "peak_coupler_force",
+        "coupler": study.coupler,
+        "probes": probes,
+        "record_length": data.record_length,
+        "record_end": data.record_end,
+        "record_source": data.record_source,
+        "measurement": data.measurement,
+        "training": {
+            "source_model": source_model,
+            "network": name,
+            "impact_type": kind or "any",
+            "samples": int(fit_rows.size),
+            "validation_samples": int(validation_rows.size),
+            "validation_mean_error": validation.mean,
+            "validation_p95_error": validation.p95,
+            "training_time_s": elapsed,
+            "epochs": int(loss_curve.size),
+            "initial": None if start is None else str(start.path),
+            "sweep": str(data.path),
+            "spec_hash": data.spec_hash,
+        },
+    }
+    storage.save(path, pipeline, network, metadata)
+    return TrainedNetwork(label, source_model, name, path, int(fit_rows.size), validation, elapsed, estimator, loss_curve, kind)
+
+
+def impact_types(study: StudyFile, data: SetData, model: str) -> NDArray[np.str_]:
+    """Each ok sample's impact type from its stored records of ``model``: ``free_to_roll`` or ``coupled`` by the zero
+    harmonic of the study coupler's relative acceleration (:func:`femref.sensing.impact_type.classify_records`, each car
+    at its sensor nearest the centre), ``unknown`` where the records cannot be classified."""
+    from femref.sensing.impact_type import classify_records
+
+    t = record_times(data.data.record_length, data.data.record_end)
+    stored = data.data.records[model]
+    kinds = []
+    for i, scene in zip(data.index, data.scenes):
+        coupler = next(c for c in scene.couplers if c.name == study.coupler)
+        records = {p: stored[i, c] for c, p in enumerate(data.data.probes)}
+        try:
+            kinds.append(classify_records(scene.cars, coupler, t, records).kind)
+        except ValueError:
+            kinds.append("unknown")
+    return np.array(kinds)
+
+
+def _routed_labels(networks: list[TrainedNetwork]) -> dict[str, tuple[str, str]]:
+    """``<source>_<network>`` → (source, network) of the networks trained per impact type."""
+    return {f"{t.source}_{t.network}": (t.source, t.network) for t in networks if t.impact_type is not None}
 
 
 def _rows(masses: NDArray[np.float64] | None, rows: NDArray[np.int64]) -> NDArray[np.float64] | None:
@@ -269,16 +448,27 @@ def _rows(masses: NDArray[np.float64] | None, rows: NDArray[np.int64]) -> NDArra
 
 
 def evaluate_set(study: StudyFile, name: str, data: SetData, networks: list[TrainedNetwork], probes: list[str]) -> SetScores:
-    """Every network and inverse estimator on the set's fem records, against its fem peak force."""
+    """Every network and inverse estimator on the set's fem records, against its fem peak force; networks trained
+    per impact type as one estimate ``<source>_<network>``, each record read by the network of its classified type
+    (NaN for a record that cannot be classified)."""
     reference = data.peaks("fem", study.coupler)
     records = data.records("fem", probes)
     masses = data.car_masses if study.car_masses else None
     estimates: dict[str, NDArray[np.float64]] = {}
     timing: dict[str, float] = {}
+    kinds = impact_types(study, data, "fem") if any(t.impact_type is not None for t in networks) else None
     for trained in networks:
         started = time.perf_counter()
-        estimates[trained.name] = trained.estimator.predict(records, data.data.record_rate, masses)
-        timing[trained.name] = (time.perf_counter() - started) / max(1, reference.size)
+        if trained.impact_type is None:
+            estimates[trained.name] = trained.estimator.predict(records, data.data.record_rate, masses)
+            timing[trained.name] = (time.perf_counter() - started) / max(1, reference.size)
+            continue
+        label = f"{trained.source}_{trained.network}"  # its type's rows of the routed estimate
+        routed = estimates.setdefault(label, np.full(reference.size, np.nan))
+        rows = np.flatnonzero(kinds == trained.impact_type)
+        if rows.size:
+            routed[rows] = trained.estimator.predict(records[rows], data.data.record_rate, _rows(masses, rows))
+        timing[label] = timing.get(label, 0.0) + (time.perf_counter() - started) / max(1, reference.size)
     estimates.update(inverse_estimates(study, data))
     summaries = {key: error_summary(value, reference) for key, value in estimates.items()}
     return SetScores(name, reference, estimates, summaries, timing)
@@ -314,6 +504,7 @@ def run_study(
 ) -> StudyOutcome:
     """Sweeps, training, evaluation, ``study.h5`` and ``study.md`` in ``out_dir`` (module docstring)."""
     out_dir = Path(out_dir)
+    initial = initial_networks(study, study_dir, source)  # a bad initial network stops the study before its sweeps
     sweeps = prepare_sweeps(study, study_dir, out_dir, source)
     wall: dict[str, float] = {}
     for name, sweep in sweeps.items():
@@ -324,7 +515,7 @@ def run_study(
     unknown = [p for p in probes if p not in sets[TRAIN].data.probes]
     if unknown:
         raise CaseError(Problem(("probes",), f"not sensors of the base case: {', '.join(unknown)}; sensors: {', '.join(sets[TRAIN].data.probes)}"), source)
-    networks = train_networks(study, sets[TRAIN], probes, out_dir)
+    networks = train_networks(study, sets[TRAIN], probes, out_dir, initial, source)
     scores = {name: evaluate_set(study, name, sets[name], networks, probes) for name in study.evaluation_sets}
     outcome = StudyOutcome(study, out_dir, networks, scores, wall)
     write_study(outcome, out_dir / "study.h5")
@@ -337,8 +528,9 @@ def write_study(outcome: StudyOutcome, path: Path) -> None:
 
     ``/<set>/reference`` (N,) N; ``/<set>/<estimator>/estimate`` (N,) N with attrs mean, p95,
     bias (relative errors) and inference_time_s (per record); ``/networks/<name>`` attrs:
-    source, network, file, training samples and time, own-source validation errors. Written
-    to a temporary name and renamed.
+    source, network, file, training samples and time, own-source validation errors, and its
+    dataset ``loss_curve`` (epochs,): the training loss per epoch (empty for an RBF network and
+    an lbfgs-trained MLP). Written to a temporary name and renamed.
     """
     with atomic_path(path) as tmp, h5py.File(tmp, "w") as h5:
         h5.attrs["femref_version"] = __version__
@@ -346,9 +538,13 @@ def write_study(outcome: StudyOutcome, path: Path) -> None:
         for trained in outcome.networks:
             group = h5.create_group(f"networks/{trained.name}")
             group.attrs.update(
-                source=trained.source, network=trained.network, file=str(trained.path), training_samples=trained.training_samples,
+                source=trained.source, network=trained.network, impact_type=trained.impact_type or "any", file=str(trained.path),
+                training_samples=trained.training_samples,
                 training_time_s=trained.training_time_s, validation_mean_error=trained.validation.mean, validation_p95_error=trained.validation.p95,
             )
+            curve = group.create_dataset("loss_curve", data=np.asarray(trained.loss_curve, dtype=float))
+            curve.attrs["units"] = "1"
+            curve.attrs["definition"] = "E = squared error / 2 on the scaled log target + L2 penalty, mean over the epoch's batches"
         for name, scores in outcome.sets.items():
             group = h5.create_group(name)
             group.create_dataset("reference", data=scores.reference).attrs["units"] = "N"
@@ -361,4 +557,4 @@ def write_study(outcome: StudyOutcome, path: Path) -> None:
                     sub.attrs["inference_time_s"] = scores.inference_time_s[estimator]
 
 
-__all__ = ["ErrorSummary", "StudyOutcome", "error_summary", "run_study"]
+__all__ = ["ErrorSummary", "InitialNetwork", "StudyOutcome", "error_summary", "impact_types", "initial_networks", "run_study"]

@@ -21,6 +21,11 @@ and does it matter which model generated the training data?* (issue 5, docs/form
     networks:
       mlp: {mlp: {hidden: [200, 21], activation: logistic, solver: lbfgs, alpha: 0.1}}
       rbf: {rbf: {centres: 120, basis: gaussian, width_factor: 8.0}}
+      deep:                              # the source's 300-70-5-1: a unit per layer, the last the output's
+        mlp: {hidden: [70, 5], activation: [tanh, tanh, logistic], solver: momentum,
+              learning_rate: 0.05, momentum: 0.9, max_iter: 2000, batch_size: 32}
+      more: {mlp: {hidden: [70, 5], activation: [tanh, tanh, logistic], solver: momentum,
+                   initial: earlier/networks/fem_deep.npz}}   # continue training a saved network
 
 Every set is a sweep (:mod:`femref.sweep`) of the base case over the shared ``parameters``,
 with the set's own ``parameters`` replacing or adding key paths. ``train`` is required: each
@@ -33,11 +38,12 @@ are scored on its fem records against its fem peak force.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, get_args
 
 from pydantic import BeforeValidator, Field, TypeAdapter, ValidationError, model_validator
+from pydantic_core import PydanticCustomError
 
-from femref.case.errors import CaseError, Problem, problems_error, problems_from
+from femref.case.errors import CaseError, Problem, did_you_mean, problems_error, problems_from
 from femref.case.loader import read_yaml_file
 from femref.case.fields import CaseModel, Count, TaggedSpec, _reject_bool, _tagged_union
 
@@ -65,20 +71,92 @@ class FeatureSpec(CaseModel):
     normalise: Literal["none", "peak", "channel_peak"] = Field(default="channel_peak", description="Default channel_peak (log amplitudes).")
 
 
+#: Hidden units by name (:data:`ann.backprop.UNITS`); scikit-learn's solvers take the first three.
+UnitName = Literal["logistic", "tanh", "relu", "linear", "gaussian", "step"]
+SKLEARN_UNITS = ("logistic", "tanh", "relu")
+UNIT_NAMES: tuple[str, ...] = get_args(UnitName)
+#: The solver that trains any unit, a unit per layer, in mini-batches, and from a saved network.
+MOMENTUM = "momentum"
+
+
+def _unit_names(value: Any) -> Any:
+    """``activation``: a unit name, or a non-empty list of them (one per layer)."""
+    expected = ", ".join(repr(n) for n in UNIT_NAMES[:-1]) + f" or {UNIT_NAMES[-1]!r}"
+    if isinstance(value, str):
+        if value not in UNIT_NAMES:
+            raise PydanticCustomError("unit_name", "{rule}", {"rule": f"must be one of {expected}{did_you_mean(value, UNIT_NAMES)}"})
+        return value
+    if isinstance(value, (list, tuple)) and value:
+        bad = [Problem((i,), f"must be one of {expected}{did_you_mean(v, UNIT_NAMES)}", v) for i, v in enumerate(value) if v not in UNIT_NAMES]
+        if bad:
+            raise problems_error(bad)
+        return tuple(value)
+    raise PydanticCustomError("unit_names", "{rule}", {"rule": "must be a unit name or a non-empty list of unit names (one per layer)"})
+
+
 class MlpSpec(TaggedSpec):
-    """:class:`ann.networks.MLPForceRegressor` settings."""
+    """A multilayer perceptron: :class:`ann.networks.MLPForceRegressor` (``solver`` sgd, adam,
+    lbfgs: scikit-learn) or :class:`ann.networks.MomentumMLP` (``solver: momentum``:
+    back-propagation with momentum, ``Δw(k+1) = −η ∂E/∂w + μ Δw(k)``).
+
+    ``activation`` is one unit for every hidden layer, or (momentum only) a list: one unit per
+    hidden layer, or one more for the output unit (linear, logistic or tanh; default linear),
+    e.g. ``hidden: [70, 5], activation: [tanh, tanh, logistic]``. ``max_iter`` counts epochs for
+    momentum. ``batch_size`` (default: the whole training set) and ``initial`` (a saved network
+    file, relative to the study file, whose weights and feature pipeline training continues
+    from) are momentum only.
+    """
 
     tag = "mlp"
     hidden: tuple[Count, ...] = Field(default=(200, 21), min_length=1)
-    activation: Literal["logistic", "tanh", "relu"] = "logistic"
-    solver: Literal["sgd", "adam", "lbfgs"] = "lbfgs"
+    activation: Annotated[str | tuple[str, ...], BeforeValidator(_unit_names)] = "logistic"
+    solver: Literal["sgd", "adam", "lbfgs", "momentum"] = "lbfgs"
     alpha: float = Field(default=0.1, ge=0.0)
     learning_rate: float = Field(default=1e-3, gt=0.0)
     momentum: float = Field(default=0.9, ge=0.0, lt=1.0)
     max_iter: Count = 3000
-    seed: int = 0
+    batch_size: Count | None = None
+    initial: str | None = None
+    seed: Annotated[int, BeforeValidator(_reject_bool), Field(ge=0)] = 0
+
+    @model_validator(mode="after")
+    def _solver_can_train_it(self) -> "MlpSpec":
+        problems = []
+        if self.solver == MOMENTUM:
+            from ann.backprop import layer_units  # numpy only
+
+            try:
+                layer_units(self.hidden, self.activation)
+            except ValueError as error:
+                problems.append(Problem(("activation",), str(error), _plain(self.activation)))
+        else:
+            if not isinstance(self.activation, str):
+                problems.append(Problem(
+                    ("activation",),
+                    f"a unit per layer needs solver: momentum; {self.solver} (scikit-learn) takes one of {', '.join(SKLEARN_UNITS)} for every hidden layer",
+                    _plain(self.activation),
+                ))
+            elif self.activation not in SKLEARN_UNITS:
+                problems.append(Problem(
+                    ("activation",),
+                    f"{self.activation} units need solver: momentum; {self.solver} (scikit-learn) takes {', '.join(SKLEARN_UNITS)}",
+                    self.activation,
+                ))
+            for key in ("batch_size", "initial"):
+                if getattr(self, key) is not None:
+                    problems.append(Problem((key,), f"{key} needs solver: momentum (got solver: {self.solver})", getattr(self, key)))
+        if problems:
+            raise problems_error(problems)
+        return self
 
     def build(self) -> Any:
+        if self.solver == MOMENTUM:
+            from ann.networks import MomentumMLP
+
+            return MomentumMLP(
+                hidden=self.hidden, activation=self.activation, learning_rate=self.learning_rate, momentum=self.momentum,
+                epochs=self.max_iter, batch_size=self.batch_size, alpha=self.alpha, seed=self.seed, log_target=True,
+            )
         from ann.networks import MLPForceRegressor
 
         return MLPForceRegressor(
@@ -87,12 +165,16 @@ class MlpSpec(TaggedSpec):
         )
 
 
+def _plain(value: Any) -> Any:
+    return list(value) if isinstance(value, tuple) else value
+
+
 class RbfSpec(TaggedSpec):
     """:class:`ann.networks.RBFNetwork` settings."""
 
     tag = "rbf"
     centres: Annotated[int, Field(ge=2)] = 120
-    basis: Literal["gaussian", "multiquadric", "inverse_quadratic"] = "gaussian"
+    basis: Literal["gaussian", "multiquadric", "inverse_quadratic", "inverse_multiquadric"] = "gaussian"
     width_factor: float = Field(default=8.0, gt=0.0)
     ridge: float = Field(default=1e-6, ge=0.0)
     seed: int = 0
@@ -122,6 +204,11 @@ class StudyFile(CaseModel):
     validation_fraction: float = Field(default=0.15, gt=0.0, lt=0.5, description="Share of train held out to score each network on its own source.")
     features: FeatureSpec = Field(default_factory=FeatureSpec)
     networks: dict[str, NetworkSpec] = Field(min_length=1, description="Name → {mlp: {...}} or {rbf: {...}}. Required.")
+    impact_types: bool = Field(
+        default=False,
+        description="Train one network per impact type (free_to_roll, coupled; each record classified by the zero harmonic of "
+        "the coupler's relative acceleration) and read each evaluation record with its type's network. Default false.",
+    )
 
     @model_validator(mode="after")
     def _sets(self) -> "StudyFile":
@@ -133,6 +220,11 @@ class StudyFile(CaseModel):
         for name, spec in self.sets.items():
             if name != TRAIN and "fem" not in spec.models:
                 problems.append(Problem(("sets", name, "models"), "an evaluation set is scored against fem; add fem", list(spec.models)))
+        if self.impact_types:
+            for name, network in self.networks.items():
+                if getattr(network, "initial", None) is not None:
+                    problems.append(Problem(("networks", name, "mlp", "initial"), "impact_types trains a network per type from scratch; "
+                                            "continue one from a saved network in a study without impact_types"))
         if problems:
             raise problems_error(problems)
         return self
@@ -175,4 +267,4 @@ def parse_study(data: Any, *, source: str = "<study>") -> StudyFile:
         raise CaseError(problems_from(error, data), source) from None
 
 
-__all__ = ["TRAIN", "FeatureSpec", "MlpSpec", "RbfSpec", "SetSpec", "StudyFile", "load_study", "parse_study"]
+__all__ = ["MOMENTUM", "SKLEARN_UNITS", "TRAIN", "FeatureSpec", "MlpSpec", "RbfSpec", "SetSpec", "StudyFile", "load_study", "parse_study"]

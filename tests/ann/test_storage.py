@@ -9,7 +9,7 @@ from support.ann_data import RATE, pulse_problem
 
 import ann.storage as storage
 from ann.features import FeaturePipeline, FeatureSettings
-from ann.networks import MLPForceRegressor, RBFNetwork
+from ann.networks import MLPForceRegressor, MomentumMLP, RBFNetwork
 from ann.splits import split_indices
 
 
@@ -24,10 +24,12 @@ def trained():
     with pytest.warns(ConvergenceWarning):  # a short run is enough to test storage
         mlp = MLPForceRegressor(hidden=(20, 5), activation="relu", seed=0, max_iter=50).fit(X, amplitude[train])
     rbf = RBFNetwork(centres=15, basis="gaussian", seed=0).fit(X, amplitude[train])
-    return pipeline, {"mlp": mlp, "rbf": rbf}, records[test]
+    momentum = MomentumMLP(hidden=(12, 4), activation=("step", "gaussian", "logistic"), batch_size=16, epochs=20, tol=None, seed=0, log_target=True)
+    momentum.fit(X, amplitude[train])
+    return pipeline, {"mlp": mlp, "rbf": rbf, "momentum_mlp": momentum}, records[test]
 
 
-@pytest.mark.parametrize("kind", ["mlp", "rbf"])
+@pytest.mark.parametrize("kind", ["mlp", "rbf", "momentum_mlp"])
 def test_round_trip_gives_identical_predictions(tmp_path, trained, kind):
     pipeline, networks, records = trained
     network = networks[kind]
@@ -41,6 +43,31 @@ def test_round_trip_gives_identical_predictions(tmp_path, trained, kind):
     assert loaded_metadata == metadata
     assert estimator.pipeline.settings == pipeline.settings
     assert type(estimator.network) is type(network)
+    if kind != "rbf":
+        np.testing.assert_array_equal(estimator.network.loss_curve_, network.loss_curve_)
+
+
+def test_loss_curve_is_stored_per_epoch(tmp_path, trained):
+    """Both MLPs save their loss per epoch (``network/loss_curve``), one value per iteration."""
+    pipeline, networks, _ = trained
+    for kind in ("mlp", "momentum_mlp"):
+        storage.save(tmp_path / f"{kind}.npz", pipeline, networks[kind], {})
+        with np.load(tmp_path / f"{kind}.npz", allow_pickle=False) as data:
+            assert data["network_kind"] == kind
+            assert data["network/loss_curve"].shape == (networks[kind].n_iter_,)
+            assert np.all(np.isfinite(data["network/loss_curve"]))
+
+
+def test_a_file_without_a_loss_curve_still_loads(tmp_path, trained):
+    """Files written before the loss curve was stored load with an empty one."""
+    pipeline, networks, records = trained
+    path = tmp_path / "old.npz"
+    storage.save(path, pipeline, networks["mlp"], {})
+    with np.load(path, allow_pickle=False) as data:
+        arrays = {key: data[key] for key in data.files if key != "network/loss_curve"}
+    np.savez(path, **arrays)
+    _, network, _ = storage.load(path)
+    assert network.loss_curve_.size == 0
 
 
 def test_file_holds_plain_arrays_only(tmp_path, trained):

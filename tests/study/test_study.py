@@ -136,7 +136,7 @@ def test_the_study_case_validates_and_scales() -> None:
         ({"sets": {"train": {"samples": 3, "seed": 1}}}, "sets", "at least one evaluation set"),
         ({"sets": {"train": {"samples": 3, "seed": 1}, "test": {"samples": 3, "seed": 2, "models": ["rigid"]}}}, "sets.test.models", "scored against fem"),
         ({"networks": {"cnn": {"conv": {}}}}, "networks.cnn.conv", "unknown network"),
-        ({"networks": {"m": {"mlp": {"solver": "newton"}}}}, "networks.m.mlp.solver", "must be one of 'sgd', 'adam' or 'lbfgs'"),
+        ({"networks": {"m": {"mlp": {"solver": "newton"}}}}, "networks.m.mlp.solver", "must be one of 'sgd', 'adam', 'lbfgs' or 'momentum'"),
         ({"features": {"normalise": "rms"}}, "features.normalise", "must be one of 'none', 'peak' or 'channel_peak'"),
         ({"validation_fraction": 0.7}, "validation_fraction", "must be < 0.5"),
     ],
