@@ -39,12 +39,16 @@ def load(name: str) -> ModuleType:
 
 
 def test_every_script_is_listed_with_its_picture() -> None:
-    """Each script tested here is in the gallery, with its PNG and a row in the README."""
+    """Every script of the gallery is tested here, with its PNG, a row in the gallery's README and its picture in the
+    project README."""
     readme = (GALLERY / "README.md").read_text(encoding="utf-8")
+    front = (REPO / "README.md").read_text(encoding="utf-8")
+    assert sorted(p.stem for p in GALLERY.glob("*.py")) == sorted(SCRIPTS)
     for name in SCRIPTS:
         assert (GALLERY / f"{name}.py").is_file(), name
         assert (GALLERY / "figures" / f"{name}.png").is_file(), name
         assert f"figures/{name}.png" in readme and f"{name}.py" in readme, name
+        assert f"docs/examples/figures/{name}.png" in front and f"docs/examples/{name}.py" in front, name
 
 
 @pytest.mark.parametrize("name", SCRIPTS)
