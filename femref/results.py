@@ -16,22 +16,45 @@ Layout::
                                      coupler_dissipated, total
     /<model>/measured/time, /<model>/measured/<probe>/acceleration   (measurement chain)
     /<model>/measured/<probe>/vertical_acceleration, pitch_rate      (measurement chain, cars that bend)
-    /<model>/fields/x, /<model>/fields/u
+    /<model>/fields/x, /<model>/fields/u   attrs: field_files (JSON: the XDMF + HDF5 field files' names → SHA-256)
+    /<model>/<history group>/time    (omega, lambda) the model's axis, linked in as the group's coordinate
     /scores/<model>/                 attrs: reference, one per metric
     /choice/                         a model choice (femref run --tolerance; femref.choice.output)
 
 The file is written under a temporary name in the target folder and renamed when
 complete, so a crash never leaves a truncated file under the final name. Fields are
 also written as an XDMF + HDF5 time series (meshio) that ParaView opens directly.
+
+Publishing (issue 18). Every temporary is named ``.<final name>.femref-<pid>.tmp`` (a folder of
+field files ``.<result name>.femref-<pid>.fields.tmp``) in the target folder, so a later write
+of the same final name recognises the leftovers of a killed run and removes them
+(:func:`remove_leftovers`; never those of a process still alive). The field files are written
+first, their names and SHA-256 recorded in the result (attribute ``field_files`` of
+``/<model>/fields``), then renamed into place, and the result file is renamed last: a kill
+leaves either the previous pair or new field files beside the previous result, which
+:func:`field_files_match` reports as not matching. The environment variable
+``FEMREF_TEST_PAUSE_BEFORE_PUBLISH`` (seconds) is a test hook only: it sleeps between writing
+the temporaries and the renames, so a test can kill a run there.
+
+Time axes as dimension scales, for xarray (``xarray.open_dataset(path, group="fem/probes/left",
+engine="h5netcdf")`` gives ``time`` as the coordinate). Each history group (a probe's, a
+coupler's, ``energy``) holds its model's axis as a hard link named ``time`` (harmonic runs:
+``omega``, plus ``lambda`` as a second coordinate) to one HDF5 dimension scale attached to
+its datasets; ``/<model>/measured/time`` is the measured histories' own scale, linked the
+same way into ``/<model>/measured/<probe>``. The model-level ``/<model>/time`` stays a plain
+copy: a scale there would be visible (netCDF-4 rules) in ``fields/`` and ``measured/``, whose
+own differently sized ``time`` would then be misread and break ``xarray.open_datatree``.
 """
 
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import json
 import os
+import re
 import shutil
-import tempfile
+import time
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from collections.abc import Callable, Iterator
@@ -110,19 +133,86 @@ class ModelResult:
         self.probes = {name: {k: v[:, j] for k, v in outputs.items()} for j, name in enumerate(probe_names)}
 
 
+#: Test hook only (issue 18): seconds to sleep between writing a result's temporaries and renaming them.
+TEST_PAUSE_VARIABLE = "FEMREF_TEST_PAUSE_BEFORE_PUBLISH"
+#: Attribute of ``/<model>/fields``: JSON ``{field file name: SHA-256 hex digest}`` of its XDMF + HDF5 pair.
+FIELD_FILES_ATTRIBUTE = "field_files"
+#: Axis names: linked into every history group as coordinates (readers listing outputs skip them).
+AXIS_NAMES = ("time", "omega", "lambda")
+
+_TEMPORARY = re.compile(r"^\.(?P<final>.+)\.femref-(?P<pid>\d+)(?:-\d+)?(?:\.(?P<part>[a-z]+))?\.tmp$")
+
+
+def temporary_path(path: str | Path, part: str = "") -> Path:
+    """``.<name>.femref-<pid>[.<part>].tmp`` beside ``path``: the name a later run recognises as a leftover."""
+    path = Path(path)
+    return path.with_name(f".{path.name}.femref-{os.getpid()}" + (f".{part}" if part else "") + ".tmp")
+
+
+def _create_temporary(path: Path, part: str = "", folder: bool = False) -> Path:
+    """Create (exclusively) the temporary file or folder of ``path``; ``-<n>`` after the pid if taken."""
+    base = temporary_path(path, part)
+    for n in range(1, 1000):
+        candidate = base if n == 1 else base.with_name(base.name.replace(f"-{os.getpid()}", f"-{os.getpid()}-{n}", 1))
+        try:
+            if folder:
+                candidate.mkdir()
+            else:
+                os.close(os.open(candidate, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600))
+            return candidate
+        except FileExistsError:
+            continue
+    raise FileExistsError(f"{base}: no free temporary name")
+
+
+def _process_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # another user's process
+        return True
+    return True
+
+
+def leftovers(path: str | Path) -> list[Path]:
+    """Temporaries of ``path``'s final name (files or folders) whose writing process is no longer alive."""
+    path = Path(path)
+    if not path.parent.is_dir():
+        return []
+    found = []
+    for entry in path.parent.iterdir():
+        match = _TEMPORARY.match(entry.name)
+        if match and match["final"] == path.name and int(match["pid"]) != os.getpid() and not _process_alive(int(match["pid"])):
+            found.append(entry)
+    return sorted(found)
+
+
+def remove_leftovers(path: str | Path) -> list[Path]:
+    """Remove :func:`leftovers` of ``path`` (a killed run's temporaries); return what was removed."""
+    removed = []
+    for entry in leftovers(path):
+        if entry.is_dir() and not entry.is_symlink():
+            shutil.rmtree(entry, ignore_errors=True)
+        else:
+            entry.unlink(missing_ok=True)
+        removed.append(entry)
+    return removed
+
+
 @contextlib.contextmanager
 def atomic_path(path: str | Path) -> Iterator[Path]:
     """A temporary path beside ``path`` to write; renamed to ``path`` when the block ends without error.
 
     On any error (or interrupt) the temporary file is removed, so nothing is ever left
-    under the final name half-written (docs/design.md §4). The file gets the permissions of
-    a newly created file (umask), not ``mkstemp``'s private 0600. Creates the folder.
+    under the final name half-written (docs/design.md §4); a kill leaves the temporary
+    (:func:`temporary_path`), which the next write of ``path`` removes. The file gets the
+    permissions of a newly created file (umask). Creates the folder.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    tmp = Path(tmp_name)
+    remove_leftovers(path)
+    tmp = _create_temporary(path)
     try:
         yield tmp
         umask = os.umask(0)
@@ -144,40 +234,118 @@ def write_results(
 ) -> list[Path]:
     """Write the result file (and XDMF field files) atomically; return the paths written.
 
+    The field files are written first under temporary names, their SHA-256 recorded in the
+    result, and renamed into place before the result file is (module docstring).
+
     ``scene`` holds the facts of the resolved scene the report shows (kind, ε and the times it
     is made of: ``Scene.facts()``), written as attributes of ``/scene`` with units. ``extra(h5)``
     adds groups of its own (e.g. ``/choice``) before the file is renamed.
     """
     path = Path(path)
-    written = []
-    with atomic_path(path) as tmp_name, h5py.File(tmp_name, "w") as h5:
-        h5.attrs["femref_version"] = __version__
-        h5.attrs["case_yaml"] = case_yaml
-        h5.attrs["created"] = datetime.now(timezone.utc).isoformat(timespec="seconds")
-        if scene:
-            group = h5.create_group(SCENE_GROUP)
-            for key, value in scene.items():
-                group.attrs[key] = value
-            group.attrs["units"] = json.dumps({key: SCENE_UNITS[key] for key in scene if key in SCENE_UNITS})
-        for result in results:
-            _write_model(h5.create_group(result.model), result)
-        for model, metrics in (scores or {}).items():
-            group = h5.require_group(f"scores/{model}")
-            for key, value in metrics.items():
-                group.attrs[key] = value
-        if extra is not None:
-            extra(h5)
-    written.append(path)
-    for result in results:
-        if result.fields:
-            written.extend(write_xdmf_fields(path.with_name(f"{path.stem}_{result.model}_fields.xdmf"), result.fields))
-    return written
+    path.parent.mkdir(parents=True, exist_ok=True)
+    remove_leftovers(path)
+    with contextlib.ExitStack() as cleanup:
+        staged: dict[str, list[Path]] = {}
+        if any(result.fields for result in results):
+            staging = _create_temporary(path, part="fields", folder=True)
+            cleanup.callback(shutil.rmtree, staging, True)
+            for result in results:
+                if result.fields:
+                    staged[result.model] = _write_xdmf_pair(staging, field_file_name(path, result.model), result.fields)
+        published = []
+        with atomic_path(path) as tmp_name:
+            with h5py.File(tmp_name, "w") as h5:
+                h5.attrs["femref_version"] = __version__
+                h5.attrs["case_yaml"] = case_yaml
+                h5.attrs["created"] = datetime.now(timezone.utc).isoformat(timespec="seconds")
+                if scene:
+                    group = h5.create_group(SCENE_GROUP)
+                    for key, value in scene.items():
+                        group.attrs[key] = value
+                    group.attrs["units"] = json.dumps({key: SCENE_UNITS[key] for key in scene if key in SCENE_UNITS})
+                for result in results:
+                    _write_model(h5.create_group(result.model), result)
+                    if result.model in staged:
+                        digests = {file.name: _sha256(file) for file in staged[result.model]}
+                        h5[f"{result.model}/fields"].attrs[FIELD_FILES_ATTRIBUTE] = json.dumps(digests, sort_keys=True)
+                for model, metrics in (scores or {}).items():
+                    group = h5.require_group(f"scores/{model}")
+                    for key, value in metrics.items():
+                        group.attrs[key] = value
+                if extra is not None:
+                    extra(h5)
+            _test_pause()
+            for files in staged.values():  # the field files first, the result (on leaving the block) last
+                published += _publish(files, path.parent)
+    return [path, *published]
 
 
-def _dataset(group: h5py.Group, name: str, data: NDArray) -> None:
+def field_file_name(path: str | Path, model: str) -> str:
+    """The XDMF field file of ``model`` beside the result file ``path``: ``<stem>_<model>_fields.xdmf``."""
+    return f"{Path(path).stem}_{model}_fields.xdmf"
+
+
+def field_files_match(path: str | Path) -> list[str]:
+    """Problems of the field files recorded in the result file ``path``: missing, or not the ones it was written with.
+
+    Empty when every recorded file is beside ``path`` with its recorded SHA-256 (and for a
+    file that records none, written before issue 18). A field file that does not match was
+    left by another run (e.g. the next run killed between publishing its field files and its
+    result): the result's own ``/<model>/fields`` stays right, the ParaView files do not.
+    """
+    path = Path(path)
+    problems = []
+    with h5py.File(path, "r") as h5:
+        recorded = {
+            model: group["fields"].attrs[FIELD_FILES_ATTRIBUTE]
+            for model, group in h5.items()
+            if isinstance(group, h5py.Group) and isinstance(group.get("fields"), h5py.Group) and FIELD_FILES_ATTRIBUTE in group["fields"].attrs
+        }
+    for model, text in recorded.items():
+        try:
+            digests = dict(json.loads(text))
+        except (TypeError, ValueError):
+            problems.append(f"{path}: /{model}/fields attribute {FIELD_FILES_ATTRIBUTE} is not a JSON object of file names and SHA-256")
+            continue
+        for name, digest in sorted(digests.items()):
+            file = path.parent / name
+            if not file.is_file():
+                problems.append(f"{file}: field file of model {model} missing")
+            elif _sha256(file) != digest:
+                problems.append(f"{file}: field file of model {model} is not the one {path.name} was written with (SHA-256 differs): another run's")
+    return problems
+
+
+def _sha256(file: Path) -> str:
+    digest = hashlib.sha256()
+    with open(file, "rb") as stream:
+        for block in iter(lambda: stream.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def _test_pause() -> None:
+    """Test hook only: sleep ``$FEMREF_TEST_PAUSE_BEFORE_PUBLISH`` seconds (unset: none) before the renames."""
+    seconds = os.environ.get(TEST_PAUSE_VARIABLE)
+    if seconds:
+        time.sleep(float(seconds))
+
+
+def _publish(files: list[Path], folder: Path) -> list[Path]:
+    """Rename each of ``files`` (in a staging folder on the same file system) into ``folder``."""
+    moved = []
+    for file in files:
+        target = folder / file.name
+        os.replace(file, target)
+        moved.append(target)
+    return moved
+
+
+def _dataset(group: h5py.Group, name: str, data: NDArray) -> h5py.Dataset:
     ds = group.create_dataset(name, data=np.asarray(data))
     if name in UNITS:
         ds.attrs["units"] = UNITS[name]
+    return ds
 
 
 def _write_model(group: h5py.Group, result: ModelResult) -> None:
@@ -187,20 +355,25 @@ def _write_model(group: h5py.Group, result: ModelResult) -> None:
     group.attrs["settings"] = json.dumps(result.settings, default=_json_default, sort_keys=True)
     for name, axis in result.axes.items():
         _dataset(group, name, axis)
+    histories = []
     for probe, outputs in result.probes.items():
-        sub = group.require_group(f"probes/{probe}")
+        histories.append(sub := group.require_group(f"probes/{probe}"))
         for name, data in outputs.items():
             _dataset(sub, name, data)
     for coupler, outputs in result.couplers.items():
-        sub = group.require_group(f"couplers/{coupler}")
+        histories.append(sub := group.require_group(f"couplers/{coupler}"))
         for name, data in outputs.items():
             _dataset(sub, name, data)
     if result.energy:
-        sub = group.create_group("energy")
+        histories.append(sub := group.create_group("energy"))
         for name, data in result.energy.items():
             _dataset(sub, name, data)
         if "energy_balance_error" in result.settings:
             sub.attrs["balance_error"] = float(result.settings["energy_balance_error"])
+    axis = next((name for name in ("time", "omega") if name in result.axes), None)
+    if axis is not None:
+        extra = {"lambda": result.axes["lambda"]} if axis == "omega" and "lambda" in result.axes else {}
+        _link_axis(histories, axis, result.axes[axis], extra)
     if result.measured:
         sub = group.create_group("measured")
         for name, data in result.measured.items():
@@ -211,36 +384,81 @@ def _write_model(group: h5py.Group, result: ModelResult) -> None:
         for name, outputs in result.measured_bending.items():
             for quantity, data in outputs.items():
                 _dataset(sub.require_group(name), quantity, data)
+        if "time" in sub:
+            probes = [sub[name] for name in list(result.measured) + list(result.measured_bending) if name != "time"]
+            _link_axis(list({g.name: g for g in probes}.values()), "time", sub["time"], {}, scale=sub["time"])
     if result.fields:
         sub = group.create_group("fields")
         for name, data in result.fields.items():
             _dataset(sub, name, data)
+        if {"x", "u", "time"} <= sub.keys() and sub["u"].shape == (len(sub["time"]), len(sub["x"])):
+            for axis, name in enumerate(("time", "x")):  # the field's own axes (its times are a subset)
+                sub[name].make_scale(name)
+                sub["u"].dims[axis].attach_scale(sub[name])
+
+
+def _link_axis(groups: list[h5py.Group], name: str, values, extra: dict[str, NDArray], scale: h5py.Dataset | None = None) -> None:
+    """Make ``values`` the dimension scale ``name`` of the first axis of every dataset in ``groups`` that runs along
+    it, and link it (and the ``extra`` coordinates, e.g. ``lambda`` beside ``omega``) into each such group.
+
+    One scale object, hard-linked under ``name`` into every group: xarray (h5netcdf, netCDF4) opens
+    any one group with the axis as its coordinate, and the data is stored once. ``scale`` is an
+    existing dataset to use (the measured ``time``); else the first group gets a new one.
+    """
+    size = len(values)
+    coordinates: dict[str, h5py.Dataset] = {}
+    for group in groups:
+        along = [ds for key, ds in group.items() if isinstance(ds, h5py.Dataset) and key not in AXIS_NAMES and ds.ndim >= 1 and ds.shape[0] == size]
+        if not along:
+            continue
+        if scale is None:
+            scale = _dataset(group, name, values)
+        if not scale.is_scale:
+            scale.make_scale(name)
+        if name not in group:
+            group[name] = scale
+        for coordinate, data in extra.items():
+            if coordinate not in coordinates:
+                coordinates[coordinate] = _dataset(group, coordinate, data)
+                coordinates[coordinate].dims[0].attach_scale(scale)
+            elif coordinate not in group:
+                group[coordinate] = coordinates[coordinate]
+        for ds in along:
+            ds.dims[0].attach_scale(scale)
+            if extra:
+                ds.attrs["coordinates"] = " ".join(extra)
 
 
 def write_xdmf_fields(path: Path, fields: dict[str, NDArray]) -> list[Path]:
     """XDMF + HDF5 time series of the displacement field on the 1D mesh (points padded to 3D).
 
-    Written in a temporary folder and moved into place, so the XDMF file's reference to
-    its HDF5 companion stays valid and no partial pair is left behind.
+    Written in a temporary folder (:func:`temporary_path`) and renamed into place, so the XDMF
+    file's reference to its HDF5 companion stays valid and no partial pair is left behind.
     """
+    path = Path(path)
+    remove_leftovers(path)
+    staging = _create_temporary(path, folder=True)
+    try:
+        return _publish(_write_xdmf_pair(staging, path.name, fields), path.parent)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+
+
+def _write_xdmf_pair(folder: Path, name: str, fields: dict[str, NDArray]) -> list[Path]:
+    """Write the XDMF file ``name`` and its HDF5 companion into ``folder``; return both paths."""
     import meshio
 
     x, u, times = fields["x"], fields["u"], fields["time"]
     points = np.zeros((x.size, 3))
     points[:, 0] = x
     cells = [("line", np.stack([np.arange(x.size - 1), np.arange(1, x.size)], axis=1))]
-    with tempfile.TemporaryDirectory(dir=path.parent) as tmp:
-        # meshio opens the companion .h5 relative to the working directory: write from inside tmp
-        with contextlib.chdir(tmp), meshio.xdmf.TimeSeriesWriter(path.name) as writer:
-            writer.write_points_cells(points, cells)
-            for t, values in zip(times, u):
-                writer.write_data(float(t), point_data={"u": np.asarray(values, dtype=float)})
-        moved = []
-        for produced in sorted(Path(tmp).iterdir()):
-            target = path.parent / produced.name
-            shutil.move(str(produced), target)
-            moved.append(target)
-    return moved
+    before = set(folder.iterdir())
+    # meshio opens the companion .h5 relative to the working directory: write from inside the folder
+    with contextlib.chdir(folder), meshio.xdmf.TimeSeriesWriter(name) as writer:
+        writer.write_points_cells(points, cells)
+        for t, values in zip(times, u):
+            writer.write_data(float(t), point_data={"u": np.asarray(values, dtype=float)})
+    return sorted(set(folder.iterdir()) - before)
 
 
 def _json_default(value: Any) -> Any:

@@ -32,6 +32,7 @@ LAYERS = {
     "models": 5,
     "run": 6,
     "choice": 7,
+    "api": 7,
     "bench": 7,
     "sweep": 7,
     "study": 7,

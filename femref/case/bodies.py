@@ -13,6 +13,7 @@ from pydantic import Field, ValidationInfo, field_validator, model_validator
 
 from femref.case.errors import Problem, problems_error
 from femref.case.fields import CaseModel, PositiveReal, _foreign_key_rule
+from femref.case.plausibility import BOUNDS, profile_problems
 from femref.case.profiles import NonNegativeProfile, PositiveProfile, ProfileSpec, UniformProfile, length_average
 from femref.core import profiles
 
@@ -48,6 +49,19 @@ class Body(CaseModel):
             if problems:
                 raise problems_error(problems)
         return value
+
+    @model_validator(mode="after")
+    def _plausible(self) -> "Body":
+        """A length or profile values no rail vehicle has (:mod:`femref.case.plausibility`)."""
+        rule = BOUNDS["length"].rule(self.length)
+        problems = [Problem(("length",), rule, self.length)] if rule else []
+        for name in type(self).model_fields:
+            spec = getattr(self, name)
+            if isinstance(spec, ProfileSpec):
+                problems += profile_problems(name, spec.value_items())
+        if problems:
+            raise problems_error(problems)
+        return self
 
     @property
     def half_length(self) -> float:

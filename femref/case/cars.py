@@ -17,6 +17,7 @@ from pydantic_core import PydanticCustomError
 from femref.case.bodies import CarBody
 from femref.case.errors import Problem, problems_error
 from femref.case.fields import CaseModel, ProbeName, Real, _duplicates, _name_rule
+from femref.case.plausibility import plausible
 
 __all__ = ["CarName", "CarSpec"]
 
@@ -33,7 +34,7 @@ class CarSpec(CaseModel):
         description="The car body: a rod (type: rod) as in transient cases, any profiles; with bending_stiffness (and "
         "bending_viscosity) also a beam on the same axis. Required."
     )
-    velocity: Real = Field(description="Initial velocity (m/s), finite, positive toward the front of the line (+x). Required.")
+    velocity: Annotated[Real, plausible("velocity")] = Field(description="Initial velocity (m/s), finite, positive toward the front of the line (+x). Required.")
     sensors: dict[ProbeName, Real] = Field(
         default_factory=lambda: {"center": 0.0},
         description="Accelerometers: name → position x (m) within [−l, l]; at least one. Default {center: 0}.",

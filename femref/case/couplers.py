@@ -16,6 +16,7 @@ from pydantic_core import PydanticCustomError
 
 from femref.case.errors import Problem, did_you_mean, problems_error
 from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, Real, TaggedSpec, _name_rule, _tagged_union
+from femref.case.plausibility import plausible, sequence_check
 from reduced import couplers as reduced_couplers
 from reduced.couplers import CONTACT_KINDS, KelvinVoigt, StandardLinearDraftGear
 
@@ -33,6 +34,11 @@ __all__ = [
 
 #: Default of the table law's rate threshold between loading and unloading (m/s).
 DEFAULT_SWITCH_VELOCITY = 0.01
+
+#: Coupler numbers within the plausible range of rail vehicles (femref.case.plausibility).
+Stiffness = Annotated[PositiveReal, plausible("coupler_stiffness")]
+Damping = Annotated[NonNegativeReal, plausible("coupler_damping")]
+Travel = Annotated[NonNegativeReal, plausible("coupler_travel")]
 
 
 CouplerName = Annotated[str, AfterValidator(_name_rule("coupler"))]
@@ -54,8 +60,8 @@ class KelvinVoigtLaw(CouplerLawSpec):
     """Linear spring and dashpot in parallel, ``P = c δ + μ δ̇`` (reduced.couplers.KelvinVoigt)."""
 
     tag: ClassVar[str] = "kelvin_voigt"
-    stiffness: PositiveReal = Field(description="Spring stiffness c (N/m), > 0. Required.")
-    damping: NonNegativeReal = Field(default=0.0, description="Dashpot μ (N·s/m), >= 0. Default 0.")
+    stiffness: Stiffness = Field(description="Spring stiffness c (N/m), > 0. Required.")
+    damping: Damping = Field(default=0.0, description="Dashpot μ (N·s/m), >= 0. Default 0.")
 
     def build(self) -> KelvinVoigt:
         return KelvinVoigt(stiffness=self.stiffness, damping=self.damping)
@@ -67,12 +73,12 @@ class DraftGearLaw(CouplerLawSpec):
     ``solid_stiffness`` beyond the stroke."""
 
     tag: ClassVar[str] = "draft_gear"
-    gear_stiffness: PositiveReal = Field(description="Gear spring c (N/m) while the gear is open, > 0. Required.")
-    gear_damping: PositiveReal = Field(description="Gear dashpot μ (N·s/m), > 0. Required.")
-    stroke: PositiveReal = Field(description="Gear travel before it closes solid (m), > 0. Required.")
-    solid_stiffness: PositiveReal = Field(description="Gear stiffness c* beyond the stroke (N/m), > 0. Required.")
-    series_stiffness_1: PositiveReal = Field(default=4.0e8, description="First series spring c1, car body (N/m), > 0. Default 4e8.")
-    series_stiffness_2: PositiveReal = Field(default=4.0e8, description="Second series spring c2, coupler (N/m), > 0. Default 4e8.")
+    gear_stiffness: Stiffness = Field(description="Gear spring c (N/m) while the gear is open, > 0. Required.")
+    gear_damping: Annotated[PositiveReal, plausible("coupler_damping")] = Field(description="Gear dashpot μ (N·s/m), > 0. Required.")
+    stroke: Annotated[PositiveReal, plausible("coupler_travel")] = Field(description="Gear travel before it closes solid (m), > 0. Required.")
+    solid_stiffness: Stiffness = Field(description="Gear stiffness c* beyond the stroke (N/m), > 0. Required.")
+    series_stiffness_1: Stiffness = Field(default=4.0e8, description="First series spring c1, car body (N/m), > 0. Default 4e8.")
+    series_stiffness_2: Stiffness = Field(default=4.0e8, description="Second series spring c2, coupler (N/m), > 0. Default 4e8.")
 
     def build(self) -> StandardLinearDraftGear:
         return StandardLinearDraftGear(
@@ -91,12 +97,12 @@ class TableLaw(CouplerLawSpec):
     (the closure rate past ``switch_velocity`` picks the curve), plus ``damping · δ̇``."""
 
     tag: ClassVar[str] = "table"
-    closure: tuple[Real, ...] = Field(min_length=2, description="Closures δ (m), strictly increasing from 0; two or more. Required.")
-    loading: tuple[Real, ...] = Field(min_length=2, description="Force on the loading curve (N) at each closure: starts at 0, never decreases. Required.")
+    closure: Annotated[tuple[Real, ...], AfterValidator(sequence_check("coupler_travel"))] = Field(min_length=2, description="Closures δ (m), strictly increasing from 0; two or more. Required.")
+    loading: Annotated[tuple[Real, ...], AfterValidator(sequence_check("coupler_force"))] = Field(min_length=2, description="Force on the loading curve (N) at each closure: starts at 0, never decreases. Required.")
     unloading: tuple[Real, ...] = Field(
         min_length=2, description="Force on the unloading curve (N) at each closure: starts at 0, 0 <= unloading <= loading. Required."
     )
-    damping: NonNegativeReal = Field(default=0.0, description="Viscous term added to either curve (N·s/m), >= 0. Default 0.")
+    damping: Damping = Field(default=0.0, description="Viscous term added to either curve (N·s/m), >= 0. Default 0.")
     switch_velocity: PositiveReal = Field(
         default=DEFAULT_SWITCH_VELOCITY,
         description=f"Closure rate (m/s) over which the force blends between the curves, > 0. Default {DEFAULT_SWITCH_VELOCITY}.",
@@ -198,8 +204,8 @@ class CouplerSpec(CaseModel):
         default="compression_only",
         description="compression_only (free to roll: the cars may separate) or bilateral (coupled: tension too). Default compression_only.",
     )
-    slack: NonNegativeReal = Field(default=0.0, description="Initial gap (m), >= 0, closed before the coupler carries compression. Default 0.")
-    tension_slack: NonNegativeReal = Field(
+    slack: Travel = Field(default=0.0, description="Initial gap (m), >= 0, closed before the coupler carries compression. Default 0.")
+    tension_slack: Travel = Field(
         default=0.0, description="Free play in tension (m), >= 0, bilateral contact only. Default 0."
     )
     vertical_offset: Real = Field(

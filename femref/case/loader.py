@@ -8,6 +8,20 @@ default filled in; loading that text gives an equal case.
 YAML dialect: safe YAML, with two corrections of PyYAML's YAML 1.1 reading —
 duplicate keys are errors (PyYAML silently keeps the last one), and ``1e9`` is the
 number 10⁹ as in YAML 1.2 (YAML 1.1 reads it as text).
+
+Limits, so that a small hostile file cannot exhaust memory, time or the stack (every
+case, sweep and study file goes through :func:`read_yaml_file`):
+
+* a file holds at most :data:`MAX_YAML_BYTES` bytes;
+* collections nest at most :data:`MAX_YAML_DEPTH` levels (``[[[…]]]``), counted
+  through aliases: an alias nests its anchor's levels where it is used;
+* a document holds at most :data:`MAX_YAML_NODES` values (scalars and collections),
+  an alias counting every value of its anchor each time it is used — so a few lines
+  of nested aliases ("billion laughs") cannot stand for 10⁹ values;
+* an alias cannot refer to the collection it is inside (a recursive structure).
+
+Anchors, aliases and merge keys (``<<: *defaults``) used within these limits work
+as in any YAML reader.
 """
 
 from __future__ import annotations
@@ -23,15 +37,81 @@ from pydantic import TypeAdapter, ValidationError
 from femref.case.errors import CaseError, Problem, problems_from
 from femref.case.kinds import CASE_KINDS, Case
 
-__all__ = ["load_case", "parse_case", "read_yaml_file", "resolved_yaml"]
+__all__ = ["MAX_YAML_BYTES", "MAX_YAML_DEPTH", "MAX_YAML_NODES", "load_case", "load_yaml_text", "parse_case", "read_yaml_file", "resolved_yaml"]
+
+#: Largest YAML file read (bytes); case, sweep and study files are a few kB.
+MAX_YAML_BYTES = 16 * 2**20
+#: Deepest nesting of collections, aliases expanded (a case nests about 8 levels).
+MAX_YAML_DEPTH = 64
+#: Most values (scalars and collections) in a document, every alias counting its anchor's values again.
+MAX_YAML_NODES = 1_000_000
 
 _CASE_ADAPTER: TypeAdapter[Case] = TypeAdapter(Case)
 
 _RESOLVED_HEADER = "# femref resolved case: every default filled in\n"
 
 
+class _YamlLimitError(yaml.YAMLError):
+    """A document beyond one of the module's limits (module docstring): the rule and where."""
+
+    def __init__(self, rule: str, mark: yaml.Mark | None) -> None:
+        where = f" (at line {mark.line + 1}, column {mark.column + 1})" if mark is not None else ""
+        super().__init__(rule + where)
+
+
 class _CaseYamlLoader(yaml.SafeLoader):
-    """Safe YAML that refuses duplicate keys and reads ``1e9`` as a number."""
+    """Safe YAML that refuses duplicate keys, reads ``1e9`` as a number and keeps to the size limits.
+
+    The limits are checked while the document is composed, before any Python value is made:
+    each finished node records its nesting height and its value count with aliases expanded
+    (an alias is the node of its anchor, so both come from the children's records), and a
+    node beyond :data:`MAX_YAML_DEPTH` or :data:`MAX_YAML_NODES` stops the composition there.
+    The open collections are counted too, which bounds the composer's own recursion.
+    """
+
+    def __init__(self, stream: str) -> None:
+        super().__init__(stream)
+        self._open_depth = 0
+        self._height: dict[yaml.Node, int] = {}  # finished node → collection levels, aliases expanded
+        self._count: dict[yaml.Node, int] = {}  # finished node → values, aliases expanded
+
+    def compose_node(self, parent: yaml.Node | None, index: Any) -> yaml.Node:
+        event = self.peek_event()
+        if isinstance(event, yaml.AliasEvent):
+            node = super().compose_node(parent, index)
+            if node not in self._height:  # its anchor's collection is still open
+                raise _YamlLimitError(f"YAML alias *{event.anchor} is used inside its own anchor's value (a recursive structure)", event.start_mark)
+            if self._open_depth + self._height[node] > MAX_YAML_DEPTH:
+                raise _YamlLimitError(self._depth_rule(f"the alias *{event.anchor} nests"), event.start_mark)
+            return node
+        if not isinstance(event, (yaml.SequenceStartEvent, yaml.MappingStartEvent)):
+            node = super().compose_node(parent, index)
+            self._height[node], self._count[node] = 0, 1
+            return node
+        self._open_depth += 1
+        if self._open_depth > MAX_YAML_DEPTH:
+            raise _YamlLimitError(self._depth_rule("collections nest"), event.start_mark)
+        try:
+            node = super().compose_node(parent, index)
+        finally:
+            self._open_depth -= 1
+        children = [child for pair in node.value for child in pair] if isinstance(node, yaml.MappingNode) else node.value
+        height = 1 + max((self._height[child] for child in children), default=0)
+        count = 1 + sum(self._count[child] for child in children)
+        if height > MAX_YAML_DEPTH:
+            raise _YamlLimitError(self._depth_rule("collections nest (aliases expanded)"), node.start_mark)
+        if count > MAX_YAML_NODES:
+            raise _YamlLimitError(
+                f"YAML document too large: more than {MAX_YAML_NODES} values, aliases counted every time they are used "
+                f"(nested aliases, a 'billion laughs'?); the limit is {MAX_YAML_NODES}",
+                node.start_mark,
+            )
+        self._height[node], self._count[node] = height, count
+        return node
+
+    @staticmethod
+    def _depth_rule(what: str) -> str:
+        return f"YAML nested too deeply: {what} more than {MAX_YAML_DEPTH} levels deep; the limit is {MAX_YAML_DEPTH}"
 
     def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
         seen: set[Any] = set()
@@ -59,6 +139,8 @@ _CaseYamlLoader.add_implicit_resolver(
 
 
 def _yaml_problem(error: yaml.YAMLError) -> str:
+    if isinstance(error, _YamlLimitError):
+        return str(error)
     if isinstance(error, yaml.MarkedYAMLError):
         mark = error.problem_mark or error.context_mark
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
@@ -81,17 +163,31 @@ def read_yaml_file(path: str | Path, what: str) -> Any:
     """The YAML document of a ``what`` file (case, sweep, study) in this module's dialect.
 
     Raises :class:`CaseError` (source: the path) for a missing or unreadable file, a
-    file that is not UTF-8 text, or a YAML syntax error.
+    file larger than :data:`MAX_YAML_BYTES` or not UTF-8 text, a YAML syntax error, or
+    a document beyond the nesting or size limits (module docstring).
     """
     source = str(path)
     try:
-        text = Path(path).read_text(encoding="utf-8")
+        with open(path, "rb") as handle:
+            data = handle.read(MAX_YAML_BYTES + 1)
     except FileNotFoundError:
         raise CaseError(Problem((), f"{what} file not found"), source) from None
-    except UnicodeDecodeError:
-        raise CaseError(Problem((), "not a text (UTF-8) file"), source) from None
     except OSError as error:
         raise CaseError(Problem((), f"cannot read the {what} file: {error.strerror or error}"), source) from None
+    if len(data) > MAX_YAML_BYTES:
+        raise CaseError(Problem((), f"the {what} file is larger than {MAX_YAML_BYTES // 2**20} MiB, the limit of a YAML file"), source)
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError:
+        raise CaseError(Problem((), "not a text (UTF-8) file"), source) from None
+    return load_yaml_text(text, source)
+
+
+def load_yaml_text(text: str, source: str = "<yaml>") -> Any:
+    """The YAML document in ``text``, in this module's dialect and within its limits (module docstring).
+
+    Raises :class:`CaseError` (naming ``source``) for a syntax error or a document beyond the limits.
+    """
     try:
         return yaml.load(text, Loader=_CaseYamlLoader)  # noqa: S506 - a SafeLoader subclass
     except yaml.YAMLError as error:

@@ -16,6 +16,7 @@ from pydantic_core import PydanticCustomError
 from femref.case.bodies import Body
 from femref.case.errors import Problem, problems_error
 from femref.case.fields import CaseModel, Count, PositiveReal, Real, TaggedSpec, _tagged_union
+from femref.case.plausibility import plausible
 
 __all__ = [
     "DEFAULT_RHO_INF",
@@ -36,6 +37,10 @@ __all__ = [
 # Frequency axis (harmonic)
 
 
+#: Most frequencies of one axis (the harmonic models' work is also budgeted, femref.run.budget).
+MAX_FREQUENCIES = 1_000_000
+
+
 class FrequencyRange(TaggedSpec):
     """``num`` frequencies from ``start`` to ``stop``, equally spaced (linear) or in ratio (log)."""
 
@@ -50,6 +55,9 @@ class FrequencyRange(TaggedSpec):
             raise problems_error([Problem(("stop",), f"must be greater than start ({self.start}): the range is empty", self.stop)])
         if self.stop == self.start and self.num > 1:
             raise problems_error([Problem(("num",), "must be 1 when stop equals start", self.num)])
+        if self.num > MAX_FREQUENCIES:
+            rule = f"must be at most {MAX_FREQUENCIES:g}: more frequencies than any response curve needs (the axis alone would hold {8 * self.num:.3g} bytes)"
+            raise problems_error([Problem(("num",), rule, self.num)])
         if self.stop > self.start and self.num == 1:
             raise problems_error([Problem(("stop",), "must equal start when num is 1 (one frequency)", self.stop)])
         return self
@@ -105,8 +113,8 @@ FrequencySpec = _tagged_union(FREQUENCY_AXES, "frequency axis")
 class TimeSettings(CaseModel):
     """The simulated interval ``[0, end]`` and its sampling."""
 
-    end: PositiveReal = Field(description="End time (s), > 0. Required.")
-    dt: PositiveReal | None = Field(
+    end: Annotated[PositiveReal, plausible("end_time")] = Field(description="End time (s), > 0. Required.")
+    dt: Annotated[PositiveReal, plausible("time_step")] | None = Field(
         default=None,
         description="Time step (s), > 0 and <= end. Default null: automatic (the runner chooses it and records it in the results).",
     )

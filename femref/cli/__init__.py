@@ -2,8 +2,9 @@
 
 One module per command family — :mod:`.run` (run, validate), :mod:`.sweep` (sweep,
 study, calibrate), :mod:`.bench`, :mod:`.report`, :mod:`.figures` — sharing :mod:`.common` (exit
-codes, case loading, progress bars) and :mod:`.tables` (the summaries). Each command
-imports the machinery it drives when it runs.
+codes, case loading, progress) and :mod:`.tables` (the summaries). Each command
+imports the machinery it drives when it runs: ``femref --help`` and every command's
+``--help`` import neither numpy nor the solvers (tests/cli/test_first_hour.py holds this).
 """
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ from __future__ import annotations
 import click
 
 from femref.cli.bench import bench_command
+from femref.cli.common import PROGRESS_KEY
 from femref.cli.figures import figures_command
 from femref.cli.report import report_command
 from femref.cli.run import run_command, validate_command
@@ -19,8 +21,16 @@ from femref.cli.sweep import calibrate_command, study_command, sweep_command
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="femref")
-def main() -> None:
+@click.option(
+    "--progress/--no-progress",
+    default=None,
+    envvar="FEMREF_PROGRESS",
+    help="progress on stderr: bars on a terminal, status lines when stderr is piped (default: only on a terminal; env FEMREF_PROGRESS=1/0)",
+)
+@click.pass_context
+def main(context: click.Context, progress: bool | None) -> None:
     """femref: FEM reference solver for freight-car impacts, and the scores of cheaper models against it."""
+    context.meta[PROGRESS_KEY] = progress
 
 
 for _command in (run_command, validate_command, sweep_command, study_command, calibrate_command, bench_command, report_command, figures_command):

@@ -22,7 +22,7 @@ from pathlib import Path
 import click
 from rich.console import Console
 
-from femref.cli.common import EXIT_BAD_INPUT, EXIT_RUN_FAILURE, configuration_progress, finish, load_case_or_default, print_table
+from femref.cli.common import EXIT_BAD_INPUT, EXIT_RUN_FAILURE, check_output, configuration_progress, finish, load_case_or_default, print_table
 from femref.cli.tables import bench_table
 
 IMPACT_ONLY = "femref bench serves impact cases"
@@ -49,7 +49,11 @@ def bench_command(case_path: Path | None, output: Path | None, repeats: int, plo
     except CaseError as error:
         click.echo(f"error: {error}", err=True)
         sys.exit(EXIT_BAD_INPUT)
+    defaulted = output is None
     output = output or Path(f"{case_path.stem if case_path else 'default'}_bench.h5")
+    check_output(output, "-o", {"CASE": case_path}, default=defaulted)
+    if plot_path is not None:
+        check_output(plot_path, "--plot", {"CASE": case_path, "-o": output})
 
     try:
         with configuration_progress(Console(stderr=True)) as progress:

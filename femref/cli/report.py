@@ -13,7 +13,7 @@ from pathlib import Path
 
 import click
 
-from femref.cli.common import EXIT_BAD_INPUT
+from femref.cli.common import EXIT_BAD_INPUT, check_output
 
 
 def default_output(results: Path) -> Path:
@@ -35,7 +35,9 @@ def write_atomically(path: Path, text: str) -> None:
 def report_command(results: Path, output: Path | None) -> None:
     """Write one self-contained HTML page (scores, plots, field map, case) from a femref result file."""
     from femref.report import ReportInputError, build_report
+    from femref.results import field_files_match
 
+    defaulted = output is None
     output = output or default_output(results)
     try:
         if output.resolve() == results.resolve():
@@ -44,5 +46,8 @@ def report_command(results: Path, output: Path | None) -> None:
     except ReportInputError as error:
         click.echo(f"error: {error}", err=True)
         sys.exit(EXIT_BAD_INPUT)
+    check_output(output, "-o", {"RESULTS.h5": results}, default=defaulted)  # after the input's own errors
     write_atomically(output, page)
     click.echo(f"wrote {output}")
+    for problem in field_files_match(results):
+        click.echo(f"warning: {problem}", err=True)

@@ -15,7 +15,7 @@ from pathlib import Path
 import click
 from rich.console import Console
 
-from femref.cli.common import EXIT_BAD_INPUT, EXIT_RUN_FAILURE, finish, load_case_or_default, model_progress, print_table, source_name
+from femref.cli.common import EXIT_BAD_INPUT, EXIT_RUN_FAILURE, check_output, finish, load_case_or_default, model_progress, print_table, source_name
 from femref.cli.tables import run_table
 
 
@@ -50,6 +50,7 @@ def run_command(case_path: Path | None, output: Path | None, tolerance: float | 
     from femref.case import CaseError, resolved_yaml
     from femref.results import write_results
     from femref.run import run_scene
+    from femref.run.budget import check_budget
     from femref.scene.build import scene_from_case
 
     console = Console(stderr=True)
@@ -57,10 +58,13 @@ def run_command(case_path: Path | None, output: Path | None, tolerance: float | 
         case, base_dir = load_case_or_default(case_path)
         case = _with_tolerance(case, tolerance, source_name(case_path))
         scene = scene_from_case(case, base_dir)
+        check_budget(scene, source_name(case_path))  # before any work (femref.run.budget; FEMREF_BUDGET raises it)
     except CaseError as error:
         click.echo(f"error: {error}", err=True)
         sys.exit(EXIT_BAD_INPUT)
+    defaulted = output is None
     output = output or Path(f"{case_path.stem if case_path else 'default'}.h5")
+    check_output(output, "-o", {"CASE": case_path}, default=defaulted)
     if case.kind == "measured":
         _run_measured(case, scene, output)
         return

@@ -14,7 +14,7 @@ from pathlib import Path
 import click
 from rich.console import Console
 
-from femref.cli.common import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_RUN_FAILURE, print_table, sample_progress
+from femref.cli.common import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_RUN_FAILURE, check_output, print_table, sample_progress
 from femref.cli.tables import study_table
 
 #: Failed samples listed after a sweep (the file holds every error).
@@ -36,9 +36,11 @@ def sweep_command(sweep_path: Path, scheduler: str | None, workers: int | None, 
     if scheduler is not None and workers is not None:
         raise click.UsageError("--workers sizes the local cluster; the cluster behind --scheduler has its own workers")
     console = Console(stderr=True)
+    defaulted = output is None
     try:
         loaded = load_sweep(sweep_path)
         output = output or Path(f"{sweep_path.stem}.h5")
+        check_output(output, "-o", {"SWEEP": sweep_path}, default=defaulted)
         with sample_progress(console) as progress:
             summary = run_sweep(loaded, output, scheduler=scheduler, workers=workers, limit=limit, retry_failed=retry_failed, progress=progress)
     except CaseError as error:
@@ -92,7 +94,9 @@ def study_command(study_path: Path, out_dir: Path | None, scheduler: str | None,
         spec, study_dir = load_study(study_path)
         if scale != 1.0:
             spec = spec.scaled(scale)
+        defaulted = out_dir is None
         out_dir = out_dir or Path(study_path.stem)
+        check_output(out_dir, "-o", {"STUDY": study_path}, folder=True, default=defaulted)
         with sample_progress(console) as progress:
             outcome = run_study(spec, study_dir, out_dir, source=str(study_path), scheduler=scheduler, workers=workers, progress=progress)
     except CaseError as error:
@@ -132,6 +136,8 @@ def calibrate_command(sweep_path: Path, results: Path, output: Path | None, coup
         except NetworkFileError as error:
             click.echo(f"error: --network {entry}: {error}", err=True)
             sys.exit(EXIT_BAD_INPUT)
+    inputs = {"SWEEP": sweep_path, "SWEEP_FILE": results, **{f"--network {entry}": Path(entry.partition("=")[2]) for entry in networks}}
+    check_output(output or Path(f"{sweep_path.stem}.calibration.h5"), "-o", inputs, default=output is None)
     try:
         calibration = calibrate(load_sweep(sweep_path), results, coupler, loaded)
     except CaseError as error:

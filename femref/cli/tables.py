@@ -1,20 +1,25 @@
-"""The summary tables the commands print: a run (single body or impact), the network study, the bench."""
+"""The summary tables the commands print: a run (single body or impact), the network study, the bench.
+
+Headers are short; a legend under each table (its caption) defines every column, with units.
+Every relative error is a percentage in one format (:func:`_percent`, ``12.34%``).
+"""
 
 from __future__ import annotations
 
 import math
 
-import numpy as np
 from rich.table import Table
 
 
 def run_table(outcome) -> Table:
-    """Model, status, wall time, work and the key outputs, with the error against the reference."""
+    """Model, status, wall time, work and the key outputs, with the errors against the reference."""
     if outcome.scene.kind == "impact":
         return impact_table(outcome)
-    table = Table(title=f"{outcome.scene.kind} scene, ε = {outcome.scene.epsilon:.3g}", title_justify="left")
-    for column in ("model", "status", "wall time", "work", "peak |a| m/s²", "peak |F| N", "error max / rms"):
-        table.add_column(column, justify="right" if column not in ("model", "status") else "left")
+    reference = next((score["reference"] for score in outcome.scores.values() if "reference" in score), None)
+    against = f"; errors against {reference}" if reference else ""
+    table = Table(title=f"{outcome.scene.kind} scene, ε = {outcome.scene.epsilon:.3g}{against}", title_justify="left", caption_justify="left")
+    for column in ("model", "status", "wall ms", "work", "|a| peak", "|F| peak", "a err max", "a err rms"):
+        table.add_column(column, justify="left" if column in ("model", "status") else "right", no_wrap=column == "model", overflow="fold")
     for result in outcome.results:
         work = ""
         if "steps" in result.settings:
@@ -22,21 +27,31 @@ def run_table(outcome) -> Table:
         elif "frequencies" in result.settings:
             work = f"{result.settings['frequencies']} freqs"
         score = outcome.scores.get(result.model, {})
-        error = (
-            f"{_fmt(score.get('acceleration_max_error_max'), '{:.2g}')} / {_fmt(score.get('acceleration_rms_error_max'), '{:.2g}')} vs {score['reference']}"
-            if score
-            else "reference" if result.ok else ""
-        )
+        is_reference = not score and result.ok and result.model == reference
         table.add_row(
             result.model,
             result.status,
-            f"{result.wall_time_s * 1e3:.1f} ms",
+            _fmt(result.wall_time_s * 1e3, "{:.1f}"),
             work,
             _peak(result, "acceleration"),
             _peak(result, "axial_force"),
-            error,
+            "reference" if is_reference else _percent(score.get("acceleration_max_error_max")),
+            "" if is_reference else _percent(score.get("acceleration_rms_error_max")),
         )
+    table.caption = legend(
+        ("wall ms", "wall time of the run, ms"),
+        ("work", "time steps or frequencies solved"),
+        ("|a| peak", "largest |acceleration| over the probes, m/s² @probe"),
+        ("|F| peak", "largest |axial force| over the probes, N @probe"),
+        ("a err max", "max over time of |a − a_ref| / peak |a_ref|, worst probe"),
+        ("a err rms", "rms(a − a_ref) / rms(a_ref), worst probe"),
+    )
     return table
+
+
+def legend(*entries: tuple[str, str]) -> str:
+    """The line under a table that defines its columns: ``header: meaning`` joined by ``; ``."""
+    return "; ".join(f"{header}: {meaning}" for header, meaning in entries)
 
 
 def _peak(result, quantity: str) -> str:
@@ -50,39 +65,52 @@ def _peak(result, quantity: str) -> str:
 
 def impact_table(outcome) -> Table:
     """Per model run and estimator: peak coupler force and its errors against fem, sensor error, cost; with
-    cars that bend also the vertical-acceleration error.
+    cars that bend also the vertical-acceleration and pitch-rate errors.
 
     A network estimator gives a peak only (``peak_force``): its row shows that peak and its
     error; the history columns (peak time, rms, acceleration, energy) stay blank.
     """
     scene = outcome.scene
     title = f"impact scene, {len(scene.cars)} cars, {len(scene.couplers)} couplers, ε = {scene.epsilon:.3g}; errors against fem"
-    table = Table(title=title, title_justify="left")
+    table = Table(title=title, title_justify="left", caption_justify="left")
     vertical = any(car.bends for car in scene.cars)
-    columns = ("model", "status", "steps", "wall time", "speed-up", "peak P kN @coupler", "peak err", "t_peak err ms", "P rms err", "a rms err max",
-               *(("a_vert rms err max", "pitch rate rms err max") if vertical else ()), "energy bal.")
+    columns = ("model", "status", "steps", "wall ms", "speed-up", "P peak kN", "P peak err", "t peak err ms", "P rms err", "a rms err",
+               *(("a_v rms err", "pitch rms err") if vertical else ()), "E err")
     for column in columns:
-        table.add_column(column, justify="left" if column in ("model", "status") else "right", no_wrap=column == "model")
+        table.add_column(column, justify="left" if column in ("model", "status") else "right", no_wrap=column in ("model", "P peak kN"), overflow="fold")
     for result in outcome.results:
         score = outcome.scores.get(result.model, {})
-        peaks = {c: float(np.max(out["force"] if "force" in out else out["peak_force"])) for c, out in result.couplers.items()} if result.ok else {}
+        peaks = {c: float((out["force"] if "force" in out else out["peak_force"]).max()) for c, out in result.couplers.items()} if result.ok else {}
         coupler = max(peaks, key=peaks.get) if peaks else None
         balance = result.settings.get("energy_balance_error")
         table.add_row(
             result.model,
             result.status,
             str(result.settings.get("steps", "")),
-            f"{result.wall_time_s * 1e3:.1f} ms",
-            f"{score['speedup']:.3g}×" if "speedup" in score else ("reference" if result.ok and not score else ""),
+            _fmt(result.wall_time_s * 1e3, "{:.1f}"),
+            f"{score['speedup']:.3g}×" if "speedup" in score else ("ref" if result.ok and ("reference_warning" in score or not score) else ""),
             f"{peaks[coupler] / 1e3:.1f} @{coupler}" if coupler else "",
-            _fmt(score.get(f"coupler_force_peak_error_{coupler}"), "{:.2%}"),
+            _percent(score.get(f"coupler_force_peak_error_{coupler}", score.get(f"reference_error_estimate_{coupler}"))),
             _fmt(score.get(f"coupler_force_peak_time_error_{coupler}"), "{:+.2f}", 1e3),
-            _fmt(score.get(f"coupler_force_rms_error_{coupler}"), "{:.2%}"),
-            _fmt(score.get("acceleration_rms_error_max"), "{:.2%}"),
-            *((_fmt(score.get("vertical_acceleration_rms_error_max"), "{:.2%}"), _fmt(score.get("pitch_rate_rms_error_max"), "{:.2%}"))
-              if vertical else ()),
-            _fmt(balance, "{:.1e}"),
+            _percent(score.get(f"coupler_force_rms_error_{coupler}")),
+            _percent(score.get("acceleration_rms_error_max")),
+            *((_percent(score.get("vertical_acceleration_rms_error_max")), _percent(score.get("pitch_rate_rms_error_max"))) if vertical else ()),
+            _percent(balance),
         )
+        if "reference_warning" in score:  # the reference checked itself (femref.run.runner.check_reference)
+            note = f"warning: {score['reference_warning']}; its P peak err is its own estimated error (Richardson, {score['reference']})"
+            table.add_row("", f"[yellow]{note}[/yellow]", *[""] * (len(columns) - 2))
+    table.caption = legend(
+        ("wall ms", "wall time of the run, ms"),
+        ("speed-up", "fem's wall time / the model's (ref: the reference)"),
+        ("P peak kN", "largest coupler compression force, kN @coupler"),
+        ("P peak err", "|P − P_fem| / P_fem of that peak"),
+        ("t peak err ms", "time of that peak − fem's, ms"),
+        ("P rms err", "rms(P − P_fem) / rms(P_fem) at that coupler"),
+        ("a rms err", "rms(a − a_fem) / rms(a_fem), worst sensor"),
+        *((("a_v rms err", "the same for the vertical acceleration"), ("pitch rms err", "the same for the pitch rate")) if vertical else ()),
+        ("E err", "energy balance error, max |E(t) − E(0)| / E(0) over every energy account"),
+    )
     return table
 
 
@@ -94,9 +122,15 @@ def _fmt(value: float | None, pattern: str, factor: float = 1.0) -> str:
 def study_table(outcome) -> Table:
     """Peak-force errors against fem: per network (by training source) and inverse estimator, per evaluation set."""
     sets = list(outcome.sets)
-    table = Table(title="peak coupler force error against fem, |P̂ − P|/P: mean / 95th percentile", title_justify="left")
+    table = Table(title="peak coupler force error against fem, |P̂ − P|/P: mean / 95th percentile", title_justify="left", caption_justify="left")
+    table.caption = legend(
+        ("own source", "mean error on the held-out part of its own training source"),
+        *((name, f"mean / 95th percentile on the {name} set") for name in sets),
+        ("train s", "training time, s"),
+        ("µs/record", f"estimate time per record on the {sets[0]} set, µs"),
+    )
     for column in ("estimator", "trained on", "own source", *sets, "train s", "µs/record"):
-        table.add_column(column, justify="left" if column in ("estimator", "trained on") else "right")
+        table.add_column(column, justify="left" if column in ("estimator", "trained on") else "right", overflow="fold")
     timing = {t.name: t.training_time_s for t in outcome.networks}
     first = outcome.sets[sets[0]]
     for row in outcome.table_rows():
@@ -105,8 +139,8 @@ def study_table(outcome) -> Table:
         table.add_row(
             name,
             row["trained on"],
-            "" if own is None else f"{own.mean:.2%}",
-            *(f"{row[s].mean:.2%} / {row[s].p95:.2%}" if s in row else "" for s in sets),
+            "" if own is None else _percent(own.mean),
+            *(f"{_percent(row[s].mean)} / {_percent(row[s].p95)}" if s in row else "" for s in sets),
             f"{timing[name]:.1f}" if name in timing else "",
             f"{first.inference_time_s[name] * 1e6:.0f}" if name in first.inference_time_s else "",
         )
@@ -117,11 +151,12 @@ def bench_table(outcome) -> Table:
     """Every configuration: step, work, median time, ratio to rigid, errors (with cars that bend also the worst
     vertical-acceleration rms error), Pareto flag."""
     title = f"femref bench: median of {outcome.repeats} wall times; errors against {outcome.plan.reference_description}"
-    table = Table(title=title, title_justify="left")
+    table = Table(title=title, title_justify="left", caption_justify="left")
     vertical = any(math.isfinite(row.vertical_error) for row in outcome.rows)
-    columns = ("configuration", "dt ms", "steps", "wall time ms", "× rigid", "peak err", "rms err", *(("a_vert err",) if vertical else ()), "Pareto", "status")
+    columns = ("configuration", "dt ms", "steps", "wall ms", "× rigid", "peak err", "rms err", *(("a_v err",) if vertical else ()), "Pareto", "status")
     for column in columns:
-        table.add_column(column, justify="left" if column in ("configuration", "status", "Pareto") else "right", no_wrap=column == "configuration")
+        table.add_column(column, justify="left" if column in ("configuration", "status", "Pareto") else "right", no_wrap=column == "configuration",
+                         overflow="fold")
     for row in outcome.rows:
         c = row.configuration
         table.add_row(
@@ -136,12 +171,24 @@ def bench_table(outcome) -> Table:
             "✓" if row.pareto else "",
             row.status if row.ok else f"{row.status}: {row.message}",
         )
+    table.caption = legend(
+        ("dt ms", "time step, ms"),
+        ("wall ms", "median wall time of the runs, ms"),
+        ("× rigid", "wall time / rigid's"),
+        ("peak err", "|P − P_ref| / P_ref of the peak coupler force, worst coupler"),
+        ("rms err", "rms(P − P_ref) / rms(P_ref), worst coupler"),
+        *((("a_v err", "rms(a_v − a_v,ref) / rms(a_v,ref), worst sensor"),) if vertical else ()),
+        ("Pareto", "✓: no configuration both faster and with a smaller peak err"),
+    )
     return table
 
 
-def _percent(value: float) -> str:
-    """A relative error in per cent to three significant digits (``0.0194%``)."""
-    return f"{value * 100:.3g}%" if math.isfinite(value) else ""
+def _percent(value: float | None) -> str:
+    """A relative error in per cent with two decimals (``12.34%``), the one format of every table; a
+    positive error below 0.005 % is ``<0.01%``; blank for a missing or non-finite value."""
+    if value is None or not math.isfinite(value):
+        return ""
+    return "<0.01%" if 0 < abs(value) < 5e-5 else f"{value:.2%}"
 
 
 def event_table(outcome) -> Table:

@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 from femref.core.catalog import SCENE_GROUP
 from femref.events import EVENTS_GROUP
 from femref.report.figures import MODEL_COLORS, Picture, _legend, _new_figure, figure_png
-from femref.report.html import STYLE, _pictures
+from femref.report.html import STYLE, _pictures, hide_local_paths
 
 NOT_ESTIMATES = ("records", "closure")
 
@@ -56,7 +56,7 @@ def event_report(path: Path, h5: h5py.File) -> str:
     """The whole page of the open event file ``h5`` (read from ``path``)."""
     events = [_event(name, group) for name, group in sorted(h5[EVENTS_GROUP].items(), key=lambda item: int(item[0]))] if EVENTS_GROUP in h5 else []
     title = f"femref report — {path.name}"
-    facts = [("result file", str(path)), ("scene", "measured"), ("events", str(len(events))),
+    facts = [("result file", path.name), ("scene", "measured"), ("events", str(len(events))),
              ("femref version", str(h5.attrs.get("femref_version", "unknown"))), ("created", str(h5.attrs.get("created", "unknown")))]
     body = [
         f"<h1>{escape(title)}</h1>",
@@ -66,7 +66,7 @@ def event_report(path: Path, h5: h5py.File) -> str:
         "<h2>Coupler forces</h2>",
         _pictures([picture for event in events for picture in _force_pictures(event)], "no force estimate to draw"),
         "<h2>Resolved case</h2>",
-        f"<pre>{escape(str(h5.attrs.get('case_yaml', '')))}</pre>",
+        f"<pre>{escape(hide_local_paths(str(h5.attrs.get('case_yaml', '')), path.resolve().parent))}</pre>",
     ]
     head = f'<head><meta charset="utf-8"/><title>{escape(title)}</title><style>{STYLE}</style></head>'
     return "<!DOCTYPE html>\n<html lang=\"en\">\n" + head + "\n<body>\n" + "\n".join(body) + "\n</body>\n</html>\n"

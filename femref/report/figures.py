@@ -4,13 +4,17 @@ One registry entry per scene kind turns a :class:`~femref.report.read.ResultFile
 a list of :class:`Picture` objects:
 
 * ``impact``: coupler force (kN) against time per coupler — the fem reference heavier,
-  network estimators (a peak only) as a horizontal tick at their peak — and sensor
+  network estimators (a peak only) as a horizontal tick at their peak —, coupler force
+  against closure (the hysteresis loop) per coupler, the energy balance, and sensor
   acceleration (m/s²) per probe, with fem's measured records thinner;
 * ``transient``: acceleration (m/s²) per probe against time;
 * ``harmonic``: real and imaginary parts of the stored complex acceleration amplitude
   against λ per probe, the reference solid and the others dashed.
 
-The reference is ``exact`` where it is present and ok, else ``fem`` (impacts: ``fem``).
+The reference is ``exact`` where it is present and ok, else ``fem`` (impacts: ``fem``; a
+tolerance run's file: the finest fem run of its ladder). Acceleration plots take their
+y-range from the reference and the bulk of the others (:func:`robust_limits`), so that one
+model's spike at contact onset does not flatten the rest; what is cut off is marked.
 Figures are built on :class:`matplotlib.figure.Figure` directly (Agg canvas, no pyplot
 state), so nothing here needs a display.
 """
@@ -36,6 +40,17 @@ MODEL_WIDTH = 1.3
 MEASURED_WIDTH = 0.7
 MODEL_COLORS = ("#d62728", "#1f77b4", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22")
 MODEL_DASHES = ("-", "--", "-.", ":")
+REFERENCE_QUANTILES = (0.005, 0.995)  # of the reference's samples: its range on an acceleration plot
+BULK_QUANTILES = (0.05, 0.95)  # of every other model's samples: their bulk, always inside the range
+LIMIT_MARGIN = 0.15  # of the range's span, added on each side
+ENERGY_COMPONENTS = {  # impact energy bookkeeping (J) → label and colour
+    "kinetic": ("kinetic", "#1f77b4"),
+    "strain": ("strain", "#2ca02c"),
+    "body_dissipated": ("dissipated in the bodies", "#9467bd"),
+    "coupler_stored": ("stored in the couplers", "#ff7f0e"),
+    "coupler_dissipated": ("dissipated in the couplers", "#d62728"),
+    "total": ("total", "black"),
+}
 
 
 @dataclass(frozen=True)
@@ -55,16 +70,22 @@ def figures_for(result: ResultFile) -> list[Picture]:
 
 
 def reference_model(result: ResultFile) -> ModelData | None:
-    """The model every other is drawn against: ``exact`` if ok, else ``fem`` (impacts: ``fem``)."""
+    """The model every other is drawn against: ``exact`` if ok, else ``fem`` (impacts: ``fem``; a tolerance
+    run, which has no ``fem``: the finest fem run of its ladder)."""
     order = ("fem",) if result.kind == "impact" else REFERENCE_ORDER
-    return next((result.models[n] for n in order if n in result.models and result.models[n].ok), None)
+    found = next((result.models[n] for n in order if n in result.models and result.models[n].ok), None)
+    if found is None and result.choice is not None:
+        fem_runs = [r for r in result.choice.rungs if r.family == "fem" and r.label in result.models and result.models[r.label].ok]
+        found = result.models[max(fem_runs, key=lambda r: r.resolution).label] if fem_runs else None
+    return found
 
 
-def model_styles(names: Iterable[str], reference: ModelData | None) -> dict[str, dict]:
+def model_styles(names: Iterable[str], reference: ModelData | None, chosen: str | None = None) -> dict[str, dict]:
     """A fixed colour and dash pattern per model, the same in every figure of the page.
 
     The reference is black, heavy, solid and drawn underneath, so that a model lying on it
-    stays visible; the other models are thin, coloured and dashed differently.
+    stays visible; the other models are thin, coloured and dashed differently. A tolerance
+    run's ``chosen`` model says so in its label.
     """
     reference_name = reference.name if reference is not None else None
     others = [n for n in names if n != reference_name]
@@ -74,7 +95,36 @@ def model_styles(names: Iterable[str], reference: ModelData | None) -> dict[str,
     }
     if reference_name is not None:
         styles[reference_name] = {"color": "black", "ls": "-", "lw": REFERENCE_WIDTH, "zorder": 2, "label": f"{reference_name} (reference)"}
+    if chosen in styles:
+        styles[chosen]["label"] = f"{chosen} (reference, chosen)" if chosen == reference_name else f"{chosen} (chosen)"
     return styles
+
+
+def robust_limits(reference: NDArray | None, others: Iterable[NDArray] = ()) -> tuple[float, float] | None:
+    """y-limits ``(lo, hi)`` that show the reference and the bulk of every other signal, not their spikes.
+
+    ``[lo, hi]`` is the hull of the reference's 0.5–99.5 % quantiles and each other signal's
+    5–95 % quantiles (:data:`REFERENCE_QUANTILES`, :data:`BULK_QUANTILES`), widened by
+    :data:`LIMIT_MARGIN` of its span on each side. A brief spike (a quasi-rigid model's
+    acceleration at contact onset: ±100–270 m/s² against a reference's ±20) falls outside and
+    is clipped; a model whose whole response differs stays inside. None without a finite
+    reference sample (the plot then scales itself).
+    """
+    if reference is None:
+        return None
+    ref = np.asarray(reference, dtype=float)
+    ref = ref[np.isfinite(ref)]
+    if ref.size == 0:
+        return None
+    lo, hi = (float(q) for q in np.quantile(ref, REFERENCE_QUANTILES))
+    for other in others:
+        values = np.asarray(other, dtype=float)
+        values = values[np.isfinite(values)]
+        if values.size:
+            low, high = np.quantile(values, BULK_QUANTILES)
+            lo, hi = min(lo, float(low)), max(hi, float(high))
+    span = hi - lo if hi > lo else max(abs(lo), abs(hi), 1.0)
+    return lo - LIMIT_MARGIN * span, hi + LIMIT_MARGIN * span
 
 
 def figure_png(figure: Figure) -> bytes:
@@ -129,14 +179,17 @@ def _union(keys: Iterable[Iterable[str]]) -> list[str]:
 
 
 def impact_figures(result: ResultFile) -> list[Picture]:
-    """Coupler force per coupler, then sensor acceleration per probe, then — on cars that bend — vertical
-    acceleration per probe."""
+    """Coupler force per coupler, force against closure per coupler, the energy balance, then sensor
+    acceleration per probe, then — on cars that bend — vertical acceleration per probe."""
     reference = reference_model(result)
-    styles = model_styles(result.models, reference)
+    styles = model_styles(result.models, reference, result.choice.chosen if result.choice else None)
     models = _ordered(result, reference)
     couplers = _union(m.couplers for m in models)
     probes = _union(m.probes for m in ([reference] if reference else []) + models)
     pictures = [_coupler_force_picture(c, models, reference, result, styles) for c in couplers]
+    pictures += [p for c in couplers if (p := _force_closure_picture(c, models, styles)) is not None]
+    if (energy := _energy_picture(models, reference, result, styles)) is not None:
+        pictures.append(energy)
     pictures += [_time_acceleration_picture(p, models, reference, result, styles, measured=True) for p in probes]
     bending = [p for p in probes if any("vertical_acceleration" in m.probes.get(p, {}) for m in models)]
     pictures += [_time_acceleration_picture(p, models, reference, result, styles, quantity="vertical_acceleration") for p in bending]
@@ -177,6 +230,76 @@ def _coupler_force_picture(
     return Picture(f"coupler force — {coupler}", caption + _undrawn_note(undrawn) + ".", figure_png(figure))
 
 
+def _force_closure_picture(coupler: str, models: list[ModelData], styles: dict[str, dict]) -> Picture | None:
+    """Coupler force (kN) against closure (mm), compression positive: the hysteresis loop; None when no model
+    stores the closure."""
+    drawn = [m for m in models if {"force", "closure"} <= m.couplers.get(coupler, {}).keys()
+             and np.size(m.couplers[coupler]["force"]) == np.size(m.couplers[coupler]["closure"])]
+    if not drawn:
+        return None
+    figure, (ax,) = _new_figure()
+    closures, in_contact = [], []
+    for model in drawn:
+        outputs = model.couplers[coupler]
+        closure_mm = 1e3 * np.asarray(outputs["closure"], dtype=float)
+        force = np.asarray(outputs["force"], dtype=float)
+        ax.plot(closure_mm, force / 1e3, **styles[model.name])
+        closures.append(closure_mm)
+        in_contact.append(closure_mm[force > 0.0])
+    ax.set_xlabel("closure (mm, compression +)")
+    ax.set_ylabel("coupler force (kN, compression +)")
+    ax.set_title(f"coupler {coupler}: force against closure")
+    _legend(ax)
+    caption = (
+        f"Coupler {coupler}: force against closure (hysteresis) — loading up, unloading down; the area of the loop "
+        f"is the energy the coupler dissipates. Drawn: {', '.join(m.name for m in drawn)}"
+    )
+    contact = np.concatenate(in_contact)
+    if contact.size:  # the loop fills the plot; the cars' opening after they separate runs off the left edge
+        lo, hi = min(0.0, float(contact.min())), max(0.0, float(contact.max()))
+        margin = 0.1 * ((hi - lo) or 1.0)
+        ax.set_xlim(lo - margin, hi + margin)
+        if float(np.concatenate(closures).min()) < lo - margin:
+            caption += "; x-range: the closures while in contact (the opening after separation runs off the left edge)"
+    return Picture(f"force against closure — {coupler}", caption + ".", figure_png(figure))
+
+
+def _energy_picture(models: list[ModelData], reference: ModelData | None, result: ResultFile, styles: dict[str, dict]) -> Picture | None:
+    """The energy balance: the reference's bookkeeping (kJ) against time, and every model's total minus its
+    initial total, in % of it; None when no model stores energies."""
+    with_energy = [m for m in models if "total" in m.energy]
+    if not with_energy:
+        return None
+    shown = reference if reference in with_energy else with_energy[0]
+    figure, (parts_ax, drift_ax) = _new_figure(rows=2)
+    time = _time_axis(shown, np.size(shown.energy["total"]), result, reference)
+    if time is not None:
+        for name, (label, color) in ENERGY_COMPONENTS.items():
+            if name in shown.energy:
+                width = REFERENCE_WIDTH if name == "total" else MODEL_WIDTH + 0.4
+                parts_ax.plot(time, np.asarray(shown.energy[name], dtype=float) / 1e3, color=color, lw=width, label=label)
+    undrawn = []
+    for model in with_energy:
+        total = np.asarray(model.energy["total"], dtype=float)
+        model_time = _time_axis(model, total.size, result, reference)
+        if model_time is None or total.size == 0 or total[0] == 0.0:
+            undrawn.append(model.name)
+            continue
+        drift_ax.plot(model_time, 100.0 * (total - total[0]) / total[0], **styles[model.name])
+    parts_ax.set_ylabel("energy (kJ)")
+    parts_ax.set_title(f"energy balance — {shown.name}")
+    drift_ax.set_ylabel("total − initial (% of initial)")
+    drift_ax.set_xlabel("time t (s)")
+    _legend(parts_ax)
+    _legend(drift_ax)
+    caption = (
+        f"Energy balance. Top: the {shown.name} bookkeeping against time — kinetic, strain, dissipated in the bodies, "
+        "stored and dissipated in the couplers, and their total, which a consistent run keeps at the initial kinetic "
+        "energy. Bottom: every model's total minus its initial total, in % of it"
+    )
+    return Picture("energy balance", caption + _undrawn_note(undrawn) + ".", figure_png(figure))
+
+
 def _undrawn_note(names: list[str]) -> str:
     return f"; not drawn (no time axis of matching length): {', '.join(names)}" if names else ""
 
@@ -203,6 +326,7 @@ def _time_acceleration_picture(
     that bends) at ``probe`` against time; with ``measured``, the reference's measured record thinner."""
     figure, (ax,) = _new_figure()
     undrawn = []
+    curves: list[tuple[str, NDArray, NDArray, str]] = []  # name, time, values, colour
     for model in models:
         if quantity not in model.probes.get(probe, {}):
             continue
@@ -212,10 +336,13 @@ def _time_acceleration_picture(
             undrawn.append(model.name)
         else:
             ax.plot(time, acceleration, **styles[model.name])
+            curves.append((model.name, time, acceleration, styles[model.name]["color"]))
     shows_measured = measured and reference is not None and probe in reference.measured and reference.measured_time is not None
     if shows_measured:
         record = {"color": "#7f7f7f", "lw": MEASURED_WIDTH, "zorder": 2.5, "label": f"{reference.name} measured"}
         ax.plot(reference.measured_time, reference.measured[probe], **record)
+        curves.append((f"{reference.name} measured", reference.measured_time, np.asarray(reference.measured[probe], dtype=float), record["color"]))
+    limits_note = _limit_and_mark(ax, curves, reference.name if reference is not None else None, "m/s²")
     vertical = quantity == "vertical_acceleration"
     ax.set_xlabel("time t (s)")
     ax.set_ylabel("vertical acceleration (m/s², up +)" if vertical else "acceleration (m/s²)")
@@ -225,7 +352,34 @@ def _time_acceleration_picture(
     if shows_measured:
         caption += f"; thin grey: the {reference.name} record through the measurement chain"
     title = f"{'vertical acceleration' if vertical else 'acceleration'} — {probe}"
-    return Picture(title, caption + _undrawn_note(undrawn) + ".", figure_png(figure))
+    return Picture(title, caption + _undrawn_note(undrawn) + limits_note + ".", figure_png(figure))
+
+
+def _limit_and_mark(ax, curves: list[tuple[str, NDArray, NDArray, str]], reference: str | None, unit: str) -> str:
+    """Set the y-limits of ``ax`` by :func:`robust_limits` (reference: the curve named ``reference``), mark every
+    clipped sample by a triangle on the edge, and return the caption's sentence on both ("" without a reference)."""
+    ref = next((values for name, _, values, _ in curves if name == reference), None)
+    limits = robust_limits(ref, [values for name, _, values, _ in curves if name != reference])
+    if limits is None:
+        return ""
+    lo, hi = limits
+    ax.set_ylim(lo, hi)
+    clipped = []
+    for name, time, values, color in curves:
+        above, below = values > hi, values < lo
+        if not (above.any() or below.any()):
+            continue
+        for mask, edge, marker in ((above, hi, "^"), (below, lo, "v")):
+            if mask.any():
+                ax.plot(time[mask], np.full(np.count_nonzero(mask), edge), ls="none", marker=marker, ms=5, color=color, clip_on=False, zorder=5)
+        clipped.append(f"{name} ({np.nanmin(values):.3g} to {np.nanmax(values):.3g} {unit})")
+    note = (
+        f"; y-range {lo:.3g} to {hi:.3g} {unit} set by {reference} (its 0.5–99.5 % quantiles) and the others' "
+        f"5–95 % quantiles, with a {100 * LIMIT_MARGIN:.0f} % margin"
+    )
+    if clipped:
+        note += f"; clipped, marked by triangles on the edge: {', '.join(clipped)}"
+    return note
 
 
 # --- one body ------------------------------------------------------------------------

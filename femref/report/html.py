@@ -1,18 +1,27 @@
-"""The self-contained report page: facts, score table, failed models, plots, field map, case.
+"""The self-contained report page: facts, model choice, scores, failed models, plots, field map, case.
 
 The page is XHTML-compatible HTML5 (void elements self-closed, every text escaped with
-:func:`html.escape`), has no scripts and no external files: images are PNG data URIs.
+:func:`html.escape`), has no scripts and no external files: images are PNG data URIs. It
+names files by their name (or their path below the result file's folder), never by a
+local absolute path (:func:`hide_local_paths`).
+
+Scores (``<quantity>_<statistic>_error_<item>``, :mod:`femref.run.scoring`) are grouped so
+that they read at laptop width: a summary table (reference, wall time, speed-up and every
+worst-item aggregate ``…_error_max``), then one small table per coupler and per probe.
 """
 
 from __future__ import annotations
 
 import base64
 import math
+import re
+from dataclasses import dataclass, replace
 from html import escape
+from pathlib import Path, PurePosixPath
 from typing import Any, Iterable
 
 from femref.report.figures import Picture
-from femref.report.read import Epsilon, ResultFile
+from femref.report.read import Choice, Epsilon, ResultFile
 from femref.results import UNDEFINED
 
 STYLE = """
@@ -21,9 +30,15 @@ h1 { font-size: 1.5em; } h2 { font-size: 1.2em; border-bottom: 1px solid #ccc; m
 table { border-collapse: collapse; font-size: 0.85em; }
 th, td { border: 1px solid #ccc; padding: 0.25em 0.5em; }
 th { background: #f3f3f3; vertical-align: bottom; max-width: 7em; }
+th[scope="row"] { max-width: none; text-align: left; white-space: nowrap; }
 td.num { text-align: right; white-space: nowrap; font-variant-numeric: tabular-nums; }
 table.facts th { text-align: left; max-width: none; }
 div.wide { overflow-x: auto; }
+table.scores { margin: 0.4em 0 0.8em; } table.scores caption { text-align: left; font-weight: 600; padding: 0.2em 0; }
+details { margin: 0.6em 0; } details > summary { cursor: pointer; font-weight: 600; }
+div.items { display: flex; flex-wrap: wrap; gap: 0 1.5em; align-items: flex-start; }
+tr.chosen th, tr.chosen td { background: #eef6e8; font-weight: 600; }
+p.verdict { font-size: 1.05em; }
 figure { margin: 1em 0; } figure img { max-width: 100%; height: auto; border: 1px solid #eee; }
 figcaption { font-size: 0.85em; color: #555; }
 p.problem { color: #a33; }
@@ -31,23 +46,38 @@ pre { background: #f7f7f7; padding: 0.8em; overflow-x: auto; font-size: 0.85em; 
 """.strip()
 
 LEADING_METRICS = ("reference", "wall_time_s", "speedup")
+METRIC_NAME = re.compile(r"^(?P<quantity>.+?)_(?P<statistic>max|rms|peak_time|peak)_error_(?P<item>.+)$")
+QUANTITY_LABELS = {
+    "coupler_force": "force",
+    "acceleration": "acceleration",
+    "vertical_acceleration": "vertical acceleration",
+    "pitch_rate": "pitch rate",
+    "axial_force": "axial force",
+}
+STATISTIC_LABELS = {"peak": "peak error", "peak_time": "peak time error", "rms": "rms error", "max": "max error"}
+COUPLER_QUANTITY = "coupler_force"
+LOCAL_PATH = re.compile(r"(?<![\w.~/-])(?:/[^\s/'\",:{}\[\]<>]+){2,}")
+"""An absolute POSIX path of at least two components, not part of a longer word (``m/s`` is not one)."""
 
 
 def render_page(result: ResultFile, plots: list[Picture], field_maps: list[Picture]) -> str:
     """The whole page as one string."""
     title = f"femref report — {result.path.name}"
-    body = [
-        f"<h1>{escape(title)}</h1>",
-        _facts(result, result.epsilon),
-        "<h2>Scores</h2>",
-        _score_table(result.scores),
-        _models_section(result),
-        "<h2>Plots</h2>",
+    folder = result.path.resolve().parent
+    body = [f"<h1>{escape(title)}</h1>", _facts(result, result.epsilon)]
+    if result.choice is not None:
+        body += ['<h2 id="choice">Model choice</h2>', _choice_section(result.choice)]
+    body += [
+        '<h2 id="scores">Scores</h2>',
+        _scores_section(result),
+        _models_section(result, folder),
+        '<h2 id="plots">Plots</h2>',
         _pictures(plots, "no plots: the file holds no model output to draw"),
     ]
-    if field_maps:
-        body += ["<h2>FEM field</h2>", _pictures(field_maps, "")]
-    body += ["<h2>Resolved case</h2>", f"<pre>{escape(result.case_yaml)}</pre>"]
+    if field_maps:  # a rendering failure's message may quote a library's path
+        field_maps = [replace(p, problem=hide_local_paths(p.problem, folder)) for p in field_maps]
+        body += ['<h2 id="field">FEM field</h2>', _pictures(field_maps, "")]
+    body += ['<h2 id="case">Resolved case</h2>', f"<pre>{escape(hide_local_paths(result.case_yaml, folder))}</pre>"]
     head = f'<head><meta charset="utf-8"/><title>{escape(title)}</title><style>{STYLE}</style></head>'
     return "<!DOCTYPE html>\n<html lang=\"en\">\n" + head + "\n<body>\n" + "\n".join(body) + "\n</body>\n</html>\n"
 
@@ -58,7 +88,7 @@ def _facts(result: ResultFile, epsilon: Epsilon) -> str:
     else:
         eps = f"not available: {epsilon.problem}"
     rows = [
-        ("result file", str(result.path)),
+        ("result file", result.path.name),
         ("scene", result.kind),
         ("ε", eps),
         ("femref version", result.femref_version),
@@ -68,13 +98,141 @@ def _facts(result: ResultFile, epsilon: Epsilon) -> str:
     return f'<table class="facts">{cells}</table>'
 
 
+def hide_local_paths(text: str, folder: Path) -> str:
+    """``text`` with every absolute path shown relative to ``folder`` (the result file's) when below it, else by
+    its file name: a page carries no local path."""
+
+    def shown(match: re.Match) -> str:
+        path = PurePosixPath(match.group(0))
+        try:
+            return path.relative_to(folder.as_posix()).as_posix()
+        except ValueError:
+            return path.name
+
+    return LOCAL_PATH.sub(shown, text)
+
+
+# --- model choice ------------------------------------------------------------------
+
+
+def _choice_section(choice: Choice) -> str:
+    """The chosen model, its estimate against the tolerance, and the ladder climbed."""
+    verdict = "within" if choice.met else "NOT within"
+    what = f"{choice.output} ({choice.output_description})" if choice.output_description else choice.output
+    sentence = (
+        f"Chosen model: <strong>{escape(choice.chosen)}</strong> — estimated error "
+        f"<strong>{escape(_percent(choice.estimate))}</strong> of {escape(what)}, {verdict} the tolerance "
+        f"<strong>{escape(_percent(choice.tolerance))}</strong>"
+        + (f" (basis: {escape(choice.basis)})" if choice.basis else "")
+        + "."
+    )
+    if not choice.met:
+        sentence += " No rung of the ladder is expected within the tolerance; the most accurate run is kept."
+    if math.isfinite(choice.epsilon_load):
+        sentence += f" ε_load = {choice.epsilon_load:.3g} (from the rigid and quasi-rigid runs)."
+    columns = ("", "rung", "family", "resolution", "predicted cost", "wall time", "peak force (kN)", "estimated error", "basis")
+    header = "".join(f"<th>{escape(c)}</th>" for c in columns)
+    rows = []
+    for rung in choice.rungs:
+        chosen = rung.label == choice.chosen
+        cells = [
+            "→" if chosen else "",
+            rung.label,
+            rung.family,
+            str(rung.resolution) if rung.resolution else "–",
+            f"{rung.predicted_cost_us * 1e-3:.3g} ms" if math.isfinite(rung.predicted_cost_us) else "–",
+            _seconds(rung.wall_time_s) if rung.ran else "not run",
+            f"{rung.peak_coupler_force / 1e3:.1f}" if math.isfinite(rung.peak_coupler_force) else "–",
+            _percent(rung.estimate),
+        ]
+        numeric = "".join(f'<td class="num">{escape(c)}</td>' for c in cells[3:])
+        basis = rung.basis if not rung.status or rung.status == "ok" else f"{rung.status}: {rung.basis}"
+        row_class = ' class="chosen"' if chosen else ""
+        rows.append(
+            f'<tr{row_class}><td>{escape(cells[0])}</td><th scope="row">{escape(cells[1])}</th>'
+            f"<td>{escape(cells[2])}</td>{numeric}"
+            f"<td>{escape(basis)}</td></tr>"
+        )
+    note = (
+        "<p>The ladder, cheapest predicted cost first (the cost model's time on the machine that fitted it: only "
+        "ratios matter); resolution: elements per car (fem) or modes (modal); → marks the chosen rung; not run: the "
+        "climb did not need the rung. A tolerance run stores no scores against a reference: each run's error is "
+        "estimated instead.</p>"
+    )
+    table = f'<table class="ladder"><thead><tr>{header}</tr></thead><tbody>{"".join(rows)}</tbody></table>'
+    return f'<p class="verdict">{sentence}</p>\n{note}\n<div class="wide">{table}</div>'
+
+
+def _percent(value: float) -> str:
+    return f"{100.0 * value:.3g} %" if math.isfinite(value) else "–"
+
+
+# --- scores ------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class MetricName:
+    """A score attribute's name split as ``<quantity>_<statistic>_error_<item>`` (None parts: not of that form)."""
+
+    name: str
+    quantity: str | None = None
+    statistic: str | None = None
+    item: str | None = None
+
+    @classmethod
+    def parse(cls, name: str) -> "MetricName":
+        found = METRIC_NAME.match(name)
+        return cls(name, *found.group("quantity", "statistic", "item")) if found else cls(name)
+
+    @property
+    def aggregate(self) -> bool:
+        """The maximum over the items (``…_error_max``)."""
+        return self.item == "max"
+
+    @property
+    def of_coupler(self) -> bool:
+        return self.quantity == COUPLER_QUANTITY
+
+    def label(self) -> str:
+        """A short column header, e.g. ``force peak error (worst coupler)``, ``measured acceleration rms error``."""
+        if self.quantity is None:
+            return {"wall_time_s": "wall time", "speedup": "speed-up"}.get(self.name, self.name.replace("_", " "))
+        base = self.quantity.removeprefix("measured_")
+        quantity = ("measured " if base != self.quantity else "") + QUANTITY_LABELS.get(base, base.replace("_", " "))
+        text = f"{quantity} {STATISTIC_LABELS.get(self.statistic, self.statistic)}"
+        return f"{text} (worst {'coupler' if self.of_coupler else 'probe'})" if self.aggregate else text
+
+    def order(self) -> tuple:
+        """Sort key: couplers first, then quantities as listed, simulated before measured, statistics as listed."""
+        base = (self.quantity or "").removeprefix("measured_")
+        quantities = list(QUANTITY_LABELS)
+        return (
+            base != COUPLER_QUANTITY,
+            (self.quantity or "").startswith("measured_"),
+            quantities.index(base) if base in quantities else len(quantities),
+            base,
+            list(STATISTIC_LABELS).index(self.statistic) if self.statistic in STATISTIC_LABELS else len(STATISTIC_LABELS),
+        )
+
+
 def metric_columns(scores: dict[str, dict[str, Any]]) -> list[str]:
-    """Score attributes as columns: reference, wall time, speed-up, the ``_max`` aggregates, then the rest."""
+    """The summary's columns: reference, wall time, speed-up, the worst-item aggregates, then any attribute that
+    is not a per-item error."""
     names = {name for metrics in scores.values() for name in metrics} - {UNDEFINED}
+    parsed = [MetricName.parse(n) for n in names]
     leading = [n for n in LEADING_METRICS if n in names]
-    aggregates = sorted(n for n in names if n.endswith("_max") and n not in leading)
-    rest = sorted(names - set(leading) - set(aggregates))
+    aggregates = [m.name for m in sorted((m for m in parsed if m.aggregate), key=lambda m: (m.order(), m.name))]
+    rest = sorted(m.name for m in parsed if m.quantity is None and m.name not in leading)
     return leading + aggregates + rest
+
+
+def item_columns(scores: dict[str, dict[str, Any]]) -> dict[str, list[str]]:
+    """Per-item errors grouped by item (a coupler or a probe; couplers first, then probes in order of
+    appearance), each item's metrics in the summary's order."""
+    parsed = [MetricName.parse(n) for metrics in scores.values() for n in metrics if n != UNDEFINED]
+    per_item = list({m.name: m for m in parsed if m.item is not None and not m.aggregate}.values())
+    items = sorted(dict.fromkeys(m.item for m in per_item), key=lambda item: not any(m.of_coupler for m in per_item if m.item == item))
+    return {item: [m.name for m in sorted((m for m in per_item if m.item == item), key=lambda m: (m.order(), m.name))] for item in items}
 
 
 def format_metric(name: str, value: Any) -> str:
@@ -94,21 +252,44 @@ def format_metric(name: str, value: Any) -> str:
     return f"{value:.4g}"
 
 
-def _score_table(scores: dict[str, dict[str, Any]]) -> str:
+def _scores_section(result: ResultFile) -> str:
+    scores = result.scores
     if not scores:
+        if result.choice is not None:
+            return "<p>No scores: a tolerance run estimates each run's error instead (Model choice above).</p>"
         return "<p>No scores in the file (no reference model ran, or only one model).</p>"
-    columns = metric_columns(scores)
-    header = "<th>model</th>" + "".join(f'<th title="{escape(c)}">{escape(c.replace("_", " "))}</th>' for c in columns)
-    rows = []
-    for model, metrics in scores.items():
-        reasons = undefined_reasons(metrics)
-        cells = "".join(_score_cell(c, metrics, reasons) for c in columns)
-        rows.append(f"<tr><th>{escape(model)}</th>{cells}</tr>")
     note = (
         "<p>Relative errors in %; peak-time errors signed, in ms; speed-up = reference wall time / model wall time; "
-        "n/a = undefined: the reference signal vanishes (hover for the reason).</p>"
+        "n/a = undefined: the reference signal vanishes (hover for the reason). The summary shows each error's worst "
+        "coupler or probe; the tables below give every coupler and probe.</p>"
     )
-    return f'{note}<div class="wide"><table class="scores"><thead><tr>{header}</tr></thead><tbody>{"".join(rows)}</tbody></table></div>'
+    parts = [note, _score_table(scores, metric_columns(scores), "summary", "summary")]
+    items = item_columns(scores)
+    couplers = {item: names for item, names in items.items() if any(MetricName.parse(n).of_coupler for n in names)}
+    probes = {item: names for item, names in items.items() if item not in couplers}
+    for kind, group, is_open in (("coupler", couplers, True), ("probe", probes, False)):
+        if not group:
+            continue
+        tables = "".join(_score_table(scores, names, f"{kind} {item}", "item") for item, names in group.items())
+        heading = f"Per {kind} ({len(group)}): {', '.join(group)}"
+        opened = ' open="open"' if is_open else ""
+        parts.append(f'<details{opened} class="{kind}s"><summary>{escape(heading)}</summary><div class="items">{tables}</div></details>')
+    return "\n".join(parts)
+
+
+def _score_table(scores: dict[str, dict[str, Any]], columns: list[str], caption: str, kind: str) -> str:
+    header = "<th>model</th>" + "".join(f'<th title="{escape(c)}">{escape(MetricName.parse(c).label())}</th>' for c in columns)
+    rows = []
+    for model, metrics in scores.items():
+        if not any(c in metrics for c in columns):
+            continue
+        reasons = undefined_reasons(metrics)
+        cells = "".join(_score_cell(c, metrics, reasons) for c in columns)
+        rows.append(f'<tr><th scope="row">{escape(model)}</th>{cells}</tr>')
+    return (
+        f'<div class="wide"><table class="scores {kind}"><caption>{escape(caption)}</caption>'
+        f'<thead><tr>{header}</tr></thead><tbody>{"".join(rows)}</tbody></table></div>'
+    )
 
 
 def undefined_reasons(metrics: dict[str, Any]) -> dict[str, str]:
@@ -125,16 +306,19 @@ def _score_cell(column: str, metrics: dict[str, Any], reasons: dict[str, str]) -
     return f'<td class="num"{title}>{escape(format_metric(column, metrics[column]))}</td>'
 
 
-def _models_section(result: ResultFile) -> str:
+def _models_section(result: ResultFile, folder: Path) -> str:
     """Every model's status and wall time; failed models listed with their message."""
+    chosen = result.choice.chosen if result.choice is not None else None
     rows = "".join(
-        f"<tr><th>{escape(m.name)}</th><td>{escape(m.status)}</td><td class=\"num\">{escape(_seconds(m.wall_time_s))}</td></tr>"
+        f'<tr><th scope="row">{escape(m.name)}{" (chosen)" if m.name == chosen else ""}</th>'
+        f"<td>{escape(m.status)}</td>"
+        f"<td class=\"num\">{escape(_seconds(m.wall_time_s))}</td></tr>"
         for m in result.models.values()
     )
-    parts = ["<h2>Models</h2>", f"<table><thead><tr><th>model</th><th>status</th><th>wall time</th></tr></thead><tbody>{rows}</tbody></table>"]
+    parts = ['<h2 id="models">Models</h2>', f"<table><thead><tr><th>model</th><th>status</th><th>wall time</th></tr></thead><tbody>{rows}</tbody></table>"]
     failed = result.failed_models
     if failed:
-        items = "".join(f"<li><strong>{escape(m.name)}</strong>: {escape(m.message or '(no message)')}</li>" for m in failed)
+        items = "".join(f"<li><strong>{escape(m.name)}</strong>: {escape(hide_local_paths(m.message, folder) or '(no message)')}</li>" for m in failed)
         parts += ["<h3>Failed models</h3>", f'<ul class="failed">{items}</ul>']
     return "\n".join(parts)
 

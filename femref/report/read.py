@@ -18,6 +18,7 @@ import yaml
 from numpy.typing import NDArray
 
 from femref.core.catalog import CHOICE_GROUP, SCENE_GROUP, SCORES_GROUP
+from femref.results import AXIS_NAMES, field_files_match
 
 FAILED = "failed"
 
@@ -34,7 +35,9 @@ class ModelData:
     none (a peak-only network estimator, or a model sharing the reference's time grid).
     ``probes`` maps a probe name (``<car>/<sensor>`` in impacts) to its outputs;
     ``couplers`` maps a coupler to ``force`` (N, history) and/or ``peak_force`` (N, a
-    scalar array); ``measured`` holds the measurement chain's records and their ``time``.
+    scalar array; impacts also ``closure``, m, compression positive); ``measured`` holds the
+    measurement chain's records and their ``time``; ``energy`` the energy bookkeeping (J; impacts:
+    ``kinetic``, ``strain``, ``body_dissipated``, ``coupler_stored``, ``coupler_dissipated``, ``total``).
     """
 
     name: str
@@ -48,10 +51,46 @@ class ModelData:
     measured_time: NDArray | None = None
     measured: dict[str, NDArray] = field(default_factory=dict)
     fields: dict[str, NDArray] = field(default_factory=dict)
+    energy: dict[str, NDArray] = field(default_factory=dict)
 
     @property
     def ok(self) -> bool:
         return self.status != FAILED
+
+
+@dataclass(frozen=True)
+class Rung:
+    """One rung of a tolerance run's ladder (``/choice``, one row of its datasets), cheapest first."""
+
+    label: str
+    family: str
+    resolution: int
+    predicted_cost_us: float
+    ran: bool
+    status: str
+    wall_time_s: float
+    peak_coupler_force: float
+    estimate: float
+    basis: str
+
+
+@dataclass(frozen=True)
+class Choice:
+    """A tolerance run's model choice (``/choice``, written by :mod:`femref.choice.output`).
+
+    ``estimate`` is the chosen run's estimated relative error of ``output``; ``met`` whether
+    it is within ``tolerance``; ``rungs`` the ladder, cheapest first.
+    """
+
+    tolerance: float
+    output: str
+    output_description: str
+    chosen: str
+    met: bool
+    estimate: float
+    basis: str
+    epsilon_load: float
+    rungs: list[Rung]
 
 
 @dataclass(frozen=True)
@@ -74,6 +113,8 @@ class ResultFile:
     models: dict[str, ModelData]
     scores: dict[str, dict[str, Any]]
     epsilon: Epsilon
+    choice: Choice | None = None
+    field_file_problems: tuple[str, ...] = ()  # ParaView field files beside the result that are not its own (femref.results.field_files_match)
 
     @property
     def ok_models(self) -> list[ModelData]:
@@ -109,6 +150,10 @@ def _read_open_file(path: Path, h5: h5py.File) -> ResultFile:
         for name, group in h5.items()
         if name not in (SCORES_GROUP, SCENE_GROUP, CHOICE_GROUP) and isinstance(group, h5py.Group)
     }
+    choice = _choice(h5[CHOICE_GROUP]) if isinstance(h5.get(CHOICE_GROUP), h5py.Group) else None
+    if choice is not None:  # a tolerance run's models in the ladder's order, cheapest first
+        order = {rung.label: k for k, rung in enumerate(choice.rungs)}
+        models = dict(sorted(models.items(), key=lambda item: order.get(item[0], len(order))))
     scores = {}
     if SCORES_GROUP in h5:
         scores = {name: {k: _attr_value(v) for k, v in group.attrs.items()} for name, group in h5[SCORES_GROUP].items()}
@@ -121,6 +166,8 @@ def _read_open_file(path: Path, h5: h5py.File) -> ResultFile:
         models=models,
         scores=scores,
         epsilon=_epsilon(h5),
+        choice=choice,
+        field_file_problems=tuple(field_files_match(path)),
     )
 
 
@@ -139,6 +186,47 @@ def _read_model(name: str, group: h5py.Group) -> ModelData:
         measured_time=group["measured/time"][()] if "measured/time" in group else None,
         measured={k: v["acceleration"] for k, v in measured.items()},
         fields={k: v[()] for k, v in group["fields"].items()} if "fields" in group else {},
+        energy={k: v[()] for k, v in group["energy"].items() if isinstance(v, h5py.Dataset) and k not in AXIS_NAMES} if "energy" in group else {},
+    )
+
+
+def _choice(group: h5py.Group) -> Choice:
+    """``/choice``: its attributes and one :class:`Rung` per row of its datasets (missing columns read as unknown)."""
+    labels = [_text(v) for v in group["label"][()]] if "label" in group else []
+    n = len(labels)
+
+    def column(name: str, default: Any) -> list:
+        if name not in group or group[name].shape != (n,):
+            return [default] * n
+        values = group[name][()]
+        return [_text(v) if isinstance(v, bytes) else v.item() if isinstance(v, np.generic) else v for v in values]
+
+    rungs = [
+        Rung(label, family, int(resolution), float(cost), bool(ran), status, float(wall), float(peak), float(estimate), basis)
+        for label, family, resolution, cost, ran, status, wall, peak, estimate, basis in zip(
+            labels,
+            column("family", ""),
+            column("resolution", 0),
+            column("predicted_cost", math.nan),
+            column("ran", False),
+            column("status", ""),
+            column("wall_time_s", math.nan),
+            column("peak_coupler_force", math.nan),
+            column("estimate", math.inf),
+            column("basis", ""),
+        )
+    ]
+    attrs = {k: _attr_value(v) for k, v in group.attrs.items()}
+    return Choice(
+        tolerance=float(attrs.get("tolerance", math.nan)),
+        output=str(attrs.get("output", "")),
+        output_description=str(attrs.get("output_description", "")),
+        chosen=str(attrs.get("chosen", "")),
+        met=bool(attrs.get("met", False)),
+        estimate=float(attrs.get("estimate", math.inf)),
+        basis=str(attrs.get("basis", "")),
+        epsilon_load=float(attrs.get("epsilon_load", math.nan)),
+        rungs=rungs,
     )
 
 
@@ -153,6 +241,8 @@ def _datasets_by_parent(group: h5py.Group, only: str | None) -> dict[str, dict[s
     def visit(name: str, obj: Any) -> None:
         if isinstance(obj, h5py.Dataset) and "/" in name:
             parent, leaf = name.rsplit("/", 1)
+            if leaf in AXIS_NAMES:  # the model's axis, linked into each history group as its coordinate
+                return
             if only is None or leaf == only:
                 found.setdefault(parent, {})[leaf] = obj[()]
 

@@ -159,7 +159,18 @@ def _estimates(scene: MeasuredScene, name: str, t: NDArray[np.float64], records:
     elapsed = _time.perf_counter() - started
     for estimate in estimates:
         estimate.wall_time_s = elapsed / len(estimates)
+        _fail_if_not_finite(estimate)
     return estimates
+
+
+def _fail_if_not_finite(estimate: ForceEstimate) -> None:
+    """An ok estimate whose force history holds NaN or infinity is failed, with no number (``ForceEstimate``)."""
+    bad = np.flatnonzero(~np.isfinite(estimate.force))
+    if estimate.ok and bad.size:
+        estimate.status = "failed"
+        estimate.message = f"the {estimate.estimator} force is not finite (NaN or infinity) at {bad.size} of {estimate.force.size} samples, from t = {estimate.time[bad[0]]:g} s"
+        estimate.force = np.full(estimate.force.shape, np.nan)
+        estimate.lower, estimate.upper = estimate.force.copy(), estimate.force.copy()
 
 
 def kalman_estimate(scene: MeasuredScene, t: NDArray[np.float64], records: dict[str, NDArray[np.float64]], noise_std: dict[str, float]) -> ForceEstimate:

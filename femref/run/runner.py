@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import time
 from dataclasses import dataclass
 from typing import Any, Callable
@@ -35,8 +36,9 @@ from femref.impact import ImpactResponse, solve_impact
 from femref.models import Progress, model_form
 from femref.models.inverse import ESTIMATORS
 from femref.results import ModelResult
+from femref.run.budget import check_budget, resolution_warnings
 from femref.run.capture import capture
-from femref.run.scoring import score_results
+from femref.run.scoring import reference_error_estimate, score_results
 from femref.run.timestep import impact_time_step, single_body_time_step
 from femref.scene import ImpactScene, ModelRun, Scene
 from femref.sensing.impact_type import classify_records
@@ -67,6 +69,7 @@ def run_scene(scene: Scene | ImpactScene, progress_for: ProgressFor | None = Non
     def progress(name: str) -> Progress | None:
         return progress_for(name) if progress_for else None
 
+    check_budget(scene)  # before any work: a case over the work budget is a CaseError (femref.run.budget)
     if isinstance(scene, ImpactScene):
         return _run_impact(scene, progress)
     if scene.kind not in catalog.SINGLE_BODY_KINDS:
@@ -85,7 +88,44 @@ def _run_impact(scene: ImpactScene, progress: Callable[[str], Progress | None]) 
     if reference is not None:
         results.extend(run_estimators(scene, reference))
         results.extend(run_networks(scene, reference))
-    return RunOutcome(scene, results, score_results(scene.kind, results))
+    scores = score_results(scene.kind, results)
+    if reference is not None:
+        scores.update(check_reference(scene, reference))
+    return RunOutcome(scene, results, scores)
+
+
+#: Set to 1 to check the reference's discretisation on every impact run (:func:`check_reference`).
+SELF_CHECK_VARIABLE = "FEMREF_SELF_CHECK"
+
+
+def check_reference(scene: ImpactScene, reference: ModelResult) -> dict[str, dict[str, Any]]:
+    """The fem reference checks itself when the case's ``time.dt`` or ``fem.elements`` under-resolves it
+    (:func:`femref.run.budget.resolution_warnings`) or ``FEMREF_SELF_CHECK=1`` asks: the fem run again at
+    half the step (and twice the elements when the mesh is too coarse), and the Richardson estimate of the
+    reference's own relative peak-force error (:func:`femref.run.scoring.reference_error_estimate`, order 2).
+    Returns ``{"fem": scores}`` with ``reference_error_estimate`` (the worst coupler) and the warning, and
+    records them in the fem result's settings; ``{}`` when there is nothing to check. Never raises."""
+    warnings = resolution_warnings(scene)
+    if not warnings and os.environ.get(SELF_CHECK_VARIABLE, "").strip() not in ("1", "true", "yes"):
+        return {}
+    mesh = any(w.startswith("fem.elements") for w in warnings)
+    dt = float(reference.settings["dt"])
+    fem = dataclasses.replace(scene.fem, elements=2 * scene.fem.elements) if mesh else scene.fem
+    finer = dataclasses.replace(scene, dt=dt / 2.0, fem=fem)
+    run = next(r for r in scene.runs if r.name == reference.model)
+    check = run_model(finer, run, dt / 2.0, "half the reference's step")
+    text = "; ".join(warnings) or f"asked by {SELF_CHECK_VARIABLE}"
+    if not check.ok:
+        reference.settings["reference_check"] = {"warning": text, "message": f"the finer fem run failed: {check.message}"}
+        return {reference.model: {"reference": f"{reference.model} at dt/2", "reference_warning": text}}
+    estimates = reference_error_estimate(reference, check)
+    worst = max(estimates.values(), key=abs, default=math.nan)
+    refined = {"dt": dt / 2.0, "elements": fem.elements, "wall_time_s": check.wall_time_s}
+    reference.settings["reference_check"] = {"warning": text, "refined": refined, "reference_error_estimate": worst}
+    scores: dict[str, Any] = {"reference": f"{reference.model} at dt/2" + (" and 2× elements" if mesh else ""), "reference_warning": text,
+                              "reference_error_estimate": worst, "wall_time_s": check.wall_time_s}
+    scores.update({f"reference_error_estimate_{c}": e for c, e in estimates.items()})
+    return {reference.model: scores}
 
 
 def _run_single_body(scene: Scene, progress: Callable[[str], Progress | None]) -> RunOutcome:
@@ -211,7 +251,7 @@ def run_estimators(scene: ImpactScene, reference: ModelResult) -> list[ModelResu
         result = ModelResult(name, settings={"records": _records_source(reference)})
         result.axes = {"time": t}
         result.couplers = {c: {"force": f} for c, f in ESTIMATORS[name](scene, t, records).items()}
-        return result
+        return _failed_if_not_finite(result)
 
     return [capture(name, lambda name=name: estimate(name)) for name in scene.estimators]
 
@@ -241,9 +281,29 @@ def run_networks(scene: ImpactScene, reference: ModelResult) -> list[ModelResult
         peak = network.peak_force(t, records, masses)
         result = ModelResult(estimator.name, settings={**settings, **network.settings})
         result.couplers = {network.coupler: {"peak_force": np.array(peak)}}
-        return result
+        return _failed_if_not_finite(result)
 
     return [capture(network.name, lambda network=network: estimate(network)) for network in scene.networks]
+
+
+def _failed_if_not_finite(result: ModelResult) -> ModelResult:
+    """An estimate with a NaN or infinite force (history or peak) is a failed result, never ok.
+
+    It keeps its values, as a failed model run keeps its histories; the message names the coupler
+    outputs that hold them and where the first one is.
+    """
+    bad = []
+    for coupler, outputs in result.couplers.items():
+        for key, values in outputs.items():
+            values = np.asarray(values, dtype=float)
+            where = np.flatnonzero(~np.isfinite(values))
+            if where.size:
+                at = f" from sample {where[0]} of {values.size}" if values.ndim else ""
+                bad.append(f"{coupler} {key} ({where.size} value(s){at})")
+    if bad:
+        result.status = "failed"
+        result.message = f"the estimate is not finite (NaN or infinity): {'; '.join(bad)}"
+    return result
 
 
 def _records_source(reference: ModelResult) -> str:

@@ -157,7 +157,10 @@ def read_network(path: str | os.PathLike) -> tuple["Estimator", NetworkContract]
     Raises :class:`NetworkFileError` (a ValueError) for a missing or unreadable file, a
     file that is not an ``ann.storage`` model file (or of another format version), a
     metadata contract that is broken (module docstring), or a pipeline that does not
-    read the records the contract describes (rate, channels, samples).
+    read the records the contract describes (rate, channels, samples). ``ann.storage``
+    checks the file before allocating its arrays — unknown or oversize members, array
+    headers that ask for more than the file holds, shapes that do not fit together,
+    NaN or infinite weights — and each of those is a ``NetworkFileError`` here too.
     """
     from ann.storage import load_estimator
 

@@ -13,8 +13,6 @@ import femref.results
 from femref.case.defaults import default_scene_data
 from femref.cli import main
 
-from support.paths import CASES
-
 
 @pytest.fixture
 def runner():

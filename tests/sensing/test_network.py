@@ -27,6 +27,7 @@ import ann.storage as storage
 from ann.features import FeaturePipeline, FeatureSettings
 from ann.networks import RBFNetwork
 from support.case_helpers import DELETE, edited_copy
+from support.network_case import PROBES, TWO_CARS
 from femref.case import CaseError, load_case, parse_case, resolved_yaml
 from femref.cli import main
 from femref.sensing.records import acceleration_histories, fixed_length_records, record_rate
@@ -35,28 +36,12 @@ from femref.run.scoring import score_impact, score_peak_estimates
 from femref.results import ModelResult
 from femref.scene.build import scene_from_case
 
-PROBES = ["hammer/center", "hammer/front", "anvil/rear", "anvil/center"]
 RECORD_LENGTH, RECORD_END = 64, 0.25
 CHAIN = {"rate": 1000.0, "lowpass": 100.0, "noise": 0.05, "seed": 1}
 
 #: A two-car free-roll impact, coarse fem (fast), records through a measurement chain.
 CASE: dict[str, Any] = {
-    "kind": "impact",
-    "cars": [
-        {
-            "name": "hammer",
-            "body": {"type": "rod", "length": 17.0, "mass_per_length": 7000.0, "axial_stiffness": 3.0e9, "axial_viscosity": 2.0e6},
-            "velocity": 2.2,
-            "sensors": {"center": 0.0, "front": 8.0},
-        },
-        {
-            "name": "anvil",
-            "body": {"type": "rod", "length": 15.0, "mass_per_length": 6500.0, "axial_stiffness": 3.0e9, "axial_viscosity": 2.0e6},
-            "velocity": 0.0,
-            "sensors": {"center": 0.0, "rear": -7.0},
-        },
-    ],
-    "couplers": [{"name": "c1", "between": ["hammer", "anvil"], "law": {"kelvin_voigt": {"stiffness": 4.0e7, "damping": 3.0e5}}}],
+    **TWO_CARS,
     "time": {"end": RECORD_END},
     "models": ["fem", "rigid"],
     "fem": {"elements": 8, "order": 1},

@@ -4,15 +4,21 @@ The study runs on a real 2-worker loopback LocalCluster: the three sweeps, six n
 (mlp and rbf on fem, quasi_rigid and rigid records), the inverse estimators, ``study.h5``
 and ``study.md``. The full study (``femref study cases/studies/ann_study.yaml``) is in the README.
 
-What the reduced study must already show, with 200 training impacts on a coarse mesh:
-the fem-trained MLP estimates the held-out fem peak force to a few per cent, and better
-than the MLP trained on rigid-model records (the source study's point). Its networks are
-usable by ``femref run``.
+Two sizes. The default run's ``quick`` study (100 training impacts) and the ``reduced`` one
+(200, marked slow: ``make test-slow``) make the same assertions, each with its own measured
+tolerance. What they must already show on a coarse mesh: the fem-trained MLP estimates the
+held-out fem peak force to a few per cent, and better than the MLP trained on rigid-model
+records (the source study's point). Its networks are usable by ``femref run``.
+
+The networks train with one BLAS thread: on a busy 2-core machine OpenBLAS's spinning
+threads made the reduced study ~4× slower (424 s against 105 s, of which the sweeps ~30 s
+and the cluster's start ~20 s; measured at load 16 on 2 cores).
 """
 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import NamedTuple
 
 import h5py
 import numpy as np
@@ -21,21 +27,42 @@ import yaml
 from click.testing import CliRunner
 
 from femref.cli import main
-from femref.study.run import error_summary, run_study
+from femref.study.run import StudyOutcome, error_summary, run_study
 from femref.study.spec import StudyFile, load_study, parse_study
 
 from support.paths import CASES
 
-#: Reduced sizes: train, test, out_of_range samples; RBF centres.
-SIZES = {"train": 200, "test": 60, "out_of_range": 30}
-CENTRES = 24
+
+class StudySize(NamedTuple):
+    """Samples per set, RBF centres, and the tolerances measured at this size (seeded: reproducible)."""
+
+    train: int
+    test: int
+    out_of_range: int
+    centres: int
+    fem_mlp_mean: float  # held-out mean error of the fem-trained MLP must stay below this
+    estimator_error: float  # a saved fem MLP in ``femref run``: its peak error must stay below this
+
+    def samples(self, name: str) -> int:
+        return getattr(self, name)
 
 
-def reduced_study() -> tuple[StudyFile, Path]:
+#: quick: measured fem_mlp 4.35 % mean (p95 12 %) on the held-out set, a saved fem MLP 5.3 % off in ``femref run``.
+QUICK = StudySize(train=100, test=40, out_of_range=20, centres=12, fem_mlp_mean=0.06, estimator_error=0.10)
+#: reduced (slow): measured fem_mlp 2.7 % mean (p95 9 %) on the held-out set (full study: ≈ 1 %).
+REDUCED = StudySize(train=200, test=60, out_of_range=30, centres=24, fem_mlp_mean=0.05, estimator_error=0.10)
+
+
+class Ran(NamedTuple):
+    size: StudySize
+    outcome: StudyOutcome
+
+
+def reduced_study(size: StudySize = REDUCED) -> tuple[StudyFile, Path]:
     study, study_dir = load_study(CASES / "studies" / "ann_study.yaml")
-    sets = {name: spec.model_copy(update={"samples": SIZES[name]}) for name, spec in study.sets.items()}
-    networks = {name: n.model_copy(update={"centres": CENTRES}) if n.tag == "rbf" else n for name, n in study.networks.items()}
-    overrides = {"fem.elements": 16}  # a coarse mesh: the sweeps take about a minute on 2 cores
+    sets = {name: spec.model_copy(update={"samples": size.samples(name)}) for name, spec in study.sets.items()}
+    networks = {name: n.model_copy(update={"centres": size.centres}) if n.tag == "rbf" else n for name, n in study.networks.items()}
+    overrides = {"fem.elements": 16}  # a coarse mesh: the sweeps take about half a minute on 2 cores
     return study.model_copy(update={"sets": sets, "networks": networks, "base_overrides": overrides}), study_dir
 
 
@@ -47,28 +74,32 @@ def cluster():
             yield client
 
 
-@pytest.fixture(scope="module")
-def outcome(cluster, tmp_path_factory):
-    study, study_dir = reduced_study()
+@pytest.fixture(scope="module", params=[QUICK, pytest.param(REDUCED, marks=pytest.mark.slow)], ids=["quick", "reduced"])
+def ran(request, cluster, tmp_path_factory) -> Ran:
+    from threadpoolctl import threadpool_limits
+
+    study, study_dir = reduced_study(request.param)
     out_dir = tmp_path_factory.mktemp("study")
-    return run_study(study, study_dir, out_dir, source="ann_study.yaml", client=cluster)
+    with threadpool_limits(limits=1, user_api="blas"):
+        return Ran(request.param, run_study(study, study_dir, out_dir, source="ann_study.yaml", client=cluster))
 
 
-def test_fem_trained_network_estimates_the_held_out_fem_peak(outcome) -> None:
-    """Reduced study: fem-trained MLP ≤ 5 % mean error on the noisy held-out set (full study: ≈ 1 %)."""
-    test = outcome.sets["test"]
-    assert test.summaries["fem_mlp"].samples >= SIZES["test"] - 2
-    assert test.summaries["fem_mlp"].mean <= 0.05
+def test_fem_trained_network_estimates_the_held_out_fem_peak(ran: Ran) -> None:
+    """fem-trained MLP within its size's tolerance (mean ≤ 6 % quick, 5 % reduced) on the noisy held-out set (full study: ≈ 1 %)."""
+    test = ran.outcome.sets["test"]
+    assert test.summaries["fem_mlp"].samples >= ran.size.test - 2
+    assert test.summaries["fem_mlp"].mean <= ran.size.fem_mlp_mean
 
 
-def test_training_source_matters(outcome) -> None:
+def test_training_source_matters(ran: Ran) -> None:
     """The MLP trained on rigid-model records misses fem records by more than the fem-trained one."""
-    test = outcome.sets["test"].summaries
+    test = ran.outcome.sets["test"].summaries
     assert test["rigid_mlp"].mean > 2.0 * test["fem_mlp"].mean
 
 
-def test_study_file_holds_every_estimate_and_its_errors(outcome) -> None:
+def test_study_file_holds_every_estimate_and_its_errors(ran: Ran) -> None:
     """``study.h5`` errors are those of its own estimates and reference; the table lists every estimator."""
+    outcome = ran.outcome
     with h5py.File(outcome.out_dir / "study.h5") as h5:
         for set_name in ("test", "out_of_range"):
             reference = h5[f"{set_name}/reference"][()]
@@ -84,17 +115,19 @@ def test_study_file_holds_every_estimate_and_its_errors(outcome) -> None:
         assert f"| {name} |" in table
 
 
-def test_out_of_range_set_is_faster_than_training(outcome) -> None:
+def test_out_of_range_set_is_faster_than_training(ran: Ran) -> None:
     """The out-of-range sweep really samples 4–6 m/s, outside the training speeds 0.5–4 m/s."""
     from femref.sweep import read_sweep
 
+    outcome = ran.outcome
     train = read_sweep(outcome.out_dir / "train.h5").parameters["cars.0.velocity"]
     fast = read_sweep(outcome.out_dir / "out_of_range.h5").parameters["cars.0.velocity"]
     assert np.max(train) <= 4.0 and np.min(fast) >= 4.0 and np.max(fast) <= 6.0
 
 
-def test_saved_network_runs_as_an_estimator_of_femref_run(outcome, tmp_path: Path) -> None:
-    """A study network in an impact case: ``femref run`` scores it, and its estimate is the study's for the same records."""
+def test_saved_network_runs_as_an_estimator_of_femref_run(ran: Ran, tmp_path: Path) -> None:
+    """A study network in an impact case: ``femref run`` scores it, within its size's tolerance (≤ 10 %)."""
+    outcome = ran.outcome
     case = yaml.safe_load((CASES / "impact_free_roll.yaml").read_text())
     case["fem"]["elements"] = 16
     case["estimators"] = [{"name": "ann_fem_mlp", "network": str(outcome.out_dir / "networks" / "fem_mlp.npz")}]
@@ -105,18 +138,19 @@ def test_saved_network_runs_as_an_estimator_of_femref_run(outcome, tmp_path: Pat
     assert result.exit_code == 0, result.output
     with h5py.File(tmp_path / "out.h5") as h5:
         error = h5["scores/ann_fem_mlp"].attrs["coupler_force_peak_error_c1"]
-    assert error < 0.10
+    assert error < ran.size.estimator_error
 
 
-def test_running_again_resumes_every_sweep(outcome, cluster) -> None:
+def test_running_again_resumes_every_sweep(ran: Ran, cluster) -> None:
     """The study's sweep files are complete and resumable: running a set again finds every sample stored."""
     from femref.study.run import prepare_sweeps
     from femref.sweep import run_sweep
 
-    study, study_dir = reduced_study()
+    outcome = ran.outcome
+    study, study_dir = reduced_study(ran.size)
     for name, sweep in prepare_sweeps(study, study_dir, outcome.out_dir).items():
         summary = run_sweep(sweep, outcome.out_dir / f"{name}.h5", client=cluster)
-        assert (summary.run, summary.skipped, summary.complete) == (0, SIZES[name], True)
+        assert (summary.run, summary.skipped, summary.complete) == (0, ran.size.samples(name), True)
 
 
 # The study file

@@ -1,0 +1,300 @@
+"""The Python API: run a case and read its result file without the command line.
+
+A thin layer over the functions ``femref run`` drives — :func:`femref.case.load_case` /
+:func:`~femref.case.parse_case`, :func:`femref.scene.build.scene_from_case`,
+:func:`femref.run.run_scene` and :func:`femref.results.write_results` — plus readers of the
+result file (docs/design.md §4) into labelled arrays.
+
+>>> from femref.api import run_case, open_result
+>>> outcome = run_case("cases/impact_free_roll.yaml", output="free_roll.h5")   # doctest: +SKIP
+>>> outcome.scores["rigid"]["coupler_force_peak_error_c1"]                     # doctest: +SKIP
+>>> fem = open_result("free_roll.h5", "fem")                                   # doctest: +SKIP
+>>> fem["force"].sel(coupler="c1").max()                                      # doctest: +SKIP
+
+:func:`open_result` needs xarray (``pip install 'femref[xarray]'``); :func:`open_frames`
+gives the same histories as pandas DataFrames indexed by time. Both read the datasets by
+their paths with h5py (the time axis ``/<model>/time``), so they read every femref result
+file, with or without HDF5 dimension scales.
+
+Nothing here prints; bad input raises :class:`femref.case.CaseError` (a ``ValueError``), a
+model that fails is a result with ``status == "failed"`` and its message, as from the CLI.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from femref.run import RunOutcome, run_scene
+
+if TYPE_CHECKING:  # the readers' return types; neither library is needed to run a case
+    import pandas
+    import xarray
+
+__all__ = ["RunOutcome", "open_frames", "open_result", "result_models", "run_case", "run_scene"]
+
+#: The extra that installs what :func:`open_result` and :func:`open_frames` need.
+READ_EXTRA = "femref[xarray]"
+
+#: The axis datasets a model group may hold (``/<model>/<axis>``), the first present is the index.
+AXES = ("time", "omega")
+#: Axis datasets a history group may hold as links to its model's axis (coordinates, not outputs).
+AXIS_LINKS = ("time", "omega", "lambda")
+
+
+def run_case(case: str | Path | Mapping[str, Any], output: str | Path | None = None, *, base_dir: str | Path | None = None) -> RunOutcome:
+    """Validate ``case`` (a case file's path, or its parsed mapping), run every model it requests, score
+    them against the reference; with ``output``, also write the HDF5 result file (atomically, as
+    ``femref run -o output`` does: the resolved case, every model, the scores, the scene's facts).
+
+    ``base_dir`` resolves the relative file paths of a mapping (CSV profiles, networks; default: the
+    working directory); a path's own folder is used for a file. Raises :class:`femref.case.CaseError`
+    for bad input. Simulated cases only: a measured case is run by ``femref run`` (its events), and a
+    case with ``tolerance:`` by ``femref run`` or :func:`femref.choice.choose_model` (the climb of
+    the model ladder) — both are refused here rather than run differently.
+    """
+    from femref.case import CaseError, Problem, load_case, parse_case, resolved_yaml
+    from femref.scene.build import scene_from_case
+
+    if isinstance(case, Mapping):
+        source = "<mapping>"
+        loaded = parse_case(dict(case), source=source, base_dir=Path(base_dir) if base_dir is not None else None)
+        folder = Path(base_dir) if base_dir is not None else Path.cwd()
+    else:
+        source = str(case)
+        loaded = load_case(case)
+        folder = Path(case).resolve().parent
+    if loaded.kind == "measured":
+        raise CaseError(Problem(("kind",), "run_case runs simulated cases; run a measured case with `femref run` (its events)", "measured"), source)
+    if getattr(loaded, "tolerance", None) is not None:
+        rule = "run_case runs the case's models; a tolerance (model choice) runs with `femref run` or femref.choice.choose_model"
+        raise CaseError(Problem(("tolerance",), rule, loaded.tolerance.value), source)
+    scene = scene_from_case(loaded, folder)
+    outcome = run_scene(scene)
+    if output is not None:
+        from femref.results import write_results
+
+        write_results(output, resolved_yaml(loaded), outcome.results, outcome.scores, scene=scene.facts())
+    return outcome
+
+
+def result_models(path: str | Path) -> list[str]:
+    """The model (and estimator) groups of a result file, in file order."""
+    import h5py
+
+    with h5py.File(path, "r") as h5:
+        return [name for name, item in h5.items() if isinstance(item, h5py.Group) and "status" in item.attrs]
+
+
+def open_result(path: str | Path, model: str | None = None) -> "xarray.Dataset":
+    """One model of a result file as an :class:`xarray.Dataset` with its time (or ω) coordinate.
+
+    Variables, by the file's names: per probe ``acceleration``, ``displacement``, … with
+    dimensions ``(time, probe)`` (NaN for a probe without that quantity, e.g. the vertical ones
+    on a car that does not bend); per coupler ``force`` ``(time, coupler)`` (a network
+    estimator's ``peak_force`` has ``(coupler,)`` only); ``energy_<term>`` ``(time,)``; the
+    measurement chain's records ``measured_<quantity>`` on their own ``measured_time``; a field
+    ``u`` ``(field_time, x)``. Each keeps its ``units`` attribute. The Dataset's attributes: the
+    model's ``status``, ``message``, ``wall_time_s``, ``settings`` (JSON), its ``scores`` (a
+    dict, empty for the reference), ``femref_version`` and ``case_yaml``.
+
+    ``model`` defaults to ``fem`` when the file has it, else the file's first model. Raises
+    ImportError naming the extra to install when xarray is missing, KeyError for an unknown model.
+    """
+    try:
+        import xarray as xr
+    except ImportError as error:
+        raise ImportError(f"femref.api.open_result needs xarray: pip install '{READ_EXTRA}' (or use open_frames with pandas)") from error
+    group = _read_model(path, model)
+    coords: dict[str, Any] = {}
+    variables: dict[str, Any] = {}
+    axis = group["axis"]
+    if axis is not None:
+        coords[axis[0]] = (axis[0], axis[1], {"units": axis[2]})
+        coords.update({name: (axis[0], values, {"units": units}) for name, (values, units) in group["along"].items()})
+    for family, dim in (("probes", "probe"), ("couplers", "coupler")):
+        members = group[family]
+        if not members:
+            continue
+        coords[dim] = list(members)
+        for quantity in _quantities(members):
+            stacked, units, time_dim = _stack(members, quantity, axis)
+            dims = (time_dim, dim) if time_dim else (dim,)
+            variables[quantity] = (dims, stacked, {"units": units} if units else {})
+    for name, (values, units) in group["energy"].items():
+        variables[f"energy_{name}"] = (_dims_of(values, axis), values, {"units": units} if units else {})
+    measured = group["measured"]
+    if measured["time"] is not None:
+        coords["measured_time"] = ("measured_time", measured["time"][0], {"units": measured["time"][1]})
+        probes = measured["probes"]
+        coords.setdefault("probe", list(group["probes"]) or list(probes))
+        for quantity in _quantities(probes):
+            stacked, units, _ = _stack(probes, quantity, ("measured_time", measured["time"][0], ""), names=coords["probe"])
+            variables[f"measured_{quantity}"] = (("measured_time", "probe"), stacked, {"units": units} if units else {})
+    fields = group["fields"]
+    if fields:
+        for name, dim in (("time", "field_time"), ("x", "x")):
+            if name in fields:
+                coords[dim] = (dim, fields[name][0], {"units": fields[name][1]})
+        if "u" in fields:
+            variables["u"] = (("field_time", "x"), fields["u"][0], {"units": fields["u"][1]})
+    return xr.Dataset(variables, coords=coords, attrs=group["attrs"])
+
+
+def open_frames(path: str | Path) -> dict[str, "pandas.DataFrame"]:
+    """Every model of a result file as a :class:`pandas.DataFrame` indexed by its time (or ω) axis.
+
+    Columns ``probes/<probe>/<quantity>``, ``couplers/<coupler>/force`` and ``energy/<term>``
+    (the file's own paths below the model); ``df.attrs`` holds the model's status, message,
+    wall time, settings and scores. A model's measured records come as a frame of their own,
+    ``"<model>/measured"``, on their own time axis. A network estimator (a peak force, no
+    history) is a one-row frame of ``couplers/<coupler>/peak_force`` without index. Fields
+    (2-D) are left out: read them with :func:`open_result`. Raises ImportError naming the extra
+    to install when pandas is missing.
+    """
+    try:
+        import pandas as pd
+    except ImportError as error:
+        raise ImportError(f"femref.api.open_frames needs pandas: pip install '{READ_EXTRA}'") from error
+    frames = {}
+    for model in result_models(path):
+        group = _read_model(path, model)
+        axis = group["axis"]
+        columns = {}
+        for family in ("probes", "couplers"):
+            for member, outputs in group[family].items():
+                for quantity, (values, _) in outputs.items():
+                    columns[f"{family}/{member}/{quantity}"] = values
+        columns.update({f"energy/{name}": values for name, (values, _) in group["energy"].items()})
+        index = pd.Index(axis[1], name=axis[0]) if axis is not None else None
+        frame = pd.DataFrame({k: v for k, v in columns.items() if v.ndim == 1 and (index is None or len(v) == len(index))}, index=index)
+        if index is None:
+            frame = pd.DataFrame({k: [v.reshape(-1)[0]] for k, v in columns.items() if v.size == 1})
+        frame.attrs.update(group["attrs"])
+        frames[model] = frame
+        measured = group["measured"]
+        if measured["time"] is not None:
+            records = {f"{probe}/{q}": v for probe, outputs in measured["probes"].items() for q, (v, _) in outputs.items()}
+            frames[f"{model}/measured"] = pd.DataFrame(records, index=pd.Index(measured["time"][0], name="time"))
+    return frames
+
+
+# --- reading one model group with h5py ---------------------------------------------------------------
+
+
+def _read_model(path: str | Path, model: str | None) -> dict[str, Any]:
+    """The arrays and attributes of ``/<model>`` as plain dicts of ``(values, units)``, by the file's paths.
+
+    Probes are nested for impacts (``probes/<car>/<sensor>``): a member is every group below
+    ``probes`` (``couplers``, ``measured``) that holds datasets, named by its path there. The
+    axis datasets a history group may hold as links to its model's dimension scale (``time``,
+    ``omega``, ``lambda``) are coordinates, not outputs, and are skipped there.
+    """
+    import h5py
+
+    with h5py.File(path, "r") as h5:
+        models = [name for name, item in h5.items() if isinstance(item, h5py.Group) and "status" in item.attrs]
+        if model is None:
+            if not models:
+                raise KeyError(f"{path}: no model groups in this file")
+            model = "fem" if "fem" in models else models[0]
+        if model not in models:
+            raise KeyError(f"{path}: no model {model!r}; the file holds {', '.join(models) or 'none'}")
+        g = h5[model]
+        axis_name = next((name for name in AXES if isinstance(g.get(name), h5py.Dataset)), None)
+        axis = None if axis_name is None else (axis_name, g[axis_name][()], _units(g[axis_name]))
+        along = {  # further coordinates along the axis (harmonic: lambda beside omega)
+            name: (g[name][()], _units(g[name])) for name in AXIS_LINKS
+            if axis is not None and name != axis_name and isinstance(g.get(name), h5py.Dataset) and g[name].shape == axis[1].shape
+        }
+        scores = dict(h5[f"scores/{model}"].attrs) if f"scores/{model}" in h5 else {}
+        attrs = {key: _plain(g.attrs[key]) for key in ("status", "message", "wall_time_s", "settings") if key in g.attrs}
+        attrs.update(model=model, scores={k: _plain(v) for k, v in scores.items()})
+        attrs.update({key: _plain(h5.attrs[key]) for key in ("femref_version", "case_yaml") if key in h5.attrs})
+        measured: dict[str, Any] = {"time": None, "probes": {}}
+        if isinstance(g.get("measured"), h5py.Group):
+            m = g["measured"]
+            if isinstance(m.get("time"), h5py.Dataset):
+                measured["time"] = (m["time"][()], _units(m["time"]))
+            measured["probes"] = {name: data for name, data in _members(m).items() if name}
+        return {
+            "axis": axis,
+            "along": along,
+            "attrs": attrs,
+            "probes": _members(g["probes"]) if "probes" in g else {},
+            "couplers": _members(g["couplers"]) if "couplers" in g else {},
+            "energy": _datasets(g["energy"]) if "energy" in g else {},
+            "measured": measured,
+            "fields": _datasets(g["fields"], skip=()) if "fields" in g else {},
+        }
+
+
+def _members(group: Any) -> dict[str, dict[str, tuple[Any, str]]]:
+    """Every group at or below ``group`` that holds output datasets: its path below ``group`` → its datasets."""
+    import h5py
+
+    found: dict[str, dict[str, tuple[Any, str]]] = {}
+
+    def visit(node: Any, prefix: str) -> None:
+        data = _datasets(node)
+        if data:
+            found[prefix] = data
+        for name, item in node.items():
+            if isinstance(item, h5py.Group):
+                visit(item, f"{prefix}/{name}" if prefix else name)
+
+    visit(group, "")
+    return found
+
+
+def _datasets(group: Any, skip: tuple[str, ...] = AXIS_LINKS) -> dict[str, tuple[Any, str]]:
+    """The datasets directly in ``group`` but the axis links in ``skip``: name → (values, units)."""
+    import h5py
+
+    return {name: (item[()], _units(item)) for name, item in group.items() if isinstance(item, h5py.Dataset) and name not in skip}
+
+
+def _units(dataset: Any) -> str:
+    return str(_plain(dataset.attrs.get("units", "")))
+
+
+def _plain(value: Any) -> Any:
+    """An HDF5 attribute as a Python value (bytes decoded, numpy scalars unwrapped)."""
+    if isinstance(value, bytes):
+        return value.decode()
+    return value.item() if hasattr(value, "item") and getattr(value, "ndim", 1) == 0 else value
+
+
+def _quantities(members: dict[str, dict[str, tuple[Any, str]]]) -> list[str]:
+    """The quantities any member holds, in first-seen order."""
+    seen: dict[str, None] = {}
+    for outputs in members.values():
+        seen.update(dict.fromkeys(outputs))
+    return list(seen)
+
+
+def _stack(members, quantity: str, axis, names: list[str] | None = None):
+    """``quantity`` of every member side by side: (N_axis, N_members), NaN where a member lacks it;
+    a per-member scalar (a network's peak force) gives (N_members,) and no time dimension."""
+    import numpy as np
+
+    names = list(members) if names is None else names
+    present = [members[name][quantity] for name in names if quantity in members.get(name, {})]
+    units = present[0][1] if present else ""
+    values = [members.get(name, {}).get(quantity, (None, ""))[0] for name in names]
+    if all(v is None or np.ndim(v) == 0 or np.size(v) == 1 for v in values):
+        return np.array([np.nan if v is None else np.asarray(v).reshape(-1)[0] for v in values]), units, None
+    length = len(axis[1]) if axis is not None else max(np.size(v) for v in values if v is not None)
+    dtype = np.result_type(*[np.asarray(v).dtype for v in values if v is not None], np.float64)
+    stacked = np.full((length, len(names)), np.nan, dtype=dtype)
+    for j, v in enumerate(values):
+        if v is not None:
+            stacked[:, j] = v
+    return stacked, units, axis[0] if axis is not None else "index"
+
+
+def _dims_of(values, axis) -> tuple[str, ...]:
+    if axis is not None and getattr(values, "ndim", 0) == 1 and len(values) == len(axis[1]):
+        return (axis[0],)
+    return tuple(f"dim_{k}" for k in range(getattr(values, "ndim", 0)))

@@ -1,0 +1,236 @@
+"""A fast, friendly first hour (issue 18): light ``--help``, tables that fit the terminal with a legend,
+progress on request, and the Python API (:mod:`femref.api`) reading a result with its time axis."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+import yaml
+from click.testing import CliRunner
+from rich.cells import cell_len
+
+from femref.api import open_frames, open_result, result_models, run_case
+from femref.case.defaults import default_scene_data
+from femref.cli import main
+
+from support.paths import CASES, REPO
+
+#: What ``femref --help`` (and every command's) must not import: numerics, solvers, file formats, plots,
+#: clusters. Each command imports these when it runs (femref/cli/common.py).
+HEAVY = ("numpy", "scipy", "sklearn", "h5py", "numba", "matplotlib", "dask", "distributed", "pandas", "xarray", "pyvista",
+         "meshio", "skfem", "pydantic")
+COMMANDS = ("run", "validate", "sweep", "study", "calibrate", "bench", "report", "figures")
+
+
+def small_impact_case() -> dict:
+    """The default scene, coarse and short: fem (8 elements, the reference) and rigid, no measurement chain."""
+    data = default_scene_data()
+    data.pop("measurement")
+    data.pop("estimators")
+    data["fem"]["elements"] = 8
+    data["models"] = ["fem", "rigid"]
+    data["time"] = {"end": 0.1}
+    return data
+
+
+# --- --help stays light ------------------------------------------------------------------------------
+
+
+def test_help_of_every_command_imports_nothing_heavy() -> None:
+    """``python -X importtime``: importing femref.cli and printing every command's --help loads none of HEAVY."""
+    script = "\n".join([
+        "from femref.cli import main",
+        f"for command in [(), *[(c,) for c in {COMMANDS!r}]]:",
+        "    try:",
+        "        main([*command, '--help'], standalone_mode=False)",
+        "    except SystemExit:",
+        "        pass",
+    ])
+    done = subprocess.run([sys.executable, "-X", "importtime", "-c", script], capture_output=True, text=True, cwd=REPO, timeout=120)
+    assert done.returncode == 0, done.stderr[-2000:]
+    imported = {line.split("|")[-1].strip() for line in done.stderr.splitlines() if line.startswith("import time:")}
+    heavy = sorted(m for m in imported if m.split(".")[0] in HEAVY)
+    assert not heavy, f"--help imports {heavy[:10]}: import them inside the command that uses them"
+    assert "Usage: main run" in done.stdout or "Usage: " in done.stdout
+
+
+# --- tables fit the terminal -------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def impact_case(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("first_hour") / "small.yaml"
+    path.write_text(yaml.safe_dump(small_impact_case()))
+    return path
+
+
+def _run(case: Path, out: Path, env: dict, *options: str):
+    result = CliRunner().invoke(main, [*options, "run", str(case), "-o", str(out)], env=env)
+    assert result.exit_code == 0, result.output
+    return result
+
+
+@pytest.mark.parametrize("width", [80, 200])
+@pytest.mark.parametrize("case", ["impact", "rod_harmonic.yaml"])
+def test_run_table_fits_the_width_and_defines_every_column(impact_case, tmp_path, width, case) -> None:
+    """With COLUMNS=80 or 200 no line of the run summary is wider; the legend under the table names every
+    short header; every relative error is a percentage with two decimals."""
+    path = impact_case if case == "impact" else CASES / case
+    result = _run(path, tmp_path / "out.h5", {"COLUMNS": str(width)})
+    lines = result.stdout.splitlines()
+    assert max(cell_len(line) for line in lines) <= width
+    text = result.stdout
+    headers = ("wall ms", "speed-up", "P peak kN", "P peak err", "t peak err ms", "P rms err", "a rms err", "E err") if case == "impact" \
+        else ("wall ms", "work", "|a| peak", "|F| peak", "a err max", "a err rms")
+    flat = " ".join(text.split())
+    for header in headers:
+        assert f"{header}: " in flat, header  # in the legend (the header itself may wrap in a narrow table)
+    percents = re.findall(r"\d+(?:\.\d+)?%", text)
+    assert percents and all(re.fullmatch(r"\d+\.\d\d%", p) for p in percents), percents
+
+
+def test_piped_table_keeps_whole_rows(impact_case, tmp_path) -> None:
+    """Piped without COLUMNS no width is forced: every row is one line with all its cells (grep-able)."""
+    result = _run(impact_case, tmp_path / "out.h5", {"COLUMNS": None})
+    lines = result.stdout.splitlines()
+    header = next(line for line in lines if line.startswith("┃ model"))
+    rigid = next(line for line in lines if line.startswith("│ rigid"))
+    assert rigid.count("│") == header.count("┃") == 12  # 11 columns, on one line each
+    cells = [cell.strip() for cell in rigid.split("│")[1:-1]]
+    assert cells[1] == "ok" and re.fullmatch(r"\d+\.\d\d%", cells[6]), cells
+
+
+# --- progress ----------------------------------------------------------------------------------------
+
+
+def test_progress_option_prints_status_lines_on_a_piped_stderr(impact_case, tmp_path) -> None:
+    """``femref --progress run``: a line per model on stderr when stderr is not a terminal; stdout unchanged."""
+    quiet = _run(impact_case, tmp_path / "a.h5", {"COLUMNS": None})
+    shown = _run(impact_case, tmp_path / "b.h5", {"COLUMNS": None}, "--progress")
+    assert "running" not in quiet.stderr
+    for model in ("fem", "rigid"):
+        assert f"{model}: running" in shown.stderr and re.search(rf"{model}: done in \d+\.\d s", shown.stderr), shown.stderr
+    assert [line.split("│")[1] for line in shown.stdout.splitlines() if line.startswith("│ ")] == \
+        [line.split("│")[1] for line in quiet.stdout.splitlines() if line.startswith("│ ")]
+    env = _run(impact_case, tmp_path / "c.h5", {"COLUMNS": None, "FEMREF_PROGRESS": "1"})
+    assert "fem: running" in env.stderr
+
+
+def test_sweep_and_bench_progress_lines_when_forced() -> None:
+    """With ``--progress`` and stderr piped: a line per tenth of the samples, a line per bench configuration;
+    without it, no callback at all (the sweep and bench skip the calls)."""
+    import io
+
+    import click
+    from rich.console import Console
+
+    from femref.cli.common import PROGRESS_KEY, configuration_progress, sample_progress
+
+    console = Console(file=io.StringIO(), width=100)
+    with click.Context(main) as context:
+        with sample_progress(console) as progress:
+            assert progress is None
+        context.meta[PROGRESS_KEY] = True
+        with sample_progress(console) as progress:
+            for done in range(21):
+                progress(done, 20)
+        with configuration_progress(console) as progress:
+            progress("fem N=8")
+            progress("rigid")
+    lines = console.file.getvalue().splitlines()
+    assert lines == [f"sweep: {done}/20 samples" for done in range(0, 21, 2)] + ["bench: fem N=8", "bench: rigid"]
+
+
+# --- the Python API ----------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def api_result(tmp_path_factory):
+    out = tmp_path_factory.mktemp("api") / "small.h5"
+    return run_case(small_impact_case(), output=out), out
+
+
+def test_run_case_from_python_writes_what_the_cli_writes(api_result) -> None:
+    """run_case(mapping, output): every model ok, scored against fem, and the file holds them."""
+    outcome, out = api_result
+    assert [r.model for r in outcome.results] == ["fem", "rigid"] and not outcome.failed
+    assert outcome.scores["rigid"]["reference"] == "fem"
+    assert result_models(out) == ["fem", "rigid"]
+    with h5py.File(out) as h5:
+        assert yaml.safe_load(h5.attrs["case_yaml"])["models"] == ["fem", "rigid"]
+
+
+def test_open_result_has_the_time_coordinate(api_result) -> None:
+    """open_result: an xarray Dataset on the model's own time axis (s), force per coupler, acceleration per probe,
+    values and units as in the file; the rigid model's scores in its attributes."""
+    pytest.importorskip("xarray")
+    _, out = api_result
+    fem = open_result(out)
+    with h5py.File(out) as h5:
+        time, force = h5["fem/time"][()], h5["fem/couplers/c1/force"][()]
+        acceleration = h5["fem/probes/anvil/front/acceleration"][()]
+    assert fem.attrs["model"] == "fem" and fem.attrs["status"] == "ok"
+    np.testing.assert_array_equal(fem["time"].values, time)
+    assert fem["time"].attrs["units"] == "s"
+    np.testing.assert_array_equal(fem["force"].sel(coupler="c1").values, force)
+    np.testing.assert_array_equal(fem["acceleration"].sel(probe="anvil/front").values, acceleration)
+    assert fem["force"].dims == ("time", "coupler") and fem["force"].attrs["units"].startswith("N")
+    rigid = open_result(out, "rigid")
+    assert rigid.attrs["scores"]["reference"] == "fem"
+    peak = float(rigid["force"].sel(coupler="c1").max())
+    assert abs(peak - force.max()) / force.max() == pytest.approx(rigid.attrs["scores"]["coupler_force_peak_error_c1"], rel=1e-9)
+    with pytest.raises(KeyError, match="no model 'modal'; the file holds fem, rigid"):
+        open_result(out, "modal")
+
+
+def test_open_frames_are_indexed_by_time(api_result) -> None:
+    pd = pytest.importorskip("pandas")
+    _, out = api_result
+    frames = open_frames(out)
+    assert set(frames) == {"fem", "rigid"}
+    fem = frames["fem"]
+    assert isinstance(fem.index, pd.Index) and fem.index.name == "time"
+    with h5py.File(out) as h5:
+        np.testing.assert_array_equal(fem.index.to_numpy(), h5["fem/time"][()])
+        np.testing.assert_array_equal(fem["couplers/c1/force"].to_numpy(), h5["fem/couplers/c1/force"][()])
+    assert "energy/total" in fem and fem.attrs["status"] == "ok"
+
+
+def test_open_result_without_xarray_names_the_extra(api_result, monkeypatch) -> None:
+    monkeypatch.setitem(sys.modules, "xarray", None)  # import xarray raises ImportError
+    with pytest.raises(ImportError, match=re.escape("pip install 'femref[xarray]'")):
+        open_result(api_result[1])
+
+
+def test_run_case_reads_a_case_file_and_refuses_what_it_does_not_run(tmp_path) -> None:
+    """A path runs with its folder as base; a harmonic result opens on its ω axis. A tolerance is refused (CaseError)."""
+    pytest.importorskip("xarray")
+    from femref.case import CaseError
+
+    outcome = run_case(CASES / "rod_harmonic.yaml", output=tmp_path / "rod.h5")
+    assert not outcome.failed
+    model = outcome.results[0].model
+    ds = open_result(tmp_path / "rod.h5", model)
+    assert "omega" in ds.coords and ds.sizes["omega"] == outcome.results[0].axes["omega"].size
+    data = small_impact_case()
+    data["tolerance"] = 0.01
+    with pytest.raises(CaseError, match="tolerance"):
+        run_case(data)
+
+
+def test_api_is_documented_and_typed() -> None:
+    """femref.api names what it exports; py.typed is shipped (package data); the xarray extra exists."""
+    import femref.api
+
+    assert {"run_case", "run_scene", "open_result", "open_frames", "RunOutcome"} <= set(femref.api.__all__)
+    assert (REPO / "femref" / "py.typed").is_file()
+    config = tomllib.loads((REPO / "pyproject.toml").read_text())
+    assert "py.typed" in config["tool"]["setuptools"]["package-data"]["femref"]
+    assert "xarray" in config["project"]["optional-dependencies"]

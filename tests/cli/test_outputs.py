@@ -1,0 +1,416 @@
+"""Outputs that cannot go stale or be lost (issue 18).
+
+* every command that writes checks its output path before any work: exit 2, a message
+  naming the option and the rule, nothing written;
+* a result and its XDMF + HDF5 field files are published together: field files first,
+  the result last, the result recording the field files' SHA-256 (a stale pair is detected);
+* temporaries are named ``.<final name>.femref-<pid>[.<part>].tmp``; a later write of the same
+  name removes those of dead processes and keeps a live process's;
+* a ``kill -9`` between writing the temporaries and renaming them leaves the previous pair intact;
+* xarray opens every history group with its axis as the coordinate.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+import yaml
+from click.testing import CliRunner
+
+import femref.results
+from femref.cli import main
+from femref.results import TEST_PAUSE_VARIABLE, ModelResult, field_files_match, leftovers, temporary_path, write_results
+
+from support.paths import CASES
+
+FIELD_SUFFIXES = ("_fem_fields.xdmf", "_fem_fields.h5")
+
+
+def small_case(fields: bool = True) -> dict:
+    """A rod under a half-sine load, 8 elements, 40 steps: a run of well under a second."""
+    return {
+        "kind": "transient",
+        "body": {"type": "rod", "length": 16.0, "mass_per_length": 6250.0, "axial_stiffness": 2.0e9, "axial_viscosity": 1.0e6},
+        "loads": {"F2": {"half_sine": {"amplitude": -1.0e6, "duration": 0.05}}},
+        "time": {"end": 0.02, "dt": 5.0e-4},
+        "models": ["fem", "rigid"],
+        "fem": {"elements": 8, "fields": fields},
+    }
+
+
+def write_case(folder: Path, name: str = "case.yaml", data: dict | None = None) -> Path:
+    path = folder / name
+    path.write_text(yaml.safe_dump(data or small_case()))
+    return path
+
+
+def listing(folder: Path) -> dict[str, str]:
+    """Every entry under ``folder`` (recursively) with the SHA-256 of the files' bytes."""
+    return {
+        str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest() if p.is_file() else "folder"
+        for p in sorted(folder.rglob("*"))
+    }
+
+
+def dead_pid() -> int:
+    """The pid of a process that has ended (and been reaped)."""
+    process = subprocess.Popen([sys.executable, "-c", "pass"])
+    process.wait()
+    return process.pid
+
+
+@pytest.fixture
+def runner():
+    return CliRunner()
+
+
+@pytest.fixture
+def no_run(monkeypatch):
+    """Fail the test if the command starts the run: the output check must come first."""
+    import femref.run
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("the run started before the output path was checked")
+
+    monkeypatch.setattr(femref.run, "run_scene", refuse)
+
+
+# ---------------------------------------------------------------------------------------------
+# The output path, checked before any work
+
+
+def _missing_folder(tmp_path, case):
+    return ["-o", str(tmp_path / "missing" / "out.h5")], "the folder", "does not exist"
+
+
+def _output_is_folder(tmp_path, case):
+    (tmp_path / "out").mkdir()
+    return ["-o", str(tmp_path / "out")], "'-o' / '--output'", "is a directory"
+
+
+def _output_is_case(tmp_path, case):
+    return ["-o", str(case)], "is the input CASE", "may not overwrite an input"
+
+
+def _output_is_case_relative(tmp_path, case):
+    (tmp_path / "sub").mkdir()
+    return ["-o", os.path.relpath(tmp_path / "sub" / ".." / case.name)], "is the input CASE", "may not overwrite an input"
+
+
+def _output_is_case_symlink(tmp_path, case):
+    (tmp_path / "link.yaml").symlink_to(case)
+    return ["-o", str(tmp_path / "link.yaml")], "is the input CASE", "may not overwrite an input"
+
+
+def _output_is_case_hardlink(tmp_path, case):
+    os.link(case, tmp_path / "other.yaml")
+    return ["-o", str(tmp_path / "other.yaml")], "is the input CASE", "may not overwrite an input"
+
+
+@pytest.mark.parametrize(
+    "make",
+    [_missing_folder, _output_is_folder, _output_is_case, _output_is_case_relative, _output_is_case_symlink, _output_is_case_hardlink],
+    ids=["missing-folder", "output-is-folder", "output-is-case", "case-by-relative-path", "case-by-symlink", "case-by-hard-link"],
+)
+def test_run_refuses_a_bad_output_before_running(runner, tmp_path, monkeypatch, no_run, make):
+    case = write_case(tmp_path)
+    monkeypatch.chdir(tmp_path)
+    args, *messages = make(tmp_path, case)
+    before = listing(tmp_path)
+    result = runner.invoke(main, ["run", str(case), *args])
+    assert result.exit_code == 2, result.output
+    for message in messages:
+        assert message in result.output
+    assert listing(tmp_path) == before  # nothing written, the case untouched
+
+
+def test_default_output_that_is_a_folder_is_refused(runner, tmp_path, monkeypatch, no_run):
+    """No -o: the default output (CASE stem + .h5) is checked the same way, and the message says it is the default."""
+    case = write_case(tmp_path)
+    (tmp_path / "case.h5").mkdir()
+    monkeypatch.chdir(tmp_path)
+    result = runner.invoke(main, ["run", str(case)])
+    assert result.exit_code == 2
+    assert "error: -o (default) case.h5: is a folder; the output is a file; nothing was written" in result.output
+
+
+def test_unwritable_folder_is_refused(runner, tmp_path, no_run):
+    folder = tmp_path / "locked"
+    folder.mkdir()
+    folder.chmod(0o500)
+    try:
+        if os.access(folder, os.W_OK):
+            pytest.skip("running as a user whom chmod does not deny (root)")
+        result = runner.invoke(main, ["run", str(write_case(tmp_path)), "-o", str(folder / "out.h5")])
+        assert result.exit_code == 2
+        assert f"the folder {folder} is not writable" in result.output
+        assert list(folder.iterdir()) == []
+    finally:
+        folder.chmod(0o700)
+
+
+def test_unwritable_folder_message(runner, tmp_path, monkeypatch, no_run):
+    """The same rule where chmod cannot deny (root): the folder reported not writable by os.access."""
+    import femref.cli.common
+
+    folder = tmp_path / "locked"
+    folder.mkdir()
+    real_access = os.access
+    monkeypatch.setattr(femref.cli.common.os, "access", lambda path, mode: False if Path(path) == folder else real_access(path, mode))
+    result = runner.invoke(main, ["run", str(write_case(tmp_path)), "-o", str(folder / "out.h5")])
+    assert result.exit_code == 2
+    assert f"error: -o {folder / 'out.h5'}: the folder {folder} is not writable (the output's folder must be writable)" in result.output
+    assert list(folder.iterdir()) == []
+
+
+COMMANDS = {  # args (in a folder holding sweeps/, studies/, the free-roll case and a result r.h5), message
+    "sweep": (["sweep", "sweeps/free_roll_speeds.yaml", "-o", "missing/out.h5"], "the folder missing does not exist"),
+    "sweep-onto-its-SWEEP": (["sweep", "sweeps/free_roll_speeds.yaml", "-o", "sweeps/free_roll_speeds.yaml"], "is the input SWEEP"),
+    "study-into-a-file": (["study", "studies/ann_study.yaml", "-o", "impact_free_roll.yaml"], "is a file"),
+    "study-under-a-missing-folder": (["study", "studies/ann_study.yaml", "-o", "missing/study"], "the folder missing does not exist"),
+    "calibrate": (["calibrate", "sweeps/free_roll_speeds.yaml", "r.h5", "-o", "missing/out.h5"], "the folder missing does not exist"),
+    "calibrate-onto-its-SWEEP_FILE": (["calibrate", "sweeps/free_roll_speeds.yaml", "r.h5", "-o", "r.h5"], "is the input SWEEP_FILE"),
+    "bench": (["bench", "impact_free_roll.yaml", "-o", "missing/out.h5"], "the folder missing does not exist"),
+    "bench-plot-onto-its-CASE": (["bench", "impact_free_roll.yaml", "-o", "b.h5", "--plot", "impact_free_roll.yaml"], "--plot impact_free_roll.yaml: is the input CASE"),
+    "report": (["report", "r.h5", "-o", "missing/out.html"], "the folder missing does not exist"),
+    "report-onto-its-results": (["report", "r.h5", "-o", "r.h5"], "overwrite"),
+}
+
+
+@pytest.fixture(scope="module")
+def command_folder(tmp_path_factory):
+    """A sweep, a study, an impact case and a result file r.h5, as the commands' inputs."""
+    import shutil
+
+    folder = tmp_path_factory.mktemp("commands")
+    shutil.copytree(CASES / "sweeps", folder / "sweeps")
+    shutil.copytree(CASES / "studies", folder / "studies")
+    shutil.copy(CASES / "impact_free_roll.yaml", folder / "impact_free_roll.yaml")
+    data = small_case(fields=False)  # no field map to render in the report
+    data["models"] = ["rigid"]
+    result = CliRunner().invoke(main, ["run", str(write_case(folder, data=data)), "-o", str(folder / "r.h5")])
+    assert result.exit_code == 0, result.output
+    return folder
+
+
+@pytest.mark.parametrize("command", list(COMMANDS))
+def test_every_writing_command_checks_its_output(runner, command_folder, monkeypatch, command):
+    """sweep, study, calibrate, bench (-o and --plot) and report: exit 2, the rule, nothing written."""
+    import femref.bench.run
+    import femref.study.run
+    import femref.sweep
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("the work started before the output path was checked")
+
+    for module, name in ((femref.sweep, "run_sweep"), (femref.study.run, "run_study"), (femref.bench.run, "run_bench")):
+        monkeypatch.setattr(module, name, refuse)
+    monkeypatch.chdir(command_folder)
+    args, message = COMMANDS[command]
+    before = listing(command_folder)
+    result = runner.invoke(main, args)
+    assert result.exit_code == 2, result.output
+    assert message in result.output
+    assert listing(command_folder) == before
+
+
+# ---------------------------------------------------------------------------------------------
+# Publishing a result with its field files
+
+
+def test_field_files_are_published_before_the_result_with_their_checksums(runner, tmp_path, monkeypatch):
+    renamed = []
+    real_replace = os.replace
+
+    def recording_replace(source, target):
+        renamed.append(Path(target).name)
+        real_replace(source, target)
+
+    monkeypatch.setattr(femref.results.os, "replace", recording_replace)
+    output = tmp_path / "out.h5"
+    result = runner.invoke(main, ["run", str(write_case(tmp_path)), "-o", str(output)])
+    assert result.exit_code == 0, result.output
+    assert renamed == ["out_fem_fields.h5", "out_fem_fields.xdmf", "out.h5"]  # the result last
+    with h5py.File(output) as h5:
+        recorded = json.loads(h5["fem/fields"].attrs["field_files"])
+    assert recorded == {name: hashlib.sha256((tmp_path / name).read_bytes()).hexdigest() for name in ("out_fem_fields.h5", "out_fem_fields.xdmf")}
+    assert field_files_match(output) == []
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["case.yaml", "out.h5", "out_fem_fields.h5", "out_fem_fields.xdmf"]  # no temporaries
+
+
+def test_a_stale_field_file_is_detected(runner, tmp_path, monkeypatch):
+    """The next run killed between publishing its field files and its result leaves new field files beside the
+    previous result: simulated by putting the previous run's field file back beside the new result."""
+    import femref.report.build
+    from femref.report.read import read_result_file
+
+    monkeypatch.setattr(femref.report.build, "field_map_picture", lambda model: None)  # no rendering: only the warning matters
+
+    case = write_case(tmp_path)
+    output = tmp_path / "out.h5"
+    assert runner.invoke(main, ["run", str(case), "-o", str(output)]).exit_code == 0
+    previous = (tmp_path / "out_fem_fields.h5").read_bytes()
+    data = small_case()
+    data["loads"]["F2"]["half_sine"]["amplitude"] = -2.0e6
+    write_case(tmp_path, data=data)
+    assert runner.invoke(main, ["run", str(case), "-o", str(output)]).exit_code == 0
+    assert field_files_match(output) == []
+    (tmp_path / "out_fem_fields.h5").write_bytes(previous)
+    problems = field_files_match(output)
+    assert problems == [f"{tmp_path / 'out_fem_fields.h5'}: field file of model fem is not the one out.h5 was written with (SHA-256 differs): another run's"]
+    assert read_result_file(output).field_file_problems == tuple(problems)
+    (tmp_path / "out_fem_fields.xdmf").unlink()
+    assert f"{tmp_path / 'out_fem_fields.xdmf'}: field file of model fem missing" in field_files_match(output)
+    report = runner.invoke(main, ["report", str(output), "-o", str(tmp_path / "out.html")])
+    assert report.exit_code == 0, report.output
+    assert "warning: " in report.output and "another run's" in report.output
+
+
+# ---------------------------------------------------------------------------------------------
+# Temporaries and their leftovers
+
+
+def test_leftovers_of_dead_runs_are_removed_and_live_ones_kept(runner, tmp_path):
+    output = tmp_path / "out.h5"
+    dead = dead_pid()
+    sleeper = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    try:
+        dead_file = tmp_path / f".out.h5.femref-{dead}.tmp"
+        dead_folder = tmp_path / f".out.h5.femref-{dead}.fields.tmp"
+        live_other = tmp_path / f".out.h5.femref-{sleeper.pid}.tmp"
+        live_own = temporary_path(output)  # this process: the CLI runs in it
+        other_name = tmp_path / f".other.h5.femref-{dead}.tmp"  # a dead run's, of another final name
+        for path in (dead_file, live_other, live_own, other_name):
+            path.write_bytes(b"partial")
+        dead_folder.mkdir()
+        (dead_folder / "out_fem_fields.xdmf").write_text("partial")
+        assert leftovers(output) == sorted([dead_file, dead_folder])
+        result = runner.invoke(main, ["run", str(write_case(tmp_path)), "-o", str(output)])
+        assert result.exit_code == 0, result.output
+        assert not dead_file.exists() and not dead_folder.exists()
+        assert live_other.read_bytes() == live_own.read_bytes() == other_name.read_bytes() == b"partial"
+        assert field_files_match(output) == []
+        assert not [p for p in tmp_path.iterdir() if p.name.startswith("tmp")]  # no anonymous temporary folders
+    finally:
+        sleeper.kill()
+        sleeper.wait()
+
+
+def test_temporary_names():
+    path = Path("/results/run 1.h5")
+    assert temporary_path(path) == Path(f"/results/.run 1.h5.femref-{os.getpid()}.tmp")
+    assert temporary_path(path, "fields") == Path(f"/results/.run 1.h5.femref-{os.getpid()}.fields.tmp")
+
+
+def test_kill_9_while_publishing_keeps_the_previous_pair(runner, tmp_path):
+    """A run killed (SIGKILL) between writing its temporaries and renaming them: the previous result and field files
+    are intact and match, no final name is new or changed, and the next run removes the leftovers and publishes a
+    matching pair."""
+    case = write_case(tmp_path)
+    output = tmp_path / "out.h5"
+    assert runner.invoke(main, ["run", str(case), "-o", str(output)]).exit_code == 0
+    previous = listing(tmp_path)
+    data = small_case()
+    data["loads"]["F2"]["half_sine"]["amplitude"] = -2.0e6
+    write_case(tmp_path, data=data)
+    finals = listing(tmp_path)
+
+    env = {**os.environ, TEST_PAUSE_VARIABLE: "60"}
+    command = [sys.executable, "-c", "from femref.cli import main; main()", "run", str(case), "-o", str(output)]
+    process = subprocess.Popen(command, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    staging = tmp_path / f".out.h5.femref-{process.pid}.fields.tmp"
+    result_temporary = tmp_path / f".out.h5.femref-{process.pid}.tmp"
+    try:
+        deadline = time.monotonic() + 120.0
+        while not (result_temporary.exists() and {p.name for p in staging.iterdir()} >= {"out_fem_fields.xdmf", "out_fem_fields.h5"}):
+            assert process.poll() is None, "the run ended before publishing"
+            assert time.monotonic() < deadline, "the run never reached its field files"
+            time.sleep(0.05)
+        time.sleep(0.2)  # into the pause (or still writing the result: the outcome must be the same)
+    finally:
+        process.send_signal(signal.SIGKILL)
+        process.wait()
+    after = listing(tmp_path)
+    assert {k: v for k, v in after.items() if not k.startswith(".")} == finals  # previous result and field files intact
+    assert field_files_match(output) == []
+    assert leftovers(output) == [staging, result_temporary]
+
+    assert runner.invoke(main, ["run", str(case), "-o", str(output)]).exit_code == 0
+    assert leftovers(output) == [] and not staging.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["case.yaml", "out.h5", "out_fem_fields.h5", "out_fem_fields.xdmf"]
+    assert field_files_match(output) == []
+    assert listing(tmp_path)["out.h5"] != previous["out.h5"]
+
+
+# ---------------------------------------------------------------------------------------------
+# xarray
+
+
+def _result(model: str, axis: str, n: int) -> ModelResult:
+    values = np.linspace(0.0, 1.0, n)
+    result = ModelResult(model=model, axes={axis: values})
+    if axis == "omega":
+        result.axes["lambda"] = values / 2.0
+    result.set_probe_outputs(["left", "car/front"], {"acceleration": np.outer(values, [1.0, 2.0]), "displacement": np.outer(values, [3.0, 4.0])})
+    if axis == "time":
+        result.couplers = {"c1": {"force": 5.0 * values, "peak_force": np.asarray(5.0)}}
+        result.energy = {"kinetic": values, "total": 2.0 * values}
+        result.measured = {"time": np.linspace(0.0, 1.0, 7), "left": np.arange(7.0)}
+        result.fields = {"x": np.linspace(0.0, 2.0, 3), "time": values[::2], "u": np.zeros((values[::2].size, 3))}
+    return result
+
+
+def test_xarray_opens_every_history_group_with_its_axis(tmp_path):
+    """Each history group's datasets run along a dimension scale linked into the group: xarray (h5netcdf) gives
+    them the model's time (harmonic: omega, with lambda) as coordinate; the measured histories get their own time;
+    the whole file opens as a DataTree (no group's time clashes with an ancestor's)."""
+    xr = pytest.importorskip("xarray")
+    pytest.importorskip("h5netcdf")
+    path = tmp_path / "r.h5"
+    transient, harmonic = _result("fem", "time", 11), _result("exact", "omega", 5)
+    write_results(path, "kind: transient\n", [transient, harmonic])
+    for group, names in (("fem/probes/left", ["acceleration", "displacement"]), ("fem/probes/car/front", ["acceleration", "displacement"]),
+                         ("fem/couplers/c1", ["force"]), ("fem/energy", ["kinetic", "total"])):
+        with xr.open_dataset(path, group=group, engine="h5netcdf", phony_dims="sort") as ds:
+            np.testing.assert_array_equal(ds["time"].values, transient.axes["time"])
+            assert ds["time"].attrs["units"] == "s"
+            for name in names:
+                assert ds[name].dims == ("time",), (group, name)
+    with xr.open_dataset(path, group="fem/couplers/c1", engine="h5netcdf", phony_dims="sort") as ds:
+        assert ds["peak_force"].dims == () and float(ds["peak_force"]) == 5.0
+    with xr.open_dataset(path, group="fem/measured/left", engine="h5netcdf", phony_dims="sort") as ds:
+        np.testing.assert_array_equal(ds["time"].values, transient.measured["time"])
+        np.testing.assert_array_equal(ds["acceleration"].values, np.arange(7.0))
+    with xr.open_dataset(path, group="fem/fields", engine="h5netcdf", phony_dims="sort") as ds:
+        assert ds["u"].dims == ("time", "x") and ds["time"].size == 6
+    with xr.open_dataset(path, group="exact/probes/left", engine="h5netcdf", phony_dims="sort") as ds:
+        np.testing.assert_array_equal(ds["omega"].values, harmonic.axes["omega"])
+        np.testing.assert_array_equal(ds["lambda"].values, harmonic.axes["lambda"])
+        assert "lambda" in ds.coords and ds["acceleration"].dims == ("omega",)
+    tree = xr.open_datatree(path, engine="h5netcdf", phony_dims="sort")
+    np.testing.assert_array_equal(tree["fem/probes/left"]["time"].values, transient.axes["time"])
+    with h5py.File(path) as h5:  # one scale object per model, stored once
+        assert h5["fem/probes/left/time"].id == h5["fem/energy/time"].id
+        assert h5["fem/probes/left/time"].is_scale and not h5["fem/time"].is_scale
+
+
+def test_xarray_opens_a_run_of_the_cli(runner, tmp_path):
+    xr = pytest.importorskip("xarray")
+    pytest.importorskip("h5netcdf")
+    output = tmp_path / "out.h5"
+    assert runner.invoke(main, ["run", str(write_case(tmp_path)), "-o", str(output)]).exit_code == 0
+    with h5py.File(output) as h5:
+        time_axis = h5["fem/time"][()]
+    with xr.open_dataset(output, group="fem/probes/center", engine="h5netcdf", phony_dims="sort") as ds:
+        np.testing.assert_array_equal(ds["time"].values, time_axis)
+        assert set(ds.data_vars) == {"acceleration", "displacement", "axial_force"}
