@@ -38,6 +38,7 @@ DPI = 100
 REFERENCE_WIDTH = 2.6
 MODEL_WIDTH = 1.3
 MEASURED_WIDTH = 0.7
+OUTSIDE_ALPHA = 0.12  # shading of the intervals where a model is outside its range
 MODEL_COLORS = ("#d62728", "#1f77b4", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22")
 MODEL_DASHES = ("-", "--", "-.", ":")
 REFERENCE_QUANTILES = (0.005, 0.995)  # of the reference's samples: its range on an acceleration plot
@@ -337,6 +338,9 @@ def _time_acceleration_picture(
         else:
             ax.plot(time, acceleration, **styles[model.name])
             curves.append((model.name, time, acceleration, styles[model.name]["color"]))
+            for start, end in model.outside_range:
+                ax.axvspan(start, end, color=styles[model.name]["color"], alpha=OUTSIDE_ALPHA, lw=0)
+    outside = [m for m in models if m.outside_range and quantity in m.probes.get(probe, {})]
     shows_measured = measured and reference is not None and probe in reference.measured and reference.measured_time is not None
     if shows_measured:
         record = {"color": "#7f7f7f", "lw": MEASURED_WIDTH, "zorder": 2.5, "label": f"{reference.name} measured"}
@@ -349,6 +353,10 @@ def _time_acceleration_picture(
     ax.set_title(f"probe {probe}" + (", vertical" if vertical else ""))
     _legend(ax)
     caption = f"{'Vertical acceleration' if vertical else 'Acceleration'} at probe {probe} against time, models overlaid"
+    if outside:
+        caption += (f"; shaded in its colour: where {', '.join(m.name for m in outside)} is outside its range — an end force "
+                    f"changes slope within one wave travel time of a car (ε_loc > {outside[0].outside_limit:g}), where a car carries "
+                    "a stress wave and the quasi-rigid expansion has none")
     if shows_measured:
         caption += f"; thin grey: the {reference.name} record through the measurement chain"
     title = f"{'vertical acceleration' if vertical else 'acceleration'} — {probe}"

@@ -7,6 +7,7 @@ never touch HDF5. A file that is missing, is not HDF5, or is not a femref result
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -52,6 +53,8 @@ class ModelData:
     measured: dict[str, NDArray] = field(default_factory=dict)
     fields: dict[str, NDArray] = field(default_factory=dict)
     energy: dict[str, NDArray] = field(default_factory=dict)
+    outside_range: list[tuple[float, float]] = field(default_factory=list)  # (t0, t1) s where a quasi-rigid car is outside its range
+    outside_limit: float = math.nan  # the ε_loc above which it is (femref.run.validity)
 
     @property
     def ok(self) -> bool:
@@ -187,7 +190,19 @@ def _read_model(name: str, group: h5py.Group) -> ModelData:
         measured={k: v["acceleration"] for k, v in measured.items()},
         fields={k: v[()] for k, v in group["fields"].items()} if "fields" in group else {},
         energy={k: v[()] for k, v in group["energy"].items() if isinstance(v, h5py.Dataset) and k not in AXIS_NAMES} if "energy" in group else {},
+        **_outside_range(group),
     )
+
+
+def _outside_range(group: h5py.Group) -> dict[str, Any]:
+    """``outside_range`` and ``outside_limit`` of :class:`ModelData`: the intervals a quasi-rigid run recorded as
+    outside its range and the limit (``settings["quasi_rigid_range"]``, femref.run.validity); none when the
+    settings do not parse or hold none."""
+    try:
+        marked = json.loads(_text(group.attrs.get("settings", "{}"))).get("quasi_rigid_range") or {}
+        return {"outside_range": [(float(a), float(b)) for a, b in marked.get("outside", [])], "outside_limit": float(marked.get("limit", math.nan))}
+    except (ValueError, TypeError, AttributeError):
+        return {}
 
 
 def _choice(group: h5py.Group) -> Choice:

@@ -40,6 +40,7 @@ from femref.run.budget import check_budget, resolution_warnings
 from femref.run.capture import capture
 from femref.run.scoring import reference_error_estimate, score_results
 from femref.run.timestep import impact_time_step, single_body_time_step
+from femref.run.validity import quasi_rigid_range
 from femref.scene import ImpactScene, ModelRun, Scene
 from femref.sensing.impact_type import classify_records
 from femref.sensing.measurement import measure
@@ -80,6 +81,12 @@ def run_scene(scene: Scene | ImpactScene, progress_for: ProgressFor | None = Non
 def _run_impact(scene: ImpactScene, progress: Callable[[str], Progress | None]) -> RunOutcome:
     load_compiled_loop(scene)
     results = [run_model(scene, run, progress=progress(run.name)) for run in scene.runs]
+    for run, result in zip(scene.runs, results):
+        if result.ok:
+            forces = {c: out["force"] for c, out in result.couplers.items()}
+            marked = quasi_rigid_range(scene, run, result.axes["time"], forces)
+            if marked is not None:
+                result.settings["quasi_rigid_range"] = marked
     if scene.measurement is not None:
         for result in results:
             if result.ok:
