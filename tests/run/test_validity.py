@@ -58,13 +58,13 @@ def _run(models=("fem", "quasi_rigid"), **coupler) -> dict:
 def test_the_default_impact_marks_the_quasi_rigid_onset_and_separation() -> None:
     """The default scene (M-901E-class gear with series springs: the force starts with a slope of v/D, 4e8 N/s,
     a kink) — the quasi-rigid run records its onset, from contact for at most three wave travel times of its longer
-    car (the sharp bends and one wave travel time around them), and its separation, as outside its range; its largest acceleration (the onset
-    spike) lies inside the onset interval and its spike at separation inside the other; fem records nothing."""
+    car (the sharp bends and one wave travel time around them), and its separation, as outside its range; its
+    largest acceleration (the onset spike) lies inside the onset interval and its spike at separation inside the
+    other; fem records nothing."""
     results = _run()
     qr = results["quasi_rigid"]
     marked = qr.settings["quasi_rigid_range"]
     wave = max(marked["cars"].values())
-    dt = float(qr.axes["time"][1])
     t, force = qr.axes["time"], qr.couplers["c1"]["force"]
     separation = t[np.flatnonzero(force > 0.0)[-1]]
     (onset, after) = marked["outside"]
