@@ -184,6 +184,7 @@ COMMANDS = {  # args (in a folder holding sweeps/, studies/, the free-roll case 
     "bench-plot-onto-its-CASE": (["bench", "impact_free_roll.yaml", "-o", "b.h5", "--plot", "impact_free_roll.yaml"], "--plot impact_free_roll.yaml: is the input CASE"),
     "report": (["report", "r.h5", "-o", "missing/out.html"], "the folder missing does not exist"),
     "report-onto-its-results": (["report", "r.h5", "-o", "r.h5"], "overwrite"),
+    "figures-under-a-missing-folder": (["figures", "-o", "missing/figures"], "the folder missing does not exist"),
 }
 
 
