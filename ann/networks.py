@@ -37,7 +37,7 @@ from sklearn.cluster import KMeans
 from sklearn.exceptions import ConvergenceWarning
 from sklearn.neural_network import MLPRegressor
 
-from ann.backprop import UNITS, initial_weights, layer_units, loss_and_gradient, momentum_step
+from ann.backprop import UNITS, forward, initial_weights, layer_units, loss_and_gradient, momentum_step
 
 ACTIVATIONS: dict[str, Callable[[np.ndarray], np.ndarray]] = {
     "logistic": lambda z: 0.5 * (1.0 + np.tanh(0.5 * z)),  # = 1/(1+e^-z), overflow-free
@@ -460,9 +460,7 @@ class MomentumMLP:
         X, _ = _check_xy(X)
         if X.shape[1] != self.coefs_[0].shape[0]:
             raise ValueError(f"X has {X.shape[1]} features but the network expects {self.coefs_[0].shape[0]}")
-        h = X
-        for W, b, name in zip(self.coefs_, self.intercepts_, self.units):
-            h = UNITS[name].value(h @ W + b)
+        h = forward(self.coefs_, self.intercepts_, [UNITS[name] for name in self.units], X)[1][-1]
         if np.ndim(self.target_offset_) == 0:
             h = h[:, 0]
         return _target_out(h * self.target_scale_ + self.target_offset_, self.log_target)
