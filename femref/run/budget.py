@@ -38,6 +38,7 @@ import numpy as np
 from femref.case.errors import CaseError, Problem
 from femref.core.body import Body
 from femref.core.signals import Tabulated
+from femref.run.timestep import impact_candidates, single_body_candidates, smallest_candidate
 
 #: Work units (≈ seconds on the reference machine) a scene may take.
 WORK_BUDGET = 3600.0
@@ -139,12 +140,6 @@ def rod_dofs(body: Body, elements: int, order: int) -> int:
     return order * (_nodes(body, elements) - 1) + 1
 
 
-def _transit(body: Body, elements: int) -> float:
-    """Wave transit time of an average element (s; :func:`femref.run.timestep.mesh_transit_time` without a mesh)."""
-    h = 2.0 * body.half_length / elements
-    return (h if body.kind == "rod" else h * h) / wave_speed(body)
-
-
 def _steps(end: float, dt: float) -> float:
     return math.ceil(end / dt - 1e-9)
 
@@ -161,17 +156,11 @@ def _time_factors(scene, dt: float, auto_dt_default: float) -> dict[str, tuple[f
 
 
 def approximate_step(scene, run, elements: int | None = None) -> float:
-    """The automatic step of an impact run (:func:`femref.run.timestep.impact_time_step`) without a mesh."""
+    """The automatic step of an impact run (:func:`femref.run.timestep.impact_time_step`'s rule) without a mesh:
+    the wave speeds sampled (:func:`wave_speed`); the case's ``time.dt`` when it gives one and ``elements`` is None."""
     if scene.dt is not None and elements is None:
         return scene.dt
-    elements = elements or scene.fem.elements
-    candidates = [scene.contact_time() / 100.0, scene.end / 20.0]
-    for car, fidelity in zip(scene.cars, run.fidelity):
-        if fidelity == "fem":
-            candidates.append(_transit(car.body, elements))
-        elif fidelity == "modal":
-            candidates.append(4.0 * car.body.half_length / (scene.modal_modes * wave_speed(car.body)) / 20.0)
-    return min(c for c in candidates if math.isfinite(c))
+    return smallest_candidate(impact_candidates(scene, run, elements or scene.fem.elements, wave_speed))[0]
 
 
 def _impact_run(scene, run) -> Cost:
@@ -207,12 +196,12 @@ def _impact_run(scene, run) -> Cost:
 # Single body
 
 
-def _single_step(scene) -> float:
-    """The transient scene's step (:func:`femref.run.timestep.single_body_time_step`) without a mesh."""
-    if scene.dt is not None:
+def _single_step(scene, elements: int | None = None) -> float:
+    """The transient scene's step (:func:`femref.run.timestep.single_body_time_step`'s rule) without a mesh; the
+    case's ``time.dt`` when it gives one and ``elements`` is None."""
+    if scene.dt is not None and elements is None:
         return scene.dt
-    candidates = [scene.load_time_scale / 100.0, _transit(scene.body, scene.fem.elements), scene.end / 20.0]
-    return min(c for c in candidates if math.isfinite(c))
+    return smallest_candidate(single_body_candidates(scene, elements or scene.fem.elements, wave_speed))[0]
 
 
 def _single_dofs(scene) -> int:
@@ -232,8 +221,7 @@ def _transient(scene, model: str) -> Cost:
     outputs = steps / scene.output_stride + 1
     probes = len(scene.probes)
     histories = outputs * (3 * probes + 5) * _BYTES
-    default_dt = min(c for c in (scene.load_time_scale / 100.0, _transit(scene.body, _DEFAULT_ELEMENTS), scene.end / 20.0) if math.isfinite(c))
-    factors = _time_factors(scene, dt, default_dt)
+    factors = _time_factors(scene, dt, _single_step(scene, _DEFAULT_ELEMENTS))
     records = _records(scene)
     memory = histories + sum(2 * _BYTES * n for n in records.values())
     size = f"{steps:.3g} steps"
