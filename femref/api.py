@@ -26,6 +26,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from femref.results import AXIS_NAMES
 from femref.run import RunOutcome, run_scene
 
 if TYPE_CHECKING:  # the readers' return types; neither library is needed to run a case
@@ -39,8 +40,6 @@ READ_EXTRA = "femref[xarray]"
 
 #: The axis datasets a model group may hold (``/<model>/<axis>``), the first present is the index.
 AXES = ("time", "omega")
-#: Axis datasets a history group may hold as links to its model's axis (coordinates, not outputs).
-AXIS_LINKS = ("time", "omega", "lambda")
 
 
 def run_case(case: str | Path | Mapping[str, Any], output: str | Path | None = None, *, base_dir: str | Path | None = None) -> RunOutcome:
@@ -205,7 +204,7 @@ def _read_model(path: str | Path, model: str | None) -> dict[str, Any]:
         axis_name = next((name for name in AXES if isinstance(g.get(name), h5py.Dataset)), None)
         axis = None if axis_name is None else (axis_name, g[axis_name][()], _units(g[axis_name]))
         along = {  # further coordinates along the axis (harmonic: lambda beside omega)
-            name: (g[name][()], _units(g[name])) for name in AXIS_LINKS
+            name: (g[name][()], _units(g[name])) for name in AXIS_NAMES
             if axis is not None and name != axis_name and isinstance(g.get(name), h5py.Dataset) and g[name].shape == axis[1].shape
         }
         scores = dict(h5[f"scores/{model}"].attrs) if f"scores/{model}" in h5 else {}
@@ -248,7 +247,7 @@ def _members(group: Any) -> dict[str, dict[str, tuple[Any, str]]]:
     return found
 
 
-def _datasets(group: Any, skip: tuple[str, ...] = AXIS_LINKS) -> dict[str, tuple[Any, str]]:
+def _datasets(group: Any, skip: tuple[str, ...] = AXIS_NAMES) -> dict[str, tuple[Any, str]]:
     """The datasets directly in ``group`` but the axis links in ``skip``: name → (values, units)."""
     import h5py
 
