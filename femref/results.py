@@ -429,23 +429,9 @@ def _link_axis(groups: list[h5py.Group], name: str, values, extra: dict[str, NDA
                 ds.attrs["coordinates"] = " ".join(extra)
 
 
-def write_xdmf_fields(path: Path, fields: dict[str, NDArray]) -> list[Path]:
-    """XDMF + HDF5 time series of the displacement field on the 1D mesh (points padded to 3D).
-
-    Written in a temporary folder (:func:`temporary_path`) and renamed into place, so the XDMF
-    file's reference to its HDF5 companion stays valid and no partial pair is left behind.
-    """
-    path = Path(path)
-    remove_leftovers(path)
-    staging = _create_temporary(path, folder=True)
-    try:
-        return _publish(_write_xdmf_pair(staging, path.name, fields), path.parent)
-    finally:
-        shutil.rmtree(staging, ignore_errors=True)
-
-
 def _write_xdmf_pair(folder: Path, name: str, fields: dict[str, NDArray]) -> list[Path]:
-    """Write the XDMF file ``name`` and its HDF5 companion into ``folder``; return both paths."""
+    """Write the XDMF + HDF5 time series of the displacement field on the 1D mesh (points padded to 3D: meshio
+    and VTK need three components) as the file ``name`` and its companion into ``folder``; return both paths."""
     import meshio
 
     x, u, times = fields["x"], fields["u"], fields["time"]
