@@ -50,11 +50,6 @@ def _exact(case: Any) -> str | None:
     return None
 
 
-def _bending_cars(case: Any) -> list[str]:
-    """The names of an impact case's cars that bend."""
-    return [car.name for car in case.cars if car.body.bends]
-
-
 def _quasi_rigid(case: Any) -> str | None:
     """The quasi-rigid beam expands about the rigid modes of a symmetric body: even profiles only.
 
