@@ -27,7 +27,7 @@ import ann.storage as storage
 from ann.features import FeaturePipeline, FeatureSettings
 from ann.networks import RBFNetwork
 from support.case_helpers import DELETE, edited_copy
-from support.network_case import PROBES, TWO_CARS
+from support.network_case import PROBES, RECORD_END, RECORD_LENGTH, TWO_CARS
 from femref.case import CaseError, load_case, parse_case, resolved_yaml
 from femref.cli import main
 from femref.sensing.records import acceleration_histories, fixed_length_records, record_rate
@@ -36,7 +36,6 @@ from femref.run.scoring import score_impact, score_peak_estimates
 from femref.results import ModelResult
 from femref.scene.build import scene_from_case
 
-RECORD_LENGTH, RECORD_END = 64, 0.25
 CHAIN = {"rate": 1000.0, "lowpass": 100.0, "noise": 0.05, "seed": 1}
 
 #: A two-car free-roll impact, coarse fem (fast), records through a measurement chain.

@@ -32,10 +32,9 @@ from ann.networks import MomentumMLP, RBFNetwork
 from femref.cli import main
 from femref.sensing.network import NetworkFileError, read_network
 from femref.sensing.records import record_rate
-from support.network_case import PROBES, TWO_CARS
+from support.network_case import PROBES, RECORD_END, RECORD_LENGTH, TWO_CARS
 from support.paths import CASES
 
-RECORD_LENGTH, RECORD_END = 64, 0.25
 RATE = record_rate(RECORD_LENGTH, RECORD_END)
 
 #: A two-car free-roll impact on a coarse fem mesh, its model records read by a network.

@@ -7,6 +7,9 @@ from typing import Any
 PROBES = ["hammer/center", "hammer/front", "anvil/rear", "anvil/center"]
 """The record channels of the tests' networks."""
 
+RECORD_LENGTH, RECORD_END = 64, 0.25
+"""Samples per record and its span (s) of the tests' networks: 252 Hz."""
+
 TWO_CARS: dict[str, Any] = {
     "kind": "impact",
     "cars": [
