@@ -19,6 +19,7 @@ $(STAMP): pyproject.toml
 env: $(STAMP)
 
 demo: $(STAMP)
+	mkdir -p results
 	$(BIN)/femref run -o results/default.h5
 
 # One BLAS thread per test process: the suite's products are small, and on a busy machine OpenBLAS's
