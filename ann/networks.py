@@ -22,20 +22,24 @@ forces span an order of magnitude over yard speeds and car masses; in logs the
 relative error is what the squared loss weighs (``Δ log P ≈ ΔP/P``), the
 prediction is always positive, and ``log P = log M + log A`` is linear in the
 log-amplitude features of :mod:`ann.features`.
+
+scikit-learn is needed only to train ``MLPForceRegressor`` and ``RBFNetwork``: it is the
+optional extra ``train`` (``pip install 'femref[train]'``) and is imported inside their
+``fit``; importing this module, loading a saved network and predicting use numpy and scipy
+only, and ``MomentumMLP`` trains without it. Training without it raises
+:class:`TrainingDependencyError` (an ``ImportError``) naming the extra.
 """
 
 from __future__ import annotations
 
+import importlib
 import warnings
 from collections.abc import Sequence
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 from scipy import linalg
 from scipy.spatial.distance import cdist
-from sklearn.cluster import KMeans
-from sklearn.exceptions import ConvergenceWarning
-from sklearn.neural_network import MLPRegressor
 
 from ann.backprop import UNITS, forward, initial_weights, layer_units, loss_and_gradient, momentum_step
 
@@ -53,6 +57,42 @@ BASES: dict[str, Callable[[np.ndarray], np.ndarray]] = {
     "inverse_quadratic": lambda q: 1.0 / (1.0 + q**2),
     "inverse_multiquadric": lambda q: 1.0 / np.sqrt(1.0 + q**2),
 }
+
+
+#: The optional extra that installs scikit-learn, the trainer of ``MLPForceRegressor`` and ``RBFNetwork``.
+TRAIN_EXTRA = "train"
+
+
+class TrainingDependencyError(ImportError):
+    """Training asked for without scikit-learn installed: the message names the network and the extra
+    ``femref[train]``; prediction from a saved network needs no scikit-learn."""
+
+
+class NetworkConvergenceWarning(UserWarning):
+    """A training run stopped before its tolerance was met, where scikit-learn (and its ``ConvergenceWarning``) is
+    not installed; with scikit-learn, scikit-learn's ``ConvergenceWarning`` is raised (:func:`convergence_warning`)."""
+
+
+def _training_import(network: str, module: str, name: str) -> Any:
+    """``module.name`` from scikit-learn, for training ``network``; :class:`TrainingDependencyError` when it is missing."""
+    try:
+        return getattr(importlib.import_module(module), name)
+    except ImportError as error:
+        raise TrainingDependencyError(
+            f"training a {network} needs scikit-learn, an optional extra of femref: pip install 'femref[{TRAIN_EXTRA}]' "
+            f"(loading a saved network and predicting with it do not need it; {error})"
+        ) from error
+
+
+def convergence_warning() -> type[Warning]:
+    """The category of "stopped before converging" warnings: scikit-learn's ``ConvergenceWarning`` when scikit-learn is
+    installed (so filters written for scikit-learn also catch ``MomentumMLP``'s), else :class:`NetworkConvergenceWarning`.
+    Called only on a training path (it imports scikit-learn)."""
+    try:
+        from sklearn.exceptions import ConvergenceWarning
+    except ImportError:
+        return NetworkConvergenceWarning
+    return ConvergenceWarning
 
 
 def _check_xy(X: np.ndarray, y: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
@@ -153,7 +193,10 @@ class MLPForceRegressor:
         self.loss_curve_: np.ndarray = np.empty(0)
 
     def fit(self, X: np.ndarray, y: np.ndarray) -> MLPForceRegressor:
-        """Train on features ``X (N, features)`` and forces ``y (N,)`` or ``(N, outputs)``."""
+        """Train on features ``X (N, features)`` and forces ``y (N,)`` or ``(N, outputs)`` (scikit-learn's ``MLPRegressor``:
+        :class:`TrainingDependencyError` without the extra ``femref[train]``)."""
+        MLPRegressor = _training_import("MLPForceRegressor", "sklearn.neural_network", "MLPRegressor")
+        ConvergenceWarning = _training_import("MLPForceRegressor", "sklearn.exceptions", "ConvergenceWarning")
         X, y = _check_xy(X, y)
         y = _target_in(y, self.log_target)
         self.target_mean_ = y.mean(axis=0)
@@ -398,7 +441,7 @@ class MomentumMLP:
             warnings.warn(
                 f"MomentumMLP stopped after {self.epochs} epochs without its loss settling (tol={self.tol:g}); "
                 "check converged_ before trusting it",
-                ConvergenceWarning,
+                convergence_warning(),
                 stacklevel=2,
             )
         return self
@@ -578,7 +621,9 @@ class RBFNetwork:
         self.weights_: np.ndarray | None = None
 
     def fit(self, X: np.ndarray, y: np.ndarray) -> RBFNetwork:
-        """Place centres, choose the width, solve for the output weights."""
+        """Place centres (scikit-learn's ``KMeans``: :class:`TrainingDependencyError` without the extra
+        ``femref[train]``), choose the width, solve for the output weights."""
+        KMeans = _training_import("RBFNetwork", "sklearn.cluster", "KMeans")
         X, y = _check_xy(X, y)
         y = _target_in(y, self.log_target)
         if X.shape[0] < self.centres:

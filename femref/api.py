@@ -70,7 +70,7 @@ def run_case(case: str | Path | Mapping[str, Any], output: str | Path | None = N
         rule = "run_case runs the case's models; a tolerance (model choice) runs with `femref run` or femref.choice.choose_model"
         raise CaseError(Problem(("tolerance",), rule, loaded.tolerance.value), source)
     scene = scene_from_case(loaded, folder)
-    outcome = run_scene(scene)
+    outcome = run_scene(scene, source=source)
     if output is not None:
         from femref.results import write_results
 

@@ -36,6 +36,16 @@ leaves either the previous pair or new field files beside the previous result, w
 ``FEMREF_TEST_PAUSE_BEFORE_PUBLISH`` (seconds) is a test hook only: it sleeps between writing
 the temporaries and the renames, so a test can kill a run there.
 
+Older femref versions (before issue 18) named their temporaries at random: the result file
+``.<final name>.<8 random characters>.tmp`` (``tempfile.mkstemp``) and a folder
+``tmp<8 random characters>`` (``tempfile.mkdtemp``) holding the XDMF + HDF5 field files
+``<result stem>_<model>_fields.xdmf|.h5``. Without a pid in the name, :func:`legacy_leftovers`
+recognises them by name *and* content — a folder holding nothing but field files of this result
+(HDF5 and XDMF by their first bytes), a file of this final name (an HDF5 file if it is one) —
+owned by this user, unchanged for :data:`LEGACY_QUIET_SECONDS`, and open (or the working folder)
+of no process (``/proc``). What fails only the last two conditions, or holds other files, is kept
+and reported, never removed; without ``/proc`` nothing is removed.
+
 Time axes as dimension scales, for xarray (``xarray.open_dataset(path, group="fem/probes/left",
 engine="h5netcdf")`` gives ``time`` as the coordinate). Each history group (a probe's, a
 coupler's, ``energy``) holds its model's axis as a hard link named ``time`` (harmonic runs:
@@ -198,6 +208,156 @@ def remove_leftovers(path: str | Path) -> list[Path]:
             entry.unlink(missing_ok=True)
         removed.append(entry)
     return removed
+
+
+#: Seconds an older femref's temporary must be unchanged before :func:`remove_legacy_leftovers` removes it.
+LEGACY_QUIET_SECONDS = 600.0
+#: ``tempfile``'s random names: 8 characters of this alphabet.
+_RANDOM = "[a-z0-9_]{8}"
+_LEGACY_FOLDER = re.compile(rf"^tmp{_RANDOM}$")
+HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+_XDMF_STARTS = (b"<Xdmf", b"<?xml")
+
+
+@dataclass
+class LegacyLeftovers:
+    """An older femref's temporaries of one final name: those safe to remove, and those kept with the reason."""
+
+    removable: list[Path] = field(default_factory=list)
+    kept: list[tuple[Path, str]] = field(default_factory=list)
+
+
+@dataclass
+class LegacyCleanup:
+    """What :func:`remove_legacy_leftovers` removed, and what it kept with the reason."""
+
+    removed: list[Path] = field(default_factory=list)
+    kept: list[tuple[Path, str]] = field(default_factory=list)
+
+
+def legacy_leftovers(path: str | Path, now: float | None = None) -> LegacyLeftovers:
+    """An older femref's temporaries of ``path`` (module docstring): ``tmp<random>`` folders of its field files and
+    ``.<name>.<random>.tmp`` files, split into the removable ones (recognised by name and content, owned by this
+    user, unchanged for :data:`LEGACY_QUIET_SECONDS` before ``now``, used by no process) and the kept ones (why)."""
+    path = Path(path)
+    found = LegacyLeftovers()
+    if not path.parent.is_dir():
+        return found
+    now = time.time() if now is None else now
+    own_file = re.compile(rf"^\.{re.escape(path.name)}\.{_RANDOM}\.tmp$")
+    candidates = []
+    for entry in sorted(path.parent.iterdir()):
+        if _LEGACY_FOLDER.match(entry.name) and entry.is_dir() and not entry.is_symlink():
+            problem, files = _legacy_folder_problem(entry, path)
+        elif own_file.match(entry.name) and not entry.is_dir():
+            problem, files = _legacy_file_problem(entry, path), [entry]
+        else:
+            continue
+        if problem is None:  # not femref's at all: not ours to name
+            continue
+        if problem:
+            found.kept.append((entry, problem))
+        else:
+            candidates.append((entry, files))
+    if not candidates:
+        return found
+    in_use = _paths_in_use([entry for entry, _ in candidates])
+    for entry, files in candidates:
+        changed = now - max(item.lstat().st_mtime for item in [entry, *files])
+        if in_use is None:
+            found.kept.append((entry, "whether a process uses it cannot be checked here (no /proc)"))
+        elif entry in in_use:
+            found.kept.append((entry, "a running process uses it"))
+        elif changed < LEGACY_QUIET_SECONDS:
+            found.kept.append((entry, f"it changed {max(changed, 0.0):.0f} s ago"))
+        else:
+            found.removable.append(entry)
+    return found
+
+
+def remove_legacy_leftovers(path: str | Path) -> LegacyCleanup:
+    """Remove the removable :func:`legacy_leftovers` of ``path``; return what was removed and what was kept."""
+    found = legacy_leftovers(path)
+    for entry in found.removable:
+        if entry.is_dir():
+            shutil.rmtree(entry, ignore_errors=True)  # checked: regular files only, no links to follow
+        else:
+            entry.unlink(missing_ok=True)
+    return LegacyCleanup(found.removable, found.kept)
+
+
+def _owned(entry: Path) -> bool:
+    return not hasattr(os, "getuid") or entry.lstat().st_uid == os.getuid()
+
+
+def _legacy_folder_problem(folder: Path, path: Path) -> tuple[str | None, list[Path]]:
+    """Whether ``folder`` (named like ``tempfile.mkdtemp``'s) is an older femref's field-file folder of the result
+    ``path``: None when it holds no field file of ``path`` (not femref's), ``""`` when it is one, else why it is
+    not certain. Also its files."""
+    try:
+        files = sorted(folder.iterdir())
+    except OSError:
+        return None, []
+    prefix, suffixes = f"{path.stem}_", ("_fields.xdmf", "_fields.h5")
+    ours = [f for f in files if f.name.startswith(prefix) and f.name.endswith(suffixes) and len(f.name) > len(prefix) + len(suffixes[1])]
+    if not ours:
+        return None, files
+    others = [f.name for f in files if f not in ours]
+    if others:
+        return f"it also holds {', '.join(others[:3])}{' …' if len(others) > 3 else ''}, which femref does not write there", files
+    for file in files:
+        if file.is_symlink() or not file.is_file():
+            return f"{file.name} is not a regular file", files
+        head = _head(file)
+        if head and not head.startswith(HDF5_SIGNATURE if file.suffix == ".h5" else _XDMF_STARTS):
+            return f"{file.name} is not {'an HDF5' if file.suffix == '.h5' else 'an XDMF'} file", files
+    if not all(_owned(item) for item in [folder, *files]):
+        return "it belongs to another user", files
+    return "", files
+
+
+def _legacy_file_problem(file: Path, path: Path) -> str:
+    """Whether ``file`` (named ``.<path name>.<random>.tmp``) is an older femref's temporary of ``path``: ``""`` if so,
+    else why it is not certain."""
+    if file.is_symlink() or not file.is_file():
+        return "it is not a regular file"
+    if path.suffix == ".h5" and _head(file) and not _head(file).startswith(HDF5_SIGNATURE):
+        return "it is not an HDF5 file"
+    if not _owned(file):
+        return "it belongs to another user"
+    return ""
+
+
+def _head(file: Path) -> bytes:
+    """The first bytes of ``file`` (empty if it is empty or unreadable)."""
+    try:
+        with open(file, "rb") as stream:
+            return stream.read(8)
+    except OSError:
+        return b""
+
+
+def _paths_in_use(entries: list[Path]) -> set[Path] | None:
+    """Those of ``entries`` (files or folders) that a process has open, or under its working folder (``/proc``);
+    None where ``/proc`` cannot tell. Processes of other users, which ``/proc`` does not show, are not seen:
+    :func:`legacy_leftovers` only considers this user's entries."""
+    proc = Path("/proc")
+    if not (proc / "self" / "fd").is_dir():
+        return None
+    targets = {entry: os.path.realpath(entry) for entry in entries}
+    used: set[Path] = set()
+    for process in proc.iterdir():
+        if not process.name.isdigit():
+            continue
+        try:
+            links = [os.readlink(process / "cwd")]
+            links += [os.readlink(fd) for fd in (process / "fd").iterdir()]
+        except OSError:  # ended, or another user's
+            continue
+        for entry, target in targets.items():
+            if any(link == target or link.startswith(target + os.sep) for link in links):
+                used.add(entry)
+    return used
 
 
 @contextlib.contextmanager

@@ -13,7 +13,9 @@ The plot is log–log: primary error (y) against median wall time (x, s; the top
 gives the same times as ratios to the rigid model's), one marker per model family, the
 Pareto-optimal configurations ringed, labelled and joined by a step line. Errors that a
 log axis cannot show — 0, or NaN (not scored) — are drawn at a floor a decade below the
-least positive error, with open markers, and the legend says so.
+least positive error, with open markers, and the legend says so. Labels are placed
+greedily (:func:`place_labels`) so that no two overlap, and off the markers and the
+legend where there is room; a label moved away from its point gets a thin leader line.
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ import json
 import math
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, Sequence
 
 import h5py
 import numpy as np
@@ -31,7 +33,7 @@ from femref import __version__
 from femref.bench.run import PRIMARY_ERROR, RATIO_BASE, SECONDARY_ERROR, VERTICAL_ERROR, BenchOutcome, BenchRow
 from femref.results import atomic_path
 
-__all__ = ["COLUMNS", "plot_pareto", "write_bench_table"]
+__all__ = ["COLUMNS", "LABEL_GID", "pareto_figure", "place_labels", "plot_pareto", "write_bench_table"]
 
 _STR = h5py.string_dtype("utf-8")
 
@@ -100,15 +102,90 @@ def error_floor(errors: np.ndarray) -> float:
     return float(positive.min()) / 10.0 if positive.size else 1e-6
 
 
-def plot_pareto(path: str | Path, outcome: BenchOutcome, title: str = "") -> Path:
-    """The log–log Pareto plot (module docstring) as a PNG, written under a temporary name and renamed."""
+LABEL_GID = "pareto-label"
+"""The ``gid`` of every configuration label in the Pareto plot (how a test or a caller finds them)."""
+LABEL_RADII = (10.0, 18.0, 28.0, 40.0, 54.0, 70.0, 88.0, 108.0)  # points: rings of candidate offsets, nearest first
+LABEL_DIRECTIONS = ((1, 1), (1, -1), (-1, 1), (-1, -1), (1, 0), (-1, 0), (0, 1), (0, -1))
+LABEL_PAD = 2.0  # pixels kept clear around each label
+MARKER_RADIUS = 7.0  # points: a ringed marker's half-width, kept clear of labels where there is room
+
+
+def _aligned(direction: tuple[int, int]) -> tuple[str, str]:
+    """Text alignment that makes a label grow away from its point in ``direction``."""
+    dx, dy = direction
+    return {1: "left", -1: "right", 0: "center"}[dx], {1: "bottom", -1: "top", 0: "center"}[dy]
+
+
+def place_labels(
+    ax: Any, points: Sequence[tuple[float, float]], texts: Sequence[str], renderer: Any,
+    obstacles: Sequence[tuple[float, float]] = (), avoid: Sequence[Any] = (), fontsize: float = 8.0,
+) -> list[Any]:
+    """Label ``points`` (data coordinates) with ``texts``, each at the first free offset: no two labels overlap.
+
+    Greedy, in the order given: for each label the candidate offsets are
+    :data:`LABEL_DIRECTIONS` on rings of :data:`LABEL_RADII` (points), nearest ring first;
+    a candidate's cost is, in order, its overlaps with labels already placed (boxes padded
+    by :data:`LABEL_PAD` px), with the markers at ``points`` and ``obstacles`` (boxes of
+    :data:`MARKER_RADIUS`) and the boxes ``avoid`` (display-coordinate ``Bbox``, e.g. the
+    legend), and how far it leaves the axes; the first candidate of cost zero is taken, else
+    the cheapest. A label placed beyond the nearest ring gets a thin leader line to its
+    point. Boxes are the renderer's ``get_window_extent``, so the figure's layout must be
+    final (call after ``tight_layout``); the labels stay out of later layouts. Returns the
+    annotations (``gid`` :data:`LABEL_GID`).
+    """
+    from matplotlib.transforms import Bbox
+
+    figure = ax.get_figure()
+    pixels = figure.dpi / 72.0
+    to_display = ax.transData.transform
+    marker = MARKER_RADIUS * pixels
+    markers = [Bbox.from_extents(x - marker, y - marker, x + marker, y + marker)
+               for x, y in to_display(np.array([*points, *obstacles], dtype=float).reshape(-1, 2))]
+    frame = ax.get_window_extent(renderer)
+    placed: list[Any] = []
+    labels = []
+    for (x, y), text in zip(points, texts):
+        best, best_cost = None, None
+        for radius in LABEL_RADII:
+            for direction in LABEL_DIRECTIONS:
+                ha, va = _aligned(direction)
+                offset = (direction[0] * radius, direction[1] * radius)
+                label = ax.annotate(text, (x, y), xytext=offset, textcoords="offset points", ha=ha, va=va, fontsize=fontsize, gid=LABEL_GID)
+                label.set_in_layout(False)
+                box = label.get_window_extent(renderer).padded(LABEL_PAD)
+                outside = max(frame.x0 - box.x0, box.x1 - frame.x1, frame.y0 - box.y0, box.y1 - frame.y1, 0.0)
+                cost = (
+                    sum(box.overlaps(other) for other in placed),
+                    sum(box.overlaps(other) for other in (*markers, *avoid)),
+                    outside,
+                )
+                if best_cost is None or cost < best_cost:
+                    if best is not None:
+                        best[0].remove()
+                    best, best_cost = (label, radius, box), cost
+                else:
+                    label.remove()
+                if best_cost == (0, 0, 0.0):
+                    break
+            if best_cost == (0, 0, 0.0):
+                break
+        label, radius, box = best
+        placed.append(box)
+        labels.append(label)
+        if radius > LABEL_RADII[0]:  # a leader from the point to the label's anchor
+            anchor = ax.transData.inverted().transform(to_display((x, y)) + np.array(label.xyann) * pixels)
+            (leader,) = ax.plot([x, anchor[0]], [y, anchor[1]], color="0.45", lw=0.6, zorder=2.5)
+            leader.set_in_layout(False)
+    return labels
+
+
+def pareto_figure(outcome: BenchOutcome, title: str = "") -> Any:
+    """The log–log Pareto plot (module docstring) as a matplotlib figure, its labels placed (:func:`place_labels`)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     rows = [row for row in outcome.rows if math.isfinite(row.wall_time_s) and row.wall_time_s > 0.0]
     times = np.array([row.wall_time_s for row in rows])
     errors = np.array([row.peak_error for row in rows])
@@ -134,8 +211,6 @@ def plot_pareto(path: str | Path, outcome: BenchOutcome, title: str = "") -> Pat
     if front:
         ax.plot(times[front], shown[front], drawstyle="steps-post", color="black", lw=1.2, zorder=2, label="Pareto front")
         ax.scatter(times[front], shown[front], s=160, facecolors="none", edgecolors="red", linewidths=1.5, zorder=4, label="Pareto-optimal")
-        for i in front:
-            ax.annotate(rows[i].configuration.label, (times[i], shown[i]), textcoords="offset points", xytext=(6, 6), fontsize=8)
     if clipped.any():
         ax.plot([], [], ls="none", marker="o", mfc="none", mec="grey", label=f"error 0 or NaN: drawn at floor {floor:.1e}")
         ax.axhline(floor, color="grey", lw=0.6, ls=":")
@@ -150,8 +225,26 @@ def plot_pareto(path: str | Path, outcome: BenchOutcome, title: str = "") -> Pat
     note = " (errors 0/NaN clipped to floor)" if clipped.any() else ""
     ax.set_title((title + "\n" if title else "") + f"reference: {outcome.plan.reference_description}{note}", fontsize=9)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8, loc="best")
+    legend = ax.legend(fontsize=8, loc="best")
     fig.tight_layout()
+    if front:
+        fig.canvas.draw()  # the final layout and the legend's "best" place, which then stays put
+        renderer = fig.canvas.get_renderer()
+        box = legend.get_window_extent(renderer)
+        legend.set_loc(tuple(ax.transAxes.inverted().transform((box.x0, box.y0))))
+        others = [(times[i], shown[i]) for i in range(len(rows)) if i not in front]
+        place_labels(ax, [(times[i], shown[i]) for i in front], [rows[i].configuration.label for i in front], renderer,
+                     obstacles=others, avoid=[box])
+    return fig
+
+
+def plot_pareto(path: str | Path, outcome: BenchOutcome, title: str = "") -> Path:
+    """The log–log Pareto plot (module docstring, :func:`pareto_figure`) as a PNG, written under a temporary name and renamed."""
+    import matplotlib.pyplot as plt
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig = pareto_figure(outcome, title)
     try:
         with atomic_path(path) as tmp_name:
             fig.savefig(tmp_name, format="png")

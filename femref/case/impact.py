@@ -5,7 +5,9 @@ Layout of an impact case file::
     cars:        >= 2 rods in line order (rear to front): cars[i]'s +l end faces cars[i+1]'s −l end
     couplers:    >= 1, each between two neighbours [cars[i].name, cars[i+1].name], with a law
                  (registry :data:`~femref.case.couplers.COUPLER_LAW_SPECS`), contact and slack
-    time, integrator, fem:   as in transient cases (fem.elements is per car)
+    time, integrator, fem:   as in transient cases (fem.elements is per car; fem.fields and
+                 fem.field_stride are refused: impacts write no field files, they record
+                 sensors at the probes)
     models:      model runs: a model name (uniform run) or {name, fidelity, cars} (mixed run)
     modal:       {modes}: elastic modes per modal car
     measurement: optional accelerometer model (rate, lowpass, noise, seed)
@@ -55,6 +57,23 @@ from femref.case.settings import FemSettings, IntegratorSettings, TimeSettings, 
 from femref.core.catalog import ESTIMATORS as ESTIMATOR_NAMES
 
 __all__ = ["ImpactCase"]
+
+#: Why an impact case refuses the field-file keys of ``fem`` (fem.fields, fem.field_stride).
+FIELD_FILES_RULE = (
+    "field files are written for single-body scenes only; impact results record sensors at the probes "
+    "(cars[i].sensors), so an impact's fem cars store no displacement field"
+)
+
+
+def _field_output_problems(fem: FemSettings) -> list[Problem]:
+    """``fem.fields: true`` (or a ``fem.field_stride`` other than 1) asks for field files, which impacts
+    do not write (:data:`FIELD_FILES_RULE`): a problem at each such key, rather than a silent no-op."""
+    problems = []
+    if fem.fields:
+        problems.append(Problem(("fields",), f"{FIELD_FILES_RULE}; remove it or set it to false", fem.fields))
+    if fem.field_stride != 1:
+        problems.append(Problem(("field_stride",), f"{FIELD_FILES_RULE}; remove it", fem.field_stride))
+    return problems
 
 
 class ImpactCase(SceneCase):
@@ -135,10 +154,13 @@ class ImpactCase(SceneCase):
     @field_validator("fem", mode="after")
     @classmethod
     def _rod_order(cls, fem: FemSettings) -> FemSettings:
+        problems = _field_output_problems(fem)
+        if fem.order is not None and fem.order not in RodBody.element_orders:
+            problems.append(Problem(("order",), "impact cars are rods: order 1 (P1) or 2 (P2)", fem.order))
+        if problems:
+            raise problems_error(problems)
         if fem.order is None:
             return fem.model_copy(update={"order": RodBody.default_order})
-        if fem.order not in RodBody.element_orders:
-            raise problems_error([Problem(("order",), "impact cars are rods: order 1 (P1) or 2 (P2)", fem.order)])
         return fem
 
     @field_validator("estimators", mode="after")

@@ -12,13 +12,25 @@ still pass, and only values that cannot describe a car are refused::
     case.yaml: body.axial_stiffness: 1e+308 N is beyond any rail vehicle (car bodies 1e8–1e11 N);
         the plausible range is 1e5–1e14 N; got 1e+308
 
+Some quantities have a high bound only (``low`` 0, zero allowed): end loads of single-body
+cases (an end force beyond 1e10 N, an end moment beyond 1e11 N·m — a constant, a pulse
+amplitude, a ramp's level or a load record's largest ``|value|``) and the frequencies of a
+harmonic axis (beyond 1e6 Hz, ``2π·1e6`` rad/s, or a ``lambda`` that is that on the body).
+Load pulse lengths and rise times lie within 1e-7–1e5 s (a rise of 0 is a step)::
+
+    case.yaml: loads.F2.half_sine.amplitude: an end force of 1e12 N is beyond any rail vehicle
+        (coupler and end forces 1e4–1e7 N); the plausible range is 0–1e10 N; got 1e12
+
 The bounds are one table (:data:`BOUNDS`) read by the case models through
 :func:`plausible` (a validator for a scalar field) and :func:`profile_problems` (every
-value of a profile, and the contrast between them).
+value of a profile, and the contrast between them); a model that must pick the bound by
+another key (a load's name says force or moment, a ``lambda`` axis needs the body) calls
+``BOUNDS[quantity].rule(value)`` itself.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Any
@@ -27,7 +39,7 @@ from pydantic import AfterValidator
 
 from femref.case.errors import Problem, problems_error
 
-__all__ = ["BOUNDS", "MAX_CONTRAST", "Bound", "plausible", "profile_problems"]
+__all__ = ["BOUNDS", "MAX_CONTRAST", "Bound", "format_number", "plausible", "profile_problems"]
 
 
 @dataclass(frozen=True)
@@ -49,11 +61,11 @@ class Bound:
         if self.low <= size <= self.high:
             return None
         side = "beyond" if size > self.high else "below"
-        return (f"{self.what} {_number(value)} {self.unit} is {side} any rail vehicle ({self.typical}); "
-                f"the plausible range is {_number(self.low)}–{_number(self.high)} {self.unit}")
+        return (f"{self.what} {format_number(value)} {self.unit} is {side} any rail vehicle ({self.typical}); "
+                f"the plausible range is {format_number(self.low)}–{format_number(self.high)} {self.unit}")
 
 
-def _number(x: float) -> str:
+def format_number(x: float) -> str:
     """``1e+14`` as ``1e14``, ``100000`` as ``1e5``, ``0.5`` as ``0.5``."""
     if x == 0.0 or 1e-3 <= abs(x) < 1e4:
         return f"{x:g}"
@@ -76,6 +88,14 @@ BOUNDS: dict[str, Bound] = {
     "coupler_force": Bound("a coupler force of", "N", 0.0, 1e10, "couplers fail near 4e6 N", zero_ok=True),
     "end_time": Bound("a simulated time of", "s", 0.0, 1e4, "impacts last 0.1–10 s", zero_ok=True),
     "time_step": Bound("a time step of", "s", 1e-10, 1e4, "fem steps of car bodies 1e-6–1e-3 s"),
+    # End loads of single-body cases (femref.case.single, femref.case.signals): only a high bound, small loads are fine.
+    "end_force": Bound("an end force of", "N", 0.0, 1e10, "coupler and end forces 1e4–1e7 N", zero_ok=True),
+    "end_moment": Bound("an end moment of", "N·m", 0.0, 1e11, "end moments of car bodies 1e4–1e8 N·m", zero_ok=True),
+    "load_time": Bound("a load pulse or rise time of", "s", 1e-7, 1e5, "impact pulses and load rises 1e-4–100 s", zero_ok=True),
+    # Harmonic axes (femref.case.single.HarmonicCase): a frequency no car body responds at is a typo or a unit slip.
+    "frequency": Bound("a frequency of", "Hz", 0.0, 1e6, "structural modes of car bodies 1–200 Hz", zero_ok=True),
+    "circular_frequency": Bound("a circular frequency ω of", "rad/s", 0.0, 2e6 * math.pi,
+                                "structural modes of car bodies 6–1300 rad/s, 1–200 Hz", zero_ok=True),
 }
 
 #: Largest ratio of the largest to the smallest value of a mass or stiffness profile along one body

@@ -3,7 +3,16 @@
 Registry :data:`SIGNALS`; each spec has ``build(base_dir) -> femref.core.signals``
 object. A CSV file is read and checked when the case is loaded, so a missing or broken
 file is a case error; its relative path resolves against the case file's directory
-(:func:`~femref.case.fields.resolve_case_path`).
+(:func:`~femref.case.fields.resolve_case_path`). Its size is checked before it is read
+(:func:`femref.core.signals.check_csv_size`: at most
+:data:`~femref.core.signals.MAX_CSV_BYTES` bytes by ``os.stat``, at most
+:data:`~femref.core.signals.MAX_CSV_ROWS` samples estimated from the bytes per row), so
+a huge record is refused at ``loads.<name>.csv.path`` in milliseconds.
+
+Plausibility (:mod:`femref.case.plausibility`): pulse durations and rise times lie within
+``BOUNDS["load_time"]``; the load levels — a constant, an amplitude, a record's largest
+``|value|`` — are offered by :meth:`SignalSpec.level_problems` to the loads model, which
+knows whether the load is a force or a moment (:mod:`femref.case.single`).
 """
 
 from collections.abc import Callable, Mapping
@@ -11,11 +20,12 @@ from pathlib import Path
 from typing import Annotated, Any, ClassVar
 
 import numpy as np
-from pydantic import Field, PlainValidator, ValidationInfo, field_validator, model_serializer, model_validator
+from pydantic import Field, PlainValidator, PrivateAttr, ValidationInfo, field_validator, model_serializer, model_validator
 from pydantic_core import PydanticCustomError
 
 from femref.case.errors import Problem, problems_error
 from femref.case.fields import NonNegativeReal, PositiveReal, Real, TaggedSpec, _is_number, _tagged_union, resolve_case_path
+from femref.case.plausibility import Bound, plausible
 from femref.core import signals
 
 __all__ = [
@@ -41,6 +51,22 @@ class SignalSpec(TaggedSpec):
         """True when the history is zero at all times (as far as known without reading files)."""
         return False
 
+    def level_problems(self, bound: Bound) -> list[Problem]:
+        """Levels of the history (the constant, the amplitude, a record's largest ``|value|``) outside ``bound``,
+        with key paths below the load (``half_sine.amplitude``, ``csv.path``; none for a plain number)."""
+        raise NotImplementedError
+
+
+def _level_problem(path: tuple[str, ...], bound: Bound, value: float, note: str = "") -> list[Problem]:
+    """A problem at ``path`` when ``value`` lies outside ``bound`` (``note`` says where the value comes from)."""
+    rule = bound.rule(value)
+    return [] if rule is None else [Problem(path, note + rule, value)]
+
+
+#: Pulse lengths and rise times (s), within ``BOUNDS["load_time"]`` (a rise of 0 is a step).
+LoadTime = Annotated[PositiveReal, plausible("load_time")]
+RiseTime = Annotated[NonNegativeReal, plausible("load_time")]
+
 
 class ConstantSignal(SignalSpec):
     """A constant load switched on at ``t = 0`` (a step); written as a plain number."""
@@ -63,13 +89,16 @@ class ConstantSignal(SignalSpec):
     def is_zero(self) -> bool:
         return self.value == 0.0
 
+    def level_problems(self, bound: Bound) -> list[Problem]:
+        return _level_problem((), bound, self.value)
+
 
 class HalfSineSignal(SignalSpec):
     """``A sin(π (t − start)/duration)`` during the pulse, zero elsewhere."""
 
     tag: ClassVar[str] = "half_sine"
     amplitude: Real = Field(description="Peak load A (N or N·m). Required.")
-    duration: PositiveReal = Field(description="Pulse length (s), > 0. Required.")
+    duration: LoadTime = Field(description="Pulse length (s), > 0 (plausible: 1e-7–1e5 s). Required.")
     start: NonNegativeReal = Field(default=0.0, description="Pulse start (s), >= 0. Default 0.")
 
     def build(self, base_dir: Path | None = None) -> signals.Signal:
@@ -79,13 +108,16 @@ class HalfSineSignal(SignalSpec):
     def is_zero(self) -> bool:
         return self.amplitude == 0.0
 
+    def level_problems(self, bound: Bound) -> list[Problem]:
+        return _level_problem((self.tag, "amplitude"), bound, self.amplitude)
+
 
 class RampStepSignal(SignalSpec):
     """A linear rise from 0 at ``start`` to ``amplitude`` at ``start + rise``, then held."""
 
     tag: ClassVar[str] = "ramp_step"
     amplitude: Real = Field(description="Held load (N or N·m). Required.")
-    rise: NonNegativeReal = Field(description="Rise time (s), >= 0 (0 is a step). Required.")
+    rise: RiseTime = Field(description="Rise time (s), >= 0 (0 is a step; plausible: 1e-7–1e5 s). Required.")
     start: NonNegativeReal = Field(default=0.0, description="Start of the rise (s), >= 0. Default 0.")
 
     def build(self, base_dir: Path | None = None) -> signals.Signal:
@@ -94,6 +126,9 @@ class RampStepSignal(SignalSpec):
     @property
     def is_zero(self) -> bool:
         return self.amplitude == 0.0
+
+    def level_problems(self, bound: Bound) -> list[Problem]:
+        return _level_problem((self.tag, "amplitude"), bound, self.amplitude)
 
 
 def _csv_column(value: Any) -> int | str:
@@ -110,15 +145,17 @@ CsvColumn = Annotated[int | str, PlainValidator(_csv_column)]
 class CsvSignal(SignalSpec):
     """Samples from a CSV file, interpolated linearly, zero outside the recorded times.
 
-    The file is read and checked when the case is loaded. A relative ``path`` is
-    relative to the case file's directory and is stored resolved (absolute), so the
-    resolved case reads the same file from anywhere.
+    The file is read and checked when the case is loaded, its size first, before it is
+    read (module docstring). A relative ``path`` is relative to the case file's directory
+    and is stored resolved (absolute), so the resolved case reads the same file from
+    anywhere. The largest ``|value|`` and its data row are kept for :meth:`level_problems`.
     """
 
     tag: ClassVar[str] = "csv"
     path: Path = Field(description="CSV file, relative to the case file's directory. Required.")
     time_column: CsvColumn = Field(default=0, description="Time column (s): header name or 0-based index. Default 0.")
     value_column: CsvColumn = Field(default=1, description="Load column (N or N·m): header name or 0-based index. Default 1.")
+    _peak: tuple[float, int] | None = PrivateAttr(default=None)  # (the value of largest magnitude, its 1-based data row), set when read
 
     @field_validator("path", mode="after")
     @classmethod
@@ -139,7 +176,7 @@ class CsvSignal(SignalSpec):
             return f"CSV file {self.path} does not exist"
         except OSError as error:
             return f"cannot read CSV file {self.path}: {error.strerror or error}"
-        except ValueError as error:  # empty, missing column, a cell that is not a number
+        except ValueError as error:  # too large (CsvTooLarge, before reading), empty, missing column, a cell that is not a number
             return str(error)
         if times.size < 2:
             return f"CSV file {self.path} needs two or more samples, has {times.size}"
@@ -151,7 +188,15 @@ class CsvSignal(SignalSpec):
         if steps.size:
             k = steps[0]
             return f"CSV file {self.path}: time must increase strictly; data row {k + 2} has t = {times[k + 1]} after t = {times[k]}"
+        row = int(np.argmax(np.abs(values)))
+        self._peak = (float(values[row]), row + 1)
         return None
+
+    def level_problems(self, bound: Bound) -> list[Problem]:
+        if self._peak is None:
+            return []
+        value, row = self._peak
+        return _level_problem((self.tag, "path"), bound, value, f"CSV file {self.path}, data row {row} (the largest |value|): ")
 
     def build(self, base_dir: Path | None = None) -> signals.Signal:
         path = self.path if self.path.is_absolute() else Path(base_dir or Path.cwd()) / self.path

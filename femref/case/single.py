@@ -7,7 +7,12 @@ one body under end loads, observed at probes.
 * ``models``: registered names (``femref.case.capabilities.MODELS``), each able to serve
   the scene;
 * rules that relate keys — probes and element order against the body, loads against the
-  body type — run once the keys they relate are valid themselves.
+  body type — run once the keys they relate are valid themselves;
+* plausibility (:mod:`femref.case.plausibility`): every load level (a harmonic amplitude, a
+  constant, a pulse amplitude, a ramp's level, a CSV record's largest ``|value|``) within
+  ``BOUNDS["end_force"]`` (F, N) or ``BOUNDS["end_moment"]`` (G), and the harmonic axis's
+  ``start`` and ``stop`` within ``BOUNDS["frequency"]`` (hz) or ``BOUNDS["circular_frequency"]``
+  (omega, and lambda as ω = λ/T on the body).
 """
 
 from collections.abc import Callable, Mapping
@@ -24,11 +29,12 @@ from femref.case.bodies import LOAD_OWNERS, BodySpec
 from femref.case.capabilities import MODELS
 from femref.case.errors import Problem, did_you_mean, problems_error
 from femref.case.fields import CaseModel, ProbeName, Real, _validate_collecting
-from femref.case.settings import FemSettings, FrequencySpec, IntegratorSettings, TimeSettings, _fem_field
+from femref.case.plausibility import BOUNDS, Bound, format_number
+from femref.case.settings import FemSettings, FrequencyRange, FrequencySpec, IntegratorSettings, TimeSettings, _fem_field
 from femref.case.signals import AnySignal
 from femref.core import signals
 
-__all__ = ["HarmonicCase", "HarmonicLoads", "Loads", "ModelList", "SingleBodyCase", "TransientCase", "TransientLoads"]
+__all__ = ["HarmonicCase", "HarmonicLoads", "Loads", "ModelList", "SingleBodyCase", "TransientCase", "TransientLoads", "load_bound"]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -43,6 +49,11 @@ _LOAD_DOC = {
     "G1": "Beam: bending moment at x = −l",
     "G2": "Beam: bending moment at x = +l",
 }
+
+
+def load_bound(name: str) -> Bound:
+    """The plausibility bound of load ``name``: ``end_moment`` for the moments G1, G2, else ``end_force``."""
+    return BOUNDS["end_moment" if name.startswith("G") else "end_force"]
 
 
 def _load_field(name: str, what: str) -> Any:
@@ -67,9 +78,22 @@ class Loads(CaseModel):
     def _is_zero(load: Any) -> bool:
         raise NotImplementedError
 
+    @staticmethod
+    def _level_problems(load: Any, bound: Bound) -> list[Problem]:
+        """The load's levels outside ``bound``, key paths below the load."""
+        raise NotImplementedError
+
     @model_serializer(mode="wrap")
     def _serialize(self, handler: Callable[[Any], Any]) -> Any:
         return {name: value for name, value in handler(self).items() if value is not None}
+
+    @model_validator(mode="after")
+    def _plausible_levels(self) -> "Loads":
+        """Every load level within ``BOUNDS["end_force"]`` (F, N: forces) or ``BOUNDS["end_moment"]`` (G, N·m)."""
+        problems = [p.under((name,)) for name, load in self.items() for p in self._level_problems(load, load_bound(name))]
+        if problems:
+            raise problems_error(problems)
+        return self
 
     @model_validator(mode="after")
     def _not_all_zero(self) -> "Loads":
@@ -92,6 +116,11 @@ class HarmonicLoads(Loads):
     def _is_zero(load: Any) -> bool:
         return load == 0.0
 
+    @staticmethod
+    def _level_problems(load: Any, bound: Bound) -> list[Problem]:
+        rule = bound.rule(load)
+        return [] if rule is None else [Problem((), rule, load)]
+
 
 _SIGNAL_DOC = "a history: a number (constant from t = 0) or one of half_sine, ramp_step, csv"
 
@@ -109,6 +138,10 @@ class TransientLoads(Loads):
     @staticmethod
     def _is_zero(load: Any) -> bool:
         return load.is_zero
+
+    @staticmethod
+    def _level_problems(load: Any, bound: Bound) -> list[Problem]:
+        return load.level_problems(bound)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -214,6 +247,31 @@ class HarmonicCase(SingleBodyCase):
     frequency: FrequencySpec = Field(description="Frequency axis: exactly one of omega (rad/s), hz, lambda (nondimensional). Required.")
     fem: FemSettings = _fem_field()
     models: ModelList = _models_field()
+
+    @field_validator("frequency", mode="after")
+    @classmethod
+    def _plausible_frequencies(cls, axis: FrequencyRange, info: ValidationInfo) -> FrequencyRange:
+        """``start`` and ``stop`` within ``BOUNDS["frequency"]`` (hz) or ``BOUNDS["circular_frequency"]`` (omega; lambda
+        as ω = λ/T with the body's wave time T, checked once the body is valid)."""
+        body = info.data.get("body")
+        if axis.tag == "lambda" and body is None:
+            return axis
+        problems = []
+        for key in ("start", "stop"):
+            value = getattr(axis, key)
+            if axis.tag == "hz":
+                rule = BOUNDS["frequency"].rule(value)
+            elif axis.tag == "lambda":
+                wave_time = body.wave_time()
+                rule = BOUNDS["circular_frequency"].rule(value / wave_time)
+                rule = rule and f"λ = {format_number(value)} on this body is ω = λ/T with its wave time T = {wave_time:.3g} s: {rule}"
+            else:
+                rule = BOUNDS["circular_frequency"].rule(value)
+            if rule is not None:
+                problems.append(Problem((axis.tag, key), rule, value))
+        if problems:
+            raise problems_error(problems)
+        return axis
 
     def omega(self) -> NDArray[np.float64]:
         """The circular frequencies ω (rad/s) of the sweep."""

@@ -9,6 +9,6 @@ choice to the result file and prints it.
 
 from femref.choice.choose import DEFAULT_OUTPUT, ModelChoice, RungEstimate, choose_model, run_rung
 from femref.choice.estimates import OUTPUTS
-from femref.choice.ladder import Ladder, Rung, model_ladder
+from femref.choice.ladder import Ladder, Rung, check_ladder_budget, model_ladder
 
-__all__ = ["DEFAULT_OUTPUT", "OUTPUTS", "Ladder", "ModelChoice", "Rung", "RungEstimate", "choose_model", "model_ladder", "run_rung"]
+__all__ = ["DEFAULT_OUTPUT", "OUTPUTS", "Ladder", "ModelChoice", "Rung", "RungEstimate", "check_ladder_budget", "choose_model", "model_ladder", "run_rung"]

@@ -38,7 +38,7 @@ from femref.choice.estimates import (
     peak_sampling_error,
     richardson_error,
 )
-from femref.choice.ladder import Ladder, Rung, model_ladder
+from femref.choice.ladder import Ladder, Rung, check_ladder_budget, model_ladder
 from femref.results import ModelResult
 from femref.run import load_compiled_loop, run_model
 from femref.scene import ImpactScene
@@ -94,12 +94,19 @@ def run_rung(rung: Rung, progress: Callable[[int, int], None] | None = None) -> 
     return result
 
 
-def choose_model(scene: ImpactScene, tolerance: float, output: str = DEFAULT_OUTPUT, runner: Runner | None = None) -> ModelChoice:
-    """Climb the ladder of ``scene`` until a run is expected within ``tolerance`` on ``output`` (module docstring)."""
+def choose_model(scene: ImpactScene, tolerance: float, output: str = DEFAULT_OUTPUT, runner: Runner | None = None, *,
+                 source: str = "<case>", budget_checked: bool = False) -> ModelChoice:
+    """Climb the ladder of ``scene`` until a run is expected within ``tolerance`` on ``output`` (module docstring).
+
+    Before any rung runs, the budget of the whole ladder (the worst case: every rung) is checked
+    (:func:`femref.choice.ladder.check_ladder_budget`; a CaseError naming ``source`` when over it) — unless
+    ``budget_checked`` says the caller has (``femref run`` does, before its output check)."""
     if not (0.0 < tolerance < math.inf):
         raise ValueError(f"tolerance must be a positive relative error, got {tolerance}")
     if output not in OUTPUTS:
         raise ValueError(f"unknown output {output!r}; one of {', '.join(OUTPUTS)}")
+    if not budget_checked:
+        check_ladder_budget(scene, source)
     runner = runner or run_rung
     load_compiled_loop(scene)
     ladder = model_ladder(scene)

@@ -51,13 +51,16 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from typing import Callable
 
 from femref.core.timegrid import steps_to
+from femref.run.budget import Cost, approximate_step, check_costs, impact_run_cost, rod_dofs
 from femref.run.resolutions import MIN_ELEMENTS, MODE_COUNTS, mode_counts, with_elements
 from femref.run.timestep import impact_time_step
 from femref.scene import ImpactScene, ModelRun
 
-__all__ = ["FEM_LEVELS", "SETUP_COST_US", "STEP_COST_US", "Ladder", "Rung", "cost_regressors", "model_ladder", "predicted_cost"]
+__all__ = ["FEM_LEVELS", "SETUP_COST_US", "STEP_COST_US", "Ladder", "Rung", "StepRule", "check_ladder_budget", "cost_regressors", "ladder_costs", "model_ladder",
+           "predicted_cost"]
 
 FEM_LEVELS: tuple[int, ...] = (-3, -2, -1, 0, 1)
 """fem rungs at ``N·2^j`` elements per car for these ``j`` (``N`` the case's ``fem.elements``)."""
@@ -146,32 +149,69 @@ class Ladder:
         return next((c for c, p in self.partners.items() if p == label and self[c].family == rung.family and rung.family in ("modal", "fem")), None)
 
 
-def model_ladder(scene: ImpactScene) -> Ladder:
-    """The rungs of ``scene`` ordered by predicted cost, and their partners (module docstring)."""
-    rungs = [_rung("rigid", "rigid", 0, scene), _rung("quasi_rigid", "quasi_rigid", 0, scene)]
+StepRule = Callable[[ImpactScene, ModelRun], tuple[float, str]]
+"""A run's step and its rule: :func:`femref.run.timestep.impact_time_step` (on the mesh), or the budget's prediction."""
+
+
+def model_ladder(scene: ImpactScene, step: StepRule = impact_time_step, mesh_dofs: Callable[[ImpactScene], int] | None = None) -> Ladder:
+    """The rungs of ``scene`` ordered by predicted cost, and their partners (module docstring).
+
+    ``step`` gives each run's step (default: the runner's rule on the mesh); ``mesh_dofs`` the DOFs of the smallest
+    car's mesh that bound the mode counts (``k ≤ ndof − 2``; default :func:`femref.run.resolutions.mode_counts` on
+    the mesh). The work budget lays out the same ladder without building a mesh (:func:`ladder_costs`).
+    """
+    rungs = [_rung("rigid", "rigid", 0, scene, step), _rung("quasi_rigid", "quasi_rigid", 0, scene, step)]
     partners = {"rigid": "quasi_rigid", "quasi_rigid": "rigid"}
-    modes = mode_counts(scene, MODE_COUNTS)
+    if mesh_dofs is None:
+        modes = mode_counts(scene, MODE_COUNTS)
+    else:
+        ndof = mesh_dofs(scene)
+        modes = sorted(k for k in set(MODE_COUNTS) if 1 <= k <= ndof - 2)
     for k in modes:
-        rungs.append(_rung(f"modal_k{k}", "modal", k, dataclasses.replace(scene, modal_modes=k)))
+        rungs.append(_rung(f"modal_k{k}", "modal", k, dataclasses.replace(scene, modal_modes=k), step))
     partners.update({f"modal_k{k}": f"modal_k{2 * k}" for k in modes if 2 * k in modes})
     elements = sorted({max(MIN_ELEMENTS, round(scene.fem.elements * 2.0**j)) for j in FEM_LEVELS})
     coarsest = with_elements(scene, elements[0])
-    dt0, rule0 = impact_time_step(coarsest, _uniform_run("fem", scene))
+    dt0, rule0 = step(coarsest, _uniform_run("fem", scene))
     for n in elements:
         dt = dt0 * elements[0] / n
         rule = rule0 if n == elements[0] else f"{rule0} at {elements[0]} elements, × {elements[0]}/{n}"
-        rungs.append(_rung(f"fem_n{n}", "fem", n, with_elements(scene, n), dt=dt, dt_rule=rule))
+        rungs.append(_rung(f"fem_n{n}", "fem", n, with_elements(scene, n), step, dt=dt, dt_rule=rule))
     partners.update({f"fem_n{a}": f"fem_n{b}" for a, b in zip(elements, elements[1:])})
     rungs.sort(key=lambda rung: rung.cost)
     return Ladder(tuple(rungs), partners)
+
+
+def ladder_costs(scene: ImpactScene) -> list[Cost]:
+    """Every rung of the ladder of ``scene`` priced by the work budget: ``impact_run_cost(rung.scene, rung.run,
+    rung.dt)`` (:func:`femref.run.budget.impact_run_cost`, work units and bytes, not the µs that order the rungs),
+    the ladder laid out without a mesh — steps by :func:`femref.run.budget.approximate_step`, mode counts by the DOFs
+    of :func:`femref.run.budget.rod_dofs` — so pricing a huge case costs nothing. A rung's ``fem.elements`` factor
+    names the case's value, the key to reduce."""
+    ladder = model_ladder(scene, step=lambda s, run: (approximate_step(s, run), "predicted"),
+                          mesh_dofs=lambda s: min(rod_dofs(car.body, s.fem.elements, s.fem.order) for car in s.cars))
+    costs = []
+    for rung in ladder.rungs:
+        cost = impact_run_cost(rung.scene, rung.run, rung.dt)
+        factors = {key: (ratio, scene.fem.elements if key == "fem.elements" else value) for key, (ratio, value) in cost.factors.items()}
+        costs.append(dataclasses.replace(cost, model=rung.label, factors=factors, what=f"the {rung.label} rung of the --tolerance ladder"))
+    return costs
+
+
+def check_ladder_budget(scene: ImpactScene, source: str = "<case>") -> list[Cost]:
+    """Refuse a ``--tolerance`` run when ``Σ`` over every rung (:func:`ladder_costs`: the worst case of a climb, which
+    may run them all) exceeds the work budget (:func:`femref.run.budget.check_costs`, ``FEMREF_BUDGET``): a CaseError
+    at ``source`` naming the key and the costliest rung's predicted size. Returns the costs otherwise."""
+    costs = ladder_costs(scene)
+    return check_costs(costs, source, f"the {len(costs)} runs of the --tolerance ladder")
 
 
 def _uniform_run(family: str, scene: ImpactScene, label: str | None = None) -> ModelRun:
     return ModelRun(label or family, (family,) * len(scene.cars))
 
 
-def _rung(label: str, family: str, resolution: int, scene: ImpactScene, dt: float | None = None, dt_rule: str = "") -> Rung:
+def _rung(label: str, family: str, resolution: int, scene: ImpactScene, step: StepRule, dt: float | None = None, dt_rule: str = "") -> Rung:
     run = _uniform_run(family, scene, label)
     if dt is None:
-        dt, dt_rule = impact_time_step(scene, run)
+        dt, dt_rule = step(scene, run)
     return Rung(label, family, resolution, scene, run, dt, dt_rule, predicted_cost(family, scene, steps_to(scene.end, dt)))

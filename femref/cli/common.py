@@ -6,7 +6,14 @@ imports what it drives when it runs, so ``femref --help`` stays light.
 Exit codes (docs/design.md §5): 0 success, 2 bad input (the message names the key path and
 the rule; nothing is written), 1 a failure during the run, 130 interrupted (sweeps and studies
 keep what they stored). Every command that writes checks its output path before any work
-(:func:`check_output`: exit 2, nothing written).
+(:func:`check_output`: exit 2, nothing written): its folder must exist and be writable, and it
+may not be one of the command's inputs — the files given on the command line and every file a
+case names (:func:`case_input_files`: record files, CSV loads, network files, a calibration, a
+sweep's or a study's base case, a study's ``initial`` networks).
+
+Progress (``femref --progress/--no-progress``, env ``FEMREF_PROGRESS``) goes to stderr through
+:func:`model_progress` (a stage per model, per measured event, per calibrated estimator),
+:func:`sample_progress` (samples of a sweep) and :func:`configuration_progress` (bench).
 """
 
 from __future__ import annotations
@@ -37,29 +44,57 @@ def load_case_or_default(case_path: Path | None):
     return load_case(case_path), case_path.resolve().parent
 
 
-def check_output(path: Path, option: str, inputs: dict[str, Path | None] | None = None, folder: bool = False, default: bool = False) -> None:
+def case_input_files(case, name: str = "CASE", base_dir: Path | None = None) -> dict[str, Path]:
+    """The files the validated ``case`` names (:func:`femref.case.inputs.case_inputs`), keyed for messages as
+    ``<key path> of <name>`` (``records[0].file of CASE``): inputs to pass to :func:`check_output`."""
+    from femref.case.inputs import case_inputs
+
+    return {f"{key} of {name}": path for key, path in case_inputs(case, base_dir).items()}
+
+
+def check_output(
+    path: Path, option: str, inputs: dict[str, Path | None] | None = None, folder: bool = False, default: bool = False, writes: Iterable[Path] = ()
+) -> None:
     """Exit 2, nothing written, unless ``path`` can be written (:func:`output_problem`); then remove the temporaries
-    a killed run left of it (:func:`femref.results.remove_leftovers`: never a live run's).
+    a killed run left of it (:func:`femref.results.remove_leftovers`: never a live run's) and those an older femref
+    left (:func:`femref.results.legacy_leftovers`), each named on stderr.
 
     Called before any work, so a bad output path never costs a run. ``option`` names the
     option (``-o``), ``default`` says the path is its default; ``inputs`` the command's input
-    files by name (``CASE``), which the output may not be.
+    files by name (``CASE``, and :func:`case_input_files` for the files a case names), which the
+    output may not be; ``writes`` the other files the command writes beside the output or in the
+    output folder (a sweep's ``.partial``, a study's sweeps and networks), which may not be inputs either.
     """
-    problem = output_problem(path, inputs or {}, folder)
+    problem = output_problem(path, inputs or {}, folder, writes)
     if problem:
         named = f"{option} (default)" if default else option
         click.echo(f"error: {named} {path}: {problem}; nothing was written", err=True)
         sys.exit(EXIT_BAD_INPUT)
     if not folder:
-        from femref.results import remove_leftovers
-
-        remove_leftovers(path)
+        clean_leftovers(path)
 
 
-def output_problem(path: Path, inputs: dict[str, Path | None], folder: bool = False) -> str:
+def clean_leftovers(path: Path) -> None:
+    """Remove the temporaries of ``path`` that no running process writes — a killed run's (pid-named) and an older
+    femref's (``tmp*`` field-file folders, ``.<name>.<random>.tmp`` files: :func:`femref.results.legacy_leftovers`) —
+    and say so on stderr, one line each; name (and keep) an older femref's temporary that is not certainly unused
+    or holds more than femref wrote."""
+    from femref.results import remove_leftovers, remove_legacy_leftovers
+
+    for removed in remove_leftovers(path):
+        click.echo(f"note: removed {removed}: a temporary of {path.name} left by a killed femref run", err=True)
+    legacy = remove_legacy_leftovers(path)
+    for removed in legacy.removed:
+        click.echo(f"note: removed {removed}: a temporary of {path.name} left by an older femref run", err=True)
+    for kept, why in legacy.kept:
+        click.echo(f"note: kept {kept}: it looks like an older femref's temporary of {path.name}, but {why}; "
+                   "remove it yourself if no femref run is writing it", err=True)
+
+
+def output_problem(path: Path, inputs: dict[str, Path | None], folder: bool = False, writes: Iterable[Path] = ()) -> str:
     """Why ``path`` cannot be the output, or ``""``: its folder must exist and be writable, a file output must not be
-    a folder (a folder output not a file), and it must not be one of ``inputs`` (the same path, or the same file
-    through another relative path, a symbolic or a hard link)."""
+    a folder (a folder output not a file), and neither it nor a file of ``writes`` may be one of ``inputs`` (the same
+    path, or the same file through another relative path, a symbolic or a hard link)."""
     if folder:
         if path.exists() and not path.is_dir():
             return "is a file; the output is a folder"
@@ -77,6 +112,10 @@ def output_problem(path: Path, inputs: dict[str, Path | None], folder: bool = Fa
     for name, given in inputs.items():
         if given is not None and _same_file(path, Path(given)):
             return f"is the input {name} {given} (the output may not overwrite an input)"
+    for written in writes:
+        for name, given in inputs.items():
+            if given is not None and _same_file(written, Path(given)):
+                return f"would write {written}, which is the input {name} {given} (the output may not overwrite an input)"
     return ""
 
 
@@ -155,9 +194,14 @@ def _show_progress(console: Console) -> bool:
 
 
 @contextmanager
-def model_progress(console: Console) -> Iterator:
-    """A per-model progress bar on a terminal, per-model status lines with ``--progress`` when stderr is
-    not one (``<model>: running`` … ``<model>: done in 1.2 s``); nothing otherwise."""
+def model_progress(console: Console, keep_finished: bool = True) -> Iterator:
+    """A progress bar per stage on a terminal, status lines per stage with ``--progress`` when stderr is
+    not one (``<stage>: running`` … ``<stage>: done in 1.2 s``, or ``stopped after`` on an error); nothing
+    otherwise. Yields ``progress_for(stage)``, which returns the stage's ``(done, total)`` callback (or None).
+
+    A stage is a model of a run, an event of a measured case, an estimator being calibrated.
+    ``keep_finished=False`` hides a finished stage's bar when the next starts (many stages: events).
+    """
     if not _show_progress(console):
         yield lambda model: None
         return
@@ -165,14 +209,20 @@ def model_progress(console: Console) -> Iterator:
         lines = _StatusLines(console)
         try:
             yield lines.start
-        finally:
-            lines.done()
+        except BaseException:
+            lines.done(stopped=True)
+            raise
+        lines.done()
         return
     columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"), TimeRemainingColumn())
     with Progress(*columns, console=console, transient=True) as bar:
+        shown: list = []
 
         def progress_for(model: str):
+            if shown and not keep_finished:
+                bar.update(shown.pop(), visible=False)
             task = bar.add_task(model, total=None)
+            shown.append(task)
             return lambda done, total: bar.update(task, completed=done, total=total)
 
         yield progress_for
@@ -194,11 +244,13 @@ class _StatusLines:
         self.console.print(f"{model}: running", markup=False, highlight=False)
         return None
 
-    def done(self) -> None:
+    def done(self, stopped: bool = False) -> None:
+        """The line of the current stage's end: ``done in`` (``stopped after`` when an error or interrupt ended it)."""
         import time
 
         if self.current is not None:
-            self.console.print(f"{self.current}: done in {time.perf_counter() - self.started:.1f} s", markup=False, highlight=False)
+            how = "stopped after" if stopped else "done in"
+            self.console.print(f"{self.current}: {how} {time.perf_counter() - self.started:.1f} s", markup=False, highlight=False)
         self.current = None
 
 

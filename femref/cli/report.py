@@ -31,9 +31,17 @@ def write_atomically(path: Path, text: str) -> None:
 
 @click.command("report")
 @click.argument("results", metavar="RESULTS.h5", type=click.Path(dir_okay=False, path_type=Path))
-@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), help="HTML file (default: RESULTS stem + .html, next to RESULTS)")
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path),
+              help="HTML file (default: RESULTS stem + .html, next to RESULTS); refused if it is RESULTS.h5")
 def report_command(results: Path, output: Path | None) -> None:
-    """Write one self-contained HTML page (scores, plots, field map, case) from a femref result file."""
+    """Write one self-contained HTML page (scores, plots, field map, case) from a femref result file.
+
+    RESULTS.h5 is a result file of femref run (a measured case's event file too) or a study's
+    study.h5. Field files that do not match the result (another run's) are named in a warning.
+
+    Exit codes: 0 written, 2 bad input (missing file, not a femref result file, the output
+    is the input; nothing written).
+    """
     from femref.report import ReportInputError, build_report
     from femref.results import field_files_match
 

@@ -20,9 +20,14 @@ from femref.cli.tables import run_table
 
 
 @click.command("validate")
-@click.argument("case_path", metavar="CASE", required=False, type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("case_path", metavar="[CASE]", required=False, type=click.Path(dir_okay=False, path_type=Path))
 def validate_command(case_path: Path | None) -> None:
-    """Check CASE and print the resolved case (every default filled in)."""
+    """Check CASE (no CASE: the built-in default scene) and print the resolved case (every default filled in).
+
+    Files the case names (records, CSV loads, network and calibration files) are read and checked too.
+
+    Exit codes: 0 valid, 2 not (the message names the key path and the rule).
+    """
     from femref.case import CaseError, resolved_yaml
 
     try:
@@ -34,8 +39,9 @@ def validate_command(case_path: Path | None) -> None:
 
 
 @click.command("run")
-@click.argument("case_path", metavar="CASE", required=False, type=click.Path(dir_okay=False, path_type=Path))
-@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), help="result file (default: CASE stem + .h5)")
+@click.argument("case_path", metavar="[CASE]", required=False, type=click.Path(dir_okay=False, path_type=Path))
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path),
+              help="result file (default: CASE stem + .h5, in the working folder); refused if it is CASE or a file CASE names")
 @click.option(
     "--tolerance",
     type=click.FloatRange(min=0.0, max=1.0, min_open=True, max_open=True),
@@ -46,10 +52,21 @@ def run_command(case_path: Path | None, output: Path | None, tolerance: float | 
 
     With a tolerance (--tolerance or the case's tolerance:) the run instead climbs the
     ladder of impact models and resolutions and keeps the cheapest expected within it.
+    A measured case runs its estimators on every event of its records and writes the events.
+
+    Before any work: the case is checked, its predicted cost against the work budget
+    (FEMREF_BUDGET=<factor> multiplies it), and the output, which may not be CASE or a
+    file CASE names (records, CSV loads, network and calibration files). Fields go to
+    <output stem>_<model>_fields.xdmf/.h5 beside the result. Progress on stderr: a bar per
+    model (per event of a measured case) on a terminal, status lines with femref --progress.
+
+    Exit codes: 0 written, 1 a model failed (the message says where; the file keeps every
+    run), 2 bad input (nothing written).
     """
     from femref.case import CaseError, resolved_yaml
     from femref.results import write_results
     from femref.run import run_scene
+    from femref.choice import check_ladder_budget
     from femref.run.budget import check_budget
     from femref.scene.build import scene_from_case
 
@@ -58,13 +75,18 @@ def run_command(case_path: Path | None, output: Path | None, tolerance: float | 
         case, base_dir = load_case_or_default(case_path)
         case = _with_tolerance(case, tolerance, source_name(case_path))
         scene = scene_from_case(case, base_dir)
-        check_budget(scene, source_name(case_path))  # before any work (femref.run.budget; FEMREF_BUDGET raises it)
+        # Once per command, before any work (femref.run.budget; FEMREF_BUDGET raises it): the runs and the reference's
+        # self-check, or with a tolerance every rung of the ladder it may climb; run_scene and choose_model are told.
+        if case.kind == "impact" and getattr(case, "tolerance", None) is not None:
+            check_ladder_budget(scene, source_name(case_path))
+        else:
+            check_budget(scene, source_name(case_path))
     except CaseError as error:
         click.echo(f"error: {error}", err=True)
         sys.exit(EXIT_BAD_INPUT)
     defaulted = output is None
     output = output or Path(f"{case_path.stem if case_path else 'default'}.h5")
-    check_output(output, "-o", {"CASE": case_path}, default=defaulted)
+    check_output(output, "-o", _inputs(case, case_path), default=defaulted)
     if case.kind == "measured":
         _run_measured(case, scene, output)
         return
@@ -73,7 +95,7 @@ def run_command(case_path: Path | None, output: Path | None, tolerance: float | 
         return
 
     with model_progress(console) as progress_for:
-        outcome = run_scene(scene, progress_for)
+        outcome = run_scene(scene, progress_for, budget_checked=True)
     written = write_results(output, resolved_yaml(case), outcome.results, outcome.scores, scene=scene.facts())
     print_table(run_table(outcome))
     finish(written, [(f"model {failed.model}", failed.message) for failed in outcome.failed])
@@ -104,7 +126,8 @@ def _run_choice(case, scene, output: Path, console: Console) -> None:
         click.echo("note: with a tolerance the estimators are not run (they read the records of the models list's fem run)", err=True)
     with model_progress(console) as progress_for:
         try:
-            choice = choose_model(scene, case.tolerance.value, case.tolerance.output, runner=lambda rung: run_rung(rung, progress_for(rung.label)))
+            choice = choose_model(scene, case.tolerance.value, case.tolerance.output, runner=lambda rung: run_rung(rung, progress_for(rung.label)),
+                                  budget_checked=True)
         except RuntimeError as error:
             click.echo(f"error: {error}", err=True)
             sys.exit(EXIT_RUN_FAILURE)
@@ -115,8 +138,18 @@ def _run_choice(case, scene, output: Path, console: Console) -> None:
     finish(written, [])
 
 
+def _inputs(case, case_path: Path | None) -> dict[str, Path | None]:
+    """The run's inputs for :func:`check_output`: CASE and every file it names (records, CSV loads, networks, calibration)."""
+    from femref.cli.common import case_input_files
+
+    return {"CASE": case_path, **case_input_files(case)}
+
+
 def _run_measured(case, scene, output: Path) -> None:
-    """Every event of a measured case (femref.run.measured): write /events, print the event table."""
+    """Every event of a measured case (femref.run.measured): write /events, print the event table.
+
+    Progress as for the models of a run (:func:`model_progress`): a stage while the records are read,
+    then one per event (its classification, estimators and networks the steps of its bar)."""
     from femref.case import resolved_yaml
     from femref.cli.tables import event_table
     from femref.events import write_events
@@ -124,7 +157,8 @@ def _run_measured(case, scene, output: Path) -> None:
     from femref.sensing.recordings import RecordError
 
     try:
-        outcome = run_measured(scene)
+        with model_progress(Console(stderr=True), keep_finished=False) as progress_for:
+            outcome = run_measured(scene, progress_for)
     except RecordError as error:  # a record file changed since the case was validated
         click.echo(f"error: {error}", err=True)
         sys.exit(EXIT_BAD_INPUT)

@@ -15,11 +15,12 @@ def run_table(outcome) -> Table:
     """Model, status, wall time, work and the key outputs, with the errors against the reference."""
     if outcome.scene.kind == "impact":
         return impact_table(outcome)
-    reference = next((score["reference"] for score in outcome.scores.values() if "reference" in score), None)
+    reference = next((score["reference"] for score in outcome.scores.values() if "reference" in score and not _self_check_only(score)), None)
     against = f"; errors against {reference}" if reference else ""
     table = Table(title=f"{outcome.scene.kind} scene, ε = {outcome.scene.epsilon:.3g}{against}", title_justify="left", caption_justify="left")
     for column in ("model", "status", "wall ms", "work", "|a| peak", "|F| peak", "a err max", "a err rms"):
         table.add_column(column, justify="left" if column in ("model", "status") else "right", no_wrap=column == "model", overflow="fold")
+    notes: list[str] = []
     for result in outcome.results:
         work = ""
         if "steps" in result.settings:
@@ -27,7 +28,8 @@ def run_table(outcome) -> Table:
         elif "frequencies" in result.settings:
             work = f"{result.settings['frequencies']} freqs"
         score = outcome.scores.get(result.model, {})
-        is_reference = not score and result.ok and result.model == reference
+        is_reference = result.ok and (result.model == reference or (reference is None and "reference_warning" in score)) and (
+            not score or _self_check_only(score))
         table.add_row(
             result.model,
             result.status,
@@ -38,15 +40,23 @@ def run_table(outcome) -> Table:
             "reference" if is_reference else _percent(score.get("acceleration_max_error_max")),
             "" if is_reference else _percent(score.get("acceleration_rms_error_max")),
         )
-    table.caption = legend(
+        if "reference_warning" in score:  # the fem run checked itself (femref.run.runner.check_reference)
+            notes.append(f"[yellow]{result.model}: {_self_check_note(score, 'peak |a|')}[/yellow]")
+    table.caption = with_notes(notes, legend(
         ("wall ms", "wall time of the run, ms"),
         ("work", "time steps or frequencies solved"),
         ("|a| peak", "largest |acceleration| over the probes, m/s² @probe"),
         ("|F| peak", "largest |axial force| over the probes, N @probe"),
         ("a err max", "max over time of |a − a_ref| / peak |a_ref|, worst probe"),
         ("a err rms", "rms(a − a_ref) / rms(a_ref), worst probe"),
-    )
+    ))
     return table
+
+
+def with_notes(notes: list[str], caption: str) -> str:
+    """The caption under a table: its notes (one line each, ``model: …``), then its legend — a note in a row of
+    its own would widen a column to the note's length."""
+    return "\n".join([*notes, caption])
 
 
 def legend(*entries: tuple[str, str]) -> str:
@@ -78,6 +88,7 @@ def impact_table(outcome) -> Table:
                *(("a_v rms err", "pitch rms err") if vertical else ()), "E err")
     for column in columns:
         table.add_column(column, justify="left" if column in ("model", "status") else "right", no_wrap=column in ("model", "P peak kN"), overflow="fold")
+    notes: list[str] = []
     for result in outcome.results:
         score = outcome.scores.get(result.model, {})
         peaks = {c: float((out["force"] if "force" in out else out["peak_force"]).max()) for c, out in result.couplers.items()} if result.ok else {}
@@ -90,7 +101,8 @@ def impact_table(outcome) -> Table:
             _fmt(result.wall_time_s * 1e3, "{:.1f}"),
             f"{score['speedup']:.3g}×" if "speedup" in score else ("ref" if result.ok and ("reference_warning" in score or not score) else ""),
             f"{peaks[coupler] / 1e3:.1f} @{coupler}" if coupler else "",
-            _percent(score.get(f"coupler_force_peak_error_{coupler}", score.get(f"reference_error_estimate_{coupler}"))),
+            _percent(score.get(f"coupler_force_peak_error_{coupler}", score.get(f"reference_error_estimate_{coupler}")),
+                     lower=f"coupler_force_peak_error_{coupler}" not in score and "reference_error_bound" in score),
             _fmt(score.get(f"coupler_force_peak_time_error_{coupler}"), "{:+.2f}", 1e3),
             _percent(score.get(f"coupler_force_rms_error_{coupler}")),
             _percent(score.get("acceleration_rms_error_max")),
@@ -98,9 +110,10 @@ def impact_table(outcome) -> Table:
             _percent(balance),
         )
         if "reference_warning" in score:  # the reference checked itself (femref.run.runner.check_reference)
-            note = f"warning: {score['reference_warning']}; its P peak err is its own estimated error (Richardson, {score['reference']})"
-            table.add_row("", f"[yellow]{note}[/yellow]", *[""] * (len(columns) - 2))
-    table.caption = legend(
+            notes.append(f"[yellow]{result.model}: {_self_check_note(score, 'P peak')}, in its P peak err column[/yellow]")
+        if "outside_range_fraction" in score:  # quasi-rigid cars outside their range somewhere (femref.run.validity)
+            notes.append(f"{result.model}: {_in_range_note(score)}")
+    table.caption = with_notes(notes, legend(
         ("wall ms", "wall time of the run, ms"),
         ("speed-up", "fem's wall time / the model's (ref: the reference)"),
         ("P peak kN", "largest coupler compression force, kN @coupler"),
@@ -109,8 +122,8 @@ def impact_table(outcome) -> Table:
         ("P rms err", "rms(P − P_fem) / rms(P_fem) at that coupler"),
         ("a rms err", "rms(a − a_fem) / rms(a_fem), worst sensor"),
         *((("a_v rms err", "the same for the vertical acceleration"), ("pitch rms err", "the same for the pitch rate")) if vertical else ()),
-        ("E err", "energy balance error, max |E(t) − E(0)| / E(0) over every energy account"),
-    )
+        ("E err", "energy balance error of the line, max |E(t) − E(0)| / max |E| with E every energy account (kinetic, strain, stored, dissipated)"),
+    ))
     return table
 
 
@@ -183,12 +196,41 @@ def bench_table(outcome) -> Table:
     return table
 
 
-def _percent(value: float | None) -> str:
+def _percent(value: float | None, lower: bool = False) -> str:
     """A relative error in per cent with two decimals (``12.34%``), the one format of every table; a
-    positive error below 0.005 % is ``<0.01%``; blank for a missing or non-finite value."""
+    positive error below 0.005 % is ``<0.01%``; blank for a missing or non-finite value; ``≥`` before a lower bound."""
     if value is None or not math.isfinite(value):
         return ""
-    return "<0.01%" if 0 < abs(value) < 5e-5 else f"{value:.2%}"
+    text = "<0.01%" if 0 < abs(value) < 5e-5 else f"{value:.2%}"
+    return f"≥{text}" if lower else text
+
+
+def _in_range_note(score: dict) -> str:
+    """The line under a run whose quasi-rigid cars leave their range: the share of the record outside, and its
+    errors where they hold (femref.run.scoring.in_range_errors)."""
+    errors = [(label, score.get(f"{q}_rms_in_range_error_max")) for label, q in
+              (("P rms err", "coupler_force"), ("a rms err", "acceleration"), ("a_v rms err", "vertical_acceleration"))]
+    shown = ", ".join(f"{label} {_percent(value)}" for label, value in errors if value is not None)
+    return f"outside its range {_percent(score['outside_range_fraction'])} of the record (shaded in the report); in range: {shown}"
+
+
+def _self_check_only(score: dict) -> bool:
+    """A score entry made by the reference's self-check alone (its ``reference`` is the model's own finer runs)."""
+    return "self_check" in score and score.get("reference") == score["self_check"]
+
+
+def _self_check_note(score: dict, quantity: str) -> str:
+    """The warning line of a run that checked itself: why, and its own error of ``quantity`` as a Richardson estimate,
+    or as a lower bound when the runs are outside the asymptotic range (femref.run.runner.check_reference)."""
+    estimate = _percent(score.get("reference_error_estimate"))
+    runs = score.get("self_check", score.get("reference", ""))
+    if "reference_error_bound" in score:
+        order = score.get("reference_observed_order")
+        seen = f"observed order {order:.2f}, " if isinstance(order, float) and math.isfinite(order) else ""
+        own = f"its own {quantity} error is at least {estimate} (a lower bound: {seen}outside the asymptotic range; {runs})"
+    else:
+        own = f"its own {quantity} error is estimated at {estimate} (Richardson, {runs})"
+    return f"warning: {score['reference_warning']}; {own}"
 
 
 def event_table(outcome) -> Table:

@@ -16,7 +16,10 @@ A constant load is ``Constant(value)`` (a step at t = 0).
 
 from __future__ import annotations
 
+import itertools
 import math
+import os
+import stat
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol
@@ -207,38 +210,122 @@ class Tabulated:
         return float(self.times[-1])
 
 
+#: Largest load-record file (bytes), checked by ``os.stat`` before the file is opened (like the case
+#: reader's :data:`femref.case.loader.MAX_YAML_BYTES`). A record of :data:`MAX_CSV_ROWS` samples in two
+#: columns of ~20 characters is ~40 MB; the limit leaves room for wide recorder exports with a few more
+#: channels, and stops a stray multi-gigabyte file before a byte of it is read.
+MAX_CSV_BYTES = 256 * 2**20
+
+#: Most data rows (samples) of a load record: 2e6. A recorder at 1 kHz for 30 min holds 1.8e6 samples, so a
+#: whole measured shift of a yard fits; the record is read whole into memory (two float columns, 32 MB at
+#: the limit) and every solver interpolates in it. The work budget (:mod:`femref.run.budget`) counts the
+#: samples again once the record is read (typical records 1e4 samples; under ``exact`` a long record is
+#: transformed whole, which the budget refuses far below this limit), so this limit only keeps the reading
+#: itself — seconds and memory before the budget can look — bounded.
+MAX_CSV_ROWS = 2_000_000
+
+#: Bytes read from the start and from the end of a record to estimate its bytes per row.
+_SAMPLE_BYTES = 64 * 1024
+
+
+class CsvTooLarge(ValueError):
+    """A load record beyond :data:`MAX_CSV_BYTES` or :data:`MAX_CSV_ROWS`; the message names the rule and the size."""
+
+
+def check_csv_size(path: str | Path) -> int:
+    """Refuse a record above :data:`MAX_CSV_BYTES` (by ``os.stat``, before opening it) or of an estimated row
+    count above :data:`MAX_CSV_ROWS`; return the estimate.
+
+    The estimate is the file size over the bytes per row of its first and of its last
+    :data:`_SAMPLE_BYTES` (complete lines only), the larger of the two, so a record whose rows grow
+    longer down the file is not refused for its short first rows. Only these two samples are read.
+    Raises :class:`CsvTooLarge`, ``ValueError`` for a path that is not a regular file (a device, a pipe, a
+    folder), ``FileNotFoundError`` or ``OSError``.
+    """
+    path = Path(path)
+    status = os.stat(path)
+    if not stat.S_ISREG(status.st_mode):  # a device or a pipe (/dev/zero) has no size and may never end
+        raise ValueError(f"CSV file {path} is not a regular file")
+    size = status.st_size
+    if size > MAX_CSV_BYTES:
+        raise CsvTooLarge(f"CSV file {path} holds {_size(size)}; a load record may hold at most {_size(MAX_CSV_BYTES)} "
+                          f"and {_count(MAX_CSV_ROWS)} samples (30 min at 1 kHz is 1.8e6)")
+    with open(path, "rb") as handle:
+        head = handle.read(_SAMPLE_BYTES)
+        if size <= _SAMPLE_BYTES:
+            rows = head.count(b"\n") + (0 if head.endswith(b"\n") or not head else 1)
+        else:
+            handle.seek(size - _SAMPLE_BYTES)
+            tail = handle.read(_SAMPLE_BYTES)
+            rows = int(size / max(_bytes_per_row(head), _bytes_per_row(tail[tail.find(b"\n") + 1 :])))
+    if rows > MAX_CSV_ROWS:
+        raise CsvTooLarge(f"CSV file {path} holds about {_count(rows)} rows in {_size(size)}; a load record may hold at most "
+                          f"{_count(MAX_CSV_ROWS)} samples (30 min at 1 kHz is 1.8e6): resample or cut the record")
+    return rows
+
+
+def _bytes_per_row(sample: bytes) -> float:
+    """Mean bytes of the complete lines in ``sample`` (the whole sample when it holds no line end)."""
+    lines = sample.count(b"\n")
+    return (sample.rfind(b"\n") + 1) / lines if lines else max(len(sample), 1)
+
+
+def _count(n: float) -> str:
+    """``2000000`` as ``2e6``, ``12345678`` as ``1.23e7``, ``512`` as ``512``."""
+    mantissa, _, exponent = f"{n:.3g}".partition("e")
+    return f"{mantissa}e{int(exponent)}" if exponent else mantissa
+
+
+def _size(n: int) -> str:
+    """``314572800`` as ``300 MiB (314572800 bytes)``."""
+    return f"{n / 2**20:.3g} MiB ({n} bytes)"
+
+
 def read_csv_columns(path: str | Path, time_column: str | int, value_column: str | int) -> tuple[NDArray, NDArray]:
     """Two float columns of a CSV file, by header name or by 0-based index.
 
-    Raises ``ValueError`` with the reason when the file is empty, a column is missing,
-    or a cell is not a number; ``FileNotFoundError`` when the file is absent.
+    The size is checked first (:func:`check_csv_size`, before the file is read) and the data rows are
+    counted while reading: the reading stops at row :data:`MAX_CSV_ROWS` + 1 whatever the estimate said.
+    Raises :class:`CsvTooLarge` (a ``ValueError``) beyond the limits, ``ValueError`` with the reason when
+    the file is empty, a column is missing, or a cell is not a number; ``FileNotFoundError`` when the file
+    is absent.
     """
     path = Path(path)
-    lines = [ln for ln in path.read_text().splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
-    if not lines:
-        raise ValueError(f"CSV file {path} is empty")
-    first = [c.strip() for c in lines[0].split(",")]
-    has_header = not all(_is_number(c) for c in first)
-    header, rows = (first, lines[1:]) if has_header else (None, lines)
-    if not rows:
-        raise ValueError(f"CSV file {path} has no data rows")
+    check_csv_size(path)
+    with open(path) as handle:
+        lines = (ln.rstrip("\n") for ln in handle if ln.strip() and not ln.lstrip().startswith("#"))
+        first_line = next(lines, None)
+        if first_line is None:
+            raise ValueError(f"CSV file {path} is empty")
+        first = [c.strip() for c in first_line.split(",")]
+        has_header = not all(_is_number(c) for c in first)
+        header = first if has_header else None
+        first_row = next(lines, None) if has_header else first_line
+        if first_row is None:
+            raise ValueError(f"CSV file {path} has no data rows")
+        rows = itertools.chain([first_row], lines)
 
-    def index_of(column: str | int) -> int:
-        if isinstance(column, int):
-            return column
-        if header is None or column not in header:
-            raise ValueError(f"CSV file {path} has no column {column!r} (header: {header})")
-        return header.index(column)
+        def index_of(column: str | int) -> int:
+            if isinstance(column, int):
+                return column
+            if header is None or column not in header:
+                raise ValueError(f"CSV file {path} has no column {column!r} (header: {header})")
+            return header.index(column)
 
-    it, iv = index_of(time_column), index_of(value_column)
-    times, values = [], []
-    for lineno, row in enumerate(rows, start=2 if has_header else 1):
-        cells = [c.strip() for c in row.split(",")]
-        try:
-            times.append(float(cells[it]))
-            values.append(float(cells[iv]))
-        except (IndexError, ValueError):
-            raise ValueError(f"CSV file {path}, line {lineno}: expected numbers in columns {it} and {iv}, got {row!r}") from None
+        it, iv = index_of(time_column), index_of(value_column)
+        times: list[float] = []
+        values: list[float] = []
+        start = 2 if has_header else 1
+        for lineno, row in enumerate(itertools.islice(rows, MAX_CSV_ROWS), start=start):
+            cells = row.split(",")  # float() ignores the blanks around a number
+            try:
+                times.append(float(cells[it]))
+                values.append(float(cells[iv]))
+            except (IndexError, ValueError):
+                raise ValueError(f"CSV file {path}, line {lineno}: expected numbers in columns {it} and {iv}, got {row!r}") from None
+        if next(rows, None) is not None:
+            raise CsvTooLarge(f"CSV file {path} holds more than {_count(MAX_CSV_ROWS)} samples; a load record may hold at most "
+                              f"{_count(MAX_CSV_ROWS)} (30 min at 1 kHz is 1.8e6): resample or cut the record")
     return np.asarray(times), np.asarray(values)
 
 

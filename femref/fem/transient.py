@@ -37,6 +37,7 @@ from numpy.typing import NDArray
 from femref.fem.banded import BandedCholesky
 from femref.fem.operators import Operators
 from femref.core.timegrid import output_steps, steps_to
+from femref.core.energy import energy_balance_error
 from femref.core.signals import Signal
 
 
@@ -321,7 +322,6 @@ class TransientResponse:
 
     @property
     def energy_balance_error(self) -> float:
-        """``max |T + V + D − W| / max(T + V + D, W)`` over the stored times."""
-        total = self.kinetic + self.strain + self.dissipated
-        scale = max(float(np.max(np.abs(total))), float(np.max(np.abs(self.external_work))), np.finfo(float).tiny)
-        return float(np.max(np.abs(total - self.external_work)) / scale)
+        """``max |E(t) − E(0) − W(t)| / max(|E|, |W|)`` over the stored times, ``E = T + V + D`` (kinetic, strain,
+        dissipated) and ``W`` the end loads' work (:func:`femref.core.energy.energy_balance_error`)."""
+        return energy_balance_error(self.kinetic + self.strain + self.dissipated, self.external_work)

@@ -19,10 +19,27 @@ fallback where a law is nearly discontinuous. A step where neither converges rai
 :class:`CouplerConvergenceError` naming the coupler; the solver turns it into a failed
 status with the time.
 
+The fallback's scalar root (:meth:`CouplerSolve._scalar_root`) needs a sign change of
+``f(P_j) = P_j − T_j`` in its bracket. ``[P − f(P), P]`` holds one where ``f`` rises with
+slope ≥ 1, but not where a table's unloading curve falls steeply (``T`` then rises as
+``P`` pushes the ends apart) nor, by round-off, where ``T`` hardly depends on ``P``; the
+bracket is then widened, doubling its step, until ``f`` changes sign (it must: ``f → ±∞``
+as ``P → ±∞``). A stateful coupler (the draft gear) whose own Newton cycles — its force
+jumps where a contact engages with the gear still compressed, ``x_g/D`` at the slack
+boundary — is solved the same way in ``P`` alone, its state following each trial force
+through the trapezoidal state equation with ``ṡ`` driven by that force
+(:meth:`CouplerSolve._state_under`); ``f`` then rises with slope ≥ 1, jumps included,
+and the root sits at the jump when ``T`` jumps over ``P``: the contact held at its
+boundary, transmitting what the step needs (a set-valued contact force).
+
 Coupler dissipation is the midpoint rule of the law's dissipation rate while the contact
-mode holds; on a step where the contact opens or closes it is the coupler's absorbed
-work ``P̄ Δδ`` less the change of its stored energy (a memoryless cushion separating
-while compressed loses its stored energy — the cushion's own relaxation).
+mode holds and the force is the law's; on a step where the contact opens or closes, or
+that starts or ends held at a jump of the law (force off the law by more than
+:data:`JUMP_FRACTION` of it: :func:`held_at_jump`), it is the coupler's absorbed work
+``P̄ Δδ`` less the change of its stored energy (a memoryless cushion separating while
+compressed loses its stored energy — the cushion's own relaxation). Every step also adds
+``P̄ Δδ`` to the coupler's ``work``: the work the cars did on it, against which their own
+energy change is checked (:attr:`femref.impact.response.ImpactResponse.car_energy_balance_error`).
 """
 
 from __future__ import annotations
@@ -39,6 +56,39 @@ NEWTON_ITERATIONS = 12  # then the Gauss–Seidel fallback
 MAX_NEWTON_ITERATIONS = 40
 MAX_SWEEPS = 200
 STATE_TOLERANCE = 1e-13  # m of draft-gear travel
+BRACKET_EXPANSIONS = 64  # doublings of the scalar root's bracket step before giving up
+JUMP_FRACTION = 1e-6  # |P − T| above this fraction of the force: the step ends at a jump of the law
+
+
+def sweeps_detail(change: float) -> str:
+    """The failure detail when the Gauss–Seidel sweeps run out: ``change`` the last sweep's largest change in P (N)."""
+    return f"Newton cycled and {MAX_SWEEPS} Gauss–Seidel sweeps left a change of {change:.3g} N"
+
+
+def coupler_newton_detail() -> str:
+    """The failure detail when a stateful coupler's own Newton cycles and its state under a held force does not settle."""
+    return (
+        f"Newton on its force and state did not converge in {MAX_NEWTON_ITERATIONS} iterations, "
+        f"nor its state equation under a held force"
+    )
+
+
+def bracket_detail() -> str:
+    """The failure detail when ``P − T(P)`` keeps its sign over every widening of the scalar root's bracket."""
+    return f"P − T(P) kept its sign over {BRACKET_EXPANSIONS} doublings of the root's bracket"
+
+
+def held_at_jump(force: float, force_residual: float, tolerance: float) -> bool:
+    """``|P − T| > max(tolerance, JUMP_FRACTION · max(|P|, |T|))``: the committed force ``P`` is off the law's
+    ``T`` by more than a converged root leaves (Brent's tolerance times the slope of ``P − T``), so the step
+    ended at a jump of T, the contact held at its boundary, and only the absorbed work books its energy."""
+    law_force = force - force_residual
+    return abs(force_residual) > max(tolerance, JUMP_FRACTION * max(abs(force), abs(law_force)))
+
+
+def same_sign(a: float, b: float) -> bool:
+    """``a`` and ``b`` are both > 0 or both < 0 (no sign change between them; a zero is a root)."""
+    return (a > 0.0 and b > 0.0) or (a < 0.0 and b < 0.0)
 
 
 def force_tolerance(scene: ImpactScene) -> float:
@@ -96,12 +146,16 @@ class CouplerSolve:
         self.closure = np.zeros(self.n)
         self.rate = np.zeros(self.n)
         self.modes = np.zeros(self.n, dtype=int)
+        self.held = np.zeros(self.n, dtype=bool)  # the last step ended held at a jump of the law (held_at_jump)
         self.state_rate = np.zeros(self.n_state)
         self.stored = np.zeros(self.n)
         self.dissipated = np.zeros(self.n)
+        self.work = np.zeros(self.n)  # J: work the cars did on each coupler, Σ P̄ Δδ (trapezoidal P̄)
         self.gain_u: NDArray | None = None
         self.gain_v: NDArray | None = None
         self.force_tolerance = force_tolerance(scene)
+        self.bracket_expansions = BRACKET_EXPANSIONS
+        self._state_settled = True  # the last _state_under converged (read after the scalar root's last trial)
 
     def loads(self, forces: NDArray) -> NDArray:
         """End loads ``(F1, F2)`` of every car, ``(n_cars, 2)``: a coupler pushing an end is ``F = −P``."""
@@ -171,8 +225,11 @@ class CouplerSolve:
         else:  # Newton cycles where a law is nearly discontinuous (a friction gear's switch band)
             P, s, sweeps = self._gauss_seidel(closure_free, rate_free)
             closure, rate, responses, residual, state_rate = self._residual(closure_free, rate_free, P, s)
+            for j, sl in enumerate(self.state_slices):  # the sweeps drove each state by the force P (not T)
+                if sl.stop > sl.start:
+                    state_rate[sl] = self._driven_rate(j, float(closure[j]), float(rate[j]), float(P[j]), s[sl])[0]
             iteration += sweeps
-        self._commit(P, s, closure, rate, state_rate, np.array([r.mode for r in responses]))
+        self._commit(P, s, closure, rate, state_rate, np.array([r.mode for r in responses]), residual[:n])
         return iteration
 
     def _residual(self, closure_free: NDArray, rate_free: NDArray, P: NDArray, s: NDArray) -> tuple:
@@ -198,56 +255,142 @@ class CouplerSolve:
     def _gauss_seidel(self, closure_free: NDArray, rate_free: NDArray) -> tuple[NDArray, NDArray, int]:
         """Coupler by coupler, the others held: a bracketed scalar root for a memoryless law, Newton otherwise.
 
-        For a memoryless law ``f(P_j) = P_j − T(δ(P), δ̇(P))`` has slope ≥ 1 (T does not
-        decrease with closure or rate, and both fall as P_j pushes the ends apart), so
+        For a memoryless law ``f(P_j) = P_j − T(δ(P), δ̇(P))`` has slope ≥ 1 where T does not
+        decrease with closure or rate (both fall as P_j pushes the ends apart), so
         ``[P − f(P), P]`` (or its mirror) brackets the root and Brent's method finds it
-        however steep T is. The couplers interact only through the cars' end gains, so the
-        sweeps converge fast.
+        however steep T is; elsewhere :meth:`_scalar_root` widens the bracket. A stateful
+        coupler takes Newton on its force and state, and where that cycles (a force jump at
+        a contact with the gear still compressed) the scalar root with its state following
+        the force. The couplers interact only through the cars' end gains, so the sweeps
+        converge fast.
         """
         P, s = self.force.copy(), self.state.copy()
         for sweep in range(1, MAX_SWEEPS + 1):
             change, worst = 0.0, 0
             for j in range(self.n):
                 previous = P[j]
-                if self.state_slices[j].stop == self.state_slices[j].start:
+                sl = self.state_slices[j]
+                if sl.stop == sl.start:
                     P[j] = self._scalar_root(j, closure_free, rate_free, P, s)
                 else:
-                    self._coupler_newton(j, closure_free, rate_free, P, s)
+                    state = s[sl].copy()
+                    if not self._coupler_newton(j, closure_free, rate_free, P, s):
+                        if sl.stop - sl.start != 1:
+                            raise CouplerConvergenceError(j, coupler_newton_detail())
+                        P[j], s[sl] = previous, state  # from where the cycling Newton started
+                        P[j] = self._scalar_root(j, closure_free, rate_free, P, s)
                 if abs(P[j] - previous) > change:
                     change, worst = abs(P[j] - previous), j
             if change <= self.force_tolerance:
                 return P, s, sweep
-        raise CouplerConvergenceError(worst, f"Newton cycled and {MAX_SWEEPS} Gauss–Seidel sweeps left a change of {change:.3g} N")
+        raise CouplerConvergenceError(worst, sweeps_detail(change))
+
+    def _excess(self, j: int, closure_free: NDArray, rate_free: NDArray, P: NDArray, s: NDArray, force: float) -> float:
+        """``f(P_j) = P_j − T_j(δ(P), δ̇(P), s_j)`` with the other forces held; sets ``P[j]`` and, for a
+        stateful coupler, ``s_j`` to its state under the force ``P_j`` (:meth:`_state_under`)."""
+        P[j] = force
+        closure = float(closure_free[j] + self.gain_u[j] @ P)
+        rate = float(rate_free[j] + self.gain_v[j] @ P)
+        sl = self.state_slices[j]
+        if sl.stop > sl.start:
+            s[sl], self._state_settled = self._state_under(j, closure, rate, force, s[sl])
+        return force - self.couplings[j].evaluate(closure, rate, s[sl]).force
 
     def _scalar_root(self, j: int, closure_free: NDArray, rate_free: NDArray, P: NDArray, s: NDArray) -> float:
-        coupling, state = self.couplings[j], s[self.state_slices[j]]
+        """Coupler j's force with the others held: the root of ``f(P_j) = P_j − T_j`` (:meth:`_excess`) by Brent's method.
 
-        def excess(force: float) -> float:
-            P[j] = force
-            closure = closure_free[j] + self.gain_u[j] @ P
-            rate = rate_free[j] + self.gain_v[j] @ P
-            return force - coupling.evaluate(float(closure), float(rate), state).force
-
+        The bracket is ``[P − f(P), P]`` (or its mirror) where ``f(P − f(P))`` has the other
+        sign than ``f(P)``, as it has when ``f`` rises with slope ≥ 1; else it is widened
+        from there in the same direction, the step doubling (at least the force tolerance)
+        up to :data:`BRACKET_EXPANSIONS` times, until ``f`` changes sign. A stateful coupler's
+        state is left at the root's. Raises :class:`CouplerConvergenceError` (coupler j) when
+        no sign change is found or the state at the root does not settle.
+        """
+        excess = lambda force: self._excess(j, closure_free, rate_free, P, s, force)  # noqa: E731
         start = float(P[j])
         f0 = excess(start)
         if f0 == 0.0:
             return start
-        low, high = sorted((start, start - f0))
-        return float(scipy.optimize.brentq(excess, low, high, xtol=self.force_tolerance))
+        a, fa = start, f0
+        step = -f0
+        b = start + step
+        fb = excess(b)
+        expansions = 0
+        while same_sign(fa, fb):
+            if expansions == self.bracket_expansions:
+                raise CouplerConvergenceError(j, bracket_detail())
+            expansions += 1
+            a, fa = b, fb
+            step = 2.0 * step
+            if abs(step) < self.force_tolerance:
+                step = math.copysign(self.force_tolerance, step)
+            b = a + step
+            fb = excess(b)
+        if fb == 0.0:
+            root = b
+        else:
+            low, high = (a, b) if a < b else (b, a)
+            root = float(scipy.optimize.brentq(excess, low, high, xtol=self.force_tolerance))
+        if self.state_slices[j].stop > self.state_slices[j].start:
+            excess(root)  # the state at the root (Brent's last trial need not be its answer)
+            if not self._state_settled:
+                raise CouplerConvergenceError(j, coupler_newton_detail())
+        return root
 
-    def _coupler_newton(self, j: int, closure_free: NDArray, rate_free: NDArray, P: NDArray, s: NDArray) -> None:
-        """Newton on coupler j's force and state with the other forces held (in place)."""
+    def _state_under(self, j: int, closure: float, rate: float, force: float, state: NDArray) -> tuple[NDArray, bool]:
+        """Coupler j's one state under the held transmitted force ``P = force``: the root of
+        ``R(s) = s − s_n − dt/2 (ṡ_n + q(δ, δ̇, s, P))`` by Newton, kept in a shrinking bracket.
+
+        ``∂q/∂s ≤ 0`` (the draft gear: ``q = (P − F_g(s))/μ``, F_g rising) gives ``R' ≥ 1``, so
+        ``[s − R(s), s]`` brackets the root; a Newton step leaving the bracket is replaced by
+        bisection. Returns the state and whether ``|R| ≤`` :data:`STATE_TOLERANCE` within
+        :data:`MAX_NEWTON_ITERATIONS` steps (else the last iterate).
+        """
+        sl, dt = self.state_slices[j], self.dt
+        previous, previous_rate = float(self.state[sl][0]), float(self.state_rate[sl][0])
+
+        def residual(x: float) -> tuple[float, float]:
+            q, dq = self._driven_rate(j, closure, rate, force, np.array([x]))
+            return x - previous - 0.5 * dt * (previous_rate + float(q[0])), 1.0 - 0.5 * dt * float(dq[0, 0])
+
+        x = float(state[0])
+        r, slope = residual(x)
+        low, high = (x - r, x) if r > 0.0 else (x, x - r)
+        for _ in range(MAX_NEWTON_ITERATIONS):
+            if abs(r) <= STATE_TOLERANCE:
+                return np.array([x]), True
+            trial = x - r / slope
+            if not low <= trial <= high:
+                trial = 0.5 * (low + high)
+            x = trial
+            r, slope = residual(x)
+            if r > 0.0:
+                high = x
+            else:
+                low = x
+        return np.array([x]), abs(r) <= STATE_TOLERANCE
+
+    def _driven_rate(self, j: int, closure: float, rate: float, force: float, state: NDArray) -> tuple[NDArray, NDArray]:
+        """``ṡ = q(δ_e, δ̇, s, P)`` of coupler j driven by the transmitted force ``P = force`` and ``∂q/∂s``,
+        the contact mode and law branch from the guards' signs at ``(δ, δ̇, s)`` as in ``Coupling.evaluate``."""
+        coupling = self.couplings[j]
+        mode, branch = coupling.split_branch(tuple(1 if g > 0.0 else -1 for g in coupling.guards(closure, rate, state)))
+        de = coupling.effective_closure(closure, mode)
+        return coupling.law.state_rate(de, rate, state, force, branch), coupling.law.tangent(de, rate, state, force, branch).rate_state
+
+    def _coupler_newton(self, j: int, closure_free: NDArray, rate_free: NDArray, P: NDArray, s: NDArray) -> bool:
+        """Newton on coupler j's force and state with the other forces held (in place); False if it did not converge."""
         sl = self.state_slices[j]
         rows = np.r_[j, self.n + np.arange(sl.start, sl.stop)]
         for _ in range(MAX_NEWTON_ITERATIONS):
             _, _, responses, residual, _ = self._residual(closure_free, rate_free, P, s)
             local = residual[rows]
             if abs(local[0]) <= self.force_tolerance and np.max(np.abs(local[1:])) <= STATE_TOLERANCE:
-                return
+                return True
             step = np.linalg.solve(self._jacobian(responses)[np.ix_(rows, rows)], -local)
             P[j] += step[0]
             s[sl] += step[1:]
-        raise CouplerConvergenceError(j, f"Newton on its force and state did not converge in {MAX_NEWTON_ITERATIONS} iterations")
+        return False
 
     def _jacobian(self, responses: list) -> NDArray:
         """∂(residual)/∂(P, s) from the laws' tangents and the cars' gains ``D_u``, ``D_v``."""
@@ -268,23 +411,28 @@ class CouplerSolve:
             jacobian[rows, rows] -= 0.5 * dt * (t.rate_state + np.outer(t.rate_force, t.force_state))
         return jacobian
 
-    def _commit(self, P: NDArray, s: NDArray, closure: NDArray, rate: NDArray, state_rate: NDArray, modes: NDArray) -> None:
-        """Book the step's coupler energy and take the new values."""
+    def _commit(
+        self, P: NDArray, s: NDArray, closure: NDArray, rate: NDArray, state_rate: NDArray, modes: NDArray, force_residual: NDArray
+    ) -> None:
+        """Book the step's coupler energy and take the new values (``force_residual``: ``P − T`` per coupler)."""
         dt = self.dt
         for j, coupling in enumerate(self.couplings):
             sl = self.state_slices[j]
             stored = self._stored(j, float(closure[j]), s[sl], int(modes[j]))
-            if modes[j] == self.modes[j]:
+            work = 0.5 * (P[j] + self.force[j]) * (closure[j] - self.closure[j])
+            self.work[j] += work
+            held = held_at_jump(float(P[j]), float(force_residual[j]), self.force_tolerance)
+            if modes[j] == self.modes[j] and not held and not self.held[j]:  # on the law from end to end
                 mid_closure = 0.5 * (closure[j] + self.closure[j])
                 mid = coupling.effective_closure(float(mid_closure), int(modes[j]))
                 rate_mid = 0.5 * (rate[j] + self.rate[j])
                 self.dissipated[j] += dt * coupling.law.dissipation_rate(
                     mid, float(rate_mid), 0.5 * (s[sl] + self.state[sl]), 0.5 * (P[j] + self.force[j]), modes[j] != 0
                 )
-            else:  # the contact changed within the step: absorbed work less the change of stored energy
-                work = 0.5 * (P[j] + self.force[j]) * (closure[j] - self.closure[j])
+            else:  # the contact changed within the step, or held at a jump: absorbed work less the change of stored energy
                 self.dissipated[j] += work - (stored - self.stored[j])
             self.stored[j] = stored
+            self.held[j] = held
         self.force, self.state, self.closure, self.rate = P, s, closure, rate
         self.state_rate = state_rate
         self.modes = modes

@@ -46,7 +46,7 @@ pre { background: #f7f7f7; padding: 0.8em; overflow-x: auto; font-size: 0.85em; 
 """.strip()
 
 LEADING_METRICS = ("reference", "wall_time_s", "speedup")
-METRIC_NAME = re.compile(r"^(?P<quantity>.+?)_(?P<statistic>max|rms|peak_time|peak)_error_(?P<item>.+)$")
+METRIC_NAME = re.compile(r"^(?P<quantity>.+?)_(?P<statistic>max|rms_in_range|rms|peak_time|peak)_error_(?P<item>.+)$")
 QUANTITY_LABELS = {
     "coupler_force": "force",
     "acceleration": "acceleration",
@@ -54,7 +54,8 @@ QUANTITY_LABELS = {
     "pitch_rate": "pitch rate",
     "axial_force": "axial force",
 }
-STATISTIC_LABELS = {"peak": "peak error", "peak_time": "peak time error", "rms": "rms error", "max": "max error"}
+STATISTIC_LABELS = {"peak": "peak error", "peak_time": "peak time error", "rms": "rms error", "rms_in_range": "rms error in range",
+                    "max": "max error"}
 COUPLER_QUANTITY = "coupler_force"
 LOCAL_PATH = re.compile(r"(?<![\w.~/-])(?:/[^\s/'\",:{}\[\]<>]+){2,}")
 """An absolute POSIX path of at least two components, not part of a longer word (``m/s`` is not one)."""
@@ -196,7 +197,7 @@ class MetricName:
     def label(self) -> str:
         """A short column header, e.g. ``force peak error (worst coupler)``, ``measured acceleration rms error``."""
         if self.quantity is None:
-            return {"wall_time_s": "wall time", "speedup": "speed-up"}.get(self.name, self.name.replace("_", " "))
+            return {"wall_time_s": "wall time", "speedup": "speed-up", "outside_range_fraction": "share outside range"}.get(self.name, self.name.replace("_", " "))
         base = self.quantity.removeprefix("measured_")
         quantity = ("measured " if base != self.quantity else "") + QUANTITY_LABELS.get(base, base.replace("_", " "))
         text = f"{quantity} {STATISTIC_LABELS.get(self.statistic, self.statistic)}"
@@ -218,7 +219,7 @@ class MetricName:
 def metric_columns(scores: dict[str, dict[str, Any]]) -> list[str]:
     """The summary's columns: reference, wall time, speed-up, the worst-item aggregates, then any attribute that
     is not a per-item error."""
-    names = {name for metrics in scores.values() for name in metrics} - {UNDEFINED}
+    names = {name for metrics in scores.values() for name in metrics if not is_self_check(name)} - {UNDEFINED}
     parsed = [MetricName.parse(n) for n in names]
     leading = [n for n in LEADING_METRICS if n in names]
     aggregates = [m.name for m in sorted((m for m in parsed if m.aggregate), key=lambda m: (m.order(), m.name))]
@@ -226,10 +227,39 @@ def metric_columns(scores: dict[str, dict[str, Any]]) -> list[str]:
     return leading + aggregates + rest
 
 
+def is_self_check(name: str) -> bool:
+    """A fact of the reference's check of itself (``reference_warning``, ``reference_error_estimate_<item>``,
+    ``self_check`` …, femref.run.runner.check_reference): told in a sentence, not a score column."""
+    return name != "reference" and name.startswith(("reference_", "self_check"))
+
+
+def _self_check_notes(scores: dict[str, dict[str, Any]]) -> list[str]:
+    """One paragraph per model that checked its own discretisation: why, the runs, the estimate of its own peak
+    error (Richardson, or a lower bound outside the asymptotic range) and the estimate per coupler or probe."""
+    notes = []
+    for model, metrics in scores.items():
+        if "reference_warning" not in metrics:
+            continue
+        estimate = metrics.get("reference_error_estimate")
+        if isinstance(estimate, float) and math.isfinite(estimate):
+            bound = metrics.get("reference_error_bound") == "lower"
+            told = f"its own peak error is {'at least' if bound else 'estimated at'} {format_metric('reference_error_estimate', estimate)}"
+            told += f" ({metrics.get('reference_error_basis', '')})" if metrics.get("reference_error_basis") else ""
+        else:
+            told = "no estimate (the finer run failed or nothing peaks)"
+        items = [(n.removeprefix("reference_error_estimate_"), v) for n, v in metrics.items() if n.startswith("reference_error_estimate_")]
+        per_item = "; per item: " + ", ".join(f"{item} {format_metric('error', v)}" for item, v in items) if len(items) > 1 else ""
+        wall = metrics.get("self_check_wall_time_s")
+        cost = f", {format_metric('wall_time_s', wall)}" if isinstance(wall, float) else ""
+        notes.append(f'<p class="self-check"><strong>{escape(model)} checked itself</strong> ({escape(str(metrics.get("self_check", "")))}{escape(cost)}): '
+                     f"{escape(str(metrics['reference_warning']))}; {escape(told + per_item)}.</p>")
+    return notes
+
+
 def item_columns(scores: dict[str, dict[str, Any]]) -> dict[str, list[str]]:
     """Per-item errors grouped by item (a coupler or a probe; couplers first, then probes in order of
     appearance), each item's metrics in the summary's order."""
-    parsed = [MetricName.parse(n) for metrics in scores.values() for n in metrics if n != UNDEFINED]
+    parsed = [MetricName.parse(n) for metrics in scores.values() for n in metrics if n != UNDEFINED and not is_self_check(n)]
     per_item = list({m.name: m for m in parsed if m.item is not None and not m.aggregate}.values())
     items = sorted(dict.fromkeys(m.item for m in per_item), key=lambda item: not any(m.of_coupler for m in per_item if m.item == item))
     return {item: [m.name for m in sorted((m for m in per_item if m.item == item), key=lambda m: (m.order(), m.name))] for item in items}
@@ -247,7 +277,7 @@ def format_metric(name: str, value: Any) -> str:
         return f"{value:.3g}×"
     if "time_error" in name:
         return f"{1e3 * value:+.3g} ms"
-    if "error" in name:
+    if "error" in name or name.endswith("_fraction"):
         return f"{100.0 * value:.3g} %"
     return f"{value:.4g}"
 
@@ -261,9 +291,10 @@ def _scores_section(result: ResultFile) -> str:
     note = (
         "<p>Relative errors in %; peak-time errors signed, in ms; speed-up = reference wall time / model wall time; "
         "n/a = undefined: the reference signal vanishes (hover for the reason). The summary shows each error's worst "
-        "coupler or probe; the tables below give every coupler and probe.</p>"
+        "coupler or probe; the tables below give every coupler and probe. A run with quasi-rigid cars that leave their "
+        "range (shaded in the plots) is also scored in range: over the samples outside the shaded intervals.</p>"
     )
-    parts = [note, _score_table(scores, metric_columns(scores), "summary", "summary")]
+    parts = [note, *_self_check_notes(scores), _score_table(scores, metric_columns(scores), "summary", "summary")]
     items = item_columns(scores)
     couplers = {item: names for item, names in items.items() if any(MetricName.parse(n).of_coupler for n in names)}
     probes = {item: names for item, names in items.items() if item not in couplers}

@@ -19,19 +19,35 @@ loaded one: the constants below are the measured per-step and per-DOF costs, rou
                            n × 385 transform values × (log2 Nt + 1) windows × 5e-8 s
     modal bending car      3e-10 s × n³ (dense eigenproblem of the beam's n DOFs)
 
+Everything a command will run is counted, before any of it runs:
+
+* the scene's model runs (:func:`predict`);
+* the fem reference's **self-check** (:func:`self_check_levels`): when the case's own ``time.dt`` or
+  ``fem.elements`` under-resolves the reference (:func:`resolution_warnings`) or ``FEMREF_SELF_CHECK=1``
+  asks, the fem run is repeated at ``dt/2`` and ``dt/4`` (and ``2×``, ``4×`` the elements when the mesh is the
+  coarse part) — predicted like the fem run at those settings, the worst case (both levels) always;
+* for ``femref run --tolerance``, every rung of the model ladder, the worst case of a climb: the choice layer lays
+  the ladder out without a mesh and prices each rung as an impact run at its step and resolution
+  (:func:`impact_run_cost`), then refuses by the same rule (:func:`check_costs`;
+  :func:`femref.choice.ladder.check_ladder_budget`).
+
 A scene is refused (:class:`~femref.case.CaseError`, exit 2) when its total work exceeds
 :data:`WORK_BUDGET` work units or the memory it holds exceeds :data:`MEMORY_BUDGET` bytes; the
 message names the key that drives the largest part (``fem.elements``, ``time.end``, ``time.dt``,
 ``frequency.num``, ``loads.<name>.csv.path``) and the predicted size. The environment variable
 ``FEMREF_BUDGET=<factor>`` multiplies both limits, on purpose (``FEMREF_BUDGET=10`` allows ten
-times as much).
+times as much). The budget is checked once per command: ``femref run`` checks before its output check
+and tells :func:`femref.run.run_scene` (or :func:`femref.choice.choose_model`) so; every other caller of
+those (sweeps, studies, :func:`femref.api.run_case`) is checked by them.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -40,12 +56,17 @@ from femref.core.body import Body
 from femref.core.signals import Tabulated
 from femref.run.timestep import impact_candidates, single_body_candidates, smallest_candidate
 
+if TYPE_CHECKING:
+    from femref.scene import ImpactScene, ModelRun, Scene
+
 #: Work units (≈ seconds on the reference machine) a scene may take.
 WORK_BUDGET = 3600.0
 #: Bytes of histories, fields and matrices a scene may hold.
 MEMORY_BUDGET = 8e9
 #: The environment variable that multiplies both limits.
 BUDGET_VARIABLE = "FEMREF_BUDGET"
+#: Set to 1 to check the fem reference's discretisation on every run (:func:`self_check_levels`).
+SELF_CHECK_VARIABLE = "FEMREF_SELF_CHECK"
 
 _BYTES = 8.0
 _MATRIX_BYTES_PER_DOF = 600.0  # sparse M, C, K, banded factors, dense load and output maps
@@ -66,6 +87,14 @@ class Cost:
     memory: float
     size: str
     factors: dict[str, tuple[float, object]] = field(default_factory=dict)
+    #: What the run is, for messages (default ``the <model> run``), and why it runs when that is not plain.
+    what: str = ""
+    why: str = ""
+
+    @property
+    def title(self) -> str:
+        """``what``, or ``the <model> run``: how a refusal names the run."""
+        return self.what or f"the {self.model} run"
 
     def driver(self) -> tuple[str, object]:
         """The key lying furthest beyond a typical run, and its value."""
@@ -87,10 +116,18 @@ def budget_factor() -> float:
     return factor
 
 
-def check_budget(scene, source: str = "<case>") -> list[Cost]:
-    """Raise :class:`CaseError` when ``scene`` is predicted to cost more than the budget (module docstring);
-    return the prediction otherwise. Measured scenes (no model runs) pass."""
+def check_budget(scene: Scene | ImpactScene, source: str = "<case>") -> list[Cost]:
+    """Refuse ``scene`` when its runs — the models' and the reference's self-check (:func:`predict`) — exceed the
+    budget (:func:`check_costs`); return the prediction otherwise. Measured scenes (no model runs) pass."""
     costs = predict(scene)
+    return check_costs(costs, source, "the scene" if len(costs) == 1 else f"the scene's {len(costs)} runs")
+
+
+def check_costs(costs: list[Cost], source: str = "<case>", whole: str = "the scene") -> list[Cost]:
+    """Refuse when ``Σ work > WORK_BUDGET × f`` or ``Σ memory > MEMORY_BUDGET × f`` over ``costs``, every run a command
+    will make (``f`` = ``FEMREF_BUDGET``; module docstring): raise :class:`CaseError` at ``source`` naming the key that
+    drives the costliest run, that run (and why it runs) and its predicted size, and the total of ``whole``; return
+    ``costs`` otherwise (also when empty)."""
     if not costs:
         return costs
     factor = budget_factor()
@@ -100,20 +137,22 @@ def check_budget(scene, source: str = "<case>") -> list[Cost]:
         return costs
     worst = max(costs, key=lambda c: max(c.work / WORK_BUDGET, c.memory / MEMORY_BUDGET))
     key, value = worst.driver()
-    rule = (f"the {worst.model} run is predicted at {worst.size} ≈ {_duration(worst.work)} of work and {_bytes(worst.memory)} of histories "
-            f"and matrices (the scene: {_duration(work)}, {_bytes(memory)}); the budget is {_duration(WORK_BUDGET * factor)} and "
+    why = f" ({worst.why})" if worst.why else ""
+    rule = (f"{worst.title}{why} is predicted at {worst.size} ≈ {_duration(worst.work)} of work and {_bytes(worst.memory)} of histories "
+            f"and matrices ({whole}: {_duration(work)}, {_bytes(memory)}); the budget is {_duration(WORK_BUDGET * factor)} and "
             f"{_bytes(MEMORY_BUDGET * factor)}: reduce {key}, or raise the budget on purpose with the environment variable "
             f"{BUDGET_VARIABLE}=<factor> (now {factor:g})")
     raise CaseError(Problem(tuple(key.split(".")), rule, value), source)
 
 
-def predict(scene) -> list[Cost]:
-    """The cost of every model run of ``scene`` (impact, transient or harmonic; nothing else is predicted)."""
+def predict(scene: Scene | ImpactScene) -> list[Cost]:
+    """The cost of every run ``femref run`` makes of ``scene``: its model runs (impact, transient or harmonic; nothing
+    else is predicted) and the fem reference's self-check runs (:func:`self_check_levels`)."""
     kind = getattr(scene, "kind", None)
     if kind == "impact":
-        return [_impact_run(scene, run) for run in scene.runs]
+        return [impact_run_cost(scene, run) for run in scene.runs] + _self_check_costs(scene)
     if kind == "transient":
-        return [_transient(scene, model) for model in scene.models]
+        return [_transient(scene, model) for model in scene.models] + _self_check_costs(scene)
     if kind == "harmonic":
         return [_harmonic(scene, model) for model in scene.models]
     return []
@@ -163,8 +202,10 @@ def approximate_step(scene, run, elements: int | None = None) -> float:
     return smallest_candidate(impact_candidates(scene, run, elements or scene.fem.elements, wave_speed))[0]
 
 
-def _impact_run(scene, run) -> Cost:
-    dt = approximate_step(scene, run)
+def impact_run_cost(scene: ImpactScene, run: ModelRun, dt: float | None = None) -> Cost:
+    """One impact run of ``scene`` at ``dt`` (None: the step the runner would take, :func:`approximate_step`): its steps
+    × the per-step cost of its cars, their set-up, and its histories and matrices (module docstring)."""
+    dt = approximate_step(scene, run) if dt is None else dt
     steps = _steps(scene.end, dt)
     outputs = steps / scene.output_stride + 1
     per_step, setup, matrices, dofs_total = 0.0, 0.0, 0.0, 0
@@ -263,17 +304,27 @@ def _harmonic(scene, model: str) -> Cost:
 # ---------------------------------------------------------------------------------------------
 # Does the case's discretisation resolve the reference?
 
-#: A step above this fraction of the shortest wave travel time, or of the coupler contact time, under-resolves
-#: the fem reference; so does an element longer than this fraction of the pulse's wavelength.
+#: A step above this fraction of the shortest wave travel time, or of the coupler contact time (impact) or the
+#: loads' shortest time scale (transient), under-resolves the fem reference; so does an element longer than this
+#: fraction of the pulse's wavelength.
 STEP_PER_WAVE_TIME, STEP_PER_CONTACT_TIME, ELEMENT_PER_WAVELENGTH = 0.1, 0.05, 0.05
+STEP_PER_LOAD_TIME = STEP_PER_CONTACT_TIME
 
 
 def resolution_warnings(scene) -> list[str]:
-    """Why the case's own ``time.dt`` or ``fem.elements`` under-resolves the fem reference of an impact scene
-    (empty when they resolve it, or when the runner chooses the step): a step above a tenth of the shortest
-    wave travel time ``l√(m/EA)`` of the cars or a twentieth of the coupler contact time, or fewer elements
-    than twenty per wavelength of the contact pulse, ``2l/h ≥ 40 T_wave/T_contact``. Each text starts with the key."""
-    if getattr(scene, "kind", None) != "impact":
+    """Why the case's own ``time.dt`` or ``fem.elements`` under-resolves the fem reference (empty when they resolve
+    it, or when the runner chooses the step); each text starts with the key.
+
+    * Impact: a step above a tenth of the shortest wave travel time ``l√(m/EA)`` of the cars or a twentieth of the
+      coupler contact time, or fewer elements than twenty per wavelength of the contact pulse,
+      ``2l/h < 40 T_wave/T_contact``.
+    * Transient (:func:`transient_resolution_warnings`): the same rules with the body's wave travel time and the
+      loads' shortest time scale ``T_load`` in place of the contact time.
+    """
+    kind = getattr(scene, "kind", None)
+    if kind == "transient":
+        return transient_resolution_warnings(scene)
+    if kind != "impact":
         return []
     contact = scene.contact_time()
     wave = [car.body.wave_travel_time for car in scene.cars]
@@ -290,6 +341,107 @@ def resolution_warnings(scene) -> list[str]:
         warnings.append(f"fem.elements = {scene.fem.elements} is below the {math.ceil(needed)} elements that resolve the contact pulse "
                         "(twenty per wavelength)")
     return warnings
+
+
+def _shortest_load(scene: Scene) -> tuple[str, float]:
+    """The load with the shortest time scale (``loads.<name>``) and that scale ``T_load`` (s; ∞ for steps)."""
+    scales = {name: float(s.time_scale) for name, s in scene.loads.items() if hasattr(s, "time_scale")}
+    if not scales:
+        return "", math.inf
+    name = min(scales, key=scales.get)
+    return name, scales[name]
+
+
+def load_wavelength(body: Body, load_time: float) -> float:
+    """``λ = 2π/k(ω)`` at ``ω = 2π/T_load``: ``λ = c T_load = l T_load/T_wave`` on a rod, and by the bending
+    dispersion ``k⁴ = ω² m/EI`` with ``√(m/EI) = T_wave/l²``, ``λ = l √(2π T_load/T_wave)`` on a beam (m)."""
+    wave, l = body.wave_travel_time, body.half_length
+    if body.kind == "rod":
+        return l * load_time / wave
+    return l * math.sqrt(2.0 * math.pi * load_time / wave)
+
+
+def transient_resolution_warnings(scene: Scene) -> list[str]:
+    """Why the case's own ``time.dt`` or ``fem.elements`` under-resolves the fem run of a transient scene: a step
+    above a tenth of the body's wave travel time ``T_wave`` (``l√(m/EA)``, ``l²√(m/EI)`` for a beam) or a twentieth
+    of the loads' shortest time scale ``T_load`` (a half-sine's duration, a ramp's rise time, ten samples of a
+    CSV record), or fewer than twenty elements per wavelength of that load, ``2l/h < 40 l/λ``
+    (:func:`load_wavelength`: ``40 T_wave/T_load`` on a rod, ``40 √(T_wave/(2π T_load))`` on a beam). Empty when
+    they resolve it, or when the runner chooses the step and the mesh suffices. Each text starts with the key."""
+    wave = scene.body.wave_travel_time
+    name, load = _shortest_load(scene)
+    warnings = []
+    if scene.dt is not None:
+        if scene.dt > STEP_PER_WAVE_TIME * wave:
+            warnings.append(f"time.dt = {scene.dt:.3g} s is above a tenth of the body's wave travel time ({wave:.3g} s): "
+                            "the fem run under-resolves its waves")
+        elif math.isfinite(load) and scene.dt > STEP_PER_LOAD_TIME * load:
+            warnings.append(f"time.dt = {scene.dt:.3g} s is above a twentieth of the time scale of loads.{name} ({load:.3g} s): "
+                            "the fem run under-resolves the load")
+    if math.isfinite(load):
+        needed = 2.0 * scene.body.half_length / (ELEMENT_PER_WAVELENGTH * load_wavelength(scene.body, load))
+        if scene.fem.elements < needed:
+            warnings.append(f"fem.elements = {scene.fem.elements} is below the {math.ceil(needed)} elements that resolve "
+                            f"loads.{name} ({load:.3g} s; twenty per wavelength)")
+    return warnings
+
+
+# ---------------------------------------------------------------------------------------------
+# The reference's self-check: the runs it adds
+
+#: Most levels the self-check refines to: the fem run again at dt/2, then at dt/4.
+SELF_CHECK_LEVELS = 2
+
+
+def self_check_asked() -> bool:
+    """``FEMREF_SELF_CHECK`` is 1 (or true, yes): check the reference on every run."""
+    return os.environ.get(SELF_CHECK_VARIABLE, "").strip().lower() in ("1", "true", "yes")
+
+
+def self_check_levels(scene: Scene | ImpactScene, warnings: list[str] | None = None) -> list[tuple[int, int]]:
+    """The finer fem runs the reference's self-check may make, as ``(d, e)``: step ``dt/d``, ``e ×`` the elements —
+    ``d = 2^k`` for ``k = 1 … SELF_CHECK_LEVELS`` and ``e = d`` when a warning names ``fem.elements`` (the mesh is the
+    coarse part), else 1. Empty when the scene has no fem reference to check (an impact run named ``fem``, or
+    ``fem`` among a transient scene's models) or neither ``warnings`` (default :func:`resolution_warnings` of
+    the scene as the case gives it) nor ``FEMREF_SELF_CHECK`` asks. The runner makes the second level when a
+    warning fired or the first says the error is large (:func:`femref.run.runner.check_reference`); the budget
+    always counts both."""
+    kind = getattr(scene, "kind", None)
+    if kind == "impact":
+        has_fem = any(run.name == "fem" for run in scene.runs)
+    elif kind == "transient":
+        has_fem = "fem" in scene.models
+    else:
+        return []
+    warnings = resolution_warnings(scene) if warnings is None else warnings
+    if not has_fem or not (warnings or self_check_asked()):
+        return []
+    mesh = any(w.startswith("fem.elements") for w in warnings)
+    return [(2**k, 2**k if mesh else 1) for k in range(1, SELF_CHECK_LEVELS + 1)]
+
+
+def _self_check_costs(scene: Scene | ImpactScene) -> list[Cost]:
+    """The self-check's finer fem runs (:func:`self_check_levels`), each predicted like the fem run at its step and
+    mesh (without fields: the check keeps none); their factors are the fem run's own (the keys and values as the case
+    gives them)."""
+    warnings = resolution_warnings(scene)
+    levels = self_check_levels(scene, warnings)
+    if not levels:
+        return []
+    why = "the fem reference checks itself: " + ("; ".join(warnings) if warnings else f"asked by {SELF_CHECK_VARIABLE}")
+    costs = []
+    if scene.kind == "impact":
+        run = next(r for r in scene.runs if r.name == "fem")
+        base, dt = impact_run_cost(scene, run), approximate_step(scene, run)
+    else:
+        base, dt = _transient(scene, "fem"), _single_step(scene)
+    for divisor, factor in levels:
+        finer = dataclasses.replace(scene, dt=dt / divisor, fem=dataclasses.replace(scene.fem, elements=scene.fem.elements * factor, fields=False))
+        cost = impact_run_cost(finer, run, dt / divisor) if scene.kind == "impact" else _transient(finer, "fem")
+        label = f"dt/{divisor}" + (f" and {factor}× fem.elements" if factor > 1 else "")
+        costs.append(dataclasses.replace(cost, model=f"fem self-check {label}", factors=base.factors,
+                                         what=f"the fem self-check run at {label}", why=why))
+    return costs
 
 
 # ---------------------------------------------------------------------------------------------
@@ -310,5 +462,6 @@ def _bytes(n: float) -> str:
     return f"{n:.3g} B"
 
 
-__all__ = ["BUDGET_VARIABLE", "MEMORY_BUDGET", "WORK_BUDGET", "Cost", "approximate_step", "budget_factor", "check_budget", "predict", "resolution_warnings",
-           "wave_speed"]
+__all__ = ["BUDGET_VARIABLE", "MEMORY_BUDGET", "SELF_CHECK_LEVELS", "SELF_CHECK_VARIABLE", "WORK_BUDGET", "Cost", "approximate_step", "budget_factor",
+           "check_budget", "check_costs", "impact_run_cost", "load_wavelength", "predict", "resolution_warnings", "self_check_asked", "self_check_levels",
+           "transient_resolution_warnings", "wave_speed"]

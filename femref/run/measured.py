@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import math
 import time as _time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -45,6 +46,7 @@ from numpy.typing import NDArray
 
 from femref.events import ClosureResult, EventResult, ForceEstimate
 from femref.fem.build import FemSettings
+from femref.models import Progress
 from femref.models.inverse import ESTIMATORS as INVERSE_ESTIMATORS
 from femref.models.modal import modal_car
 from femref.scene.impact import Car
@@ -79,14 +81,51 @@ class MeasuredOutcome:
     events: list[EventResult]
 
 
-def run_measured(scene: MeasuredScene) -> MeasuredOutcome:
-    """Every event of the scene's records (module docstring)."""
+#: ``progress_for(label)`` → a ``(done, total)`` callback or None: the progress hook of :func:`run_measured`,
+#: the same as :func:`femref.run.run_scene`'s (``femref.cli.common.model_progress`` supplies it).
+ProgressFor = Callable[[str], "Progress | None"]
+#: The progress label while the record files are read.
+READ_LABEL = "read records"
+
+
+def run_measured(scene: MeasuredScene, progress_for: ProgressFor | None = None) -> MeasuredOutcome:
+    """Every event of the scene's records (module docstring).
+
+    ``progress_for(label)``, if given, is called when a stage starts — :data:`READ_LABEL` while the
+    record files are read, then ``event <k>/<n> at <t> s`` for each event (:func:`event_label`) — and
+    the callback it may return gets ``(done, total)`` after each step of that stage: the records read;
+    the event's classification, each estimator (kalman's filters, the inverse estimators) and each
+    saved network.
+    """
+    step = progress_for(READ_LABEL) if progress_for else None
     recordings = read_records(scene.records)
+    if step is not None:
+        step(1, 1)
     found = event_finder.find_events(recordings, scene.trigger, scene.pre, scene.post)
-    return MeasuredOutcome(scene, recordings, [_event(scene, recordings, event) for event in found])
+    events = []
+    for number, event in enumerate(found, start=1):
+        step = progress_for(event_label(number, len(found), event.trigger_time)) if progress_for else None
+        events.append(_event(scene, recordings, event, step))
+    return MeasuredOutcome(scene, recordings, events)
 
 
-def _event(scene: MeasuredScene, recordings: Recordings, event: event_finder.Event) -> EventResult:
+def event_label(number: int, count: int, trigger_time: float) -> str:
+    """How progress names an event: ``event 2/7 at 3.603 s`` (its trigger time on the records' clock)."""
+    return f"event {number}/{count} at {trigger_time:.3f} s"
+
+
+def _event(scene: MeasuredScene, recordings: Recordings, event: event_finder.Event, progress: Progress | None = None) -> EventResult:
+    """One event's result (module docstring); ``progress(done, total)`` after its classification, each
+    estimator and each network."""
+    total = 1 + len(scene.estimators) + len(scene.networks)
+    done = 0
+
+    def stepped() -> None:
+        nonlocal done
+        done += 1
+        if progress is not None:
+            progress(done, total)
+
     t, raw = event_finder.window(recordings, event)
     records, noise_std = _quiet_corrected(t, raw, event)
     result = EventResult(
@@ -94,11 +133,14 @@ def _event(scene: MeasuredScene, recordings: Recordings, event: event_finder.Eve
         trigger_probe=event.trigger_probe, flags=tuple(event.flags), time=t, records=records,
     )
     _classify(scene, result)
+    stepped()
     for name in scene.estimators:
         result.estimates.extend(_estimates(scene, name, t, records, noise_std))
+        stepped()
     contacts: dict[str, ContactEstimate | ValueError] = {}  # per coupler: its kalman force's onset, found once
     for network in scene.networks:
         result.estimates.append(network_estimate(scene, network, t, records, noise_std, result.estimates, contacts, result.impact_type))
+        stepped()
     first = _primary(scene, result).get(scene.couplers[0].name)
     if first is not None:
         result.closing_speed = _closing_speed(scene, t, records, first)
@@ -428,4 +470,4 @@ def _impact_car(scene: MeasuredScene, index: int, records: dict[str, NDArray[np.
     return Car(car.name, car.body, 0.0, {name: x for name, x in car.sensors.items() if f"{car.name}/{name}" in records})
 
 
-__all__ = ["KALMAN_FEM", "MeasuredOutcome", "kalman_cars", "kalman_contact", "kalman_estimate", "network_estimate", "run_measured"]
+__all__ = ["KALMAN_FEM", "READ_LABEL", "MeasuredOutcome", "ProgressFor", "event_label", "kalman_cars", "kalman_contact", "kalman_estimate", "network_estimate", "run_measured"]

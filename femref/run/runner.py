@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import os
 import time
 from dataclasses import dataclass
 from typing import Any, Callable
@@ -36,9 +35,9 @@ from femref.impact import ImpactResponse, solve_impact
 from femref.models import Progress, model_form
 from femref.models.inverse import ESTIMATORS
 from femref.results import ModelResult
-from femref.run.budget import check_budget, resolution_warnings
+from femref.run.budget import SELF_CHECK_VARIABLE, check_budget, resolution_warnings, self_check_levels
 from femref.run.capture import capture
-from femref.run.scoring import reference_error_estimate, score_results
+from femref.run.scoring import PeakError, reference_error_estimate, score_results
 from femref.run.timestep import impact_time_step, single_body_time_step
 from femref.run.validity import quasi_rigid_range
 from femref.scene import ImpactScene, ModelRun, Scene
@@ -63,14 +62,19 @@ class RunOutcome:
         return [r for r in self.results if not r.ok]
 
 
-def run_scene(scene: Scene | ImpactScene, progress_for: ProgressFor | None = None) -> RunOutcome:
+def run_scene(scene: Scene | ImpactScene, progress_for: ProgressFor | None = None, *, source: str = "<case>", budget_checked: bool = False) -> RunOutcome:
     """Run every model of ``scene`` in order (then, for impacts, the estimators) and score them;
-    ``progress_for(model)`` may supply a progress callback."""
+    ``progress_for(model)`` may supply a progress callback.
+
+    Before any work the scene's budget is checked (:func:`femref.run.budget.check_budget`: its runs and the
+    reference's self-check; a CaseError naming ``source`` when over it) — unless ``budget_checked`` says the
+    caller has checked it already (``femref run`` does, before its output check: once per command)."""
 
     def progress(name: str) -> Progress | None:
         return progress_for(name) if progress_for else None
 
-    check_budget(scene)  # before any work: a case over the work budget is a CaseError (femref.run.budget)
+    if not budget_checked:
+        check_budget(scene, source)  # before any work: a case over the work budget is a CaseError (femref.run.budget)
     if isinstance(scene, ImpactScene):
         return _run_impact(scene, progress)
     if scene.kind not in catalog.SINGLE_BODY_KINDS:
@@ -97,47 +101,105 @@ def _run_impact(scene: ImpactScene, progress: Callable[[str], Progress | None]) 
         results.extend(run_networks(scene, reference))
     scores = score_results(scene.kind, results)
     if reference is not None:
-        scores.update(check_reference(scene, reference))
+        merge_scores(scores, check_reference(scene, reference))
     return RunOutcome(scene, results, scores)
 
 
-#: Set to 1 to check the reference's discretisation on every impact run (:func:`check_reference`).
-SELF_CHECK_VARIABLE = "FEMREF_SELF_CHECK"
+#: A two-level self-check estimate above this (relative) calls for the third level even when no warning fired.
+THIRD_LEVEL_ABOVE = 0.01
 
 
-def check_reference(scene: ImpactScene, reference: ModelResult) -> dict[str, dict[str, Any]]:
-    """The fem reference checks itself when the case's ``time.dt`` or ``fem.elements`` under-resolves it
-    (:func:`femref.run.budget.resolution_warnings`) or ``FEMREF_SELF_CHECK=1`` asks: the fem run again at
-    half the step (and twice the elements when the mesh is too coarse), and the Richardson estimate of the
-    reference's own relative peak-force error (:func:`femref.run.scoring.reference_error_estimate`, order 2).
-    Returns ``{"fem": scores}`` with ``reference_error_estimate`` (the worst coupler) and the warning, and
-    records them in the fem result's settings; ``{}`` when there is nothing to check. Never raises."""
-    warnings = resolution_warnings(scene)
-    if not warnings and os.environ.get(SELF_CHECK_VARIABLE, "").strip() not in ("1", "true", "yes"):
+def check_reference(scene: Scene | ImpactScene, reference: ModelResult, warnings: list[str] | None = None) -> dict[str, dict[str, Any]]:
+    """The fem run checks itself when the case's ``time.dt`` or ``fem.elements`` under-resolves it (``warnings``,
+    default :func:`femref.run.budget.resolution_warnings` of ``scene``) or ``FEMREF_SELF_CHECK=1`` asks: the fem
+    run again at ``dt/2`` and, when a warning fired or the two-level estimate exceeds :data:`THIRD_LEVEL_ABOVE`,
+    at ``dt/4`` (each with twice the elements of the last when the mesh is the coarse part;
+    :func:`femref.run.budget.self_check_levels`, which the budget counts). The estimate of its own relative peak
+    error (:func:`femref.run.scoring.reference_error_estimate`: coupler peak force of an impact, probe peak
+    |acceleration| of a transient) is Richardson's (order 2) while the three levels show the asymptotic order, else
+    a lower bound, marked ``reference_error_bound = "lower"``.
+
+    ``scene`` is the scene the reference ran on (a transient one with its step resolved: pass the ``warnings`` of
+    the scene as the case gave it). Returns ``{"fem": scores}`` — ``reference`` (the check's runs),
+    ``reference_warning``, ``reference_error_estimate`` (the worst item, signed), ``reference_error_basis``,
+    ``reference_observed_order`` (three levels), ``reference_error_bound`` ("lower" when the worst item, or any
+    item, is only a lower bound), ``reference_error_estimate_<item>``, ``reference_observed_order_<item>``,
+    ``self_check_wall_time_s`` and ``wall_time_s`` (the check's runs) — and records them in the fem result's
+    settings (``reference_check``); ``self_check`` names the check's runs too (a model scored against another
+    reference keeps that ``reference``: :func:`merge_scores`). ``{}`` when there is nothing to check. Never raises."""
+    warnings = resolution_warnings(scene) if warnings is None else warnings
+    levels = self_check_levels(scene, warnings)
+    if not levels:
         return {}
-    mesh = any(w.startswith("fem.elements") for w in warnings)
     dt = float(reference.settings["dt"])
-    fem = dataclasses.replace(scene.fem, elements=2 * scene.fem.elements) if mesh else scene.fem
-    finer = dataclasses.replace(scene, dt=dt / 2.0, fem=fem)
-    run = next(r for r in scene.runs if r.name == reference.model)
-    check = run_model(finer, run, dt / 2.0, "half the reference's step")
     text = "; ".join(warnings) or f"asked by {SELF_CHECK_VARIABLE}"
-    if not check.ok:
-        reference.settings["reference_check"] = {"warning": text, "message": f"the finer fem run failed: {check.message}"}
-        return {reference.model: {"reference": f"{reference.model} at dt/2", "reference_warning": text}}
-    estimates = reference_error_estimate(reference, check)
-    worst = max(estimates.values(), key=abs, default=math.nan)
-    refined = {"dt": dt / 2.0, "elements": fem.elements, "wall_time_s": check.wall_time_s}
-    reference.settings["reference_check"] = {"warning": text, "refined": refined, "reference_error_estimate": worst}
-    scores: dict[str, Any] = {"reference": f"{reference.model} at dt/2" + (" and 2× elements" if mesh else ""), "reference_warning": text,
-                              "reference_error_estimate": worst, "wall_time_s": check.wall_time_s}
-    scores.update({f"reference_error_estimate_{c}": e for c, e in estimates.items()})
+    finer: list[ModelResult] = []
+    estimates: dict[str, PeakError] = {}
+    failure: dict[str, str] = {}
+    for divisor, factor in levels:
+        if finer and not warnings and not any(abs(e.estimate) > THIRD_LEVEL_ABOVE for e in estimates.values()):
+            break
+        check = _finer_reference(scene, reference, dt / divisor, scene.fem.elements * factor, f"the reference's step / {divisor}")
+        if not check.ok:
+            failure = {"message": f"the fem run at dt/{divisor} failed: {check.message}"}
+            reference.settings["reference_check"] = {"warning": text, **failure}
+            if not finer:
+                runs = f"{reference.model} at dt/{divisor}"
+                return {reference.model: {"reference": runs, "self_check": runs, "reference_warning": text}}
+            break
+        finer.append(check)
+        estimates = reference_error_estimate(reference, *finer)
+    labels = [f"dt/{divisor}" + (f" and {factor}× elements" if factor > 1 else "") for divisor, factor in levels[: len(finer)]]
+    runs = f"{reference.model} at " + ", ".join(labels)
+    worst_item = max(estimates, key=lambda item: abs(estimates[item].estimate) if math.isfinite(estimates[item].estimate) else -1.0, default=None)
+    worst = estimates[worst_item] if worst_item is not None else PeakError(math.nan, basis="no item to check")
+    lower = any(e.lower_bound for e in estimates.values())
+    wall = sum(r.wall_time_s for r in finer)
+    scores: dict[str, Any] = {"reference": runs, "self_check": runs, "reference_warning": text, "reference_error_estimate": worst.estimate,
+                              "reference_error_basis": (f"{worst_item}: " if worst_item else "") + worst.basis,
+                              "wall_time_s": wall, "self_check_wall_time_s": wall}
+    if len(finer) > 1:
+        scores["reference_observed_order"] = worst.order
+    if lower:
+        scores["reference_error_bound"] = "lower"
+    scores.update({f"reference_error_estimate_{item}": e.estimate for item, e in estimates.items()})
+    if len(finer) > 1:
+        scores.update({f"reference_observed_order_{item}": e.order for item, e in estimates.items()})
+    reference.settings["reference_check"] = {
+        "warning": text,
+        "refined": [{"dt": r.settings["dt"], "elements": scene.fem.elements * factor, "wall_time_s": r.wall_time_s}
+                    for r, (_, factor) in zip(finer, levels)],
+        "reference_error_estimate": worst.estimate,
+        "basis": scores["reference_error_basis"],
+        **({"observed_order": worst.order} if len(finer) > 1 else {}),
+        **({"bound": "lower"} if lower else {}),
+        **failure,
+    }
     return {reference.model: scores}
 
 
+def _finer_reference(scene: Scene | ImpactScene, reference: ModelResult, dt: float, elements: int, rule: str) -> ModelResult:
+    """The reference run again at step ``dt`` on ``elements`` elements (per body or car), without fields, as a result;
+    never raises."""
+    finer = dataclasses.replace(scene, dt=dt, fem=dataclasses.replace(scene.fem, elements=elements, fields=False))
+    if isinstance(scene, ImpactScene):
+        run = next(r for r in scene.runs if r.name == reference.model)
+        return run_model(finer, run, dt, rule)
+    return run_single_body_model(finer, reference.model)
+
+
+def merge_scores(scores: dict[str, dict[str, Any]], checked: dict[str, dict[str, Any]]) -> None:
+    """Add the self-check's scores (:func:`check_reference`) to ``scores``: a model scored against another reference
+    (fem against exact) keeps its own ``reference``, ``wall_time_s`` and metrics and gains the check's keys."""
+    for model, extra in checked.items():
+        scores[model] = {**extra, **scores[model]} if model in scores else extra
+
+
 def _run_single_body(scene: Scene, progress: Callable[[str], Progress | None]) -> RunOutcome:
-    """Every model on one axis: a transient scene's step is resolved once and recorded with its rule."""
+    """Every model on one axis: a transient scene's step is resolved once and recorded with its rule; then its fem
+    run checks itself when the case's step or mesh under-resolves it (:func:`check_reference`)."""
     dt_rule = None
+    warnings = resolution_warnings(scene)  # of the scene as the case gives it, before its step is resolved
     if scene.kind == "transient":
         dt, dt_rule = single_body_time_step(scene)
         scene = dataclasses.replace(scene, dt=dt)
@@ -148,7 +210,11 @@ def _run_single_body(scene: Scene, progress: Callable[[str], Progress | None]) -
             result.settings.setdefault("dt", scene.dt)
             result.settings["dt_rule"] = dt_rule
         results.append(result)
-    return RunOutcome(scene, results, score_results(scene.kind, results))
+    scores = score_results(scene.kind, results)
+    fem = next((r for r in results if r.model == "fem" and r.ok), None)
+    if scene.kind == "transient" and fem is not None:
+        merge_scores(scores, check_reference(scene, fem, warnings))
+    return RunOutcome(scene, results, scores)
 
 
 def run_single_body_model(scene: Scene, name: str, progress: Progress | None = None) -> ModelResult:
@@ -317,4 +383,4 @@ def _records_source(reference: ModelResult) -> str:
     return f"{reference.model} ({'measured' if reference.measured else 'model'})"
 
 
-__all__ = ["RunOutcome", "add_measured_records", "load_compiled_loop", "model_result", "run_estimators", "run_model", "run_networks", "run_scene", "step_cars"]
+__all__ = ["RunOutcome", "add_measured_records", "load_compiled_loop", "model_result", "run_estimators", "run_model", "run_networks", "run_scene", "step_cars", "check_reference", "merge_scores"]

@@ -29,7 +29,10 @@ does not sample is missed by both alike. Per coupler ``coupler_force_peak_error_
 ``vertical_acceleration`` and ``pitch_rate`` — ; aggregates ``coupler_force_peak_error_max``,
 ``coupler_force_rms_error_max``, ``acceleration_rms_error_max``, ``vertical_acceleration_rms_error_max``,
 ``pitch_rate_rms_error_max``; with a measurement chain the same again on the measured
-records, prefixed ``measured_``. A result of peak estimates only — a network estimator,
+records, prefixed ``measured_``. A run whose quasi-rigid cars leave their range somewhere
+(``settings["quasi_rigid_range"]``, :mod:`femref.run.validity`) is also scored where they are
+inside it: ``<quantity>_rms_in_range_error_<item>`` and ``outside_range_fraction``
+(:func:`in_range_errors`). A result of peak estimates only — a network estimator,
 ``couplers[c]["peak_force"]`` and no time axis — is scored on those peaks alone
 (:func:`score_peak_estimates`).
 
@@ -47,7 +50,8 @@ Checked on shifted and scaled synthetic signals with known errors
 from __future__ import annotations
 
 import math
-from typing import Any
+from dataclasses import dataclass
+from typing import Any, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -157,6 +161,10 @@ def _relative_rms(values: NDArray, reference: NDArray) -> float:
     return float(np.sqrt(np.mean(np.abs(values - reference) ** 2))) / scale
 
 
+IN_RANGE_STATISTIC = "rms_in_range"
+"""The statistic of the rms errors over the samples where a run's quasi-rigid cars are inside their range."""
+
+
 AGGREGATES: dict[str, str] = {
     "coupler_force_peak_error_max": "coupler_force_peak_error_",
     "coupler_force_rms_error_max": "coupler_force_rms_error_",
@@ -164,6 +172,7 @@ AGGREGATES: dict[str, str] = {
     "acceleration_max_error_max": "acceleration_max_error_",
     "vertical_acceleration_rms_error_max": "vertical_acceleration_rms_error_",
     "pitch_rate_rms_error_max": "pitch_rate_rms_error_",
+    **{f"{q}_{IN_RANGE_STATISTIC}_error_max": f"{q}_{IN_RANGE_STATISTIC}_error_" for q in ("coupler_force", *SCORED_SENSOR_QUANTITIES)},
 }
 """Aggregate metric → prefix of the per-item metrics it is the maximum of."""
 
@@ -282,11 +291,47 @@ def score_impact_results(results: list[ModelResult]) -> dict[str, dict[str, Any]
         if result is reference or not result.ok:
             continue
         metrics = score_impact(reference, result)
+        metrics.update(in_range_errors(reference, result))
         if reference.measured and result.measured:
             measured = score_impact(_measured_view(reference), _measured_view(result))
             metrics.update({f"measured_{name}": value for name, value in measured.items()})
         scores[result.model] = _with_context(metrics, reference, result)
     return scores
+
+
+def in_range_errors(reference: ModelResult, result: ModelResult) -> Metrics:
+    """Errors of a run with quasi-rigid cars where they are inside their range (:mod:`femref.run.validity`).
+
+    With ``I`` the result's samples outside every interval of ``settings["quasi_rigid_range"]["outside"]``
+    (within one wave travel time of a force kink or jump, where the expansion has no wave to give)::
+
+        <q>_rms_in_range_error_<item> = rms_I(q − q_ref) / rms_I(q_ref)
+
+    for the coupler forces and every scored sensor quantity, their maxima ``<q>_rms_in_range_error_max``, and
+    ``outside_range_fraction`` = the share of the result's samples outside. Empty when nothing is marked (the
+    whole-record scores then say it all) or fewer than two samples are in range."""
+    marked = result.settings.get("quasi_rigid_range") or {}
+    if not marked.get("outside") or "time" not in result.axes:
+        return {}
+    t = np.asarray(result.axes["time"], dtype=float)
+    outside = np.zeros(t.size, dtype=bool)
+    for start, end in marked["outside"]:
+        outside |= (t >= start) & (t <= end)
+    inside = ~outside
+    metrics: Metrics = {"outside_range_fraction": float(np.mean(outside))}
+    if np.count_nonzero(inside) < 2:
+        return metrics
+    view = ModelResult(result.model, axes={"time": t[inside]})
+    view.couplers = {c: {"force": np.asarray(out["force"])[inside]} for c, out in result.couplers.items() if "force" in out}
+    view.probes = {p: {q: np.asarray(out[q])[inside] for q in SCORED_SENSOR_QUANTITIES if q in out} for p, out in result.probes.items()}
+    whole = score_impact(reference, view)
+    rms = "_rms_error_"
+    for name, value in whole.items():
+        if rms in name and not name.endswith("_error_max"):
+            quantity, item = name.split(rms, 1)
+            metrics[f"{quantity}_{IN_RANGE_STATISTIC}_error_{item}"] = value
+    metrics.update(_aggregates(metrics))
+    return metrics
 
 
 def _with_context(metrics: Metrics, reference: ModelResult, result: ModelResult) -> dict[str, Any]:
@@ -302,22 +347,74 @@ def _with_context(metrics: Metrics, reference: ModelResult, result: ModelResult)
     return scores
 
 
-def reference_error_estimate(reference: ModelResult, finer: ModelResult, order: float = 2.0) -> Metrics:
-    """The reference's own relative peak-force error, by Richardson extrapolation from a finer run of it.
+#: The observed order ``p`` of a three-level self-check inside which the reference is taken to be in its asymptotic
+#: range (second-order integrators: p = 2), so that Richardson extrapolation holds.
+ASYMPTOTIC_ORDERS: tuple[float, float] = (1.5, 2.5)
 
-    With ``P_h`` the reference's peak compression of a coupler and ``P_f`` the finer run's (half the step,
-    and/or twice the elements), the extrapolated peak is ``P* = P_f + (P_f − P_h)/(2^p − 1)`` and the
-    reference's error ``(P_h − P*)/P* `` (signed, relative; ``p`` the order, 2 for generalized-α and
-    Newmark). Checked against a run at a hundredth of the step (tests/run/test_budget.py): within a
-    factor 2 when the coarse step is about one wave travel time. NaN for a coupler that never compresses.
-    """
-    estimates: Metrics = {}
-    for name in sorted(set(reference.couplers) & set(finer.couplers)):
-        coarse = float(np.max(reference.couplers[name]["force"]))
-        fine = float(np.max(finer.couplers[name]["force"]))
+
+@dataclass(frozen=True)
+class PeakError:
+    """One item's self-check: the signed relative error of the reference's peak (``estimate``), the observed order
+    (NaN with two levels), and whether the estimate is only a lower bound (the reference is outside the asymptotic
+    range); ``basis`` says how it was made."""
+
+    estimate: float
+    order: float = math.nan
+    lower_bound: bool = False
+    basis: str = ""
+
+
+def peak_error(peaks: Sequence[float], order: float = 2.0, orders: tuple[float, float] = ASYMPTOTIC_ORDERS) -> PeakError:
+    """``e = (R₀ − R*)/R*``, the relative error of the peak ``R₀`` of a run at step ``h`` from the peaks ``R₁, R₂`` of
+    the same run at ``h/2`` (and ``h/4``), by Richardson extrapolation with the formal ``order`` ``p₀``:
+
+    * two levels: ``R* = R₁ + (R₁ − R₀)/(2^p₀ − 1)``;
+    * three levels: the observed order ``p = log₂(|R₀ − R₁| / |R₁ − R₂|)``. When ``p`` lies in ``orders`` and the
+      differences have one sign (monotone convergence), the run is in its asymptotic range and
+      ``R* = R₂ + (R₂ − R₁)/(2^p₀ − 1)`` (from the finest pair). Otherwise it is not, Richardson does not hold,
+      and the estimate is the **lower bound** ``e = (R₀ − R₂)/R₂``, the change the refinement has shown so far
+      (the remaining error of ``R₂`` is unknown), marked ``lower_bound``.
+
+    NaN when a peak or ``R*`` is not positive (nothing to be relative to)."""
+    values = [float(v) for v in peaks]
+    if len(values) not in (2, 3):
+        raise ValueError(f"a peak error needs the peaks of two or three levels, got {len(values)}")
+    if not all(v > 0.0 and math.isfinite(v) for v in values):
+        return PeakError(math.nan, basis="a peak is not positive")
+    if len(values) == 2:
+        coarse, fine = values
         extrapolated = fine + (fine - coarse) / (2.0**order - 1.0)
-        estimates[name] = (coarse - extrapolated) / extrapolated if extrapolated > 0.0 else math.nan
-    return estimates
+        estimate = (coarse - extrapolated) / extrapolated if extrapolated > 0.0 else math.nan
+        return PeakError(estimate, basis=f"Richardson, order {order:g}, on h and h/2")
+    r0, r1, r2 = values
+    d1, d2 = r0 - r1, r1 - r2
+    observed = math.log2(abs(d1) / abs(d2)) if d1 != 0.0 and d2 != 0.0 else math.nan
+    if orders[0] <= observed <= orders[1] and d1 * d2 > 0.0:
+        extrapolated = r2 + (r2 - r1) / (2.0**order - 1.0)
+        if extrapolated > 0.0:
+            return PeakError((r0 - extrapolated) / extrapolated, observed, basis=f"Richardson, order {order:g}, on h/2 and h/4 (observed order {observed:.2f})")
+    why = "oscillating" if d1 * d2 < 0.0 else f"observed order {observed:.2f} outside {orders[0]:g}–{orders[1]:g}"
+    return PeakError((r0 - r2) / r2, observed, lower_bound=True, basis=f"lower bound (R(h) − R(h/4))/R(h/4): {why}, outside the asymptotic range")
+
+
+def reference_peaks(result: ModelResult) -> dict[str, float]:
+    """The peaks a reference's self-check follows: each coupler's peak compression ``max P`` (an impact run), else each
+    probe's peak magnitude ``max |a|`` of the acceleration (a single-body run: what its scores are computed on)."""
+    if result.couplers:
+        return {name: float(np.max(out["force"])) for name, out in result.couplers.items() if "force" in out}
+    return {name: float(np.max(np.abs(out["acceleration"]))) for name, out in result.probes.items() if "acceleration" in out}
+
+
+def reference_error_estimate(reference: ModelResult, *finer: ModelResult, order: float = 2.0) -> dict[str, PeakError]:
+    """The reference's own relative peak error per item (:func:`reference_peaks`: a coupler's peak force, or a probe's
+    peak |acceleration|), from one or two finer runs of it (each halving the step, and/or doubling the elements):
+    :func:`peak_error` of ``(P_h, P_h/2)`` — ``P* = P_h/2 + (P_h/2 − P_h)/(2^p − 1)``, ``e = (P_h − P*)/P*`` (signed;
+    ``p`` the order, 2 for generalized-α and Newmark) — or of ``(P_h, P_h/2, P_h/4)`` with the observed order and a
+    lower bound outside the asymptotic range. Checked against runs at a hundredth of the step (tests/run/test_budget.py,
+    tests/run/test_self_check.py). NaN for an item that never compresses (or never moves)."""
+    levels = [reference_peaks(reference), *(reference_peaks(run) for run in finer)]
+    names = sorted(set.intersection(*(set(level) for level in levels)))
+    return {name: peak_error([level[name] for level in levels], order) for name in names}
 
 
 #: Why a relative metric is undefined, by the part of its name that says what it divides by.
@@ -339,5 +436,5 @@ def undefined_reasons(metrics: dict[str, Any]) -> dict[str, str]:
     return reasons
 
 
-__all__ = ["AGGREGATES", "SCORED_SENSOR_QUANTITIES", "coupler_force_errors", "reference_error_estimate", "score_impact", "score_peak_estimates", "score_results",
+__all__ = ["AGGREGATES", "IN_RANGE_STATISTIC", "SCORED_SENSOR_QUANTITIES", "coupler_force_errors", "in_range_errors", "ASYMPTOTIC_ORDERS", "PeakError", "peak_error", "reference_error_estimate", "reference_peaks", "score_impact", "score_peak_estimates", "score_results",
            "sensor_errors", "undefined_reasons"]

@@ -17,7 +17,7 @@ result; a measured case names the file under ``calibration:``.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -37,14 +37,31 @@ within 0.5 ms on the default scene at 1–3 m/s). A network is calibrated on eac
 the contact and at ± this, so its band carries that error too."""
 
 
-def calibrate(sweep: Sweep, results: Path, coupler: str | None = None, networks: Sequence[AnnEstimator] = ()) -> Calibration:
+#: ``progress_for(stage)`` → a ``(done, total)`` callback or None: the progress hook of :func:`calibrate`, the same
+#: as :func:`femref.run.run_scene`'s (``femref.cli.common.model_progress`` supplies it).
+ProgressFor = Callable[[str], "Callable[[int, int], None] | None"]
+
+
+def calibrate(sweep: Sweep, results: Path, coupler: str | None = None, networks: Sequence[AnnEstimator] = (),
+              progress_for: ProgressFor | None = None) -> Calibration:
     """The calibration of every inverse estimator, and of the saved ``networks``, on the ok samples of
     ``sweep``'s result file ``results`` (``coupler``: default the first). ValueError when the sweep has no
     fem run or too few samples, or a network cannot read the sweep's records (another coupler, probes
-    the sweep did not record, records shorter than it reads, another measurement chain)."""
+    the sweep did not record, records shorter than it reads, another measurement chain).
+
+    ``progress_for(stage)``, if given, is called when a stage starts — ``read <results name>`` (the
+    samples read and their scenes rebuilt), then each estimator's and network's name — and the
+    callback it may return gets ``(done, total)`` samples after each sample of that stage.
+    """
     from femref.models.inverse import ESTIMATORS
 
+    def stage(label: str) -> Callable[[int, int], None]:
+        callback = progress_for(label) if progress_for is not None else None
+        return callback if callback is not None else lambda done, total: None
+
+    step = stage(f"read {Path(results).name}")
     data = read_set(sweep, Path(results))
+    step(1, 1)
     if "fem" not in data.data.models:
         raise ValueError(f"{results}: the sweep has no fem run (models: {', '.join(data.data.models)}); the errors are measured against fem")
     if data.index.size < 20:
@@ -53,18 +70,23 @@ def calibrate(sweep: Sweep, results: Path, coupler: str | None = None, networks:
     t = record_times(data.data.record_length, data.data.record_end)
     truth = data.peaks("fem", coupler)
     records = data.data.records["fem"]
-    errors = {name: np.empty(data.index.size) for name in INVERSE_ESTIMATORS}
-    for row, (i, scene) in enumerate(zip(data.index, data.scenes)):
-        sample = {p: records[i, c] for c, p in enumerate(data.data.probes)}
-        for name in INVERSE_ESTIMATORS:
-            errors[name][row] = float(np.max(ESTIMATORS[name](scene, t, sample)[coupler])) / truth[row] - 1.0
-    masses_of = [{name: float(data.car_masses[row, k]) for k, name in enumerate(data.car_names)} for row in range(data.index.size)]
+    samples = [{p: records[i, c] for c, p in enumerate(data.data.probes)} for i in data.index]
+    count = data.index.size
+    errors = {name: np.empty(count) for name in INVERSE_ESTIMATORS}
+    for name in INVERSE_ESTIMATORS:
+        step = stage(name)
+        for row, scene in enumerate(data.scenes):
+            errors[name][row] = float(np.max(ESTIMATORS[name](scene, t, samples[row])[coupler])) / truth[row] - 1.0
+            step(row + 1, count)
+    masses_of = [{name: float(data.car_masses[row, k]) for k, name in enumerate(data.car_names)} for row in range(count)]
     for network in networks:
         _check_network(network, coupler, data.data.probes, data.data.record_end, data.scenes[0].measurement, results)
-        errors[network.name] = np.array([
-            network.peak_force(t - shift, {p: records[i, c] for c, p in enumerate(data.data.probes)}, masses_of[row]) / truth[row] - 1.0
-            for row, i in enumerate(data.index) for shift in (-CONTACT_JITTER, 0.0, CONTACT_JITTER)
-        ])
+        step = stage(network.name)
+        found = []
+        for row in range(count):
+            found += [network.peak_force(t - shift, samples[row], masses_of[row]) / truth[row] - 1.0 for shift in (-CONTACT_JITTER, 0.0, CONTACT_JITTER)]
+            step(row + 1, count)
+        errors[network.name] = np.array(found)
     pair = next(c for c in data.scenes[0].couplers if c.name == coupler)
     speeds = [scene.cars[pair.rear].velocity - scene.cars[pair.front].velocity for scene in data.scenes]
     masses = data.car_masses
@@ -105,4 +127,4 @@ def _check_network(network: AnnEstimator, coupler: str, probes: Sequence[str], r
         raise ValueError(f"network {network.name} was trained on records through {trained}; {results}'s went through {chain}")
 
 
-__all__ = ["calibrate"]
+__all__ = ["CONTACT_JITTER", "ProgressFor", "calibrate"]

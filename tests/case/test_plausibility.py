@@ -128,3 +128,90 @@ def test_speeds_of_studies_stay_plausible(change):
 @pytest.mark.parametrize("law", [{"kelvin_voigt": {"stiffness": 1e5, "damping": 0.0}}, {"kelvin_voigt": {"stiffness": 1e10, "damping": 1e6}}])
 def test_coupler_extremes_of_studies_stay_plausible(law):
     parse_case(_with(("couplers", 0, "law"), law))
+
+
+# --- end loads and harmonic frequencies of single-body cases ------------------------------------------
+
+ROD = {"type": "rod", "length": 16.0, "mass_per_length": 6250.0, "axial_stiffness": 2e9}
+BEAM = {"type": "beam", "length": 17.0, "mass_per_length": 7000.0, "bending_stiffness": 3e9}
+
+
+def _harmonic(body: dict = ROD, loads: dict | None = None, frequency: dict | None = None) -> dict:
+    return {"kind": "harmonic", "body": copy.deepcopy(body), "loads": loads or {"F2": 1.0e5},
+            "frequency": frequency or {"hz": {"start": 0.5, "stop": 60.0, "num": 5}}, "models": ["rigid"]}
+
+
+def _transient(body: dict = ROD, loads: dict | None = None) -> dict:
+    return {"kind": "transient", "body": copy.deepcopy(body), "loads": loads or {"F2": {"half_sine": {"amplitude": -1.0e6, "duration": 0.05}}},
+            "time": {"end": 0.1}, "models": ["rigid"]}
+
+
+SINGLE_BODY_PROBES = [
+    # (id, case, key in the message, words in the message)
+    ("harmonic F2 1e12 N", _harmonic(loads={"F2": 1e12}), "loads.F2", "an end force of 1e12 N is beyond any rail vehicle"),
+    ("harmonic G1 -1e13 N·m", _harmonic(BEAM, loads={"G1": -1e13}), "loads.G1", "an end moment of -1e13 N·m is beyond any rail vehicle"),
+    ("constant F2 2e10 N", _transient(loads={"F2": 2e10}), "loads.F2", "beyond any rail vehicle"),
+    ("half-sine amplitude 1e12 N", _transient(loads={"F2": {"half_sine": {"amplitude": 1e12, "duration": 0.05}}}),
+     "loads.F2.half_sine.amplitude", "beyond any rail vehicle"),
+    ("ramp level 5e11 N·m", _transient(BEAM, loads={"G2": {"ramp_step": {"amplitude": 5e11, "rise": 0.01}}}),
+     "loads.G2.ramp_step.amplitude", "an end moment of 5e11 N·m is beyond any rail vehicle"),
+    ("half-sine of 1 ns", _transient(loads={"F2": {"half_sine": {"amplitude": 1e6, "duration": 1e-9}}}),
+     "loads.F2.half_sine.duration", "below any rail vehicle"),
+    ("ramp rising for 12 days", _transient(loads={"F2": {"ramp_step": {"amplitude": 1e6, "rise": 1e6}}}),
+     "loads.F2.ramp_step.rise", "beyond any rail vehicle"),
+    ("hz stop 10 MHz", _harmonic(frequency={"hz": {"start": 1.0, "stop": 1e7, "num": 5}}), "frequency.hz.stop",
+     "a frequency of 1e7 Hz is beyond any rail vehicle (structural modes of car bodies 1–200 Hz)"),
+    ("omega start and stop 1e8 rad/s", _harmonic(frequency={"omega": {"start": 1e8, "stop": 2e8, "num": 5}}), "frequency.omega.start",
+     "beyond any rail vehicle"),
+    ("lambda stop 1e9", _harmonic(frequency={"lambda": {"start": 0.05, "stop": 1e9, "num": 5}}), "frequency.lambda.stop",
+     "is ω = λ/T with its wave time"),
+]
+
+
+@pytest.mark.parametrize(("data", "key", "words"), [p[1:] for p in SINGLE_BODY_PROBES], ids=[p[0] for p in SINGLE_BODY_PROBES])
+def test_an_implausible_load_or_frequency_is_refused_by_femref_run(tmp_path, data, key, words):
+    """Exit 2, the key path, the rule and the rail-vehicle range, no result file."""
+    result, out = _run(tmp_path, data)
+    text = " ".join(result.output.split())
+    assert result.exit_code == 2, result.output
+    assert f"{key}:" in text and words in text and "rail vehicle" in text, text
+    assert not out.exists()
+
+
+def test_a_load_records_largest_value_is_bounded_and_its_row_named(tmp_path):
+    """A CSV record peaking at -3e12 N: exit 2 at loads.F2.csv.path, naming the data row of the peak."""
+    (tmp_path / "force.csv").write_text("time,force\n0.0,0.0\n0.01,-1.0e6\n0.02,-3.0e12\n0.03,0.0\n")
+    data = _transient(loads={"F2": {"csv": {"path": "force.csv", "time_column": "time", "value_column": "force"}}})
+    result, out = _run(tmp_path, data)
+    text = " ".join(result.output.split())
+    assert result.exit_code == 2, result.output
+    assert "loads.F2.csv.path:" in text and "data row 3 (the largest |value|): an end force of -3e12 N is beyond any rail vehicle" in text, text
+    assert not out.exists()
+
+
+def test_a_negative_frequency_is_refused(tmp_path):
+    """Below zero the axis's own rule answers (frequencies are > 0), also exit 2 at the key."""
+    result, out = _run(tmp_path, _harmonic(frequency={"hz": {"start": -5.0, "stop": 60.0, "num": 5}}))
+    assert result.exit_code == 2 and "frequency.hz.start: must be > 0" in result.output, result.output
+    assert not out.exists()
+
+
+def test_the_end_force_message_quotes_the_rail_vehicle_range():
+    with pytest.raises(CaseError, match=r"loads\.F2\.half_sine\.amplitude: an end force of 1e12 N is beyond any rail vehicle "
+                                        r"\(coupler and end forces 1e4–1e7 N\); the plausible range is 0–1e10 N"):
+        parse_case(_transient(loads={"F2": {"half_sine": {"amplitude": 1e12, "duration": 0.05}}}))
+
+
+@pytest.mark.parametrize("data", [
+    _transient(loads={"F2": 0.0, "F1": 1e-3}),  # small and zero loads are fine
+    _transient(loads={"F2": {"ramp_step": {"amplitude": -1e10, "rise": 0.0}}}),  # a step at the bound
+    _transient(loads={"F2": {"half_sine": {"amplitude": 4e6, "duration": 1e-7}}}),
+    _transient(loads={"F2": {"ramp_step": {"amplitude": 1e6, "rise": 1e5}}}),
+    _transient(BEAM, loads={"G1": 1e11, "N2": 1e10}),
+    _harmonic(frequency={"hz": {"start": 1e-3, "stop": 1e6, "num": 5}}),
+    _harmonic(frequency={"omega": {"start": 1.0, "stop": 6.0e6, "num": 5}}),
+    _harmonic(frequency={"lambda": {"start": 0.05, "stop": 3.0, "num": 5}}),
+], ids=["small loads", "step of 1e10 N", "pulse of 0.1 µs", "ramp over 1e5 s", "beam at the bounds", "hz to 1 MHz", "omega to 6e6",
+        "lambda to 3"])
+def test_single_body_studies_stay_plausible(data):
+    parse_case(data)

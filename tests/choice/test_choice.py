@@ -351,6 +351,77 @@ def test_tolerance_on_a_single_body_case_exits_2(tmp_path):
 
 
 # ---------------------------------------------------------------------------------------------
+# The work budget of a climb: every rung, before any runs
+
+
+def _small_impact(**changes) -> dict:
+    rod = {"type": "rod", "length": 17.0, "mass_per_length": 7000.0, "axial_stiffness": 3.0e9, "axial_viscosity": 2.0e6}
+    data = {"kind": "impact", "cars": [{"name": "hammer", "body": rod, "velocity": 2.0}, {"name": "anvil", "body": rod, "velocity": 0.0}],
+            "couplers": [{"between": ["hammer", "anvil"], "law": {"kelvin_voigt": {"stiffness": 4.0e7, "damping": 3.0e5}}}],
+            "time": {"end": 0.3}, "models": ["fem", "rigid"]}
+    data.update(changes)
+    return data
+
+
+def test_the_budget_lays_out_the_ladder_the_climb_runs():
+    """The budget's ladder (no mesh: steps from the sampled wave speed, modes from the DOF count) is the climb's:
+    the same rungs at the same steps, each predicted as an impact run of its rung."""
+    from femref.choice.ladder import ladder_costs
+
+    for scene in (scene_from_case(parse_case(default_scene_data(), source="<default>")), scene_from_case(load_case(CASES / "impact_consist.yaml"))):
+        ladder = model_ladder(scene)
+        costs = ladder_costs(scene)
+        assert [c.model for c in costs] == [r.label for r in ladder.rungs]
+        assert all(c.what == f"the {c.model} rung of the --tolerance ladder" and c.work > 0 for c in costs)
+        fem = [c for c in costs if c.model.startswith("fem_n")]
+        assert {c.factors["fem.elements"][1] for c in fem} == {scene.fem.elements}  # the case's value, the key to reduce
+
+
+def test_a_ladder_over_the_budget_is_refused_before_any_work(tmp_path, monkeypatch):
+    """A case whose own runs fit a budget its --tolerance ladder does not (every rung: the worst case of a climb) is
+    refused by ``femref run --tolerance`` — exit 2, the key and the predicted size of the costliest rung, nothing
+    written — and by choose_model before any rung runs; without the tolerance it runs."""
+    from femref.case import CaseError
+    from femref.choice.ladder import ladder_costs
+    from femref.run.budget import BUDGET_VARIABLE, MEMORY_BUDGET, WORK_BUDGET, predict
+
+    data = _small_impact()
+    scene = scene_from_case(parse_case(data))
+
+    def limits(costs):
+        return max(sum(c.work for c in costs) / WORK_BUDGET, sum(c.memory for c in costs) / MEMORY_BUDGET)
+
+    own, ladder = limits(predict(scene)), limits(ladder_costs(scene))
+    assert own < ladder
+    factor = repr(math.sqrt(own * ladder))
+    case = tmp_path / "case.yaml"
+    case.write_text(yaml.safe_dump(data))
+    out = tmp_path / "out.h5"
+    result = CliRunner().invoke(main, ["run", str(case), "--tolerance", "0.01", "-o", str(out)], env={BUDGET_VARIABLE: factor})
+    assert result.exit_code == 2, result.output
+    text = " ".join(result.output.split())
+    assert f"{case}: fem.elements:" in text and "rung of the --tolerance ladder is predicted at" in text and "DOF-steps" in text, text
+    assert "the budget is" in text and not out.exists()
+    monkeypatch.setenv(BUDGET_VARIABLE, factor)
+    with pytest.raises(CaseError, match="--tolerance ladder"):
+        choose_model(scene, 0.01, runner=lambda rung: pytest.fail("a rung ran over the budget"))
+    result = CliRunner().invoke(main, ["run", str(case), "-o", str(out)], env={BUDGET_VARIABLE: factor})
+    assert result.exit_code == 0, result.output
+
+
+def test_a_huge_ladder_is_refused_without_building_a_mesh(tmp_path):
+    """1e8 elements per car under --tolerance: refused in well under a second (the ladder is laid out without a mesh)."""
+    import time
+
+    case = tmp_path / "case.yaml"
+    case.write_text(yaml.safe_dump(_small_impact(fem={"elements": 100_000_000})))
+    started = time.perf_counter()
+    result = CliRunner().invoke(main, ["run", str(case), "--tolerance", "0.01", "-o", str(tmp_path / "out.h5")])
+    assert result.exit_code == 2 and ": fem.elements:" in result.output, result.output
+    assert time.perf_counter() - started < 2.0
+
+
+# ---------------------------------------------------------------------------------------------
 # The spread test (issue 6 part 3)
 
 

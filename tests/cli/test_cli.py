@@ -10,7 +10,6 @@ import yaml
 from click.testing import CliRunner
 
 import femref.results
-from femref.case.defaults import default_scene_data
 from femref.cli import main
 
 
@@ -112,27 +111,29 @@ def test_failed_model_is_recorded_and_exits_1(runner, tmp_path, monkeypatch):
 
 
 def test_impact_run_that_fails_mid_way_exits_1_saying_where(runner, tmp_path):
-    """A coupler iteration that fails mid-run (a draft gear with 5 mm of free play each way between
-    quasi-rigid cars at 3 m/s: the gear's own Newton does not settle at t = 0.137 s, the step
-    tests/impact/test_compiled.py also fails): exit 1, the message names the coupler and the time,
-    and the result file keeps that run's histories up to the failing step (NaN after)."""
-    case = default_scene_data()
-    case["cars"][0]["velocity"] = 3.0
-    case["couplers"][0].update(
-        law={"draft_gear": {"series_stiffness_1": 4e8, "series_stiffness_2": 4e8, "gear_stiffness": 1.7e7,
-                            "gear_damping": 2.5e5, "stroke": 0.05, "solid_stiffness": 1e8}},
-        contact="bilateral", slack=0.005, tension_slack=0.005,
-    )
-    case.update(models=["quasi_rigid"], estimators=[], time={"end": 0.35, "dt": 5e-4})
-    case.pop("measurement")
+    """A coupler iteration that fails mid-run (a 20 kg car between two 2 t cars, friction-gear tables both sides,
+    at 2 m/s: the Gauss–Seidel sweeps crawl at t = 0.029 s, each gear moving the light car for the other — the
+    step tests/impact/test_compiled.py also fails): exit 1, the message names the coupler and the time, and the
+    result file keeps that run's histories up to the failing step (NaN after)."""
+    gear = {"table": {"closure": [0.0, 0.0119, 0.0188, 0.0495, 0.125, 0.135], "loading": [0.0, 0.0, 1.2e5, 6.8e5, 1.35e6, 3.35e6],
+                      "unloading": [0.0, 0.0, 3.6e4, 2.04e5, 4.05e5, 2.405e6]}}
+    body = lambda mass: {"type": "rod", "length": 17.0, "mass_per_length": mass / 17.0, "axial_stiffness": 3.0e9, "axial_viscosity": 2.0e6}  # noqa: E731
+    case = {
+        "kind": "impact",
+        "cars": [{"name": name, "body": body(mass), "velocity": speed, "sensors": {"center": 0.0}}
+                 for name, mass, speed in (("a", 2000.0, 2.0), ("b", 20.0, 0.0), ("c", 2000.0, 0.0))],
+        "couplers": [{"name": "c1", "between": ["a", "b"], "law": gear}, {"name": "c2", "between": ["b", "c"], "law": gear}],
+        "time": {"end": 0.1, "dt": 1e-3},
+        "models": ["rigid"],
+    }
     output = tmp_path / "out.h5"
     result = runner.invoke(main, ["run", str(write_case(tmp_path, case)), "-o", str(output)])
     assert result.exit_code == 1
-    assert "error: model quasi_rigid failed: coupler c1 did not converge at t = 0.137 s (step 274 of 700)" in result.output
+    assert "error: model rigid failed: coupler c1 did not converge at t = 0.029 s (step 29 of 100)" in result.output
     with h5py.File(output) as h5:
-        assert h5["quasi_rigid"].attrs["status"] == "failed"
-        force = h5["quasi_rigid/couplers/c1/force"][()]
-        assert np.all(np.isfinite(force[:274])) and np.all(np.isnan(force[274:]))
+        assert h5["rigid"].attrs["status"] == "failed"
+        force = h5["rigid/couplers/c1/force"][()]
+        assert force.size == 101 and np.all(np.isfinite(force[:29])) and np.all(np.isnan(force[29:]))
 
 
 def test_crash_while_writing_leaves_no_file(runner, tmp_path, monkeypatch):

@@ -61,6 +61,21 @@ def test_help_of_every_command_imports_nothing_heavy() -> None:
     assert "Usage: main run" in done.stdout or "Usage: " in done.stdout
 
 
+def test_every_command_help_states_its_exit_codes_and_what_its_output_may_not_be() -> None:
+    """Each command's --help ends with its exit codes (0, and 2 for bad input, where nothing is written); each command
+    that writes a file says its -o is refused when it is an input; every command is covered (a new one must say too)."""
+    assert set(main.commands) == set(COMMANDS)
+    for command in COMMANDS:
+        result = CliRunner().invoke(main, [command, "--help"], terminal_width=200)
+        assert result.exit_code == 0, result.output
+        text = " ".join(result.output.split())
+        assert "Exit codes: 0 " in text and re.search(r"\b2 (bad|not)\b", text), (command, text)
+        if command in ("run", "sweep", "study", "calibrate", "bench", "report"):
+            assert "refused if" in text, (command, text)
+    progress = " ".join(CliRunner().invoke(main, ["--help"], terminal_width=200).output.split())
+    assert "--progress / --no-progress" in progress and "FEMREF_PROGRESS" in progress
+
+
 # --- tables fit the terminal -------------------------------------------------------------------------
 
 

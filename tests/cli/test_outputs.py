@@ -1,12 +1,15 @@
 """Outputs that cannot go stale or be lost (issue 18).
 
 * every command that writes checks its output path before any work: exit 2, a message
-  naming the option and the rule, nothing written;
+  naming the option and the rule, nothing written; the files a case names (records, CSV loads,
+  networks), a sweep's or study's base case and a study's ``initial`` networks are inputs too;
 * a result and its XDMF + HDF5 field files are published together: field files first,
   the result last, the result recording the field files' SHA-256 (a stale pair is detected);
 * temporaries are named ``.<final name>.femref-<pid>[.<part>].tmp``; a later write of the same
   name removes those of dead processes and keeps a live process's;
 * a ``kill -9`` between writing the temporaries and renaming them leaves the previous pair intact;
+* an older femref's randomly named temporaries (``tmp*`` field-file folders, ``.<name>.<random>.tmp``)
+  are removed only when their content is femref's and nothing uses them, and named otherwise;
 * xarray opens every history group with its axis as the coordinate.
 """
 
@@ -180,6 +183,10 @@ COMMANDS = {  # args (in a folder holding sweeps/, studies/, the free-roll case 
     "study-under-a-missing-folder": (["study", "studies/ann_study.yaml", "-o", "missing/study"], "the folder missing does not exist"),
     "calibrate": (["calibrate", "sweeps/free_roll_speeds.yaml", "r.h5", "-o", "missing/out.h5"], "the folder missing does not exist"),
     "calibrate-onto-its-SWEEP_FILE": (["calibrate", "sweeps/free_roll_speeds.yaml", "r.h5", "-o", "r.h5"], "is the input SWEEP_FILE"),
+    "sweep-onto-its-base-case": (["sweep", "sweeps/free_roll_speeds.yaml", "-o", "impact_free_roll.yaml"], "is the input base of SWEEP"),
+    "calibrate-onto-the-base-case": (["calibrate", "sweeps/free_roll_speeds.yaml", "r.h5", "-o", "impact_free_roll.yaml"], "is the input base of SWEEP"),
+    "study-writing-onto-its-initial-network": (["study", "initial_study.yaml", "-o", "earlier"],
+                                               "would write earlier/networks/fem_mlp.npz, which is the input networks.mlp.mlp.initial of STUDY"),
     "bench": (["bench", "impact_free_roll.yaml", "-o", "missing/out.h5"], "the folder missing does not exist"),
     "bench-plot-onto-its-CASE": (["bench", "impact_free_roll.yaml", "-o", "b.h5", "--plot", "impact_free_roll.yaml"], "--plot impact_free_roll.yaml: is the input CASE"),
     "report": (["report", "r.h5", "-o", "missing/out.html"], "the folder missing does not exist"),
@@ -197,6 +204,11 @@ def command_folder(tmp_path_factory):
     shutil.copytree(CASES / "sweeps", folder / "sweeps")
     shutil.copytree(CASES / "studies", folder / "studies")
     shutil.copy(CASES / "impact_free_roll.yaml", folder / "impact_free_roll.yaml")
+    (folder / "earlier" / "networks").mkdir(parents=True)  # a study continuing a network of its own output folder
+    (folder / "earlier" / "networks" / "fem_mlp.npz").write_bytes(b"a saved network")
+    study = {"base": "impact_free_roll.yaml", "sets": {"train": {"samples": 2, "seed": 1}, "test": {"samples": 1, "seed": 2}},
+             "networks": {"mlp": {"mlp": {"hidden": [4], "activation": "tanh", "solver": "momentum", "initial": "earlier/networks/fem_mlp.npz"}}}}
+    (folder / "initial_study.yaml").write_text(yaml.safe_dump(study))
     data = small_case(fields=False)  # no field map to render in the report
     data["models"] = ["rigid"]
     result = CliRunner().invoke(main, ["run", str(write_case(folder, data=data)), "-o", str(folder / "r.h5")])
@@ -223,6 +235,75 @@ def test_every_writing_command_checks_its_output(runner, command_folder, monkeyp
     assert result.exit_code == 2, result.output
     assert message in result.output
     assert listing(command_folder) == before
+
+
+def measured_case_folder(folder: Path) -> Path:
+    """cases/measured_yard.yaml with its record files and networks in ``folder`` (relative paths, as shipped)."""
+    import shutil
+
+    shutil.copytree(CASES / "data" / "measured", folder / "data" / "measured")
+    shutil.copytree(CASES / "networks", folder / "networks")
+    shutil.copy(CASES / "measured_yard.yaml", folder / "measured.yaml")
+    return folder / "measured.yaml"
+
+
+def csv_case_folder(folder: Path) -> Path:
+    """cases/rod_transient_csv.yaml with its load CSV in ``folder``."""
+    import shutil
+
+    (folder / "data").mkdir()
+    shutil.copy(CASES / "data" / "coupler_force.csv", folder / "data" / "coupler_force.csv")
+    shutil.copy(CASES / "rod_transient_csv.yaml", folder / "case.yaml")
+    return folder / "case.yaml"
+
+
+@pytest.mark.parametrize(
+    ("make", "target", "key"),
+    [
+        (measured_case_folder, "data/measured/hammer.csv", "records[0].file of CASE"),
+        (measured_case_folder, "data/measured/anvil.csv", "records[1].file of CASE"),
+        (measured_case_folder, "networks/fem_mlp.npz", "estimators[3].network of CASE"),
+        (csv_case_folder, "data/coupler_force.csv", "loads.F2.csv.path of CASE"),
+    ],
+    ids=["measured-record", "second-record", "network", "csv-load"],
+)
+def test_run_refuses_to_overwrite_a_file_the_case_names(runner, tmp_path, monkeypatch, no_run, make, target, key):
+    """``femref run case.yaml -o <a record file | network | load CSV the case reads>``: exit 2 before any work, the
+    message names -o, the case key and the input, and every file is unchanged — by its own path or a symbolic link."""
+    import femref.run.measured
+
+    monkeypatch.setattr(femref.run.measured, "run_measured", lambda *args, **kwargs: pytest.fail("the run started"))
+    case = make(tmp_path)
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "link").symlink_to(tmp_path / target)
+    before = listing(tmp_path)
+    for output in (target, "link"):
+        result = runner.invoke(main, ["run", str(case), "-o", output])
+        assert result.exit_code == 2, result.output
+        assert f"error: -o {output}: is the input {key} {tmp_path / target} (the output may not overwrite an input); nothing was written" in result.stderr
+    assert listing(tmp_path) == before
+
+
+def test_case_inputs_walk_every_file_path_of_a_case(tmp_path):
+    """femref.case.inputs.case_inputs: every file path of the validated case by its case-file key path, absolute
+    (records, networks — also one per impact type — and a CSV load); none for a case that names no file."""
+    from femref.case import load_case
+    from femref.case.inputs import case_inputs
+
+    case = measured_case_folder(tmp_path)
+    data = yaml.safe_load(case.read_text())
+    typed = {"free_to_roll": "networks/fem_mlp.npz", "coupled": "networks/rigid_mlp.npz"}
+    data["estimators"].append({"name": "ann_typed", "network": typed})
+    case.write_text(yaml.safe_dump(data))
+    assert case_inputs(load_case(case)) == {
+        "records[0].file": tmp_path / "data" / "measured" / "hammer.csv",
+        "records[1].file": tmp_path / "data" / "measured" / "anvil.csv",
+        "estimators[3].network": tmp_path / "networks" / "fem_mlp.npz",
+        "estimators[4].network.free_to_roll": tmp_path / "networks" / "fem_mlp.npz",
+        "estimators[4].network.coupled": tmp_path / "networks" / "rigid_mlp.npz",
+    }
+    assert case_inputs(load_case(CASES / "rod_transient_csv.yaml")) == {"loads.F2.csv.path": CASES / "data" / "coupler_force.csv"}
+    assert case_inputs(load_case(CASES / "impact_free_roll.yaml")) == {}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -305,6 +386,86 @@ def test_leftovers_of_dead_runs_are_removed_and_live_ones_kept(runner, tmp_path)
     finally:
         sleeper.kill()
         sleeper.wait()
+
+
+def _age(*paths: Path, seconds: float = 3600.0) -> None:
+    """Set the modification time of ``paths`` (files first, then their folder) ``seconds`` into the past."""
+    then = time.time() - seconds
+    for path in paths:
+        os.utime(path, (then, then))
+
+
+def _old_field_folder(folder: Path, name: str, files: dict[str, bytes], seconds: float = 3600.0) -> Path:
+    """A ``tempfile.mkdtemp`` folder of an older femref holding ``files``, unchanged for ``seconds``."""
+    (folder / name).mkdir()
+    for file, content in files.items():
+        (folder / name / file).write_bytes(content)
+    _age(*[folder / name / file for file in files], folder / name, seconds=seconds)
+    return folder / name
+
+
+def test_an_older_femrefs_temporaries_are_removed_only_when_certainly_theirs_and_unused(runner, tmp_path):
+    """Before pid-named temporaries femref left ``tmp<random>`` folders of field files and ``.<name>.<random>.tmp``
+    result files. A later write of the same result removes those whose content is femref's (field files of this
+    result, HDF5 and XDMF by their first bytes), unchanged for 10 minutes and open in no process, saying so on stderr;
+    it names and keeps one that also holds other files, one that changed recently and one a process holds open; it
+    does not touch or mention a ``tmp*`` folder of someone else or an older femref's folder of another result."""
+    h5py.File(tmp_path / "seed.h5", "w").close()
+    hdf5 = (tmp_path / "seed.h5").read_bytes()
+    (tmp_path / "seed.h5").unlink()
+    xdmf = b'<Xdmf Version="3.0"><Domain /></Xdmf>'
+    theirs = _old_field_folder(tmp_path, "tmpa1b2c3d4", {"out_fem_fields.h5": hdf5, "out_fem_fields.xdmf": xdmf})
+    partial = _old_field_folder(tmp_path, "tmpe5f6g7h8", {"out_modal_fields.h5": hdf5[:8]})  # killed while writing
+    result_tmp = tmp_path / ".out.h5.x9y8z7w6.tmp"
+    result_tmp.write_bytes(hdf5)
+    _age(result_tmp)
+    mixed = _old_field_folder(tmp_path, "tmpmixed123", {"out_fem_fields.h5": hdf5, "notes.txt": b"mine"})
+    recent = _old_field_folder(tmp_path, "tmprecent12", {"out_fem_fields.h5": hdf5}, seconds=5.0)
+    held = _old_field_folder(tmp_path, "tmpheld1234", {"out_fem_fields.h5": hdf5})
+    someone = _old_field_folder(tmp_path, "tmpsomeone1", {"data.bin": b"not femref's"})
+    other_result = _old_field_folder(tmp_path, "tmpother123", {"other_fem_fields.h5": hdf5})
+    holder = subprocess.Popen([sys.executable, "-c", f"import sys, time; f = open({str(held / 'out_fem_fields.h5')!r}, 'rb'); print('open', flush=True); time.sleep(60)"],
+                              stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "open"
+        result = runner.invoke(main, ["run", str(write_case(tmp_path)), "-o", str(tmp_path / "out.h5")])
+    finally:
+        holder.kill()
+        holder.wait()
+    assert result.exit_code == 0, result.output
+    for removed in (theirs, partial, result_tmp):
+        assert not removed.exists(), removed
+        assert f"note: removed {removed}: a temporary of out.h5 left by an older femref run" in result.stderr
+    for kept, why in ((mixed, "it also holds notes.txt, which femref does not write there"), (recent, "it changed"),
+                      (held, "a running process uses it")):
+        assert kept.is_dir(), kept
+        assert f"note: kept {kept}: it looks like an older femref's temporary of out.h5, but {why}" in result.stderr
+    for untouched in (someone, other_result):
+        assert untouched.is_dir() and str(untouched) not in result.stderr
+    assert field_files_match(tmp_path / "out.h5") == []
+
+
+def test_without_proc_an_older_femrefs_temporaries_are_only_named(runner, tmp_path, monkeypatch):
+    """Where no /proc tells whether a process uses them, nothing is removed: each is named on stderr, one line."""
+    h5py.File(tmp_path / "seed.h5", "w").close()
+    folder = _old_field_folder(tmp_path, "tmpa1b2c3d4", {"out_fem_fields.h5": (tmp_path / "seed.h5").read_bytes()})
+    monkeypatch.setattr(femref.results, "_paths_in_use", lambda entries: None)
+    result = runner.invoke(main, ["run", str(write_case(tmp_path)), "-o", str(tmp_path / "out.h5")])
+    assert result.exit_code == 0, result.output
+    assert folder.is_dir() and (folder / "out_fem_fields.h5").is_file()
+    notes = [line for line in result.stderr.splitlines() if str(folder) in line]
+    assert notes == [f"note: kept {folder}: it looks like an older femref's temporary of out.h5, but whether a process uses it "
+                     "cannot be checked here (no /proc); remove it yourself if no femref run is writing it"]
+
+
+def test_a_killed_runs_leftover_removal_is_said(runner, tmp_path):
+    """The pid-named leftovers of a dead process are named on stderr when removed."""
+    dead_file = tmp_path / f".out.h5.femref-{dead_pid()}.tmp"
+    dead_file.write_bytes(b"partial")
+    result = runner.invoke(main, ["run", str(write_case(tmp_path)), "-o", str(tmp_path / "out.h5")])
+    assert result.exit_code == 0, result.output
+    assert not dead_file.exists()
+    assert f"note: removed {dead_file}: a temporary of out.h5 left by a killed femref run" in result.stderr
 
 
 def test_temporary_names():

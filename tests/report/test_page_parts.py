@@ -84,3 +84,26 @@ def test_score_names_are_grouped_by_item():
         "c1": ["coupler_force_peak_error_c1", "coupler_force_rms_error_c1"],
         "a/x": ["acceleration_peak_error_a/x", "acceleration_rms_error_a/x", "measured_acceleration_rms_error_a/x"],
     }
+
+
+def test_the_self_check_is_a_sentence_not_score_columns():
+    """A fem run that checked itself (femref.run.runner.check_reference keys): no reference_* or self_check column in
+    the summary or per-item tables; one sentence with the warning, the runs, 'at least' for a lower bound and the
+    estimate per coupler; the other models' scores are untouched; in-range scores are labelled as such."""
+    from femref.report.html import _self_check_notes
+
+    scores = {
+        "fem": {"reference": "fem at dt/2, dt/4", "self_check": "fem at dt/2, dt/4", "reference_warning": "time.dt = 0.013 s is coarse",
+                "reference_error_estimate": 0.379, "reference_error_basis": "c1: lower bound", "reference_error_bound": "lower",
+                "reference_observed_order": -0.49, "reference_error_estimate_c1": 0.379, "reference_error_estimate_c2": 0.1,
+                "reference_observed_order_c1": -0.49, "self_check_wall_time_s": 0.5, "wall_time_s": 0.5},
+        "rigid": {"reference": "fem", "wall_time_s": 0.01, "coupler_force_peak_error_c1": 0.02, "coupler_force_peak_error_max": 0.02,
+                  "acceleration_rms_in_range_error_max": 0.3},
+    }
+    columns = metric_columns(scores)
+    assert columns == ["reference", "wall_time_s", "coupler_force_peak_error_max", "acceleration_rms_in_range_error_max"]
+    assert item_columns(scores) == {"c1": ["coupler_force_peak_error_c1"]}
+    (note,) = _self_check_notes(scores)
+    assert "fem checked itself" in note and "time.dt = 0.013 s is coarse" in note and "at least 37.9 %" in note
+    assert "c1 37.9 %, c2 10 %" in note and "0.5 s" in note
+    assert MetricName.parse("acceleration_rms_in_range_error_max").label() == "acceleration rms error in range (worst probe)"

@@ -108,3 +108,42 @@ def test_the_report_shades_where_the_quasi_rigid_run_is_outside_its_range(tmp_pa
     assert qr.outside_range == [tuple(i) for i in recorded["outside"]] and qr.outside_limit == EPSILON_LIMIT
     accelerations = [p for p in figures_for(result) if p.title.startswith("acceleration")]
     assert accelerations and all("where quasi_rigid is outside its range" in p.caption for p in accelerations)
+
+
+def test_in_range_scores_leave_out_only_the_marked_samples() -> None:
+    """``in_range_errors`` on known signals: a result equal to the reference except inside a marked interval has
+    in-range errors of exactly zero while its whole-record errors are not, and the fraction outside is the marked
+    share of the samples; nothing marked, nothing added."""
+    from femref.results import ModelResult
+    from femref.run.scoring import in_range_errors, score_impact
+
+    t = np.linspace(0.0, 1.0, 1001)
+    force = np.sin(np.pi * t) ** 2
+    acceleration = np.cos(7.0 * t)
+    reference = ModelResult("fem", axes={"time": t}, couplers={"c1": {"force": force}}, probes={"a/front": {"acceleration": acceleration}})
+    spiky = acceleration + np.where((t >= 0.1) & (t <= 0.2), 50.0, 0.0)
+    result = ModelResult("quasi_rigid", axes={"time": t}, couplers={"c1": {"force": force * np.where(t <= 0.2, 1.1, 1.0)}},
+                         probes={"a/front": {"acceleration": spiky}}, settings={"quasi_rigid_range": {"outside": [[0.0, 0.2]]}})
+    errors = in_range_errors(reference, result)
+    assert errors["outside_range_fraction"] == pytest.approx(201 / 1001)
+    assert errors["coupler_force_rms_in_range_error_c1"] == 0.0 and errors["acceleration_rms_in_range_error_a/front"] == 0.0
+    assert errors["acceleration_rms_in_range_error_max"] == 0.0
+    assert score_impact(reference, result)["acceleration_rms_error_a/front"] > 10.0
+    result.settings["quasi_rigid_range"]["outside"] = []
+    assert in_range_errors(reference, result) == {}
+
+
+def test_the_default_quasi_rigid_run_is_scored_inside_its_range_too() -> None:
+    """The default scene's quasi-rigid run: its whole-record acceleration error is set by the onset and separation
+    spikes; inside its range the error is several times smaller (measured 284 % over the record, 34.5 % in range, 13 % of
+    the samples outside), while the coupler force, which has no spike, changes little (1.0 % → 0.75 %); fem is not given in-range scores."""
+    data = default_scene_data()
+    data.update(models=["fem", "quasi_rigid"], estimators=[])
+    data.pop("measurement", None)
+    outcome = run_scene(scene_from_case(parse_case(data, source="<validity>")))
+    score = outcome.scores["quasi_rigid"]
+    whole, inside = score["acceleration_rms_error_max"], score["acceleration_rms_in_range_error_max"]
+    assert inside < whole / 2.0, (whole, inside)
+    assert 0.0 < score["outside_range_fraction"] < 0.5
+    assert abs(score["coupler_force_rms_in_range_error_max"] - score["coupler_force_rms_error_max"]) < 0.5 * score["coupler_force_rms_error_max"] + 0.01
+    assert not any("in_range" in name for name in outcome.scores.get("fem", {}))

@@ -20,8 +20,10 @@ reference's, operation by operation, so the two agree to round-off:
   on ``_law_of(laws, j)``;
 * :func:`solve` is :meth:`CouplerSolve.solve` given the free closures and rates and the
   Schur gains ``D_u``, ``D_v``: Newton on ``(P, s)``, then the Gauss–Seidel fallback with
-  Brent's method (:func:`brent_root`, scipy's ``brentq`` transcribed) for a memoryless
-  coupler and a 2 × 2 Newton for a stateful one, then the energy bookkeeping of ``_commit``.
+  Brent's method (:func:`brent_root`, scipy's ``brentq`` transcribed) in a bracket widened
+  until ``P − T`` changes sign for a memoryless coupler, and a 2 × 2 Newton for a stateful
+  one — where that cycles, Brent's method on its force with the state following it
+  (:func:`_state_under`) — then the energy bookkeeping of ``_commit``.
   The Newton systems are :func:`linear_solve` (LAPACK ``dgesv``'s order of operations); the
   products with the gains are loops over a row, summed in index order without fused
   multiply-adds, where numpy's ``@`` calls BLAS (OpenBLAS fuses them). So the iterations
@@ -33,8 +35,8 @@ reference's, operation by operation, so the two agree to round-off:
 A failed step returns a failure code instead of raising :class:`CouplerConvergenceError`
 (numba cannot build it); :func:`failure_detail` gives the error's text. What raises in the
 reference raises here too, with a fixed message: a non-finite closure or rate (ValueError),
-Brent's bracket without a sign change or a non-positive ``force_tolerance`` (ValueError), 100
-Brent iterations (RuntimeError), an exactly singular Newton matrix (``np.linalg.LinAlgError``).
+a non-positive ``force_tolerance`` (ValueError), 100 Brent iterations (RuntimeError), an
+exactly singular Newton matrix (``np.linalg.LinAlgError``).
 
 Layout of :attr:`CouplerLaws.params` (row j, zero-padded to the widest law):
 
@@ -79,7 +81,17 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from femref.impact.couplers import MAX_NEWTON_ITERATIONS, MAX_SWEEPS, NEWTON_ITERATIONS, STATE_TOLERANCE
+from femref.impact.couplers import (
+    BRACKET_EXPANSIONS,
+    JUMP_FRACTION,
+    MAX_NEWTON_ITERATIONS,
+    MAX_SWEEPS,
+    NEWTON_ITERATIONS,
+    STATE_TOLERANCE,
+    bracket_detail,
+    coupler_newton_detail,
+    sweeps_detail,
+)
 from reduced.couplers import CONTACT_KINDS, Coupling, HystereticTable, KelvinVoigt, PowerLawGear, StandardLinearDraftGear
 
 _JIT = dict(cache=True, _nrt=False)  # every kernel's options (module docstring: no reference counting)
@@ -88,8 +100,9 @@ KELVIN_VOIGT, POWER_LAW, STANDARD_LINEAR, TABLE = 0, 1, 2, 3
 """Values of :attr:`CouplerLaws.kind`."""
 COMPRESSION_ONLY, BILATERAL = 0, 1
 """Values of :attr:`CouplerLaws.contact` (the order of :data:`reduced.couplers.CONTACT_KINDS`)."""
-SWEEPS_EXHAUSTED, COUPLER_NEWTON_FAILED = 1, 2
-"""Failure kinds :func:`solve` returns: Gauss–Seidel sweeps exhausted; a stateful coupler's Newton failed."""
+SWEEPS_EXHAUSTED, COUPLER_NEWTON_FAILED, BRACKET_NOT_FOUND = 1, 2, 3
+"""Failure kinds :func:`solve` returns: Gauss–Seidel sweeps exhausted; a stateful coupler's Newton failed and
+its state under the held force did not settle; the scalar root's bracket found no sign change."""
 
 _LAW_KINDS: dict[type, int] = {
     KelvinVoigt: KELVIN_VOIGT,
@@ -115,8 +128,9 @@ class CouplerLaws(NamedTuple):
     initial_state: NDArray[np.float64]  # (n,) the law's initial state (0 for stateless laws)
     table: NDArray[np.float64]  # (n, 5, M) closure, L, U, ∫L, ∫U of a table law (zeros otherwise)
     table_size: NDArray[np.int64]  # (n,) table points of a table law (0 otherwise)
-    limits: NDArray[np.int64]  # (3,) NEWTON_ITERATIONS, MAX_NEWTON_ITERATIONS, MAX_SWEEPS
+    limits: NDArray[np.int64]  # (4,) NEWTON_ITERATIONS, MAX_NEWTON_ITERATIONS, MAX_SWEEPS, BRACKET_EXPANSIONS
     state_tolerance: NDArray[np.float64]  # (1,) STATE_TOLERANCE (m)
+    jump_fraction: NDArray[np.float64]  # (1,) JUMP_FRACTION (femref.impact.couplers.held_at_jump)
     state_row: NDArray[np.int64]  # (n,) row of the coupler's state among the Newton unknowns (P, s); −1 stateless
 
 
@@ -131,7 +145,9 @@ class CouplerState(NamedTuple):
     state_rate: NDArray[np.float64]  # (n,) ṡ
     stored: NDArray[np.float64]  # (n,) J
     dissipated: NDArray[np.float64]  # (n,) J
+    work: NDArray[np.float64]  # (n,) J: work the cars did on the coupler, Σ P̄ Δδ
     mode: NDArray[np.int64]  # (n,) +1 compression, −1 tension, 0 open
+    held: NDArray[np.int64]  # (n,) 1 if the last step ended held at a jump of the law (held_at_jump), else 0
     # solve's scratch, allocated once by new_state (no meaning between calls; m = n + the stateful couplers)
     work_force: NDArray[np.float64]  # (n,) the iterated P
     work_state: NDArray[np.float64]  # (n,) the iterated s
@@ -200,8 +216,9 @@ def pack_laws(couplings: Sequence[Coupling]) -> CouplerLaws:
         initial_state=np.array([float(law.initial_state()[0]) if law.state_size else 0.0 for law in laws]),
         table=table,
         table_size=table_size,
-        limits=np.array([NEWTON_ITERATIONS, MAX_NEWTON_ITERATIONS, MAX_SWEEPS], dtype=np.int64),
+        limits=np.array([NEWTON_ITERATIONS, MAX_NEWTON_ITERATIONS, MAX_SWEEPS, BRACKET_EXPANSIONS], dtype=np.int64),
         state_tolerance=np.array([STATE_TOLERANCE]),
+        jump_fraction=np.array([JUMP_FRACTION]),
         state_row=state_row,
     )
 
@@ -218,7 +235,9 @@ def new_state(laws: CouplerLaws) -> CouplerState:
         state_rate=np.zeros(n),
         stored=np.zeros(n),
         dissipated=np.zeros(n),
+        work=np.zeros(n),
         mode=np.zeros(n, dtype=np.int64),
+        held=np.zeros(n, dtype=np.int64),
         work_force=np.zeros(n),
         work_state=np.zeros(n),
         work_mode=np.zeros(n, dtype=np.int64),
@@ -239,10 +258,13 @@ def new_state(laws: CouplerLaws) -> CouplerState:
 def failure_detail(failure_kind: int, change: float) -> str:
     """The detail text :class:`CouplerConvergenceError` carries for a failure :func:`solve` returned."""
     if failure_kind == SWEEPS_EXHAUSTED:
-        return f"Newton cycled and {MAX_SWEEPS} Gauss–Seidel sweeps left a change of {change:.3g} N"
+        return sweeps_detail(change)
     if failure_kind == COUPLER_NEWTON_FAILED:
-        return f"Newton on its force and state did not converge in {MAX_NEWTON_ITERATIONS} iterations"
-    raise ValueError(f"failure_kind must be {SWEEPS_EXHAUSTED} or {COUPLER_NEWTON_FAILED}, got {failure_kind!r}")
+        return coupler_newton_detail()
+    if failure_kind == BRACKET_NOT_FOUND:
+        return bracket_detail()
+    kinds = f"{SWEEPS_EXHAUSTED}, {COUPLER_NEWTON_FAILED} or {BRACKET_NOT_FOUND}"
+    raise ValueError(f"failure_kind must be {kinds}, got {failure_kind!r}")
 
 
 # --- coupler j's law, as the kernels read it ----------------------------------------------
@@ -791,8 +813,47 @@ def _converged(residual, n, force_tolerance, state_tolerance):
 
 
 @njit(**_JIT)
-def _excess(law, j, closure_free, rate_free, gain_u, gain_v, P, s, force):
-    """``f(P_j) = P_j − T_j(δ(P), δ̇(P))`` with the other forces held (``law``: coupler j's); sets ``P[j]`` (as the reference does)."""
+def _driven_rate(law, closure, rate, state, force):
+    """``ṡ = q(δ_e, δ̇, s, P)`` driven by the transmitted force ``P = force`` and ``∂q/∂s``, mode and branch
+    from the guards' strict signs at ``(δ, δ̇, s)`` (mirrors CouplerSolve._driven_rate)."""
+    mode = _evaluate(law, closure, rate, state)[1]
+    branch = _law_branch(law, closure - law.slack, state, True)
+    de = _effective_closure(law, closure, mode)
+    return _law_state_rate(law, de, rate, state, force, branch), _law_tangent(law, de, rate, state, force, branch)[5]
+
+
+@njit(**_JIT)
+def _state_under(law, state_tolerance, iterations, previous, previous_rate, dt, closure, rate, force, start):
+    """The state under the held force ``P = force``: the root of ``R(s) = s − s_n − dt/2 (ṡ_n + q(s, P))``
+    by Newton in a shrinking bracket from ``start`` (mirrors CouplerSolve._state_under); returns
+    ``(s, settled)``, settled when ``|R| ≤ state_tolerance``."""
+    x = start
+    q, dq = _driven_rate(law, closure, rate, x, force)
+    r = x - previous - 0.5 * dt * (previous_rate + q)
+    slope = 1.0 - 0.5 * dt * dq
+    low, high = (x - r, x) if r > 0.0 else (x, x - r)
+    for _ in range(iterations):
+        if abs(r) <= state_tolerance:
+            return x, True
+        trial = x - r / slope
+        if not low <= trial <= high:
+            trial = 0.5 * (low + high)
+        x = trial
+        q, dq = _driven_rate(law, closure, rate, x, force)
+        r = x - previous - 0.5 * dt * (previous_rate + q)
+        slope = 1.0 - 0.5 * dt * dq
+        if r > 0.0:
+            high = x
+        else:
+            low = x
+    return x, abs(r) <= state_tolerance
+
+
+@njit(**_JIT)
+def _excess(law, j, laws, st, dt, closure_free, rate_free, gain_u, gain_v, P, s, force):
+    """``f(P_j) = P_j − T_j(δ(P), δ̇(P), s_j)`` with the other forces held (``law``: coupler j's); sets ``P[j]``
+    and, for a stateful law, ``s[j]`` to its state under ``P_j`` (as the reference does). Returns
+    ``(f, settled)``: settled is False when that state did not converge."""
     P[j] = force
     closure_gain = 0.0
     rate_gain = 0.0
@@ -801,14 +862,19 @@ def _excess(law, j, closure_free, rate_free, gain_u, gain_v, P, s, force):
         rate_gain += gain_v[j, k] * P[k]
     closure = closure_free[j] + closure_gain
     rate = rate_free[j] + rate_gain
+    settled = True
+    if laws.stateful[j] != 0:
+        s[j], settled = _state_under(
+            law, laws.state_tolerance[0], laws.limits[1], st.state[j], st.state_rate[j], dt, closure, rate, force, s[j]
+        )
     value = force - _evaluate(law, closure, rate, s[j])[0]
     if math.isnan(value):
         raise ValueError("The function value is NaN; solver cannot continue.")
-    return value
+    return value, settled
 
 
 @njit(**_JIT)
-def brent_root(laws, j, closure_free, rate_free, gain_u, gain_v, P, s, xa, xb, xtol):
+def brent_root(laws, st, dt, j, closure_free, rate_free, gain_u, gain_v, P, s, xa, xb, xtol):
     """The root of :func:`_excess` in ``[xa, xb]`` by Brent's method: scipy.optimize.brentq transcribed
     (scipy/optimize/Zeros/brentq.c; ``rtol = 4 eps``, 100 iterations), same evaluations, same result."""
     if xtol <= 0.0:
@@ -817,8 +883,8 @@ def brent_root(laws, j, closure_free, rate_free, gain_u, gain_v, P, s, xa, xb, x
     rtol = BRENT_RTOL
     xpre, xcur = xa, xb
     xblk, fblk, spre, scur = 0.0, 0.0, 0.0, 0.0
-    fpre = _excess(law, j, closure_free, rate_free, gain_u, gain_v, P, s, xpre)
-    fcur = _excess(law, j, closure_free, rate_free, gain_u, gain_v, P, s, xcur)
+    fpre = _excess(law, j, laws, st, dt, closure_free, rate_free, gain_u, gain_v, P, s, xpre)[0]
+    fcur = _excess(law, j, laws, st, dt, closure_free, rate_free, gain_u, gain_v, P, s, xcur)[0]
     if fpre * fcur > 0.0:
         raise ValueError("f(a) and f(b) must have different signs")
     if fpre == 0.0:
@@ -864,20 +930,51 @@ def brent_root(laws, j, closure_free, rate_free, gain_u, gain_v, P, s, xa, xb, x
             xcur += scur
         else:
             xcur += delta if sbis > 0 else -delta
-        fcur = _excess(law, j, closure_free, rate_free, gain_u, gain_v, P, s, xcur)
+        fcur = _excess(law, j, laws, st, dt, closure_free, rate_free, gain_u, gain_v, P, s, xcur)[0]
     raise RuntimeError("Failed to converge after 100 iterations.")
 
 
 @njit(**_JIT)
-def _scalar_root(laws, j, force_tolerance, closure_free, rate_free, gain_u, gain_v, P, s):
-    """Coupler j's force with the others held, bracketed by ``[P − f(P), P]`` (mirrors CouplerSolve._scalar_root)."""
+def _same_sign(a, b):
+    """``a`` and ``b`` both > 0 or both < 0 (mirrors femref.impact.couplers.same_sign)."""
+    return (a > 0.0 and b > 0.0) or (a < 0.0 and b < 0.0)
+
+
+@njit(**_JIT)
+def _scalar_root(laws, st, dt, j, force_tolerance, closure_free, rate_free, gain_u, gain_v, P, s):
+    """Coupler j's force with the others held, bracketed by ``[P − f(P), P]`` and widened, doubling its
+    step, while ``f`` keeps its sign (mirrors CouplerSolve._scalar_root); a stateful coupler's state left at
+    the root's. Returns ``(root, failure kind)``: 0, BRACKET_NOT_FOUND or COUPLER_NEWTON_FAILED (its state
+    at the root did not settle)."""
+    law = _law_of(laws, j)
     start = P[j]
-    f0 = _excess(_law_of(laws, j), j, closure_free, rate_free, gain_u, gain_v, P, s, start)
+    f0 = _excess(law, j, laws, st, dt, closure_free, rate_free, gain_u, gain_v, P, s, start)[0]
     if f0 == 0.0:
-        return start
-    other = start - f0
-    low, high = (other, start) if other < start else (start, other)
-    return brent_root(laws, j, closure_free, rate_free, gain_u, gain_v, P, s, low, high, force_tolerance)
+        return start, 0
+    a, fa = start, f0
+    step = -f0
+    b = start + step
+    fb = _excess(law, j, laws, st, dt, closure_free, rate_free, gain_u, gain_v, P, s, b)[0]
+    expansions = 0
+    while _same_sign(fa, fb):
+        if expansions == laws.limits[3]:
+            return b, BRACKET_NOT_FOUND
+        expansions += 1
+        a, fa = b, fb
+        step = 2.0 * step
+        if abs(step) < force_tolerance:
+            step = math.copysign(force_tolerance, step)
+        b = a + step
+        fb = _excess(law, j, laws, st, dt, closure_free, rate_free, gain_u, gain_v, P, s, b)[0]
+    if fb == 0.0:
+        root = b
+    else:
+        low, high = (a, b) if a < b else (b, a)
+        root = brent_root(laws, st, dt, j, closure_free, rate_free, gain_u, gain_v, P, s, low, high, force_tolerance)
+    if laws.stateful[j] != 0:
+        if not _excess(law, j, laws, st, dt, closure_free, rate_free, gain_u, gain_v, P, s, root)[1]:
+            return root, COUPLER_NEWTON_FAILED
+    return root, 0
 
 
 @njit(**_JIT)
@@ -929,14 +1026,20 @@ def _gauss_seidel(laws, st, dt, force_tolerance, closure_free, rate_free, gain_u
         change, worst = 0.0, 0
         for j in range(n):
             previous = P[j]
+            kind = 0
             if laws.stateful[j] == 0:
-                P[j] = _scalar_root(laws, j, force_tolerance, closure_free, rate_free, gain_u, gain_v, P, s)
+                P[j], kind = _scalar_root(laws, st, dt, j, force_tolerance, closure_free, rate_free, gain_u, gain_v, P, s)
             else:
+                state = s[j]
                 ok, last = _coupler_newton(
                     laws, st, dt, force_tolerance, closure_free, rate_free, gain_u, gain_v, P, s, j, st.work_block, st.work_local, st.work_pivots
                 )
-                if not ok:
-                    return sweep, j, COUPLER_NEWTON_FAILED, last
+                if not ok:  # from where the cycling Newton started: the scalar root, the state following the force
+                    P[j] = previous
+                    s[j] = state
+                    P[j], kind = _scalar_root(laws, st, dt, j, force_tolerance, closure_free, rate_free, gain_u, gain_v, P, s)
+            if kind != 0:
+                return sweep, j, kind, 0.0
             if abs(P[j] - previous) > change:
                 change, worst = abs(P[j] - previous), j
         if change <= force_tolerance:
@@ -945,23 +1048,35 @@ def _gauss_seidel(laws, st, dt, force_tolerance, closure_free, rate_free, gain_u
 
 
 @njit(**_JIT)
-def _commit(laws, st, dt, P, s, closure, rate, state_rate, modes):
-    """Book the step's coupler energy and take the new values (mirrors CouplerSolve._commit)."""
+def _held_at_jump(force, force_residual, tolerance, jump_fraction):
+    """``|P − T| > max(tolerance, jump_fraction · max(|P|, |T|))``: the step ended held at a jump of the law
+    (mirrors femref.impact.couplers.held_at_jump)."""
+    law_force = force - force_residual
+    return abs(force_residual) > max(tolerance, jump_fraction * max(abs(force), abs(law_force)))
+
+
+@njit(**_JIT)
+def _commit(laws, st, dt, force_tolerance, P, s, closure, rate, state_rate, modes, residual):
+    """Book the step's coupler energy and take the new values (mirrors CouplerSolve._commit; ``residual[j]``
+    is ``P − T`` of coupler j)."""
     for j in range(P.size):
         law = _law_of(laws, j)
         mode = modes[j]
         stored = _stored_energy(law, closure[j], s[j], mode)
-        if mode == st.mode[j]:
+        work = 0.5 * (P[j] + st.force[j]) * (closure[j] - st.closure[j])
+        st.work[j] += work
+        held = _held_at_jump(P[j], residual[j], force_tolerance, laws.jump_fraction[0])
+        if mode == st.mode[j] and not held and st.held[j] == 0:  # on the law from end to end
             mid_closure = 0.5 * (closure[j] + st.closure[j])
             mid = _effective_closure(law, mid_closure, mode)
             rate_mid = 0.5 * (rate[j] + st.rate[j])
             st.dissipated[j] += dt * _law_dissipation_rate(
                 law, mid, rate_mid, 0.5 * (s[j] + st.state[j]), 0.5 * (P[j] + st.force[j]), mode != 0
             )
-        else:  # the contact changed within the step: absorbed work less the change of stored energy
-            work = 0.5 * (P[j] + st.force[j]) * (closure[j] - st.closure[j])
+        else:  # the contact changed within the step, or held at a jump: absorbed work less the change of stored energy
             st.dissipated[j] += work - (stored - st.stored[j])
         st.stored[j] = stored
+        st.held[j] = 1 if held else 0
     for j in range(P.size):  # (slice assignments would cost seconds of compilation each)
         st.force[j] = P[j]
         st.state[j] = s[j]
@@ -983,7 +1098,9 @@ def solve(laws, st, dt, force_tolerance, closure_free, rate_free, gain_u, gain_v
     ``(iterations, -1, 0, 0.0)``; on failure leaves ``st`` unchanged and returns
     ``(iterations so far, worst coupler, failure kind, change)``: kind 1 (SWEEPS_EXHAUSTED)
     with the last sweep's largest change in P (N), kind 2 (COUPLER_NEWTON_FAILED) for the
-    stateful coupler whose Newton failed, with its last force residual (N).
+    stateful coupler whose Newton cycled and whose state under the held force did not
+    settle, kind 3 (BRACKET_NOT_FOUND) for the coupler whose scalar root found no sign
+    change (change 0.0 for both).
     """
     n = closure_free.size
     rows = laws.state_row
@@ -1024,6 +1141,9 @@ def solve(laws, st, dt, force_tolerance, closure_free, rate_free, gain_u, gain_v
         if kind != 0:
             return iteration + sweeps, worst, kind, change
         _residual(laws, st, dt, closure_free, rate_free, gain_u, gain_v, P, s, closure, rate, new_modes, state_rate, tangent, residual)
+        for j in range(n):  # the sweeps drove each state by the force P (not T)
+            if laws.stateful[j] != 0:
+                state_rate[j] = _driven_rate(_law_of(laws, j), closure[j], rate[j], s[j], P[j])[0]
         iteration += sweeps
-    _commit(laws, st, dt, P, s, closure, rate, state_rate, new_modes)
+    _commit(laws, st, dt, force_tolerance, P, s, closure, rate, state_rate, new_modes, residual)
     return iteration, -1, 0, 0.0

@@ -142,6 +142,7 @@ def solve_compiled(
         "force": np.full((n_out, n_c), np.nan),
         "closure": np.full((n_out, n_c), np.nan),
         "energy": np.full((n_out, len(ENERGY_NAMES)), np.nan),
+        "coupler_work": np.full(n_out, np.nan),
     }
     counters = np.zeros(8, dtype=np.int64)
     counters[STEP], counters[OUTPUT], counters[WORST] = 1, 0, -1  # run_steps records row 0 first
@@ -153,7 +154,7 @@ def solve_compiled(
         stop = min(steps, int(counters[STEP]) + chunk - 1)
         run_steps(pool.layout, pool.values, laws, couplers, dt, tolerance, gain_u, gain_v, outputs, stop, counters, change,
                   history["displacement"], history["velocity"], history["acceleration"], history["force"], history["closure"], history["energy"],
-                  np.zeros(n_c), np.zeros(n_c), np.zeros(n_c, dtype=np.int64))
+                  history["coupler_work"], np.zeros(n_c), np.zeros(n_c), np.zeros(n_c, dtype=np.int64))
         if progress is not None:
             progress(stop if counters[WORST] < 0 else int(counters[FAILED_STEP]) - 1, steps)
     failed = counters[WORST] >= 0
@@ -180,14 +181,17 @@ def solve_compiled(
                       for c, system in enumerate(systems)],
         status=-1 if failed else 0,
         message=message,
+        coupler_work=history["coupler_work"],
     )
 
 
 @njit(cache=True, _nrt=False, inline="always")
-def record(layout, values, couplers, k: int, displacement, velocity, acceleration, force, closure, energy) -> None:
-    """Row ``k`` of the histories: every car's sensors and energies, the couplers' forces and closures."""
+def record(layout, values, couplers, k: int, displacement, velocity, acceleration, force, closure, energy, coupler_work) -> None:
+    """Row ``k`` of the histories: every car's sensors and energies, the couplers' forces and closures, the work
+    the cars did on the couplers."""
     for e in range(energy.shape[1]):
         energy[k, e] = 0.0
+    coupler_work[k] = 0.0
     for c in range(layout.shape[0]):
         car_kernels.observe(layout, values, c, k, displacement, velocity, acceleration, energy)
     for j in range(couplers.force.size):
@@ -195,17 +199,18 @@ def record(layout, values, couplers, k: int, displacement, velocity, acceleratio
         closure[k, j] = couplers.closure[j]
         energy[k, 3] += couplers.stored[j]
         energy[k, 4] += couplers.dissipated[j]
+        coupler_work[k] += couplers.work[j]
 
 
 @njit(cache=True, _nrt=False)
 def run_steps(layout, w, laws, couplers, dt, tolerance, gain_u, gain_v, outputs, stop, counters, change,
-              displacement, velocity, acceleration, force, closure, energy, closure_free, rate_free, previous_modes) -> None:
+              displacement, velocity, acceleration, force, closure, energy, coupler_work, closure_free, rate_free, previous_modes) -> None:
     """Steps ``counters[STEP] … stop`` (module docstring), after recording row 0 (t = 0) if
     ``counters[OUTPUT]`` is 0; a failing coupler iteration stops the run with ``counters[FAILED_STEP]``,
     ``counters[WORST]`` (the coupler) and ``counters[FAILURE_KIND]`` set."""
     n_c = couplers.force.size
     if counters[OUTPUT] == 0:
-        record(layout, w, couplers, 0, displacement, velocity, acceleration, force, closure, energy)
+        record(layout, w, couplers, 0, displacement, velocity, acceleration, force, closure, energy, coupler_work)
         counters[OUTPUT] = 1
     for step in range(counters[STEP], stop + 1):
         for j in range(n_c):
@@ -244,7 +249,7 @@ def run_steps(layout, w, laws, couplers, dt, tolerance, gain_u, gain_v, outputs,
             car_kernels.advance(layout, w, c)
         k = counters[OUTPUT]
         if k < outputs.size and step == outputs[k]:
-            record(layout, w, couplers, k, displacement, velocity, acceleration, force, closure, energy)
+            record(layout, w, couplers, k, displacement, velocity, acceleration, force, closure, energy, coupler_work)
             counters[OUTPUT] = k + 1
     counters[STEP] = stop + 1
 

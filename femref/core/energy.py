@@ -1,0 +1,36 @@
+"""The energy balance of a simulated system: the work done on it equals the change of what it holds plus what
+it dissipated — one definition for every model run (impact lines and single bodies)."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+
+def energy_balance_error(energy: ArrayLike, work: ArrayLike | None = None) -> float:
+    """``max_t |E(t) − E(0) − W(t)| / max_t max(|E(t)|, |W(t)|)``: the work done on a system equals the change
+    of the energy it holds (kinetic, strain, stored) plus the energy it has dissipated.
+
+    ``energy`` is ``E(t)``, the sum of the system's accounts at the output times (J); ``work`` is
+    ``W(t)``, the work done on it from outside since ``t = 0`` (J; None: a closed system, ``W = 0``).
+    NaN samples (after a failed step) are left out; 0 when both vanish (nothing moves). The one
+    definition of an energy balance: an impact run's (``femref.impact.response.ImpactResponse``: the whole
+    line closed, and the cars under the coupler forces' work) and a single body's under end loads
+    (``femref.fem.transient``: ``W`` the end loads' work, ``E(0) = 0``).
+    """
+    e = np.asarray(energy, dtype=float)
+    w = np.zeros_like(e) if work is None else np.asarray(work, dtype=float)
+    if e.shape != w.shape or e.ndim != 1:
+        raise ValueError(f"energy and work must be 1-D histories of one length, got shapes {e.shape} and {w.shape}")
+    known = np.isfinite(e) & np.isfinite(w)
+    if not np.any(known):
+        return 0.0
+    e0 = e[0] if np.isfinite(e[0]) else 0.0
+    e, w = e[known], w[known]
+    scale = float(max(np.max(np.abs(e)), np.max(np.abs(w))))
+    if scale <= 0.0:
+        return 0.0
+    return float(np.max(np.abs(e - e0 - w)) / scale)
+
+
+__all__ = ["energy_balance_error"]

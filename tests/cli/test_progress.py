@@ -1,0 +1,114 @@
+"""Progress of the commands that work longer than a few seconds besides the model runs (issue 18): ``femref run``
+of a measured case (the records read, then each event with its estimators) and ``femref calibrate`` (each
+estimator over the sweep's samples) report through the same mechanism as the model runs
+(femref.cli.common.model_progress): status lines on stderr with ``femref --progress`` when stderr is not a
+terminal, nothing without it, a bar per stage on a terminal."""
+
+from __future__ import annotations
+
+import io
+import re
+from pathlib import Path
+
+import click
+import pytest
+import yaml
+from click.testing import CliRunner
+from rich.console import Console
+
+from femref.cli import main
+from femref.cli.common import PROGRESS_KEY, model_progress
+
+from support.paths import CASES
+
+STATUS = re.compile(r"^(?P<stage>.+): (?P<how>running|done in \d+\.\d s|stopped after \d+\.\d s)$")
+
+
+def status_lines(stderr: str) -> list[tuple[str, str]]:
+    """The (stage, running | done | stopped) status lines of ``stderr``, in order."""
+    found = []
+    for line in stderr.splitlines():
+        match = STATUS.match(line)
+        if match:
+            found.append((match["stage"], match["how"].split(" ")[0]))
+    return found
+
+
+@pytest.fixture(scope="module")
+def measured_case(tmp_path_factory) -> Path:
+    """cases/measured_yard.yaml (two events) reading the shipped records, with the cheap estimators only."""
+    folder = tmp_path_factory.mktemp("measured")
+    data = yaml.safe_load((CASES / "measured_yard.yaml").read_text())
+    for record in data["records"]:
+        record["file"] = str(CASES / record["file"])
+    data["estimators"] = ["inverse_rigid", "inverse_quasi_rigid"]
+    path = folder / "yard.yaml"
+    path.write_text(yaml.safe_dump(data, sort_keys=False))
+    return path
+
+
+def test_measured_run_shows_a_status_line_per_stage_with_progress(measured_case, tmp_path) -> None:
+    """``femref --progress run measured.yaml`` with stderr piped: the records read, then each event (number, count and
+    trigger time) running and done, on stderr; the same table on stdout as without the flag, which shows nothing."""
+    runner = CliRunner()
+    quiet = runner.invoke(main, ["run", str(measured_case), "-o", str(tmp_path / "a.h5")], env={"COLUMNS": None})
+    shown = runner.invoke(main, ["--progress", "run", str(measured_case), "-o", str(tmp_path / "b.h5")], env={"COLUMNS": None})
+    assert quiet.exit_code == shown.exit_code == 0, shown.output
+    assert status_lines(quiet.stderr) == []
+    assert status_lines(shown.stderr) == [
+        ("read records", "running"), ("read records", "done"),
+        ("event 1/2 at 1.503 s", "running"), ("event 1/2 at 1.503 s", "done"),
+        ("event 2/2 at 3.603 s", "running"), ("event 2/2 at 3.603 s", "done"),
+    ], shown.stderr
+    assert shown.stdout == quiet.stdout.replace("a.h5", "b.h5")
+
+
+@pytest.fixture(scope="module")
+def calibration_sweep(tmp_path_factory) -> tuple[Path, Path]:
+    """A 20-sample fem sweep of the default scene, coarse and short (8 elements, 0.2 s): the fewest samples calibrate takes."""
+    import distributed
+
+    from femref.case.defaults import default_scene_data
+    from femref.sweep import run_sweep
+
+    folder = tmp_path_factory.mktemp("calibrate")
+    base = default_scene_data()
+    base.update(models=["fem"], estimators=[], time={"end": 0.2})
+    base["fem"]["elements"] = 8
+    sweep = {"case": base, "samples": 20, "seed": 5, "models": ["fem"],
+             "parameters": {"cars.0.velocity": {"uniform": [1.5, 3.0]}}, "outputs": {"record_length": 101, "force_length": 51}}
+    (folder / "cal.yaml").write_text(yaml.safe_dump(sweep, sort_keys=False))
+    with distributed.Client(processes=False, n_workers=1, threads_per_worker=1, dashboard_address=None) as client:
+        summary = run_sweep(folder / "cal.yaml", folder / "cal.h5", client=client)
+    assert summary.complete and summary.failed == 0
+    return folder / "cal.yaml", folder / "cal.h5"
+
+
+def test_calibrate_shows_a_status_line_per_estimator_with_progress(calibration_sweep, tmp_path) -> None:
+    """``femref --progress calibrate``: the sweep file read, then each inverse estimator running and done, on stderr;
+    nothing without the flag."""
+    sweep, results = calibration_sweep
+    runner = CliRunner()
+    quiet = runner.invoke(main, ["calibrate", str(sweep), str(results), "-o", str(tmp_path / "a.h5")])
+    shown = runner.invoke(main, ["--progress", "calibrate", str(sweep), str(results), "-o", str(tmp_path / "b.h5")])
+    assert quiet.exit_code == shown.exit_code == 0, shown.output
+    assert status_lines(quiet.stderr) == []
+    assert status_lines(shown.stderr) == [(stage, how) for stage in ("read cal.h5", "inverse_rigid", "inverse_quasi_rigid") for how in ("running", "done")]
+    assert "inverse_rigid: peak error 95 % band" in shown.stdout
+
+
+def test_a_stage_ended_by_an_error_says_stopped() -> None:
+    """A status line never says done for a stage an error ended: ``<stage>: stopped after …``; on a terminal a finished
+    stage's bar may be hidden when the next starts (many events), and the bars go when all are done."""
+    console = Console(file=io.StringIO(), width=100)
+    with click.Context(main) as context:
+        context.meta[PROGRESS_KEY] = True
+        with pytest.raises(RuntimeError), model_progress(console) as progress_for:
+            progress_for("event 1/1 at 0.100 s")
+            raise RuntimeError("a record file changed")
+        terminal = Console(file=io.StringIO(), width=100, force_terminal=True)
+        with model_progress(terminal, keep_finished=False) as progress_for:
+            for stage in ("event 1/2", "event 2/2"):
+                step = progress_for(stage)
+                step(1, 1)
+    assert status_lines(console.file.getvalue()) == [("event 1/1 at 0.100 s", "running"), ("event 1/1 at 0.100 s", "stopped")]
