@@ -16,8 +16,10 @@ gives the same histories as pandas DataFrames indexed by time. Both read the dat
 their paths with h5py (the time axis ``/<model>/time``), so they read every femref result
 file, with or without HDF5 dimension scales.
 
-Nothing here prints; bad input raises :class:`femref.case.CaseError` (a ``ValueError``), a
-model that fails is a result with ``status == "failed"`` and its message, as from the CLI.
+Nothing here prints; bad input raises :class:`femref.case.CaseError` (a ``ValueError``), an
+output ``femref run -o`` would refuse raises :class:`femref.results.OutputPathError` (a
+``ValueError``; the same rule, :func:`femref.results.check_output_path`), both before any work;
+a model that fails is a result with ``status == "failed"`` and its message, as from the CLI.
 """
 
 from __future__ import annotations
@@ -26,14 +28,14 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from femref.results import AXIS_NAMES
+from femref.results import AXIS_NAMES, OutputPathError
 from femref.run import RunOutcome, run_scene
 
 if TYPE_CHECKING:  # the readers' return types; neither library is needed to run a case
     import pandas
     import xarray
 
-__all__ = ["RunOutcome", "open_frames", "open_result", "result_models", "run_case", "run_scene"]
+__all__ = ["OutputPathError", "RunOutcome", "check_run_output", "open_frames", "open_result", "result_models", "run_case", "run_scene"]
 
 #: The extra that installs what :func:`open_result` and :func:`open_frames` need.
 READ_EXTRA = "femref[xarray]"
@@ -49,9 +51,13 @@ def run_case(case: str | Path | Mapping[str, Any], output: str | Path | None = N
 
     ``base_dir`` resolves the relative file paths of a mapping (CSV profiles, networks; default: the
     working directory); a path's own folder is used for a file. Raises :class:`femref.case.CaseError`
-    for bad input. Simulated cases only: a measured case is run by ``femref run`` (its events), and a
-    case with ``tolerance:`` by ``femref run`` or :func:`femref.choice.choose_model` (the climb of
-    the model ladder) — both are refused here rather than run differently.
+    for bad input, and :class:`femref.results.OutputPathError` (a ``ValueError``) for an ``output`` that
+    ``femref run -o`` would refuse (:func:`check_run_output`: a missing or unwritable folder, a folder, the
+    case file or a file it names), both before any work and writing nothing; the temporaries of ``output``
+    that killed or older femref runs left are removed. Simulated cases only: a measured case is run by
+    ``femref run`` (its events), and a case with ``tolerance:`` by ``femref run`` or
+    :func:`femref.choice.choose_model` (the climb of the model ladder) — both are refused here rather
+    than run differently.
     """
     from femref.case import CaseError, Problem, load_case, parse_case, resolved_yaml
     from femref.scene.build import scene_from_case
@@ -70,12 +76,39 @@ def run_case(case: str | Path | Mapping[str, Any], output: str | Path | None = N
         rule = "run_case runs the case's models; a tolerance (model choice) runs with `femref run` or femref.choice.choose_model"
         raise CaseError(Problem(("tolerance",), rule, loaded.tolerance.value), source)
     scene = scene_from_case(loaded, folder)
+    if output is not None:
+        output = Path(output)
+        check_run_output(output, loaded, None if isinstance(case, Mapping) else Path(case), folder)
     outcome = run_scene(scene, source=source)
     if output is not None:
         from femref.results import write_results
 
         write_results(output, resolved_yaml(loaded), outcome.results, outcome.scores, scene=scene.facts())
     return outcome
+
+
+def check_run_output(output: Path, case: Any, case_path: Path | None = None, base_dir: Path | None = None) -> None:
+    """Check ``output`` as ``femref run -o`` does, before any work (:func:`femref.results.check_output_path`): its
+    folder must exist and be writable, it may not be a folder, and neither it nor the field files a run writes beside
+    it (``<stem>_fem_fields.xdmf/.h5`` with ``fem.fields``) may be ``case_path`` or a file the validated ``case``
+    names (records, CSV loads, networks: :func:`femref.case.inputs.case_inputs`). Raises
+    :class:`femref.results.OutputPathError` (a ``ValueError``) naming ``output`` and the rule; nothing is written.
+
+    Then removes the temporaries of ``output`` a killed femref run or an older femref left
+    (:func:`femref.results.clean_leftovers`); one an older femref left that is not certainly unused is kept, with
+    a :class:`UserWarning` naming it.
+    """
+    import warnings
+
+    from femref.case.inputs import case_inputs, field_models
+    from femref.results import check_output_path, clean_leftovers, field_file_paths
+
+    inputs: dict[str, Path | None] = {"case": case_path}
+    inputs.update({f"{key} of the case": path for key, path in case_inputs(case, base_dir).items()})
+    check_output_path(output, "output", inputs, writes=field_file_paths(output, field_models(case)))
+    for kept, why in clean_leftovers(output).kept:
+        warnings.warn(f"kept {kept}: it looks like an older femref's temporary of {output.name}, but {why}; "
+                      "remove it yourself if no femref run is writing it", UserWarning, stacklevel=3)
 
 
 def result_models(path: str | Path) -> list[str]:

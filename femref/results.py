@@ -36,6 +36,12 @@ leaves either the previous pair or new field files beside the previous result, w
 ``FEMREF_TEST_PAUSE_BEFORE_PUBLISH`` (seconds) is a test hook only: it sleeps between writing
 the temporaries and the renames, so a test can kill a run there.
 
+The output path (issue 18, before any work): :func:`check_output_path` is the rule every command
+and :func:`femref.api.run_case` apply to where they write — its folder exists and is writable, a
+file is not a folder, and neither it nor a file written beside it is an input — raising
+:class:`OutputPathError` (a ``ValueError``; the command line's exit 2); :func:`clean_leftovers`
+then removes the output's leftovers of killed and older runs (both below).
+
 Older femref versions (before issue 18) named their temporaries at random: the result file
 ``.<final name>.<8 random characters>.tmp`` (``tempfile.mkstemp``) and a folder
 ``tmp<8 random characters>`` (``tempfile.mkdtemp``) holding the XDMF + HDF5 field files
@@ -67,7 +73,7 @@ import shutil
 import time
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -358,6 +364,145 @@ def _paths_in_use(entries: list[Path]) -> set[Path] | None:
             if any(link == target or link.startswith(target + os.sep) for link in links):
                 used.add(entry)
     return used
+
+
+# --- the output path: the rule femref's commands and femref.api share ---------------------------------------------
+#
+# An output is checked before any work, so a bad path never costs a run and nothing is written: its folder must
+# exist and be writable (a file output's parent, a folder output itself or its parent); a file output may not be a
+# folder, a folder output not a file; neither the output nor any other file the writer puts beside it (``writes``:
+# a sweep's ``.partial``, a run's field files, a study's networks) may be one of the writer's inputs — the same path,
+# or the same file by another relative path, a symbolic or a hard link. The inputs are the files given to the writer
+# and every file a case names (femref.case.inputs.case_inputs). The command line prints an OutputPathError as
+# ``error: …`` and exits 2 (femref.cli.common.check_output); femref.api.run_case raises it.
+
+
+class OutputPathError(ValueError):
+    """An output path that cannot be written: ``<option> <path>: <rule>; nothing was written``.
+
+    ``option`` names where the path came from (``-o``; ``-o (default)`` when it is the option's
+    default; ``output`` for :func:`femref.api.run_case`), ``problem`` the rule it breaks
+    (:func:`output_problem`).
+    """
+
+    def __init__(self, path: Path, option: str, problem: str, default: bool = False) -> None:
+        self.path = Path(path)
+        self.option = option
+        self.problem = problem
+        self.default = default
+        named = f"{option} (default)" if default else option
+        super().__init__(f"{named} {path}: {problem}; nothing was written")
+
+
+def check_output_path(
+    path: str | Path,
+    option: str,
+    inputs: Mapping[str, str | Path | None] | None = None,
+    *,
+    folder: bool = False,
+    default: bool = False,
+    writes: Iterable[str | Path] = (),
+) -> None:
+    """Raise :class:`OutputPathError` unless ``path`` can be written (:func:`output_problem`); write nothing.
+
+    ``option`` names the option or argument (``-o``), ``default`` says the path is its default;
+    ``inputs`` the writer's input files by name (``CASE``, ``loads.F2.csv.path of CASE``), which
+    the output may not be; ``folder`` says the output is a folder; ``writes`` the other files the
+    writer puts beside the output or in the output folder, which may not be inputs either.
+    """
+    problem = output_problem(Path(path), inputs or {}, folder, writes)
+    if problem:
+        raise OutputPathError(Path(path), option, problem, default)
+
+
+def output_problem(path: Path, inputs: Mapping[str, str | Path | None], folder: bool = False, writes: Iterable[str | Path] = ()) -> str:
+    """Why ``path`` cannot be the output, or ``""``: its folder must exist and be writable, a file output must not be
+    a folder (a folder output not a file), and neither it nor a file of ``writes`` may be one of ``inputs`` (the same
+    path, or the same file through another relative path, a symbolic or a hard link)."""
+    path = Path(path)
+    if folder:
+        if path.exists() and not path.is_dir():
+            return "is a file; the output is a folder"
+        where = path if path.is_dir() else path.parent
+    else:
+        if path.is_dir():
+            return "is a folder; the output is a file"
+        where = path.parent
+    if not where.exists():
+        return f"the folder {where} does not exist (the output's folder must exist)"
+    if not where.is_dir():
+        return f"{where} is not a folder"
+    if not os.access(where, os.W_OK | os.X_OK):
+        return f"the folder {where} is not writable (the output's folder must be writable)"
+    for name, given in inputs.items():
+        if given is not None and same_file(path, Path(given)):
+            return f"is the input {name} {given} (the output may not overwrite an input)"
+    for written in writes:
+        for name, given in inputs.items():
+            if given is not None and same_file(Path(written), Path(given)):
+                return f"would write {written}, which is the input {name} {given} (the output may not overwrite an input)"
+    return ""
+
+
+def same_file(a: Path, b: Path) -> bool:
+    """``a`` and ``b`` are the same file: the same resolved path, or (both existing) the same inode (a hard link)."""
+    if a.resolve() == b.resolve():
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # either does not exist
+        return False
+
+
+@dataclass
+class LeftoverCleanup:
+    """What :func:`clean_leftovers` did for one output: the temporaries it removed — a killed run's (``killed``),
+    an older femref's (``legacy``) — and those it kept with the reason (``kept``: not certainly unused)."""
+
+    killed: list[Path] = field(default_factory=list)
+    legacy: list[Path] = field(default_factory=list)
+    kept: list[tuple[Path, str]] = field(default_factory=list)
+
+
+def clean_leftovers(path: str | Path) -> LeftoverCleanup:
+    """Remove the temporaries of ``path`` that no running process writes — a killed run's (pid-named,
+    :func:`remove_leftovers`) and an older femref's (``tmp*`` field-file folders,
+    ``.<name>.<random>.tmp`` files: :func:`remove_legacy_leftovers`); return what was removed
+    and what was kept (an older femref's temporary that is not certainly unused, or holds more than femref wrote)."""
+    killed = remove_leftovers(path)
+    legacy = remove_legacy_leftovers(path)
+    return LeftoverCleanup(killed, legacy.removed, legacy.kept)
+
+
+def field_file_paths(output: str | Path, models: Sequence[str]) -> list[Path]:
+    """The field files a result file ``output`` gets beside it for each of ``models`` that writes fields:
+    ``<stem>_<model>_fields.xdmf`` and its HDF5 companion ``<stem>_<model>_fields.h5``
+    (:func:`field_file_name`; meshio names the companion after the XDMF file)."""
+    output = Path(output)
+    pairs = [output.with_name(field_file_name(output, model)) for model in models]
+    return [file for xdmf in pairs for file in (xdmf, xdmf.with_suffix(".h5"))]
+
+
+def result_field_files(results: str | Path, name: str = "RESULTS.h5") -> dict[str, Path]:
+    """The field files of the result file ``results`` as inputs for :func:`check_output_path`, keyed
+    ``XDMF field file of model <model> of <name>`` (``HDF5 field file …``): the names it records (attribute
+    ``field_files`` of ``/<model>/fields``) and, for a model with fields that records none (a file written before
+    the names were recorded), the names femref gives them (:func:`field_file_paths`). Empty for a file without
+    fields. Raises ``OSError`` when ``results`` is not a readable HDF5 file."""
+    results = Path(results)
+    found: dict[str, Path] = {}
+    with h5py.File(results, "r") as h5:
+        for model, group in h5.items():
+            if not (isinstance(group, h5py.Group) and isinstance(group.get("fields"), h5py.Group)):
+                continue
+            try:
+                names = sorted(dict(json.loads(group["fields"].attrs[FIELD_FILES_ATTRIBUTE])))
+            except (KeyError, TypeError, ValueError):  # none recorded (or unreadable): the names femref gives them
+                names = [path.name for path in field_file_paths(results, [model])]
+            for file in names:
+                kind = {".xdmf": "XDMF field file", ".h5": "HDF5 field file"}.get(Path(file).suffix, f"field file {file}")
+                found[f"{kind} of model {model} of {name}"] = results.parent / file
+    return found
 
 
 @contextlib.contextmanager

@@ -21,7 +21,7 @@ from pydantic import BaseModel
 from femref.case.errors import KeyPath, format_key_path
 from femref.case.fields import TaggedSpec
 
-__all__ = ["case_inputs"]
+__all__ = ["case_inputs", "field_models"]
 
 
 def case_inputs(case: BaseModel, base_dir: Path | None = None) -> dict[str, Path]:
@@ -53,3 +53,12 @@ def _walk(value: Any, at: KeyPath, found: dict[str, Path]) -> None:
     elif isinstance(value, (list, tuple)):
         for index, item in enumerate(value):
             _walk(item, (*at, index), found)
+
+
+def field_models(case: Any) -> list[str]:
+    """The models of the validated ``case`` that write field files beside its result file: ``fem`` when it runs
+    with ``fem.fields: true`` (transient cases; an impact case refuses field files). A command's output check
+    keeps those files off the case's inputs as it does the result file."""
+    fem = getattr(case, "fem", None)
+    models = getattr(case, "models", ()) or ()
+    return ["fem"] if getattr(fem, "fields", False) and "fem" in models else []

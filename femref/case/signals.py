@@ -7,7 +7,9 @@ file is a case error; its relative path resolves against the case file's directo
 (:func:`femref.core.signals.check_csv_size`: at most
 :data:`~femref.core.signals.MAX_CSV_BYTES` bytes by ``os.stat``, at most
 :data:`~femref.core.signals.MAX_CSV_ROWS` samples estimated from the bytes per row), so
-a huge record is refused at ``loads.<name>.csv.path`` in milliseconds.
+a huge record is refused at ``loads.<name>.csv.path`` in milliseconds. The samples read then
+are kept with the validated spec: :meth:`CsvSignal.build` makes the signal from them and reads
+the file again only when its size or modification time (``st_mtime_ns``) changed since.
 
 Plausibility (:mod:`femref.case.plausibility`): pulse durations and rise times lie within
 ``BOUNDS["load_time"]``; the load levels — a constant, an amplitude, a record's largest
@@ -16,6 +18,7 @@ knows whether the load is a force or a moment (:mod:`femref.case.single`).
 """
 
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, ClassVar
 
@@ -142,13 +145,44 @@ def _csv_column(value: Any) -> int | str:
 CsvColumn = Annotated[int | str, PlainValidator(_csv_column)]
 
 
+@dataclass(frozen=True, eq=False)
+class _CsvRead:
+    """What :class:`CsvSignal` validation read: the file (absolute), its :func:`_stamp` before reading, the two columns.
+
+    Equal when the file, the stamp and the samples are (pydantic compares private attributes in ``==`` of cases)."""
+
+    path: Path
+    stamp: tuple[int, int] | None
+    times: np.ndarray
+    values: np.ndarray
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, _CsvRead):
+            return NotImplemented
+        return (self.path, self.stamp) == (other.path, other.stamp) and np.array_equal(self.times, other.times) and np.array_equal(self.values, other.values)
+
+    def __hash__(self) -> int:
+        return hash((self.path, self.stamp))
+
+
+def _stamp(path: Path) -> tuple[int, int] | None:
+    """``(st_size, st_mtime_ns)`` of ``path``, None when it cannot be stat'ed (then :meth:`CsvSignal.build` reads it)."""
+    try:
+        status = path.stat()
+    except OSError:
+        return None
+    return (status.st_size, status.st_mtime_ns)
+
+
 class CsvSignal(SignalSpec):
     """Samples from a CSV file, interpolated linearly, zero outside the recorded times.
 
     The file is read and checked when the case is loaded, its size first, before it is
     read (module docstring). A relative ``path`` is relative to the case file's directory
     and is stored resolved (absolute), so the resolved case reads the same file from
-    anywhere. The largest ``|value|`` and its data row are kept for :meth:`level_problems`.
+    anywhere. The largest ``|value|`` and its data row are kept for :meth:`level_problems`,
+    and the samples read for :meth:`build` (private: not a field of the case, not in the
+    resolved case), so a run reads the file once unless it changed since it was validated.
     """
 
     tag: ClassVar[str] = "csv"
@@ -156,6 +190,7 @@ class CsvSignal(SignalSpec):
     time_column: CsvColumn = Field(default=0, description="Time column (s): header name or 0-based index. Default 0.")
     value_column: CsvColumn = Field(default=1, description="Load column (N or N·m): header name or 0-based index. Default 1.")
     _peak: tuple[float, int] | None = PrivateAttr(default=None)  # (the value of largest magnitude, its 1-based data row), set when read
+    _read: _CsvRead | None = PrivateAttr(default=None)  # the samples validation read and the file's stamp then (see build)
 
     @field_validator("path", mode="after")
     @classmethod
@@ -171,6 +206,7 @@ class CsvSignal(SignalSpec):
 
     def _file_problem(self) -> str | None:
         try:
+            stamp = _stamp(self.path)  # before reading: a change while it is read shows as a later stamp in build
             times, values = signals.read_csv_columns(self.path, self.time_column, self.value_column)
         except FileNotFoundError:
             return f"CSV file {self.path} does not exist"
@@ -190,6 +226,7 @@ class CsvSignal(SignalSpec):
             return f"CSV file {self.path}: time must increase strictly; data row {k + 2} has t = {times[k + 1]} after t = {times[k]}"
         row = int(np.argmax(np.abs(values)))
         self._peak = (float(values[row]), row + 1)
+        self._read = _CsvRead(self.path.absolute(), stamp, times, values)
         return None
 
     def level_problems(self, bound: Bound) -> list[Problem]:
@@ -199,7 +236,12 @@ class CsvSignal(SignalSpec):
         return _level_problem((self.tag, "path"), bound, value, f"CSV file {self.path}, data row {row} (the largest |value|): ")
 
     def build(self, base_dir: Path | None = None) -> signals.Signal:
+        """The record as a :class:`~femref.core.signals.Tabulated` signal, from the samples validation read when the
+        file is unchanged since (same path, size and ``st_mtime_ns``); read again otherwise (or if never read)."""
         path = self.path if self.path.is_absolute() else Path(base_dir or Path.cwd()) / self.path
+        read = self._read
+        if read is not None and read.stamp is not None and read.path == path.absolute() and read.stamp == _stamp(path):
+            return signals.Tabulated(read.times, read.values)
         return signals.Tabulated.from_csv(path, self.time_column, self.value_column)
 
 

@@ -19,7 +19,31 @@ from femref.cli.run import run_command, validate_command
 from femref.cli.sweep import calibrate_command, study_command, sweep_command
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+#: Exit codes and environment variables, under ``femref --help`` (every ``FEMREF_`` variable a user may set;
+#: tests/cli/test_first_hour.py checks the list against the code). ``\b`` keeps click from rewrapping a block.
+EPILOG = """\b
+Exit codes:
+  0    success
+  1    a failure during the run (a model, the sweep machinery, a study step);
+       the message says where
+  2    bad input: the message names the key path or option and the rule;
+       nothing is written
+  130  interrupted (sweeps and studies keep what they stored; run again to resume)
+
+\b
+Environment:
+  FEMREF_BUDGET=<factor>  multiply the work budget checked before a run
+                          (time and memory; e.g. 10 allows ten times more)
+  FEMREF_SELF_CHECK=1     the fem reference checks its own discretisation on
+                          every run (repeated at dt/2, dt/4), not only when
+                          the case under-resolves it
+  FEMREF_PROGRESS=1|0     as --progress / --no-progress
+  COLUMNS=<n>             width of the summary tables (default: the terminal's;
+                          piped: one line per row)
+"""
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]}, epilog=EPILOG)
 @click.version_option(package_name="femref")
 @click.option(
     "--progress/--no-progress",

@@ -55,9 +55,10 @@ def case_input_files(case, name: str = "CASE", base_dir: Path | None = None) -> 
 def check_output(
     path: Path, option: str, inputs: dict[str, Path | None] | None = None, folder: bool = False, default: bool = False, writes: Iterable[Path] = ()
 ) -> None:
-    """Exit 2, nothing written, unless ``path`` can be written (:func:`output_problem`); then remove the temporaries
-    a killed run left of it (:func:`femref.results.remove_leftovers`: never a live run's) and those an older femref
-    left (:func:`femref.results.legacy_leftovers`), each named on stderr.
+    """Exit 2, nothing written, unless ``path`` can be written (:func:`femref.results.check_output_path`: the
+    rule :func:`femref.api.run_case` applies too); then remove the temporaries a killed run left of it
+    (:func:`femref.results.remove_leftovers`: never a live run's) and those an older femref left
+    (:func:`femref.results.legacy_leftovers`), each named on stderr.
 
     Called before any work, so a bad output path never costs a run. ``option`` names the
     option (``-o``), ``default`` says the path is its default; ``inputs`` the command's input
@@ -65,10 +66,12 @@ def check_output(
     output may not be; ``writes`` the other files the command writes beside the output or in the
     output folder (a sweep's ``.partial``, a study's sweeps and networks), which may not be inputs either.
     """
-    problem = output_problem(path, inputs or {}, folder, writes)
-    if problem:
-        named = f"{option} (default)" if default else option
-        click.echo(f"error: {named} {path}: {problem}; nothing was written", err=True)
+    from femref.results import OutputPathError, check_output_path
+
+    try:
+        check_output_path(path, option, inputs, folder=folder, default=default, writes=writes)
+    except OutputPathError as error:
+        click.echo(f"error: {error}", err=True)
         sys.exit(EXIT_BAD_INPUT)
     if not folder:
         clean_leftovers(path)
@@ -78,54 +81,24 @@ def clean_leftovers(path: Path) -> None:
     """Remove the temporaries of ``path`` that no running process writes — a killed run's (pid-named) and an older
     femref's (``tmp*`` field-file folders, ``.<name>.<random>.tmp`` files: :func:`femref.results.legacy_leftovers`) —
     and say so on stderr, one line each; name (and keep) an older femref's temporary that is not certainly unused
-    or holds more than femref wrote."""
-    from femref.results import remove_leftovers, remove_legacy_leftovers
+    or holds more than femref wrote (:func:`femref.results.clean_leftovers`)."""
+    from femref.results import clean_leftovers as remove
 
-    for removed in remove_leftovers(path):
+    cleanup = remove(path)
+    for removed in cleanup.killed:
         click.echo(f"note: removed {removed}: a temporary of {path.name} left by a killed femref run", err=True)
-    legacy = remove_legacy_leftovers(path)
-    for removed in legacy.removed:
+    for removed in cleanup.legacy:
         click.echo(f"note: removed {removed}: a temporary of {path.name} left by an older femref run", err=True)
-    for kept, why in legacy.kept:
+    for kept, why in cleanup.kept:
         click.echo(f"note: kept {kept}: it looks like an older femref's temporary of {path.name}, but {why}; "
                    "remove it yourself if no femref run is writing it", err=True)
 
 
 def output_problem(path: Path, inputs: dict[str, Path | None], folder: bool = False, writes: Iterable[Path] = ()) -> str:
-    """Why ``path`` cannot be the output, or ``""``: its folder must exist and be writable, a file output must not be
-    a folder (a folder output not a file), and neither it nor a file of ``writes`` may be one of ``inputs`` (the same
-    path, or the same file through another relative path, a symbolic or a hard link)."""
-    if folder:
-        if path.exists() and not path.is_dir():
-            return "is a file; the output is a folder"
-        where = path if path.is_dir() else path.parent
-    else:
-        if path.is_dir():
-            return "is a folder; the output is a file"
-        where = path.parent
-    if not where.exists():
-        return f"the folder {where} does not exist (the output's folder must exist)"
-    if not where.is_dir():
-        return f"{where} is not a folder"
-    if not os.access(where, os.W_OK | os.X_OK):
-        return f"the folder {where} is not writable (the output's folder must be writable)"
-    for name, given in inputs.items():
-        if given is not None and _same_file(path, Path(given)):
-            return f"is the input {name} {given} (the output may not overwrite an input)"
-    for written in writes:
-        for name, given in inputs.items():
-            if given is not None and _same_file(written, Path(given)):
-                return f"would write {written}, which is the input {name} {given} (the output may not overwrite an input)"
-    return ""
+    """Why ``path`` cannot be the output, or ``""`` (:func:`femref.results.output_problem`, kept here for callers)."""
+    from femref.results import output_problem as problem
 
-
-def _same_file(a: Path, b: Path) -> bool:
-    if a.resolve() == b.resolve():
-        return True
-    try:
-        return os.path.samefile(a, b)
-    except OSError:  # either does not exist
-        return False
+    return problem(path, inputs, folder, writes)
 
 
 def source_name(case_path: Path | None) -> str:

@@ -1,7 +1,8 @@
 """``femref report RESULTS.h5 [-o REPORT.html]``: one self-contained HTML page of a result file.
 
 Exit codes (docs/design.md §5): 0 written, 2 bad input (missing file, not HDF5, not a femref
-result file, output naming the input). The page is assembled in memory and written under
+result file, output naming the input or one of its field files ``<stem>_<model>_fields.xdmf/.h5``,
+:func:`femref.results.result_field_files`). The page is assembled in memory and written under
 a temporary name in the target folder, then renamed: a failure leaves nothing under the
 final name.
 """
@@ -32,7 +33,7 @@ def write_atomically(path: Path, text: str) -> None:
 @click.command("report")
 @click.argument("results", metavar="RESULTS.h5", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path),
-              help="HTML file (default: RESULTS stem + .html, next to RESULTS); refused if it is RESULTS.h5")
+              help="HTML file (default: RESULTS stem + .html, next to RESULTS); refused if it is RESULTS.h5 or one of its field files")
 def report_command(results: Path, output: Path | None) -> None:
     """Write one self-contained HTML page (scores, plots, field map, case) from a femref result file.
 
@@ -40,10 +41,10 @@ def report_command(results: Path, output: Path | None) -> None:
     study.h5. Field files that do not match the result (another run's) are named in a warning.
 
     Exit codes: 0 written, 2 bad input (missing file, not a femref result file, the output
-    is the input; nothing written).
+    is the input or one of its field files; nothing written).
     """
     from femref.report import ReportInputError, build_report
-    from femref.results import field_files_match
+    from femref.results import field_files_match, result_field_files
 
     defaulted = output is None
     output = output or default_output(results)
@@ -54,7 +55,9 @@ def report_command(results: Path, output: Path | None) -> None:
     except ReportInputError as error:
         click.echo(f"error: {error}", err=True)
         sys.exit(EXIT_BAD_INPUT)
-    check_output(output, "-o", {"RESULTS.h5": results}, default=defaulted)  # after the input's own errors
+    # After the input's own errors. The result's field files are inputs too (the page reads them; an -o onto one would
+    # replace a ParaView file of the run with HTML): those it records, or femref's names for them.
+    check_output(output, "-o", {"RESULTS.h5": results, **result_field_files(results)}, default=defaulted)
     write_atomically(output, page)
     click.echo(f"wrote {output}")
     for problem in field_files_match(results):

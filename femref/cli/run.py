@@ -64,7 +64,8 @@ def run_command(case_path: Path | None, output: Path | None, tolerance: float | 
     run), 2 bad input (nothing written).
     """
     from femref.case import CaseError, resolved_yaml
-    from femref.results import write_results
+    from femref.case.inputs import field_models
+    from femref.results import field_file_paths, write_results
     from femref.run import run_scene
     from femref.choice import check_ladder_budget
     from femref.run.budget import check_budget
@@ -86,7 +87,7 @@ def run_command(case_path: Path | None, output: Path | None, tolerance: float | 
         sys.exit(EXIT_BAD_INPUT)
     defaulted = output is None
     output = output or Path(f"{case_path.stem if case_path else 'default'}.h5")
-    check_output(output, "-o", _inputs(case, case_path), default=defaulted)
+    check_output(output, "-o", _inputs(case, case_path), default=defaulted, writes=field_file_paths(output, field_models(case)))
     if case.kind == "measured":
         _run_measured(case, scene, output)
         return

@@ -151,8 +151,11 @@ def study_command(study_path: Path, out_dir: Path | None, scheduler: str | None,
     trained networks (networks/SOURCE_NAME.npz), study.h5 and study.md. Progress on stderr:
     a bar on a terminal, a line per tenth of each sweep's samples with femref --progress.
 
-    Exit codes: 0 written, 1 a failure during the study, 2 bad input (nothing written),
-    130 interrupted (the sweeps keep what they stored; run again to resume).
+    Every network file, study.h5 and study.md is written under a temporary name and renamed
+    when complete: a failure leaves none of them half-written.
+
+    Exit codes: 0 written, 1 a failure during the study (error: study failed: …), 2 bad input
+    (nothing written), 130 interrupted (the sweeps keep what they stored; run again to resume).
     """
     from femref.case import CaseError
     from femref.study.run import run_study
@@ -174,9 +177,13 @@ def study_command(study_path: Path, out_dir: Path | None, scheduler: str | None,
     except CaseError as error:
         click.echo(f"error: {error}", err=True)
         sys.exit(EXIT_BAD_INPUT)
-    except SweepInterrupted:
+    except (SweepInterrupted, KeyboardInterrupt):
         click.echo("interrupted: the sweeps keep what they stored; run again to resume", err=True)
         sys.exit(EXIT_INTERRUPTED)
+    except Exception as error:  # a step of the study (the sweep machinery, training, the files), not bad input
+        click.echo(f"error: study failed: {type(error).__name__}: {error}", err=True)
+        click.echo("the sweeps keep the samples they stored (run again to resume); no file is left half-written", err=True)
+        sys.exit(EXIT_RUN_FAILURE)
     print_table(study_table(outcome))
     click.echo(f"wrote {out_dir / 'study.h5'}, {out_dir / 'study.md'} and {len(outcome.networks)} networks in {out_dir / 'networks'}")
 

@@ -282,6 +282,7 @@ def model_result(scene: ImpactScene, run: ModelRun, response: ImpactResponse, dt
         "newton_iterations_max": response.newton_iterations_max,
         "contact_changes": response.contact_changes,
         "energy_balance_error": response.energy_balance_error,
+        "car_energy_balance_error": response.car_energy_balance_error,
         "cars": {car.name: _public(s) for car, s in zip(scene.cars, response.car_settings)},
     }
     result = ModelResult(run.name, settings=settings)

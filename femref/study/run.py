@@ -22,6 +22,11 @@
 4. ``study.h5`` (every per-sample estimate and error, each network's loss curve) and
    ``study.md`` (the table); ``femref report study.h5`` draws them (:mod:`femref.report.study`).
 
+Every file of the study folder is written under a temporary name and renamed when complete
+(:func:`femref.results.atomic_path`; the sweep files by :mod:`femref.sweep`): a step that fails
+or is interrupted leaves no file half-written under its final name, and ``femref study`` says
+``error: study failed: …`` and exits 1 (the sweeps keep what they stored; the same command resumes).
+
 The networks see what a railroad has: the records of the sensors (``probes``) and, if the
 study says so, the car masses (waybill). The inverse estimators also know the body
 profiles. Every estimator reads the same stored records.
@@ -179,7 +184,7 @@ def prepare_sweeps(study: StudyFile, study_dir: Path, out_dir: Path, source: str
     sweeps = {name: parse_sweep(d, source=f"{source} sets.{name}", base_dir=study_dir) for name, d in data.items()}
     out_dir.mkdir(parents=True, exist_ok=True)  # only once every set is valid
     for name, d in data.items():
-        (out_dir / f"{name}.sweep.yaml").write_text(yaml.safe_dump(d, sort_keys=False, default_flow_style=None, width=100))
+        _write_text(out_dir / f"{name}.sweep.yaml", yaml.safe_dump(d, sort_keys=False, default_flow_style=None, width=100))
     return sweeps
 
 
@@ -413,7 +418,8 @@ def _train_network(study: StudyFile, train: SetData, probes: list[str], out_dir:
             "spec_hash": data.spec_hash,
         },
     }
-    storage.save(path, pipeline, network, metadata)
+    with atomic_path(path) as tmp:  # a failure (or interrupt) while saving leaves no half-written network file
+        storage.save(tmp, pipeline, network, metadata)
     return TrainedNetwork(label, source_model, name, path, int(fit_rows.size), validation, elapsed, estimator, loss_curve, kind)
 
 
@@ -521,8 +527,14 @@ def run_study(
     scores = {name: evaluate_set(study, name, sets[name], networks, probes) for name in study.evaluation_sets}
     outcome = StudyOutcome(study, out_dir, networks, scores, wall)
     write_study(outcome, out_dir / "study.h5")
-    (out_dir / "study.md").write_text(outcome.markdown())
+    _write_text(out_dir / "study.md", outcome.markdown())
     return outcome
+
+
+def _write_text(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` under a temporary name, renamed when complete (nothing half-written under ``path``)."""
+    with atomic_path(path) as tmp:
+        tmp.write_text(text)
 
 
 def write_study(outcome: StudyOutcome, path: Path) -> None:

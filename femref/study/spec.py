@@ -33,6 +33,11 @@ of its ``models`` is a training source (a network per source and per entry of
 ``networks``, trained on that model's records and that model's peak force). Every other
 set is an evaluation set and must run ``fem``: the networks and the inverse estimators
 are scored on its fem records against its fem peak force.
+
+Networks that train with scikit-learn (an MLP with ``solver`` sgd, adam or lbfgs; an RBF
+network) need the optional extra ``femref[train]``: without it the study file is refused when it
+is validated, at ``networks.<name>.mlp.solver`` (``networks.<name>.rbf``), before any sweep runs
+(:func:`training_dependency_problems`). ``solver: momentum`` trains with numpy alone.
 """
 
 from __future__ import annotations
@@ -189,6 +194,40 @@ NETWORK_SPECS: dict[str, type[TaggedSpec]] = {"mlp": MlpSpec, "rbf": RbfSpec}
 NetworkSpec = _tagged_union(NETWORK_SPECS, "network")
 
 
+#: The optional extra that installs scikit-learn, the trainer of the scikit-learn MLP solvers and of RBF networks
+#: (:data:`ann.networks.TRAIN_EXTRA`; not imported here: validating a study stays light).
+TRAIN_EXTRA = "femref[train]"
+
+
+def training_dependency_available() -> bool:
+    """scikit-learn can be imported (the extra ``femref[train]``): found by the import system, not imported (it is
+    imported when training starts, :mod:`ann.networks`). False when it is missing or the import system refuses it."""
+    import importlib.util
+
+    try:
+        return importlib.util.find_spec("sklearn") is not None
+    except (ImportError, ValueError):  # refused by a finder; or sys.modules["sklearn"] is None / has no spec
+        return False
+
+
+def training_dependency_problems(networks: dict[str, Any]) -> list[Problem]:
+    """A problem per network of ``networks`` that trains with scikit-learn when scikit-learn is not installed:
+    an MLP with ``solver`` sgd, adam or lbfgs (at ``networks.<name>.mlp.solver``) and an RBF network (its centres
+    by k-means; at ``networks.<name>.rbf``). ``solver: momentum`` trains without it (:class:`ann.networks.MomentumMLP`)."""
+    needing = {name: spec for name, spec in networks.items() if isinstance(spec, RbfSpec) or (isinstance(spec, MlpSpec) and spec.solver != MOMENTUM)}
+    if not needing or training_dependency_available():
+        return []
+    install = f"scikit-learn, which is not installed: it is the optional extra {TRAIN_EXTRA} (pip install '{TRAIN_EXTRA}')"
+    problems = []
+    for name, spec in needing.items():
+        if isinstance(spec, MlpSpec):
+            rule = f"solver {spec.solver} trains with {install}; or use solver: momentum, which trains without it"
+            problems.append(Problem(("networks", name, "mlp", "solver"), rule, spec.solver))
+        else:
+            problems.append(Problem(("networks", name, "rbf"), f"an RBF network trains (its k-means centres) with {install}"))
+    return problems
+
+
 class StudyFile(CaseModel):
     """A network study (module docstring)."""
 
@@ -220,6 +259,7 @@ class StudyFile(CaseModel):
         for name, spec in self.sets.items():
             if name != TRAIN and "fem" not in spec.models:
                 problems.append(Problem(("sets", name, "models"), "an evaluation set is scored against fem; add fem", list(spec.models)))
+        problems += training_dependency_problems(self.networks)  # checked now, not when training starts after the sweeps
         if self.impact_types:
             for name, network in self.networks.items():
                 if getattr(network, "initial", None) is not None:
@@ -267,4 +307,7 @@ def parse_study(data: Any, *, source: str = "<study>") -> StudyFile:
         raise CaseError(problems_from(error, data), source) from None
 
 
-__all__ = ["MOMENTUM", "SKLEARN_UNITS", "TRAIN", "FeatureSpec", "MlpSpec", "RbfSpec", "SetSpec", "StudyFile", "load_study", "parse_study"]
+__all__ = [
+    "MOMENTUM", "SKLEARN_UNITS", "TRAIN", "TRAIN_EXTRA", "FeatureSpec", "MlpSpec", "RbfSpec", "SetSpec", "StudyFile", "load_study", "parse_study",
+    "training_dependency_available", "training_dependency_problems",
+]

@@ -139,3 +139,59 @@ def test_a_device_is_refused_without_reading_it(tmp_path):
     result, seconds = _validate(case)
     assert result.exit_code == 2 and "loads.F2.csv.path:" in result.output and "is not a regular file" in result.output, result.output
     assert seconds < 1.0
+
+
+# --- a record is read once per run ---------------------------------------------------------------------------
+
+
+@pytest.fixture
+def reads(monkeypatch) -> list[Path]:
+    """The files femref.core.signals.read_csv_columns reads (validation and Tabulated.from_csv both call it)."""
+    read: list[Path] = []
+    real = signals.read_csv_columns
+
+    def counting(path, *args, **kwargs):
+        read.append(Path(path))
+        return real(path, *args, **kwargs)
+
+    monkeypatch.setattr(signals, "read_csv_columns", counting)
+    return read
+
+
+def test_a_run_reads_its_load_record_once(tmp_path, reads):
+    """``femref run`` of a transient case with a CSV load reads the record once: validation keeps the samples (not in
+    the resolved case) and the run builds the load from them; the result holds the same load as a fresh read."""
+    import h5py
+
+    csv = tmp_path / "force.csv"
+    csv.write_text("time,force\n" + ROWS)
+    result = CliRunner().invoke(main, ["run", str(_case(tmp_path, csv)), "-o", str(tmp_path / "out.h5")])
+    assert result.exit_code == 0, result.output
+    assert reads == [csv]
+    with h5py.File(tmp_path / "out.h5") as h5:
+        resolved = yaml.safe_load(h5.attrs["case_yaml"])
+    assert resolved["loads"]["F2"] == {"csv": {"path": str(csv), "time_column": "time", "value_column": "force"}}  # no samples
+
+
+def test_a_record_changed_since_validation_is_read_again(tmp_path, reads):
+    """The load is built from what validation read while the file's size and mtime are unchanged; a record changed
+    since (another size or st_mtime_ns) is read again, so the run uses the file as it is."""
+    import os
+
+    from femref.case import load_case
+    from femref.core.signals import Tabulated
+
+    csv = tmp_path / "force.csv"
+    csv.write_text("time,force\n" + ROWS)
+    case = load_case(_case(tmp_path, csv))
+    spec = case.loads.F2
+    first = spec.build()
+    assert isinstance(first, Tabulated) and reads == [csv]
+    assert case == load_case(_case(tmp_path, csv))  # cases compare as before (the kept samples compare by value)
+    reads.clear()
+    csv.write_text("time,force\n0.0,0.0\n0.1,2.0e5\n0.2,0.0\n")
+    stamp = os.stat(csv)
+    os.utime(csv, ns=(stamp.st_atime_ns, stamp.st_mtime_ns + 1_000_000))
+    changed = spec.build()
+    assert reads == [csv] and changed.values.tolist() == [0.0, 2.0e5, 0.0]
+    np.testing.assert_array_equal(first.times[:3], [0.0, 1e-3, 2e-3])

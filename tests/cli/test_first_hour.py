@@ -6,6 +6,7 @@ from __future__ import annotations
 import re
 import subprocess
 import sys
+import time
 import tomllib
 from pathlib import Path
 
@@ -74,6 +75,29 @@ def test_every_command_help_states_its_exit_codes_and_what_its_output_may_not_be
             assert "refused if" in text, (command, text)
     progress = " ".join(CliRunner().invoke(main, ["--help"], terminal_width=200).output.split())
     assert "--progress / --no-progress" in progress and "FEMREF_PROGRESS" in progress
+
+
+#: Environment variables of femref that are test hooks only, not for users (not listed under ``femref --help``).
+TEST_ONLY_VARIABLES = {"FEMREF_TEST_PAUSE_BEFORE_PUBLISH"}
+
+
+def test_main_help_lists_the_exit_codes_and_every_environment_variable() -> None:
+    """``femref --help`` ends with the exit codes 0, 1, 2, 130 and the environment variables a user may set: every
+    ``FEMREF_<NAME>`` the code reads (found by grepping femref/ and ann/, test hooks aside), each with what it does."""
+    text = CliRunner().invoke(main, ["--help"], terminal_width=200).output
+    epilog = text[text.index("Exit codes:"):]
+    codes = dict(re.findall(r"^\s+(\d+)\s+(\S.*)$", epilog.split("Environment:")[0], flags=re.M))
+    assert list(codes) == ["0", "1", "2", "130"], epilog
+    assert "nothing is written" in " ".join(epilog.split()) and codes["130"].startswith("interrupted")
+    in_code = {name for package in ("femref", "ann") for file in (REPO / package).rglob("*.py")
+               for name in re.findall(r"FEMREF_[A-Z_]+", file.read_text(encoding="utf-8"))}
+    assert {"FEMREF_BUDGET", "FEMREF_SELF_CHECK", "FEMREF_PROGRESS"} <= in_code
+    environment = epilog.split("Environment:")[1]
+    listed = set(re.findall(r"^\s+(FEMREF_[A-Z_]+)=\S+\s+\S", environment, flags=re.M))
+    assert listed == in_code - TEST_ONLY_VARIABLES, environment
+    for name, says in (("FEMREF_BUDGET", "work budget"), ("FEMREF_SELF_CHECK", "checks its own discretisation"), ("FEMREF_PROGRESS", "--progress")):
+        entry = " ".join(environment.split(name, 1)[1].split("FEMREF_")[0].split())
+        assert says in entry, (name, entry)
 
 
 # --- tables fit the terminal -------------------------------------------------------------------------
@@ -249,3 +273,84 @@ def test_api_is_documented_and_typed() -> None:
     config = tomllib.loads((REPO / "pyproject.toml").read_text())
     assert "py.typed" in config["tool"]["setuptools"]["package-data"]["femref"]
     assert "xarray" in config["project"]["optional-dependencies"]
+
+
+def _tree(folder: Path) -> dict[str, bytes | None]:
+    """Every entry under ``folder`` with its bytes (None for a folder)."""
+    return {str(p.relative_to(folder)): p.read_bytes() if p.is_file() else None for p in sorted(folder.rglob("*"))}
+
+
+@pytest.fixture
+def refuse_to_run(monkeypatch):
+    """Fail the test if run_case starts the run: the output is checked before any work."""
+    import femref.api
+
+    monkeypatch.setattr(femref.api, "run_scene", lambda *args, **kwargs: pytest.fail("the run started before the output was checked"))
+
+
+@pytest.mark.parametrize(
+    ("output", "message"),
+    [
+        ("missing/out.h5", "the folder {tmp}/missing does not exist (the output's folder must exist)"),
+        ("case.yaml", "is the input case {tmp}/case.yaml (the output may not overwrite an input)"),
+        ("sub", "is a folder; the output is a file"),
+        ("data/coupler_force.csv", "is the input loads.F2.csv.path of the case {tmp}/data/coupler_force.csv (the output may not overwrite an input)"),
+    ],
+    ids=["missing-folder", "the-case-file", "a-folder", "a-file-the-case-names"],
+)
+def test_run_case_checks_its_output_like_the_cli(tmp_path, refuse_to_run, output, message) -> None:
+    """api.run_case(case, output) refuses an output ``femref run -o`` refuses, by the same rule (femref.results): an
+    OutputPathError (a ValueError) naming ``output``, the path and the rule, before any work, nothing written."""
+    import shutil
+
+    from femref.results import OutputPathError
+
+    (tmp_path / "data").mkdir()
+    (tmp_path / "sub").mkdir()
+    shutil.copy(CASES / "data" / "coupler_force.csv", tmp_path / "data")
+    shutil.copy(CASES / "rod_transient_csv.yaml", tmp_path / "case.yaml")
+    before = _tree(tmp_path)
+    with pytest.raises(OutputPathError) as raised:
+        run_case(tmp_path / "case.yaml", output=tmp_path / output)
+    assert isinstance(raised.value, ValueError)
+    assert str(raised.value) == f"output {tmp_path / output}: {message.format(tmp=tmp_path)}; nothing was written"
+    assert _tree(tmp_path) == before
+
+
+def test_run_case_refuses_field_files_onto_an_input(tmp_path, refuse_to_run) -> None:
+    """With fem.fields the run writes <stem>_fem_fields.xdmf/.h5 beside the output: an output whose field file would
+    replace a file the case names is refused (a CSV load named like one), nothing written."""
+    import shutil
+
+    from femref.results import OutputPathError
+
+    shutil.copy(CASES / "data" / "coupler_force.csv", tmp_path / "run_fem_fields.h5")
+    data = yaml.safe_load((CASES / "rod_transient_csv.yaml").read_text())
+    data["loads"]["F2"]["csv"]["path"] = "run_fem_fields.h5"
+    before = _tree(tmp_path)
+    with pytest.raises(OutputPathError, match=r"would write .*run_fem_fields\.h5, which is the input loads\.F2\.csv\.path of the case"):
+        run_case(data, output=tmp_path / "run.h5", base_dir=tmp_path)
+    assert _tree(tmp_path) == before
+
+
+def test_run_case_removes_the_leftovers_of_killed_and_older_runs(tmp_path) -> None:
+    """Before writing, run_case removes the temporaries of its output that a killed femref run (a dead pid) and an
+    older femref (``.<name>.<random>.tmp``, an HDF5 file unchanged for an hour) left, as the CLI does."""
+    import os
+    import subprocess as sp
+
+    from femref.results import HDF5_SIGNATURE
+
+    process = sp.Popen([sys.executable, "-c", "pass"])
+    process.wait()
+    out = tmp_path / "small.h5"
+    killed = out.with_name(f".{out.name}.femref-{process.pid}.tmp")
+    older = out.with_name(f".{out.name}.k3x9_q2z.tmp")
+    for leftover in (killed, older):
+        leftover.write_bytes(HDF5_SIGNATURE + b"half a result")
+        os.utime(leftover, (time.time() - 3600, time.time() - 3600))
+    data = small_impact_case()
+    data["models"] = ["rigid"]
+    run_case(data, output=out)
+    assert not killed.exists() and not older.exists()
+    assert result_models(out) == ["rigid"]

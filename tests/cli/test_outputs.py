@@ -358,6 +358,29 @@ def test_a_stale_field_file_is_detected(runner, tmp_path, monkeypatch):
     assert "warning: " in report.output and "another run's" in report.output
 
 
+@pytest.mark.parametrize("recorded", [True, False], ids=["names-recorded", "written-before-names-were-recorded"])
+def test_report_refuses_to_overwrite_a_field_file_of_its_result(runner, tmp_path, monkeypatch, recorded):
+    """``femref report run.h5 -o run_fem_fields.h5`` (or .xdmf): exit 2, the message names -o, the field file as an
+    input of RESULTS.h5 and the rule, and nothing is written — whether the result records the field files' names
+    or (an older result) not: then femref's names for them are protected."""
+    import femref.report.build
+
+    monkeypatch.setattr(femref.report.build, "field_map_picture", lambda model: None)  # no rendering: refused before
+    monkeypatch.chdir(tmp_path)
+    assert runner.invoke(main, ["run", str(write_case(tmp_path)), "-o", "run.h5"]).exit_code == 0
+    if not recorded:
+        with h5py.File(tmp_path / "run.h5", "a") as h5:
+            del h5["fem/fields"].attrs["field_files"]
+    before = listing(tmp_path)
+    for suffix, kind in ((".h5", "HDF5"), (".xdmf", "XDMF")):
+        target = f"run_fem_fields{suffix}"
+        result = runner.invoke(main, ["report", "run.h5", "-o", target])
+        assert result.exit_code == 2, result.output
+        assert (f"error: -o {target}: is the input {kind} field file of model fem of RESULTS.h5 {target} "
+                "(the output may not overwrite an input); nothing was written") in result.stderr
+    assert listing(tmp_path) == before
+
+
 # ---------------------------------------------------------------------------------------------
 # Temporaries and their leftovers
 
@@ -576,3 +599,21 @@ def test_xarray_opens_a_run_of_the_cli(runner, tmp_path):
     with xr.open_dataset(output, group="fem/probes/center", engine="h5netcdf", phony_dims="sort") as ds:
         np.testing.assert_array_equal(ds["time"].values, time_axis)
         assert set(ds.data_vars) == {"acceleration", "displacement", "axial_force"}
+
+
+def test_run_refuses_an_output_whose_field_files_would_replace_an_input(tmp_path) -> None:
+    """``femref run`` of a case with fem.fields writes <stem>_fem_fields.xdmf/.h5 beside the output: an output whose
+    field file would replace a file the case names (a CSV load named like one) exits 2 naming the input before any
+    work, and every file is as it was."""
+    import shutil
+
+    shutil.copy(CASES / "data" / "coupler_force.csv", tmp_path / "run_fem_fields.h5")
+    data = yaml.safe_load((CASES / "rod_transient_csv.yaml").read_text())
+    data["loads"]["F2"]["csv"]["path"] = "run_fem_fields.h5"
+    case = tmp_path / "case.yaml"
+    case.write_text(yaml.safe_dump(data))
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    result = CliRunner().invoke(main, ["run", str(case), "-o", str(tmp_path / "run.h5")])
+    assert result.exit_code == 2, result.output
+    assert "run_fem_fields.h5" in result.output and "loads.F2.csv.path" in result.output and "nothing was written" in result.output
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before

@@ -112,3 +112,43 @@ def test_a_stage_ended_by_an_error_says_stopped() -> None:
                 step = progress_for(stage)
                 step(1, 1)
     assert status_lines(console.file.getvalue()) == [("event 1/1 at 0.100 s", "running"), ("event 1/1 at 0.100 s", "stopped")]
+
+
+@pytest.fixture
+def cheap_figures(monkeypatch) -> list[str]:
+    """The figure makers of femref.verification replaced by instant fakes (a few bytes of PNG each) that record
+    their calls; the real figures take seconds each (tests/verification/test_verification.py draws them)."""
+    import femref.verification as verification
+
+    made: list[str] = []
+
+    def fake(name: str):
+        def make(*arguments: str):
+            label = name.format(*arguments)
+            made.append(label)
+            return verification.Figure(label, b"\x89PNG\r\n\x1a\n" + label.encode(), {})
+
+        return make
+
+    for attribute, name in (("fem_convergence", "fem_convergence"), ("harmonic_against_exact", "harmonic_{}"),
+                            ("quasi_rigid_epsilon", "quasi_rigid_epsilon")):
+        monkeypatch.setattr(verification, attribute, fake(name))
+    return made
+
+
+def test_figures_shows_a_status_line_per_figure_with_progress(cheap_figures, tmp_path) -> None:
+    """``femref --progress figures``: each figure running and done on stderr, in the order femref.verification makes
+    them (its all_figures), each PNG written; nothing on stderr without the flag, the same files and stdout."""
+    from femref.verification import all_figures
+
+    runner = CliRunner()
+    quiet = runner.invoke(main, ["figures", "-o", str(tmp_path / "a")])
+    shown = runner.invoke(main, ["--progress", "figures", "-o", str(tmp_path / "b")])
+    assert quiet.exit_code == shown.exit_code == 0, shown.output
+    names = [figure.name for figure in all_figures()]  # the fakes: the names and order of the real figures
+    assert names == ["fem_convergence", "harmonic_rod", "harmonic_beam", "quasi_rigid_epsilon"]
+    assert status_lines(quiet.stderr) == []
+    assert status_lines(shown.stderr) == [(f"figure {name}", how) for name in names for how in ("running", "done")], shown.stderr
+    assert sorted(p.name for p in (tmp_path / "b").iterdir()) == sorted(f"{name}.png" for name in names)
+    assert (tmp_path / "b" / "harmonic_beam.png").read_bytes().endswith(b"harmonic_beam")
+    assert shown.stdout == quiet.stdout.replace(str(tmp_path / "a"), str(tmp_path / "b"))
