@@ -24,6 +24,21 @@ recorded (:class:`ImpactEvent`: contact, separation, gear_closed, …). A guard 
 re-fire at the restart because each event only watches the crossing *out of* its
 current side.
 
+Sided gear state (:meth:`reduced.couplers.Coupling.state_mirrored`). A bilateral draft
+gear with slack whose open contact passes into the other side's slack boundary while
+the gear is still compressed from the first side has its state mirrored there::
+
+    x_g → −x_g   when   x_g > 0 and δ + s_t < 0,   or   x_g < 0 and δ − s_c > 0
+
+so that the other side engages where ``(δ_e − x_g)/D`` crosses zero, continuously,
+not with a jump to ``−x_g/D``. The stale state makes the contact guard
+``e_t = max(δ + s_t, (δ + s_t − x_g)/D)`` equal to ``δ + s_t`` near the boundary, so
+its zero is an event exactly there; at that restart the rule is read a tiny step ahead
+(as the sides are), the state is mirrored — recorded as a ``gear_mirrored`` event —
+and the sides are re-read from the mirrored state (the contact stays open: the guard
+is ``|x_g|/D > 0`` there). The mirror keeps ``|x_g|`` and ``∫F_g`` (F_g odd) and the
+open contact stores no series energy, so the energy books are unchanged by it.
+
 Solver: ``LSODA`` by default (switches between Adams and BDF as the stiffness
 requires — the draft gear's series springs give a time constant ``μD`` ≈ 1e-3 s
 against a 0.1 s pulse; 8–30× fewer evaluations than ``Radau`` at the same
@@ -89,7 +104,8 @@ class IntegratorSettings:
 
 @dataclass(frozen=True)
 class ImpactEvent:
-    """A mode change: ``kind`` (contact, separation, gear_closed, …), ``time`` (s),
+    """A mode change: ``kind`` (contact, separation, gear_closed, …, and ``gear_mirrored`` where a
+    bilateral gear's state is mirrored at the other side's slack boundary), ``time`` (s),
     ``closure`` δ (m), the coupler force just after it (N, compression +) and the
     coupler law's internal state there (e.g. the gear compression ``x_g``, m)."""
 
@@ -311,11 +327,20 @@ def simulate_impact(
         last_roots = [float(sol.t_events[i][-1]) if sol.t_events[i].size else -math.inf for i in range(len(sides))]
         fired = int(np.argmin([abs(r - te) for r in last_roots]))
         flipped = tuple(-s if k == fired else s for k, s in enumerate(sides))
+        stored_before = model.stored(ye, sides)
+        # the sided gear state: an open contact passing into the other side's slack boundary with the
+        # gear compressed from the first side mirrors it, x_g → −x_g (Coupling.state_mirrored), decided
+        # a tiny step ahead like the sides (the stale state puts the contact guard's zero on the boundary)
+        mirrored = coupling.state_mirrored(float(ye[0] + h_look * ye[1]), ye[4 : 4 + n])
+        if mirrored:
+            ye[4 : 4 + n] = coupling.sided_state(float(ye[0] + h_look * ye[1]), ye[4 : 4 + n])
         new_sides = model.resolve_sides(te, ye, flipped, h_look)
-        # memoryless laws drop their stored energy at a separation: book it as dissipated
-        ye[4 + n] += model.stored(ye, sides) - model.stored(ye, new_sides)
+        # memoryless laws drop their stored energy at a separation: book it as dissipated (the mirror keeps it)
+        ye[4 + n] += stored_before - model.stored(ye, new_sides)
         force_after = float(model.coupler(ye, new_sides)[0])
         state_after = tuple(float(v) for v in ye[4 : 4 + n])
+        if mirrored:
+            events.append(ImpactEvent("gear_mirrored", te, float(ye[0]), force_after, state_after))
         for k, (old, new) in enumerate(zip(sides, new_sides)):
             if old != new:
                 kind = names[k][0] if new > 0 else names[k][1]

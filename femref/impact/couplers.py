@@ -25,12 +25,29 @@ slope ≥ 1, but not where a table's unloading curve falls steeply (``T`` then r
 ``P`` pushes the ends apart) nor, by round-off, where ``T`` hardly depends on ``P``; the
 bracket is then widened, doubling its step, until ``f`` changes sign (it must: ``f → ±∞``
 as ``P → ±∞``). A stateful coupler (the draft gear) whose own Newton cycles — its force
-jumps where a contact engages with the gear still compressed, ``x_g/D`` at the slack
-boundary — is solved the same way in ``P`` alone, its state following each trial force
-through the trapezoidal state equation with ``ṡ`` driven by that force
-(:meth:`CouplerSolve._state_under`); ``f`` then rises with slope ≥ 1, jumps included,
-and the root sits at the jump when ``T`` jumps over ``P``: the contact held at its
-boundary, transmitting what the step needs (a set-valued contact force).
+jumps where a contact engages with the gear compressed from the other side, ``|x_g|/D`` at
+the slack boundary: a state the sided gear state below keeps a bilateral contact from
+reaching, so this is the safeguard for a law that jumps — is solved the same way in ``P``
+alone, its state following each trial force through the trapezoidal state equation with
+``ṡ`` driven by that force (:meth:`CouplerSolve._state_under`); ``f`` then rises with slope
+≥ 1, jumps included, and the root sits at the jump when ``T`` jumps over ``P``: the contact
+held at its boundary, transmitting what the step needs (a set-valued contact force).
+
+A bilateral draft gear with slack carries its *sided* state
+(:meth:`reduced.couplers.Coupling.state_mirrored`): where the open contact passes into the
+other side's slack boundary with the gear still compressed from the first side, the state
+is mirrored, ``x_g → −x_g``, so that the other side engages from zero force. The step that
+ends beyond that boundary, ``δ_{n+1} + tension_slack < 0`` with ``x_g,n > 0`` (or
+``δ_{n+1} − slack > 0`` with ``x_g,n < 0``), starts from the mirrored state::
+
+    (s_n, ṡ_n) → σ (s_n, ṡ_n),   σ = −1 there, else +1
+    s = σ s_n + dt/2 (σ ṡ_n + ṡ(δ, δ̇, s, P))
+
+— exact for the open contact, whose relaxation ``μ ṡ = −F_g(s)`` is odd (the trapezoidal
+map commutes with the mirror, so mirroring at the start of the step is mirroring at the
+crossing), and with ``σ`` taken from the trial closure it follows the iteration. ``σ = +1``
+whenever the state has the side's sign or is zero, so nothing else changes. The dissipation's
+midpoint state is ``(s + σ s_n)/2`` likewise.
 
 Coupler dissipation is the midpoint rule of the law's dissipation rate while the contact
 mode holds and the force is the law's; on a step where the contact opens or closes, or
@@ -157,6 +174,18 @@ class CouplerSolve:
         self.bracket_expansions = BRACKET_EXPANSIONS
         self._state_settled = True  # the last _state_under converged (read after the scalar root's last trial)
 
+    def _step_start(self, closure: NDArray) -> tuple[NDArray, NDArray]:
+        """The committed states and state rates the step to the closures ``closure`` starts from: each
+        coupler's ``σ (s_n, ṡ_n)``, ``σ = −1`` where its gear state is mirrored at that closure
+        (:meth:`reduced.couplers.Coupling.state_mirrored`, module docstring), else the committed values."""
+        start, start_rate = self.state, self.state_rate
+        for j, sl in enumerate(self.state_slices):
+            if sl.stop > sl.start and self.couplings[j].state_mirrored(float(closure[j]), self.state[sl]):
+                if start is self.state:
+                    start, start_rate = self.state.copy(), self.state_rate.copy()
+                start[sl], start_rate[sl] = -self.state[sl], -self.state_rate[sl]
+        return start, start_rate
+
     def loads(self, forces: NDArray) -> NDArray:
         """End loads ``(F1, F2)`` of every car, ``(n_cars, 2)``: a coupler pushing an end is ``F = −P``."""
         padded = np.append(forces, 0.0)
@@ -233,7 +262,8 @@ class CouplerSolve:
         return iteration
 
     def _residual(self, closure_free: NDArray, rate_free: NDArray, P: NDArray, s: NDArray) -> tuple:
-        """Closures, rates, the laws' responses, the residual ``(P − T, s − s_n − dt/2 (ṡ_n + ṡ))`` and ``ṡ``."""
+        """Closures, rates, the laws' responses, the residual ``(P − T, s − σ s_n − dt/2 (σ ṡ_n + ṡ))`` and ``ṡ``
+        (``σ`` the mirror of :meth:`_step_start` at the trial closures)."""
         closure = closure_free + self.gain_u @ P
         rate = rate_free + self.gain_v @ P
         responses = [
@@ -243,7 +273,8 @@ class CouplerSolve:
         residual = np.empty(self.n + self.n_state)
         residual[: self.n] = P - np.array([r.force for r in responses])
         state_rate = np.concatenate([r.state_rate for r in responses]) if self.n_state else np.zeros(0)
-        residual[self.n :] = s - self.state - 0.5 * self.dt * (self.state_rate + state_rate)
+        start, start_rate = self._step_start(closure)
+        residual[self.n :] = s - start - 0.5 * self.dt * (start_rate + state_rate)
         return closure, rate, responses, residual, state_rate
 
     def _converged(self, residual: NDArray) -> bool:
@@ -339,7 +370,8 @@ class CouplerSolve:
 
     def _state_under(self, j: int, closure: float, rate: float, force: float, state: NDArray) -> tuple[NDArray, bool]:
         """Coupler j's one state under the held transmitted force ``P = force``: the root of
-        ``R(s) = s − s_n − dt/2 (ṡ_n + q(δ, δ̇, s, P))`` by Newton, kept in a shrinking bracket.
+        ``R(s) = s − σ s_n − dt/2 (σ ṡ_n + q(δ, δ̇, s, P))`` by Newton, kept in a shrinking bracket
+        (``σ`` the mirror of :meth:`_step_start` at the closure ``δ``).
 
         ``∂q/∂s ≤ 0`` (the draft gear: ``q = (P − F_g(s))/μ``, F_g rising) gives ``R' ≥ 1``, so
         ``[s − R(s), s]`` brackets the root; a Newton step leaving the bracket is replaced by
@@ -348,6 +380,8 @@ class CouplerSolve:
         """
         sl, dt = self.state_slices[j], self.dt
         previous, previous_rate = float(self.state[sl][0]), float(self.state_rate[sl][0])
+        if self.couplings[j].state_mirrored(closure, self.state[sl]):
+            previous, previous_rate = -previous, -previous_rate
 
         def residual(x: float) -> tuple[float, float]:
             q, dq = self._driven_rate(j, closure, rate, force, np.array([x]))
@@ -416,6 +450,7 @@ class CouplerSolve:
     ) -> None:
         """Book the step's coupler energy and take the new values (``force_residual``: ``P − T`` per coupler)."""
         dt = self.dt
+        start, _ = self._step_start(closure)  # the committed states, mirrored where the step crossed (midpoint)
         for j, coupling in enumerate(self.couplings):
             sl = self.state_slices[j]
             stored = self._stored(j, float(closure[j]), s[sl], int(modes[j]))
@@ -427,7 +462,7 @@ class CouplerSolve:
                 mid = coupling.effective_closure(float(mid_closure), int(modes[j]))
                 rate_mid = 0.5 * (rate[j] + self.rate[j])
                 self.dissipated[j] += dt * coupling.law.dissipation_rate(
-                    mid, float(rate_mid), 0.5 * (s[sl] + self.state[sl]), 0.5 * (P[j] + self.force[j]), modes[j] != 0
+                    mid, float(rate_mid), 0.5 * (s[sl] + start[sl]), 0.5 * (P[j] + self.force[j]), modes[j] != 0
                 )
             else:  # the contact changed within the step, or held at a jump: absorbed work less the change of stored energy
                 self.dissipated[j] += work - (stored - self.stored[j])

@@ -26,7 +26,13 @@ A law is a frozen dataclass with
   (:mod:`reduced.nonlinear`) freezes it between events so each segment is smooth,
   and restarts at each guard's zero; ``branch=None`` picks it from the signs;
 * ``stored_energy`` and ``dissipation_rate`` for energy balances;
-* ``guard_events`` — names of the events when each guard turns positive/negative.
+* ``guard_events`` — names of the events when each guard turns positive/negative;
+* optionally ``signed_state = True`` and ``mirror_state(s)`` (the draft gear): the state is
+  one signed compression (``s > 0`` buff, ``s < 0`` draft) of an odd law, so that
+  mirroring it, ``s → −s``, keeps its stored energy and commutes with its relaxation
+  while the contact is open. A bilateral contact with slack mirrors it when the open
+  contact passes into the other side (:meth:`reduced.couplers.Coupling.state_mirrored`);
+  laws without the attribute are never mirrored.
 
 Here: :class:`CouplerTangent`, the :class:`CouplerLaw` protocol, the ``Branch`` type
 and ``_branch``, the branch helper of the piecewise laws.

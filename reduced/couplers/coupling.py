@@ -11,6 +11,23 @@ with slack the free play ``−tension_slack < δ < slack`` transmits nothing and
 each side behaves as a compression-only contact. ``slack`` is the initial gap
 (m) that the cars close before contact.
 
+Sided gear state (bilateral with slack, a law with ``signed_state``: the draft gear).
+The gear state ``x_g`` is a pack compression whose sign is the side it last engaged
+(+ buff, − draft); on the open contact it relaxes, ``μ ẋ_g = −F_g(x_g)``. When the
+closure passes into the other side's slack boundary with the state still of the
+first side's sign, the state is mirrored::
+
+    x_g → −x_g   when   x_g > 0 and δ + tension_slack < 0,   or   x_g < 0 and δ − slack > 0
+
+(:meth:`Coupling.state_mirrored`, :meth:`Coupling.sided_state`). Same ``|x_g|``, same
+``∫F_g`` (F_g odd), and ``P = 0`` on the open contact: no energy changes. The unchanged
+engagement rule then engages the tension side where ``F = (δ + tension_slack + |x_g|)/D``
+crosses zero, at ``δ + tension_slack = −|x_g|`` — the residual compression acts as extra
+free play and the force rises from zero (without the mirror it jumped from 0 to
+``−x_g/D`` and the stored ``x_g²/(2D)`` appeared from nothing). The rule is void when the
+state has the side's sign or is zero, for compression-only contacts, without slack, and
+for laws without a signed state.
+
 Registry: :data:`COUPLER_LAWS` maps the case-file names to the classes;
 :func:`coupling_from_name` builds a :class:`Coupling` from them.
 """
@@ -77,6 +94,14 @@ class Coupling:
     events. The memoryless laws (Kelvin-Voigt, power law) drop their stored energy
     when a compression-only contact separates with ``δ − slack > 0``; the ODE driver
     books it as dissipated (the cushion's own relaxation).
+
+    A law with a signed state (the draft gear) is given its *sided* state: mirrored,
+    ``x_g → −x_g``, where the open contact has passed into the other side's slack
+    boundary with ``x_g`` of the first side's sign (:meth:`state_mirrored`, module
+    docstring). :meth:`evaluate` and the guards take the state as given; the drivers
+    mirror it — the ODE driver at the contact event on that boundary (the stale state
+    makes ``e_t = δ + tension_slack``, resp. ``e_c = δ − slack``, there), the impact
+    engines at the start of the step that ends beyond it.
     """
 
     law: CouplerLaw
@@ -95,6 +120,31 @@ class Coupling:
     def always_engaged(self) -> bool:
         """Bilateral without slack: the law acts at every closure."""
         return self.contact == "bilateral" and self.slack == 0.0 and self.tension_slack == 0.0
+
+    @property
+    def mirrors_state(self) -> bool:
+        """Bilateral with slack and a law with a signed state (``law.signed_state``): the sided-state rule applies."""
+        return self.contact == "bilateral" and not self.always_engaged and bool(getattr(self.law, "signed_state", False))
+
+    def state_mirrored(self, closure: float, state: NDArray[np.float64]) -> bool:
+        """Whether the law state ``x_g = state[0]`` is to be mirrored at closure ``δ`` (module docstring)::
+
+            x_g > 0 and δ + tension_slack < 0   (a buff compression, the closure past the tension boundary)
+            x_g < 0 and δ − slack > 0           (a draft compression, the closure past the compression boundary)
+
+        Only where :attr:`mirrors_state`; never for ``x_g = 0`` or a state of the side's sign,
+        and never on the boundary itself (strict inequalities: the contact is open on both
+        sides of it).
+        """
+        if not self.mirrors_state:
+            return False
+        x = float(state[0])
+        return (x > 0.0 and closure + self.tension_slack < 0.0) or (x < 0.0 and closure - self.slack > 0.0)
+
+    def sided_state(self, closure: float, state: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The law state at closure ``δ``: ``law.mirror_state(state)`` where :meth:`state_mirrored`, else ``state``."""
+        s = np.asarray(state, dtype=float)
+        return self.law.mirror_state(s) if self.state_mirrored(closure, s) else s  # type: ignore[attr-defined]
 
     @property
     def contact_guard_events(self) -> tuple[tuple[str, str], ...]:
@@ -155,7 +205,10 @@ class Coupling:
         """Force, mode, state rate and tangent with the branch and mode taken from the signs.
 
         This is the entry point for a coupler iteration outside the ODE driver
-        (e.g. Newton on the coupler force between finite-element car bodies).
+        (e.g. Newton on the coupler force between finite-element car bodies). The state is
+        taken as given: a driver passes the sided state (:meth:`sided_state`); a buff-
+        compressed gear state evaluated beyond the tension boundary gives the jump
+        ``(δ + tension_slack − x_g)/D`` the mirror avoids.
         """
         closure = _checks.finite("closure", closure)
         closure_rate = _checks.finite("closure_rate", closure_rate)

@@ -6,7 +6,10 @@
           = c* x_g + (c − c*) stroke sgn(x_g)   |x_g| > stroke (gear closed, solid)
 
 :class:`StandardLinearDraftGear`: series springs ``D = 1/c1 + 1/c2``, the gear
-compression ``x_g`` (m) its state, guards ``x_g ∓ stroke`` at gear closure.
+compression ``x_g`` (m) its state, guards ``x_g ∓ stroke`` at gear closure. The state
+is signed (``x_g > 0`` buff, ``x_g < 0`` draft) and ``F_g`` is odd, so the law is
+``signed_state``: a bilateral contact with slack mirrors it, ``x_g → −x_g``, when the
+open contact passes into the other side (:meth:`reduced.couplers.Coupling.state_mirrored`).
 """
 
 from __future__ import annotations
@@ -46,6 +49,21 @@ class StandardLinearDraftGear:
     Tangent: ``∂P/∂δ = 1/D``, ``∂P/∂x_g = −1/D``, ``∂ẋ_g/∂P = 1/μ``,
     ``∂ẋ_g/∂x_g = −F_g'(x_g)/μ``. Requires ``μ > 0`` (rate-independent gears need a
     different state law). Units: stiffnesses N/m, μ N·s/m, stroke m.
+
+    Signed state (``signed_state = True``). The gear pack sits between two followers: buff
+    pushes the front follower back, draft pulls the rear one forward through the yoke, and
+    the pack is *compressed* in both; ``x_g > 0`` is a buff compression, ``x_g < 0`` a draft
+    one. ``F_g`` is odd, so the law is odd under ``(δ, x_g, P) → (−δ, −x_g, −P)``: the open
+    gear's relaxation ``μ ẋ_g = −F_g(x_g)`` commutes with the mirror ``x_g → −x_g`` and its
+    energy ``∫₀^{x_g} F_g`` is even. A pack still compressed from buff when the yoke picks
+    it up in draft is the mirrored state — its residual compression is extra free play,
+    and the series springs load from zero force. The contact does the mirroring
+    (:meth:`reduced.couplers.Coupling.state_mirrored`); :meth:`mirror_state` is the map.
+    With the pack compression ``a = |x_g|``, a bilateral contact with slack ``s_c``, ``s_t``
+    and the sided state is the system (continuous in δ and a; the independent check of
+    ``tests/reduced/test_gear_sides.py``)::
+
+        P = max(0, (δ − s_c − a)/D) + min(0, (δ + s_t + a)/D),    μ ȧ = |P| − F_g(a)
     """
 
     series_stiffness_1: float
@@ -56,6 +74,7 @@ class StandardLinearDraftGear:
     solid_stiffness: float
 
     state_size: ClassVar[int] = 1
+    signed_state: ClassVar[bool] = True
     guard_events: ClassVar[tuple[tuple[str, str], ...]] = (
         ("gear_closed", "gear_reopened"),
         ("gear_reopened_tension", "gear_closed_tension"),
@@ -107,6 +126,10 @@ class StandardLinearDraftGear:
 
     def initial_state(self) -> NDArray[np.float64]:
         return np.zeros(1)
+
+    def mirror_state(self, state: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The same pack compression on the other side: ``x_g → −x_g`` (``|x_g|`` and ``∫₀^{x_g} F_g`` kept)."""
+        return -np.asarray(state, dtype=float)
 
     def guards(self, closure: float, closure_rate: float, state: NDArray[np.float64]) -> NDArray[np.float64]:
         xg = float(state[0])

@@ -18,6 +18,13 @@ reference's, operation by operation, so the two agree to round-off:
   :func:`law_force`, :func:`law_stored_energy`, :func:`law_dissipation_rate`,
   :func:`evaluate` — take ``(laws, j)`` and call their twins ``_law_*``, :func:`_evaluate`
   on ``_law_of(laws, j)``;
+* :func:`_mirror` mirrors :meth:`reduced.couplers.Coupling.state_mirrored` (the sided gear
+  state of a bilateral draft gear with slack): every use of the committed state ``s_n``,
+  ``ṡ_n`` — the state residual, the state under a held force, the dissipation's midpoint —
+  takes ``σ s_n``, ``σ ṡ_n`` with ``σ = −1.0`` where the step's closure is beyond the other
+  side's slack boundary and the gear is still compressed from the first side, as
+  :meth:`CouplerSolve._step_start` (``σ x`` is exact, so the engines still agree to the bit);
+  :func:`state_mirror` is its twin on ``(laws, j)``;
 * :func:`solve` is :meth:`CouplerSolve.solve` given the free closures and rates and the
   Schur gains ``D_u``, ``D_v``: Newton on ``(P, s)``, then the Gauss–Seidel fallback with
   Brent's method (:func:`brent_root`, scipy's ``brentq`` transcribed) in a bracket widened
@@ -620,6 +627,19 @@ def _effective_closure(law, closure, mode):
 
 
 @njit(inline="always", **_JIT)
+def _mirror(law, closure, state):
+    """``σ = −1.0`` where the gear state is to be mirrored at ``closure``, else ``+1.0`` (mirrors
+    Coupling.state_mirrored): a draft gear, bilateral with slack, with ``x_g > 0`` and
+    ``δ + tension_slack < 0`` or ``x_g < 0`` and ``δ − slack > 0``. A step to ``closure``
+    starts from ``σ (s_n, ṡ_n)`` (femref.impact.couplers, module docstring)."""
+    if law.kind != STANDARD_LINEAR or law.contact != BILATERAL or (law.slack == 0.0 and law.tension_slack == 0.0):
+        return 1.0
+    if (state > 0.0 and closure + law.tension_slack < 0.0) or (state < 0.0 and closure - law.slack > 0.0):
+        return -1.0
+    return 1.0
+
+
+@njit(inline="always", **_JIT)
 def _transmitted_force(law, closure, rate, state, mode, branch):
     """``P`` in the contact mode: 0 open, else the law force at the effective closure (mirrors Coupling.transmitted_force)."""
     if mode == 0:
@@ -676,6 +696,12 @@ def _stored_energy(law, closure, state, mode):
 
 
 @njit(**_JIT)
+def state_mirror(laws, j, closure, state):
+    """:func:`_mirror` of coupler j's law (:func:`_law_of`): −1.0 where Coupling.state_mirrored, else 1.0."""
+    return _mirror(_law_of(laws, j), closure, state)
+
+
+@njit(**_JIT)
 def evaluate(laws, j, closure, rate, state):
     """Coupler j at ``(δ, δ̇, s)`` (mirrors Coupling.evaluate): :func:`_evaluate` of its law (:func:`_law_of`)."""
     return _evaluate(_law_of(laws, j), closure, rate, state)
@@ -709,7 +735,8 @@ def start(laws, st, closure_rate):
 
 @njit(**_JIT)
 def _residual(laws, st, dt, closure_free, rate_free, gain_u, gain_v, P, s, closure, rate, modes, state_rate, tangent, residual):
-    """Closures, rates, modes, ``ṡ``, tangents and the residual ``(P − T, s − s_n − dt/2 (ṡ_n + ṡ))`` (in place)."""
+    """Closures, rates, modes, ``ṡ``, tangents and the residual ``(P − T, s − σ s_n − dt/2 (σ ṡ_n + ṡ))`` (in place;
+    ``σ`` of :func:`_mirror` at the trial closure)."""
     n = closure.size
     rows = laws.state_row
     for j in range(n):
@@ -720,12 +747,14 @@ def _residual(laws, st, dt, closure_free, rate_free, gain_u, gain_v, P, s, closu
             rate_gain += gain_v[j, k] * P[k]
         closure[j] = closure_free[j] + closure_gain
         rate[j] = rate_free[j] + rate_gain
-        force, modes[j], state_rate[j], fcl, frt, fst, rcl, rrt, rst, rfo = _evaluate(_law_of(laws, j), closure[j], rate[j], s[j])
+        law = _law_of(laws, j)
+        force, modes[j], state_rate[j], fcl, frt, fst, rcl, rrt, rst, rfo = _evaluate(law, closure[j], rate[j], s[j])
         tangent[j, 0], tangent[j, 1], tangent[j, 2], tangent[j, 3] = fcl, frt, fst, rcl
         tangent[j, 4], tangent[j, 5], tangent[j, 6] = rrt, rst, rfo
         residual[j] = P[j] - force
         if rows[j] >= 0:
-            residual[rows[j]] = s[j] - st.state[j] - 0.5 * dt * (st.state_rate[j] + state_rate[j])
+            sigma = _mirror(law, closure[j], st.state[j])  # the step starts from σ (s_n, ṡ_n)
+            residual[rows[j]] = s[j] - sigma * st.state[j] - 0.5 * dt * (sigma * st.state_rate[j] + state_rate[j])
 
 
 @njit(**_JIT)
@@ -864,8 +893,9 @@ def _excess(law, j, laws, st, dt, closure_free, rate_free, gain_u, gain_v, P, s,
     rate = rate_free[j] + rate_gain
     settled = True
     if laws.stateful[j] != 0:
+        sigma = _mirror(law, closure, st.state[j])  # the step starts from σ (s_n, ṡ_n)
         s[j], settled = _state_under(
-            law, laws.state_tolerance[0], laws.limits[1], st.state[j], st.state_rate[j], dt, closure, rate, force, s[j]
+            law, laws.state_tolerance[0], laws.limits[1], sigma * st.state[j], sigma * st.state_rate[j], dt, closure, rate, force, s[j]
         )
     value = force - _evaluate(law, closure, rate, s[j])[0]
     if math.isnan(value):
@@ -997,7 +1027,8 @@ def _coupler_newton(laws, st, dt, force_tolerance, closure_free, rate_free, gain
         rate = rate_free[j] + rate_gain
         p, _, state_rate, fcl, frt, fst, rcl, rrt, rst, rfo = _evaluate(law, closure, rate, s[j])
         local[0] = P[j] - p
-        local[1] = s[j] - st.state[j] - 0.5 * dt * (st.state_rate[j] + state_rate)
+        sigma = _mirror(law, closure, st.state[j])  # the step starts from σ (s_n, ṡ_n)
+        local[1] = s[j] - sigma * st.state[j] - 0.5 * dt * (sigma * st.state_rate[j] + state_rate)
         last = abs(local[0])
         if abs(local[0]) <= force_tolerance and abs(local[1]) <= state_tolerance:
             return True, last
@@ -1070,8 +1101,9 @@ def _commit(laws, st, dt, force_tolerance, P, s, closure, rate, state_rate, mode
             mid_closure = 0.5 * (closure[j] + st.closure[j])
             mid = _effective_closure(law, mid_closure, mode)
             rate_mid = 0.5 * (rate[j] + st.rate[j])
+            start = _mirror(law, closure[j], st.state[j]) * st.state[j]  # the committed state, mirrored where the step crossed
             st.dissipated[j] += dt * _law_dissipation_rate(
-                law, mid, rate_mid, 0.5 * (s[j] + st.state[j]), 0.5 * (P[j] + st.force[j]), mode != 0
+                law, mid, rate_mid, 0.5 * (s[j] + start), 0.5 * (P[j] + st.force[j]), mode != 0
             )
         else:  # the contact changed within the step, or held at a jump: absorbed work less the change of stored energy
             st.dissipated[j] += work - (stored - st.stored[j])
