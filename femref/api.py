@@ -17,8 +17,8 @@ their paths with h5py (the time axis ``/<model>/time``), so they read every femr
 file, with or without HDF5 dimension scales.
 
 Nothing here prints; bad input raises :class:`femref.case.CaseError` (a ``ValueError``), an
-output ``femref run -o`` would refuse raises :class:`femref.results.OutputPathError` (a
-``ValueError``; the same rule, :func:`femref.results.check_output_path`), both before any work;
+output ``femref run -o`` would refuse raises :class:`femref.core.publishing.OutputPathError` (a
+``ValueError``; the same rule, :func:`femref.core.publishing.check_output_path`), both before any work;
 a model that fails is a result with ``status == "failed"`` and its message, as from the CLI.
 """
 
@@ -28,7 +28,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from femref.results import AXIS_NAMES, OutputPathError
+from femref.results import AXIS_NAMES
+from femref.core.publishing import OutputPathError
 from femref.run import RunOutcome, run_scene
 
 if TYPE_CHECKING:  # the readers' return types; neither library is needed to run a case
@@ -51,7 +52,7 @@ def run_case(case: str | Path | Mapping[str, Any], output: str | Path | None = N
 
     ``base_dir`` resolves the relative file paths of a mapping (CSV profiles, networks; default: the
     working directory); a path's own folder is used for a file. Raises :class:`femref.case.CaseError`
-    for bad input, and :class:`femref.results.OutputPathError` (a ``ValueError``) for an ``output`` that
+    for bad input, and :class:`femref.core.publishing.OutputPathError` (a ``ValueError``) for an ``output`` that
     ``femref run -o`` would refuse (:func:`check_run_output`: a missing or unwritable folder, a folder, the
     case file or a file it names), both before any work and writing nothing; the temporaries of ``output``
     that killed or older femref runs left are removed. Simulated cases only: a measured case is run by
@@ -88,20 +89,21 @@ def run_case(case: str | Path | Mapping[str, Any], output: str | Path | None = N
 
 
 def check_run_output(output: Path, case: Any, case_path: Path | None = None, base_dir: Path | None = None) -> None:
-    """Check ``output`` as ``femref run -o`` does, before any work (:func:`femref.results.check_output_path`): its
+    """Check ``output`` as ``femref run -o`` does, before any work (:func:`femref.core.publishing.check_output_path`): its
     folder must exist and be writable, it may not be a folder, and neither it nor the field files a run writes beside
     it (``<stem>_fem_fields.xdmf/.h5`` with ``fem.fields``) may be ``case_path`` or a file the validated ``case``
     names (records, CSV loads, networks: :func:`femref.case.inputs.case_inputs`). Raises
-    :class:`femref.results.OutputPathError` (a ``ValueError``) naming ``output`` and the rule; nothing is written.
+    :class:`femref.core.publishing.OutputPathError` (a ``ValueError``) naming ``output`` and the rule; nothing is written.
 
     Then removes the temporaries of ``output`` a killed femref run or an older femref left
-    (:func:`femref.results.clean_leftovers`); one an older femref left that is not certainly unused is kept, with
+    (:func:`femref.core.publishing.clean_leftovers`); one an older femref left that is not certainly unused is kept, with
     a :class:`UserWarning` naming it.
     """
     import warnings
 
     from femref.case.inputs import case_inputs, field_models
-    from femref.results import check_output_path, clean_leftovers, field_file_paths
+    from femref.results import field_file_paths
+    from femref.core.publishing import check_output_path, clean_leftovers
 
     inputs: dict[str, Path | None] = {"case": case_path}
     inputs.update({f"{key} of the case": path for key, path in case_inputs(case, base_dir).items()})

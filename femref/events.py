@@ -32,7 +32,7 @@ from numpy.typing import NDArray
 
 from femref import __version__
 from femref.core.catalog import SCENE_GROUP
-from femref.results import atomic_path
+from femref.core.publishing import atomic_path
 
 EVENTS_GROUP = "events"
 BOUNDS = ("covariance", "calibrated", "none")

@@ -28,29 +28,13 @@ also written as an XDMF + HDF5 time series (meshio) that ParaView opens directly
 Publishing (issue 18). Every temporary is named ``.<final name>.femref-<pid>.tmp`` (a folder of
 field files ``.<result name>.femref-<pid>.fields.tmp``) in the target folder, so a later write
 of the same final name recognises the leftovers of a killed run and removes them
-(:func:`remove_leftovers`; never those of a process still alive). The field files are written
+(:func:`femref.core.publishing.remove_leftovers`; never those of a process still alive). The field files are written
 first, their names and SHA-256 recorded in the result (attribute ``field_files`` of
 ``/<model>/fields``), then renamed into place, and the result file is renamed last: a kill
 leaves either the previous pair or new field files beside the previous result, which
 :func:`field_files_match` reports as not matching. The environment variable
 ``FEMREF_TEST_PAUSE_BEFORE_PUBLISH`` (seconds) is a test hook only: it sleeps between writing
 the temporaries and the renames, so a test can kill a run there.
-
-The output path (issue 18, before any work): :func:`check_output_path` is the rule every command
-and :func:`femref.api.run_case` apply to where they write — its folder exists and is writable, a
-file is not a folder, and neither it nor a file written beside it is an input — raising
-:class:`OutputPathError` (a ``ValueError``; the command line's exit 2); :func:`clean_leftovers`
-then removes the output's leftovers of killed and older runs (both below).
-
-Older femref versions (before issue 18) named their temporaries at random: the result file
-``.<final name>.<8 random characters>.tmp`` (``tempfile.mkstemp``) and a folder
-``tmp<8 random characters>`` (``tempfile.mkdtemp``) holding the XDMF + HDF5 field files
-``<result stem>_<model>_fields.xdmf|.h5``. Without a pid in the name, :func:`legacy_leftovers`
-recognises them by name *and* content — a folder holding nothing but field files of this result
-(HDF5 and XDMF by their first bytes), a file of this final name (an HDF5 file if it is one) —
-owned by this user, unchanged for :data:`LEGACY_QUIET_SECONDS`, and open (or the working folder)
-of no process (``/proc``). What fails only the last two conditions, or holds other files, is kept
-and reported, never removed; without ``/proc`` nothing is removed.
 
 Time axes as dimension scales, for xarray (``xarray.open_dataset(path, group="fem/probes/left",
 engine="h5netcdf")`` gives ``time`` as the coordinate). Each history group (a probe's, a
@@ -68,12 +52,11 @@ import contextlib
 import hashlib
 import json
 import os
-import re
 import shutil
 import time
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
-from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -83,6 +66,7 @@ from numpy.typing import NDArray
 
 from femref import __version__
 from femref.core.catalog import SCENE_GROUP
+from femref.core.publishing import create_temporary, atomic_path, remove_leftovers
 
 UNITS = {
     "time": "s",
@@ -156,324 +140,6 @@ FIELD_FILES_ATTRIBUTE = "field_files"
 #: Axis names: linked into every history group as coordinates (readers listing outputs skip them).
 AXIS_NAMES = ("time", "omega", "lambda")
 
-_TEMPORARY = re.compile(r"^\.(?P<final>.+)\.femref-(?P<pid>\d+)(?:-\d+)?(?:\.(?P<part>[a-z]+))?\.tmp$")
-
-
-def temporary_path(path: str | Path, part: str = "") -> Path:
-    """``.<name>.femref-<pid>[.<part>].tmp`` beside ``path``: the name a later run recognises as a leftover."""
-    path = Path(path)
-    return path.with_name(f".{path.name}.femref-{os.getpid()}" + (f".{part}" if part else "") + ".tmp")
-
-
-def _create_temporary(path: Path, part: str = "", folder: bool = False) -> Path:
-    """Create (exclusively) the temporary file or folder of ``path``; ``-<n>`` after the pid if taken."""
-    base = temporary_path(path, part)
-    for n in range(1, 1000):
-        candidate = base if n == 1 else base.with_name(base.name.replace(f"-{os.getpid()}", f"-{os.getpid()}-{n}", 1))
-        try:
-            if folder:
-                candidate.mkdir()
-            else:
-                os.close(os.open(candidate, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600))
-            return candidate
-        except FileExistsError:
-            continue
-    raise FileExistsError(f"{base}: no free temporary name")
-
-
-def _process_alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:  # another user's process
-        return True
-    return True
-
-
-def leftovers(path: str | Path) -> list[Path]:
-    """Temporaries of ``path``'s final name (files or folders) whose writing process is no longer alive."""
-    path = Path(path)
-    if not path.parent.is_dir():
-        return []
-    found = []
-    for entry in path.parent.iterdir():
-        match = _TEMPORARY.match(entry.name)
-        if match and match["final"] == path.name and int(match["pid"]) != os.getpid() and not _process_alive(int(match["pid"])):
-            found.append(entry)
-    return sorted(found)
-
-
-def remove_leftovers(path: str | Path) -> list[Path]:
-    """Remove :func:`leftovers` of ``path`` (a killed run's temporaries); return what was removed."""
-    removed = []
-    for entry in leftovers(path):
-        if entry.is_dir() and not entry.is_symlink():
-            shutil.rmtree(entry, ignore_errors=True)
-        else:
-            entry.unlink(missing_ok=True)
-        removed.append(entry)
-    return removed
-
-
-#: Seconds an older femref's temporary must be unchanged before :func:`remove_legacy_leftovers` removes it.
-LEGACY_QUIET_SECONDS = 600.0
-#: ``tempfile``'s random names: 8 characters of this alphabet.
-_RANDOM = "[a-z0-9_]{8}"
-_LEGACY_FOLDER = re.compile(rf"^tmp{_RANDOM}$")
-HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
-_XDMF_STARTS = (b"<Xdmf", b"<?xml")
-
-
-@dataclass
-class LegacyLeftovers:
-    """An older femref's temporaries of one final name: those safe to remove, and those kept with the reason."""
-
-    removable: list[Path] = field(default_factory=list)
-    kept: list[tuple[Path, str]] = field(default_factory=list)
-
-
-@dataclass
-class LegacyCleanup:
-    """What :func:`remove_legacy_leftovers` removed, and what it kept with the reason."""
-
-    removed: list[Path] = field(default_factory=list)
-    kept: list[tuple[Path, str]] = field(default_factory=list)
-
-
-def legacy_leftovers(path: str | Path, now: float | None = None) -> LegacyLeftovers:
-    """An older femref's temporaries of ``path`` (module docstring): ``tmp<random>`` folders of its field files and
-    ``.<name>.<random>.tmp`` files, split into the removable ones (recognised by name and content, owned by this
-    user, unchanged for :data:`LEGACY_QUIET_SECONDS` before ``now``, used by no process) and the kept ones (why)."""
-    path = Path(path)
-    found = LegacyLeftovers()
-    if not path.parent.is_dir():
-        return found
-    now = time.time() if now is None else now
-    own_file = re.compile(rf"^\.{re.escape(path.name)}\.{_RANDOM}\.tmp$")
-    candidates = []
-    for entry in sorted(path.parent.iterdir()):
-        if _LEGACY_FOLDER.match(entry.name) and entry.is_dir() and not entry.is_symlink():
-            problem, files = _legacy_folder_problem(entry, path)
-        elif own_file.match(entry.name) and not entry.is_dir():
-            problem, files = _legacy_file_problem(entry, path), [entry]
-        else:
-            continue
-        if problem is None:  # not femref's at all: not ours to name
-            continue
-        if problem:
-            found.kept.append((entry, problem))
-        else:
-            candidates.append((entry, files))
-    if not candidates:
-        return found
-    in_use = _paths_in_use([entry for entry, _ in candidates])
-    for entry, files in candidates:
-        changed = now - max(item.lstat().st_mtime for item in [entry, *files])
-        if in_use is None:
-            found.kept.append((entry, "whether a process uses it cannot be checked here (no /proc)"))
-        elif entry in in_use:
-            found.kept.append((entry, "a running process uses it"))
-        elif changed < LEGACY_QUIET_SECONDS:
-            found.kept.append((entry, f"it changed {max(changed, 0.0):.0f} s ago"))
-        else:
-            found.removable.append(entry)
-    return found
-
-
-def remove_legacy_leftovers(path: str | Path) -> LegacyCleanup:
-    """Remove the removable :func:`legacy_leftovers` of ``path``; return what was removed and what was kept."""
-    found = legacy_leftovers(path)
-    for entry in found.removable:
-        if entry.is_dir():
-            shutil.rmtree(entry, ignore_errors=True)  # checked: regular files only, no links to follow
-        else:
-            entry.unlink(missing_ok=True)
-    return LegacyCleanup(found.removable, found.kept)
-
-
-def _owned(entry: Path) -> bool:
-    return not hasattr(os, "getuid") or entry.lstat().st_uid == os.getuid()
-
-
-def _legacy_folder_problem(folder: Path, path: Path) -> tuple[str | None, list[Path]]:
-    """Whether ``folder`` (named like ``tempfile.mkdtemp``'s) is an older femref's field-file folder of the result
-    ``path``: None when it holds no field file of ``path`` (not femref's), ``""`` when it is one, else why it is
-    not certain. Also its files."""
-    try:
-        files = sorted(folder.iterdir())
-    except OSError:
-        return None, []
-    prefix, suffixes = f"{path.stem}_", ("_fields.xdmf", "_fields.h5")
-    ours = [f for f in files if f.name.startswith(prefix) and f.name.endswith(suffixes) and len(f.name) > len(prefix) + len(suffixes[1])]
-    if not ours:
-        return None, files
-    others = [f.name for f in files if f not in ours]
-    if others:
-        return f"it also holds {', '.join(others[:3])}{' …' if len(others) > 3 else ''}, which femref does not write there", files
-    for file in files:
-        if file.is_symlink() or not file.is_file():
-            return f"{file.name} is not a regular file", files
-        head = _head(file)
-        if head and not head.startswith(HDF5_SIGNATURE if file.suffix == ".h5" else _XDMF_STARTS):
-            return f"{file.name} is not {'an HDF5' if file.suffix == '.h5' else 'an XDMF'} file", files
-    if not all(_owned(item) for item in [folder, *files]):
-        return "it belongs to another user", files
-    return "", files
-
-
-def _legacy_file_problem(file: Path, path: Path) -> str:
-    """Whether ``file`` (named ``.<path name>.<random>.tmp``) is an older femref's temporary of ``path``: ``""`` if so,
-    else why it is not certain."""
-    if file.is_symlink() or not file.is_file():
-        return "it is not a regular file"
-    if path.suffix == ".h5" and _head(file) and not _head(file).startswith(HDF5_SIGNATURE):
-        return "it is not an HDF5 file"
-    if not _owned(file):
-        return "it belongs to another user"
-    return ""
-
-
-def _head(file: Path) -> bytes:
-    """The first bytes of ``file`` (empty if it is empty or unreadable)."""
-    try:
-        with open(file, "rb") as stream:
-            return stream.read(8)
-    except OSError:
-        return b""
-
-
-def _paths_in_use(entries: list[Path]) -> set[Path] | None:
-    """Those of ``entries`` (files or folders) that a process has open, or under its working folder (``/proc``);
-    None where ``/proc`` cannot tell. Processes of other users, which ``/proc`` does not show, are not seen:
-    :func:`legacy_leftovers` only considers this user's entries."""
-    proc = Path("/proc")
-    if not (proc / "self" / "fd").is_dir():
-        return None
-    targets = {entry: os.path.realpath(entry) for entry in entries}
-    used: set[Path] = set()
-    for process in proc.iterdir():
-        if not process.name.isdigit():
-            continue
-        try:
-            links = [os.readlink(process / "cwd")]
-            links += [os.readlink(fd) for fd in (process / "fd").iterdir()]
-        except OSError:  # ended, or another user's
-            continue
-        for entry, target in targets.items():
-            if any(link == target or link.startswith(target + os.sep) for link in links):
-                used.add(entry)
-    return used
-
-
-# --- the output path: the rule femref's commands and femref.api share ---------------------------------------------
-#
-# An output is checked before any work, so a bad path never costs a run and nothing is written: its folder must
-# exist and be writable (a file output's parent, a folder output itself or its parent); a file output may not be a
-# folder, a folder output not a file; neither the output nor any other file the writer puts beside it (``writes``:
-# a sweep's ``.partial``, a run's field files, a study's networks) may be one of the writer's inputs — the same path,
-# or the same file by another relative path, a symbolic or a hard link. The inputs are the files given to the writer
-# and every file a case names (femref.case.inputs.case_inputs). The command line prints an OutputPathError as
-# ``error: …`` and exits 2 (femref.cli.common.check_output); femref.api.run_case raises it.
-
-
-class OutputPathError(ValueError):
-    """An output path that cannot be written: ``<option> <path>: <rule>; nothing was written``.
-
-    ``option`` names where the path came from (``-o``; ``-o (default)`` when it is the option's
-    default; ``output`` for :func:`femref.api.run_case`), ``problem`` the rule it breaks
-    (:func:`output_problem`).
-    """
-
-    def __init__(self, path: Path, option: str, problem: str, default: bool = False) -> None:
-        self.path = Path(path)
-        self.option = option
-        self.problem = problem
-        self.default = default
-        named = f"{option} (default)" if default else option
-        super().__init__(f"{named} {path}: {problem}; nothing was written")
-
-
-def check_output_path(
-    path: str | Path,
-    option: str,
-    inputs: Mapping[str, str | Path | None] | None = None,
-    *,
-    folder: bool = False,
-    default: bool = False,
-    writes: Iterable[str | Path] = (),
-) -> None:
-    """Raise :class:`OutputPathError` unless ``path`` can be written (:func:`output_problem`); write nothing.
-
-    ``option`` names the option or argument (``-o``), ``default`` says the path is its default;
-    ``inputs`` the writer's input files by name (``CASE``, ``loads.F2.csv.path of CASE``), which
-    the output may not be; ``folder`` says the output is a folder; ``writes`` the other files the
-    writer puts beside the output or in the output folder, which may not be inputs either.
-    """
-    problem = output_problem(Path(path), inputs or {}, folder, writes)
-    if problem:
-        raise OutputPathError(Path(path), option, problem, default)
-
-
-def output_problem(path: Path, inputs: Mapping[str, str | Path | None], folder: bool = False, writes: Iterable[str | Path] = ()) -> str:
-    """Why ``path`` cannot be the output, or ``""``: its folder must exist and be writable, a file output must not be
-    a folder (a folder output not a file), and neither it nor a file of ``writes`` may be one of ``inputs`` (the same
-    path, or the same file through another relative path, a symbolic or a hard link)."""
-    path = Path(path)
-    if folder:
-        if path.exists() and not path.is_dir():
-            return "is a file; the output is a folder"
-        where = path if path.is_dir() else path.parent
-    else:
-        if path.is_dir():
-            return "is a folder; the output is a file"
-        where = path.parent
-    if not where.exists():
-        return f"the folder {where} does not exist (the output's folder must exist)"
-    if not where.is_dir():
-        return f"{where} is not a folder"
-    if not os.access(where, os.W_OK | os.X_OK):
-        return f"the folder {where} is not writable (the output's folder must be writable)"
-    for name, given in inputs.items():
-        if given is not None and same_file(path, Path(given)):
-            return f"is the input {name} {given} (the output may not overwrite an input)"
-    for written in writes:
-        for name, given in inputs.items():
-            if given is not None and same_file(Path(written), Path(given)):
-                return f"would write {written}, which is the input {name} {given} (the output may not overwrite an input)"
-    return ""
-
-
-def same_file(a: Path, b: Path) -> bool:
-    """``a`` and ``b`` are the same file: the same resolved path, or (both existing) the same inode (a hard link)."""
-    if a.resolve() == b.resolve():
-        return True
-    try:
-        return os.path.samefile(a, b)
-    except OSError:  # either does not exist
-        return False
-
-
-@dataclass
-class LeftoverCleanup:
-    """What :func:`clean_leftovers` did for one output: the temporaries it removed — a killed run's (``killed``),
-    an older femref's (``legacy``) — and those it kept with the reason (``kept``: not certainly unused)."""
-
-    killed: list[Path] = field(default_factory=list)
-    legacy: list[Path] = field(default_factory=list)
-    kept: list[tuple[Path, str]] = field(default_factory=list)
-
-
-def clean_leftovers(path: str | Path) -> LeftoverCleanup:
-    """Remove the temporaries of ``path`` that no running process writes — a killed run's (pid-named,
-    :func:`remove_leftovers`) and an older femref's (``tmp*`` field-file folders,
-    ``.<name>.<random>.tmp`` files: :func:`remove_legacy_leftovers`); return what was removed
-    and what was kept (an older femref's temporary that is not certainly unused, or holds more than femref wrote)."""
-    killed = remove_leftovers(path)
-    legacy = remove_legacy_leftovers(path)
-    return LeftoverCleanup(killed, legacy.removed, legacy.kept)
-
-
 def field_file_paths(output: str | Path, models: Sequence[str]) -> list[Path]:
     """The field files a result file ``output`` gets beside it for each of ``models`` that writes fields:
     ``<stem>_<model>_fields.xdmf`` and its HDF5 companion ``<stem>_<model>_fields.h5``
@@ -505,30 +171,6 @@ def result_field_files(results: str | Path, name: str = "RESULTS.h5") -> dict[st
     return found
 
 
-@contextlib.contextmanager
-def atomic_path(path: str | Path) -> Iterator[Path]:
-    """A temporary path beside ``path`` to write; renamed to ``path`` when the block ends without error.
-
-    On any error (or interrupt) the temporary file is removed, so nothing is ever left
-    under the final name half-written (docs/design.md §4); a kill leaves the temporary
-    (:func:`temporary_path`), which the next write of ``path`` removes. The file gets the
-    permissions of a newly created file (umask). Creates the folder.
-    """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    remove_leftovers(path)
-    tmp = _create_temporary(path)
-    try:
-        yield tmp
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-
-
 def write_results(
     path: str | Path,
     case_yaml: str,
@@ -552,7 +194,7 @@ def write_results(
     with contextlib.ExitStack() as cleanup:
         staged: dict[str, list[Path]] = {}
         if any(result.fields for result in results):
-            staging = _create_temporary(path, part="fields", folder=True)
+            staging = create_temporary(path, part="fields", folder=True)
             cleanup.callback(shutil.rmtree, staging, True)
             for result in results:
                 if result.fields:

@@ -31,7 +31,7 @@ import numpy as np
 
 from femref import __version__
 from femref.bench.run import PRIMARY_ERROR, RATIO_BASE, SECONDARY_ERROR, VERTICAL_ERROR, BenchOutcome, BenchRow
-from femref.results import atomic_path
+from femref.core.publishing import atomic_path
 
 __all__ = ["COLUMNS", "LABEL_GID", "pareto_figure", "place_labels", "plot_pareto", "write_bench_table"]
 

@@ -55,10 +55,10 @@ def case_input_files(case, name: str = "CASE", base_dir: Path | None = None) -> 
 def check_output(
     path: Path, option: str, inputs: dict[str, Path | None] | None = None, folder: bool = False, default: bool = False, writes: Iterable[Path] = ()
 ) -> None:
-    """Exit 2, nothing written, unless ``path`` can be written (:func:`femref.results.check_output_path`: the
+    """Exit 2, nothing written, unless ``path`` can be written (:func:`femref.core.publishing.check_output_path`: the
     rule :func:`femref.api.run_case` applies too); then remove the temporaries a killed run left of it
-    (:func:`femref.results.remove_leftovers`: never a live run's) and those an older femref left
-    (:func:`femref.results.legacy_leftovers`), each named on stderr.
+    (:func:`femref.core.publishing.remove_leftovers`: never a live run's) and those an older femref left
+    (:func:`femref.core.publishing.legacy_leftovers`), each named on stderr.
 
     Called before any work, so a bad output path never costs a run. ``option`` names the
     option (``-o``), ``default`` says the path is its default; ``inputs`` the command's input
@@ -66,7 +66,7 @@ def check_output(
     output may not be; ``writes`` the other files the command writes beside the output or in the
     output folder (a sweep's ``.partial``, a study's sweeps and networks), which may not be inputs either.
     """
-    from femref.results import OutputPathError, check_output_path
+    from femref.core.publishing import OutputPathError, check_output_path
 
     try:
         check_output_path(path, option, inputs, folder=folder, default=default, writes=writes)
@@ -79,10 +79,10 @@ def check_output(
 
 def clean_leftovers(path: Path) -> None:
     """Remove the temporaries of ``path`` that no running process writes — a killed run's (pid-named) and an older
-    femref's (``tmp*`` field-file folders, ``.<name>.<random>.tmp`` files: :func:`femref.results.legacy_leftovers`) —
+    femref's (``tmp*`` field-file folders, ``.<name>.<random>.tmp`` files: :func:`femref.core.publishing.legacy_leftovers`) —
     and say so on stderr, one line each; name (and keep) an older femref's temporary that is not certainly unused
-    or holds more than femref wrote (:func:`femref.results.clean_leftovers`)."""
-    from femref.results import clean_leftovers as remove
+    or holds more than femref wrote (:func:`femref.core.publishing.clean_leftovers`)."""
+    from femref.core.publishing import clean_leftovers as remove
 
     cleanup = remove(path)
     for removed in cleanup.killed:
@@ -95,8 +95,8 @@ def clean_leftovers(path: Path) -> None:
 
 
 def output_problem(path: Path, inputs: dict[str, Path | None], folder: bool = False, writes: Iterable[Path] = ()) -> str:
-    """Why ``path`` cannot be the output, or ``""`` (:func:`femref.results.output_problem`, kept here for callers)."""
-    from femref.results import output_problem as problem
+    """Why ``path`` cannot be the output, or ``""`` (:func:`femref.core.publishing.output_problem`, kept here for callers)."""
+    from femref.core.publishing import output_problem as problem
 
     return problem(path, inputs, folder, writes)
 

@@ -37,7 +37,7 @@ def write_figures(folder: Path, console: Console) -> list[Path]:
     """Make each figure of :data:`femref.verification.FIGURES` as a stage of :func:`model_progress` on ``console`` and write it as
     ``<folder>/<name>.png`` (atomically: a temporary renamed into place); return the paths written."""
     import femref.verification as verification
-    from femref.results import atomic_path
+    from femref.core.publishing import atomic_path
 
     folder.mkdir(parents=True, exist_ok=True)
     written = []

@@ -24,7 +24,7 @@ def default_output(results: Path) -> Path:
 
 def write_atomically(path: Path, text: str) -> None:
     """Write ``text`` (UTF-8) to a temporary file beside ``path`` and rename it into place."""
-    from femref.results import atomic_path
+    from femref.core.publishing import atomic_path
 
     with atomic_path(path) as tmp:
         tmp.write_text(text, encoding="utf-8")

@@ -103,7 +103,7 @@ def _chain(corner: float | None) -> str:
 def write_calibration(calibration: Calibration, path: str | Path) -> Path:
     """Write ``calibration`` to ``path`` (atomically)."""
     from femref import __version__
-    from femref.results import atomic_path
+    from femref.core.publishing import atomic_path
 
     path = Path(path)
     with atomic_path(path) as temporary, h5py.File(temporary, "w") as h5:

@@ -23,7 +23,7 @@
    ``study.md`` (the table); ``femref report study.h5`` draws them (:mod:`femref.report.study`).
 
 Every file of the study folder is written under a temporary name and renamed when complete
-(:func:`femref.results.atomic_path`; the sweep files by :mod:`femref.sweep`): a step that fails
+(:func:`femref.core.publishing.atomic_path`; the sweep files by :mod:`femref.sweep`): a step that fails
 or is interrupted leaves no file half-written under its final name, and ``femref study`` says
 ``error: study failed: …`` and exits 1 (the sweeps keep what they stored; the same command resumes).
 
@@ -50,7 +50,7 @@ from femref.case.errors import CaseError, Problem
 from femref.sensing.records import record_times
 from femref.core.catalog import ESTIMATORS as INVERSE_ESTIMATORS
 from femref.core.threads import one_blas_thread  # scored next to the networks: every one femref has
-from femref.results import atomic_path
+from femref.core.publishing import atomic_path
 from femref.study.spec import TRAIN, StudyFile
 from femref.sweep import Sweep, SweepData, parse_sweep, read_sweep, run_sweep
 from femref.sweep.keypaths import assign_key_path

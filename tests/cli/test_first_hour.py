@@ -303,7 +303,7 @@ def test_run_case_checks_its_output_like_the_cli(tmp_path, refuse_to_run, output
     OutputPathError (a ValueError) naming ``output``, the path and the rule, before any work, nothing written."""
     import shutil
 
-    from femref.results import OutputPathError
+    from femref.core.publishing import OutputPathError
 
     (tmp_path / "data").mkdir()
     (tmp_path / "sub").mkdir()
@@ -322,7 +322,7 @@ def test_run_case_refuses_field_files_onto_an_input(tmp_path, refuse_to_run) -> 
     replace a file the case names is refused (a CSV load named like one), nothing written."""
     import shutil
 
-    from femref.results import OutputPathError
+    from femref.core.publishing import OutputPathError
 
     shutil.copy(CASES / "data" / "coupler_force.csv", tmp_path / "run_fem_fields.h5")
     data = yaml.safe_load((CASES / "rod_transient_csv.yaml").read_text())
@@ -339,7 +339,7 @@ def test_run_case_removes_the_leftovers_of_killed_and_older_runs(tmp_path) -> No
     import os
     import subprocess as sp
 
-    from femref.results import HDF5_SIGNATURE
+    from femref.core.publishing import HDF5_SIGNATURE
 
     process = sp.Popen([sys.executable, "-c", "pass"])
     process.wait()

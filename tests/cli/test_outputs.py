@@ -30,9 +30,11 @@ import pytest
 import yaml
 from click.testing import CliRunner
 
+import femref.core.publishing
 import femref.results
 from femref.cli import main
-from femref.results import TEST_PAUSE_VARIABLE, ModelResult, field_files_match, leftovers, temporary_path, write_results
+from femref.results import TEST_PAUSE_VARIABLE, ModelResult, field_files_match, write_results
+from femref.core.publishing import leftovers, temporary_path
 
 from support.paths import CASES
 
@@ -472,7 +474,7 @@ def test_without_proc_an_older_femrefs_temporaries_are_only_named(runner, tmp_pa
     """Where no /proc tells whether a process uses them, nothing is removed: each is named on stderr, one line."""
     h5py.File(tmp_path / "seed.h5", "w").close()
     folder = _old_field_folder(tmp_path, "tmpa1b2c3d4", {"out_fem_fields.h5": (tmp_path / "seed.h5").read_bytes()})
-    monkeypatch.setattr(femref.results, "_paths_in_use", lambda entries: None)
+    monkeypatch.setattr(femref.core.publishing, "_paths_in_use", lambda entries: None)
     result = runner.invoke(main, ["run", str(write_case(tmp_path)), "-o", str(tmp_path / "out.h5")])
     assert result.exit_code == 0, result.output
     assert folder.is_dir() and (folder / "out_fem_fields.h5").is_file()

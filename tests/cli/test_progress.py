@@ -19,7 +19,7 @@ from rich.console import Console
 from femref.cli import main
 from femref.cli.common import PROGRESS_KEY, model_progress
 
-from support.paths import CASES
+from support.measured import yard_case_with_inverse_estimators
 
 STATUS = re.compile(r"^(?P<stage>.+): (?P<how>running|done in \d+\.\d s|stopped after \d+\.\d s)$")
 
@@ -37,14 +37,7 @@ def status_lines(stderr: str) -> list[tuple[str, str]]:
 @pytest.fixture(scope="module")
 def measured_case(tmp_path_factory) -> Path:
     """cases/measured_yard.yaml (two events) reading the shipped records, with the cheap estimators only."""
-    folder = tmp_path_factory.mktemp("measured")
-    data = yaml.safe_load((CASES / "measured_yard.yaml").read_text())
-    for record in data["records"]:
-        record["file"] = str(CASES / record["file"])
-    data["estimators"] = ["inverse_rigid", "inverse_quasi_rigid"]
-    path = folder / "yard.yaml"
-    path.write_text(yaml.safe_dump(data, sort_keys=False))
-    return path
+    return yard_case_with_inverse_estimators(tmp_path_factory.mktemp("measured"))
 
 
 def test_measured_run_shows_a_status_line_per_stage_with_progress(measured_case, tmp_path) -> None:

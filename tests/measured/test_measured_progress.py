@@ -3,24 +3,16 @@ one per event, whose callback counts the event's steps — its classification, e
 
 from __future__ import annotations
 
-import yaml
-
 from femref.case import load_case
 from femref.run.measured import READ_LABEL, event_label, run_measured
 from femref.scene.build import scene_from_case
-from support.paths import CASES
+from support.measured import yard_case_with_inverse_estimators
 
 
 def test_run_measured_reports_the_records_and_each_step_of_each_event(tmp_path) -> None:
     """cases/measured_yard.yaml's two events with two inverse estimators: the read stage once done, each event named by
     its number, the count and its trigger time, its callback at 1 + 2 steps of 3; the events as without the hook."""
-    data = yaml.safe_load((CASES / "measured_yard.yaml").read_text())
-    for record in data["records"]:
-        record["file"] = str(CASES / record["file"])
-    data["estimators"] = ["inverse_rigid", "inverse_quasi_rigid"]
-    path = tmp_path / "yard.yaml"
-    path.write_text(yaml.safe_dump(data, sort_keys=False))
-    scene = scene_from_case(load_case(path), tmp_path)
+    scene = scene_from_case(load_case(yard_case_with_inverse_estimators(tmp_path)), tmp_path)
 
     calls: dict[str, list[tuple[int, int]]] = {}
 

@@ -87,3 +87,17 @@ def simulated_event(
     path.write_text(yaml.safe_dump(case, sort_keys=False))
     name = case["couplers"][0]["name"]
     return SimulatedEvent(case, path, fem.axes["time"], fem.couplers[name]["force"], clock, fem.couplers[name]["closure"])
+
+
+def yard_case_with_inverse_estimators(folder: Path) -> Path:
+    """cases/measured_yard.yaml (two events) reading the shipped records, with the two inverse estimators only (the
+    cheap ones), written to ``folder/yard.yaml``; its path."""
+    from support.paths import CASES
+
+    data = yaml.safe_load((CASES / "measured_yard.yaml").read_text())
+    for record in data["records"]:
+        record["file"] = str(CASES / record["file"])
+    data["estimators"] = ["inverse_rigid", "inverse_quasi_rigid"]
+    path = folder / "yard.yaml"
+    path.write_text(yaml.safe_dump(data, sort_keys=False))
+    return path
