@@ -94,13 +94,6 @@ def clean_leftovers(path: Path) -> None:
                    "remove it yourself if no femref run is writing it", err=True)
 
 
-def output_problem(path: Path, inputs: dict[str, Path | None], folder: bool = False, writes: Iterable[Path] = ()) -> str:
-    """Why ``path`` cannot be the output, or ``""`` (:func:`femref.core.publishing.output_problem`, kept here for callers)."""
-    from femref.core.publishing import output_problem as problem
-
-    return problem(path, inputs, folder, writes)
-
-
 def source_name(case_path: Path | None) -> str:
     """How messages name the case: its path, or the default scene."""
     from femref.case.defaults import DEFAULT_SCENE_SOURCE
