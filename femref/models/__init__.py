@@ -7,7 +7,7 @@ inverse estimators (:mod:`.inverse`). The names are those of
 """
 
 from femref.core.catalog import MODELS as CATALOG
-from femref.models.base import FORMS, Model, Progress
+from femref.models.base import FORMS, Model, Progress, ProgressFor
 from femref.models.exact import ExactModel
 from femref.models.fem import FemModel
 from femref.models.modal import ModalModel
@@ -28,4 +28,4 @@ def model_form(name: str, kind: str):
     return getattr(REGISTRY[name], FORMS[kind])
 
 
-__all__ = ["FORMS", "REGISTRY", "Model", "Progress", "model_form"]
+__all__ = ["FORMS", "REGISTRY", "Model", "Progress", "ProgressFor", "model_form"]

@@ -18,6 +18,11 @@ from typing import Callable, Hashable, Protocol, TypeVar
 Progress = Callable[[int, int], None]
 """``progress(done, total)`` steps, called at output steps."""
 
+ProgressFor = Callable[[str], "Progress | None"]
+"""``progress_for(stage)`` → the stage's :data:`Progress` callback, or None: the progress hook of a run of several
+stages (models of a scene, events of a measured case, estimators being calibrated), called when each starts
+(``femref.cli.common.model_progress`` supplies it)."""
+
 #: The method a model offers for each scene kind.
 FORMS: dict[str, str] = {"harmonic": "harmonic", "transient": "transient", "impact": "car"}
 

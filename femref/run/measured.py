@@ -38,7 +38,6 @@ from __future__ import annotations
 
 import math
 import time as _time
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -46,7 +45,7 @@ from numpy.typing import NDArray
 
 from femref.events import ClosureResult, EventResult, ForceEstimate
 from femref.fem.build import FemSettings
-from femref.models import Progress
+from femref.models import Progress, ProgressFor
 from femref.models.inverse import ESTIMATORS as INVERSE_ESTIMATORS
 from femref.models.modal import modal_car
 from femref.scene.impact import Car
@@ -81,9 +80,6 @@ class MeasuredOutcome:
     events: list[EventResult]
 
 
-#: ``progress_for(label)`` → a ``(done, total)`` callback or None: the progress hook of :func:`run_measured`,
-#: the same as :func:`femref.run.run_scene`'s (``femref.cli.common.model_progress`` supplies it).
-ProgressFor = Callable[[str], "Progress | None"]
 #: The progress label while the record files are read.
 READ_LABEL = "read records"
 
@@ -470,4 +466,4 @@ def _impact_car(scene: MeasuredScene, index: int, records: dict[str, NDArray[np.
     return Car(car.name, car.body, 0.0, {name: x for name, x in car.sensors.items() if f"{car.name}/{name}" in records})
 
 
-__all__ = ["KALMAN_FEM", "READ_LABEL", "MeasuredOutcome", "ProgressFor", "event_label", "kalman_cars", "kalman_contact", "kalman_estimate", "network_estimate", "run_measured"]
+__all__ = ["KALMAN_FEM", "READ_LABEL", "MeasuredOutcome", "event_label", "kalman_cars", "kalman_contact", "kalman_estimate", "network_estimate", "run_measured"]

@@ -25,14 +25,14 @@ import dataclasses
 import math
 import time
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
 from femref.core import catalog
 from femref.core.threads import one_blas_thread
 from femref.impact import ImpactResponse, solve_impact
-from femref.models import Progress, model_form
+from femref.models import Progress, ProgressFor, model_form
 from femref.models.inverse import ESTIMATORS
 from femref.results import ModelResult
 from femref.run.budget import SELF_CHECK_VARIABLE, check_budget, resolution_warnings, self_check_levels
@@ -45,8 +45,6 @@ from femref.sensing.impact_type import classify_records
 from femref.sensing.measurement import measure
 from femref.sensing.network import ImpactTypeNetworks, NetworkEstimator
 from femref.sensing.records import acceleration_histories
-
-ProgressFor = Callable[[str], "Progress | None"]
 
 
 @dataclass
@@ -82,7 +80,7 @@ def run_scene(scene: Scene | ImpactScene, progress_for: ProgressFor | None = Non
     return _run_single_body(scene, progress)
 
 
-def _run_impact(scene: ImpactScene, progress: Callable[[str], Progress | None]) -> RunOutcome:
+def _run_impact(scene: ImpactScene, progress: ProgressFor) -> RunOutcome:
     load_compiled_loop(scene)
     results = [run_model(scene, run, progress=progress(run.name)) for run in scene.runs]
     for run, result in zip(scene.runs, results):
@@ -195,7 +193,7 @@ def merge_scores(scores: dict[str, dict[str, Any]], checked: dict[str, dict[str,
         scores[model] = {**extra, **scores[model]} if model in scores else extra
 
 
-def _run_single_body(scene: Scene, progress: Callable[[str], Progress | None]) -> RunOutcome:
+def _run_single_body(scene: Scene, progress: ProgressFor) -> RunOutcome:
     """Every model on one axis: a transient scene's step is resolved once and recorded with its rule; then its fem
     run checks itself when the case's step or mesh under-resolves it (:func:`check_reference`)."""
     dt_rule = None

@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from femref.core.catalog import ESTIMATORS as INVERSE_ESTIMATORS
+from femref.models import ProgressFor
 from femref.sensing.calibration import Calibration
 from femref.sensing.measurement import Measurement
 from femref.sensing.network import AnnEstimator
@@ -37,9 +38,6 @@ within 0.5 ms on the default scene at 1–3 m/s). A network is calibrated on eac
 the contact and at ± this, so its band carries that error too."""
 
 
-#: ``progress_for(stage)`` → a ``(done, total)`` callback or None: the progress hook of :func:`calibrate`, the same
-#: as :func:`femref.run.run_scene`'s (``femref.cli.common.model_progress`` supplies it).
-ProgressFor = Callable[[str], "Callable[[int, int], None] | None"]
 
 
 def calibrate(sweep: Sweep, results: Path, coupler: str | None = None, networks: Sequence[AnnEstimator] = (),
@@ -127,4 +125,4 @@ def _check_network(network: AnnEstimator, coupler: str, probes: Sequence[str], r
         raise ValueError(f"network {network.name} was trained on records through {trained}; {results}'s went through {chain}")
 
 
-__all__ = ["CONTACT_JITTER", "ProgressFor", "calibrate"]
+__all__ = ["CONTACT_JITTER", "calibrate"]
