@@ -174,13 +174,18 @@ class CouplerSolve:
         self.bracket_expansions = BRACKET_EXPANSIONS
         self._state_settled = True  # the last _state_under converged (read after the scalar root's last trial)
 
+    def _mirrored(self, j: int, closure: float) -> bool:
+        """``σ = −1`` for coupler j's step to the closure ``closure``: its committed gear state is mirrored there
+        (:meth:`reduced.couplers.Coupling.state_mirrored`, module docstring)."""
+        sl = self.state_slices[j]
+        return sl.stop > sl.start and self.couplings[j].state_mirrored(closure, self.state[sl])
+
     def _step_start(self, closure: NDArray) -> tuple[NDArray, NDArray]:
         """The committed states and state rates the step to the closures ``closure`` starts from: each
-        coupler's ``σ (s_n, ṡ_n)``, ``σ = −1`` where its gear state is mirrored at that closure
-        (:meth:`reduced.couplers.Coupling.state_mirrored`, module docstring), else the committed values."""
+        coupler's ``σ (s_n, ṡ_n)`` (:meth:`_mirrored`), the committed values where ``σ = +1``."""
         start, start_rate = self.state, self.state_rate
         for j, sl in enumerate(self.state_slices):
-            if sl.stop > sl.start and self.couplings[j].state_mirrored(float(closure[j]), self.state[sl]):
+            if self._mirrored(j, float(closure[j])):
                 if start is self.state:
                     start, start_rate = self.state.copy(), self.state_rate.copy()
                 start[sl], start_rate[sl] = -self.state[sl], -self.state_rate[sl]
@@ -379,9 +384,8 @@ class CouplerSolve:
         :data:`MAX_NEWTON_ITERATIONS` steps (else the last iterate).
         """
         sl, dt = self.state_slices[j], self.dt
-        previous, previous_rate = float(self.state[sl][0]), float(self.state_rate[sl][0])
-        if self.couplings[j].state_mirrored(closure, self.state[sl]):
-            previous, previous_rate = -previous, -previous_rate
+        sigma = -1.0 if self._mirrored(j, closure) else 1.0
+        previous, previous_rate = sigma * float(self.state[sl][0]), sigma * float(self.state_rate[sl][0])
 
         def residual(x: float) -> tuple[float, float]:
             q, dq = self._driven_rate(j, closure, rate, force, np.array([x]))
