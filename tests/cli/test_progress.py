@@ -12,14 +12,14 @@ from pathlib import Path
 
 import click
 import pytest
-import yaml
 from click.testing import CliRunner
 from rich.console import Console
 
 from femref.cli import main
 from femref.cli.common import PROGRESS_KEY, model_progress
 
-from support.measured import yard_case_with_inverse_estimators
+from femref.case.defaults import default_scene_data
+from support.measured import run_calibration_sweep, yard_case_with_inverse_estimators
 
 STATUS = re.compile(r"^(?P<stage>.+): (?P<how>running|done in \d+\.\d s|stopped after \d+\.\d s)$")
 
@@ -59,22 +59,8 @@ def test_measured_run_shows_a_status_line_per_stage_with_progress(measured_case,
 @pytest.fixture(scope="module")
 def calibration_sweep(tmp_path_factory) -> tuple[Path, Path]:
     """A 20-sample fem sweep of the default scene, coarse and short (8 elements, 0.2 s): the fewest samples calibrate takes."""
-    import distributed
-
-    from femref.case.defaults import default_scene_data
-    from femref.sweep import run_sweep
-
-    folder = tmp_path_factory.mktemp("calibrate")
-    base = default_scene_data()
-    base.update(models=["fem"], estimators=[], time={"end": 0.2})
-    base["fem"]["elements"] = 8
-    sweep = {"case": base, "samples": 20, "seed": 5, "models": ["fem"],
-             "parameters": {"cars.0.velocity": {"uniform": [1.5, 3.0]}}, "outputs": {"record_length": 101, "force_length": 51}}
-    (folder / "cal.yaml").write_text(yaml.safe_dump(sweep, sort_keys=False))
-    with distributed.Client(processes=False, n_workers=1, threads_per_worker=1, dashboard_address=None) as client:
-        summary = run_sweep(folder / "cal.yaml", folder / "cal.h5", client=client)
-    assert summary.complete and summary.failed == 0
-    return folder / "cal.yaml", folder / "cal.h5"
+    fem = {**default_scene_data()["fem"], "elements": 8}
+    return run_calibration_sweep(tmp_path_factory.mktemp("calibrate"), 20, 101, 51, time={"end": 0.2}, fem=fem)
 
 
 def test_calibrate_shows_a_status_line_per_estimator_with_progress(calibration_sweep, tmp_path) -> None:

@@ -6,7 +6,6 @@ from __future__ import annotations
 import copy
 from pathlib import Path
 
-import distributed
 import numpy as np
 import yaml
 from click.testing import CliRunner
@@ -17,19 +16,11 @@ from femref.cli import main
 from femref.run.measured import run_measured
 from femref.scene.build import scene_from_case
 from femref.sensing.calibration import read_calibration
-from femref.sweep import run_sweep
-from support.measured import simulated_event
+from support.measured import run_calibration_sweep, simulated_event
 
 
 def test_inverse_bands_from_a_calibration_sweep(tmp_path):
-    base = default_scene_data()
-    base.update(models=["fem"], estimators=[])
-    sweep = {"case": base, "samples": 24, "seed": 5, "models": ["fem"],
-             "parameters": {"cars.0.velocity": {"uniform": [1.5, 3.0]}}, "outputs": {"record_length": 501, "force_length": 101}}
-    (tmp_path / "cal.yaml").write_text(yaml.safe_dump(sweep, sort_keys=False))
-    with distributed.Client(processes=False, n_workers=1, threads_per_worker=1, dashboard_address=None) as client:
-        summary = run_sweep(tmp_path / "cal.yaml", tmp_path / "cal.h5", client=client)
-    assert summary.complete and summary.failed == 0
+    run_calibration_sweep(tmp_path, 24, 501, 101)
     network = str(Path(__file__).parents[2] / "cases" / "networks" / "fem_mlp.npz")
     result = CliRunner().invoke(main, ["calibrate", str(tmp_path / "cal.yaml"), str(tmp_path / "cal.h5"), "-o", str(tmp_path / "calibration.h5"),
                                        "--network", f"ann_fem={network}"])

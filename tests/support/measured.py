@@ -101,3 +101,23 @@ def yard_case_with_inverse_estimators(folder: Path) -> Path:
     path = folder / "yard.yaml"
     path.write_text(yaml.safe_dump(data, sort_keys=False))
     return path
+
+
+def run_calibration_sweep(folder: Path, samples: int, record_length: int, force_length: int, **case: Any) -> tuple[Path, Path]:
+    """A fem sweep of the default scene over the hammer's speed (uniform 1.5–3 m/s, seed 5) for ``femref calibrate``,
+    run in process on one worker into ``folder/cal.h5``; ``case`` updates the base case (e.g. ``time``). Asserts
+    every sample ran; returns the sweep file and its results."""
+    import distributed
+
+    from femref.case.defaults import default_scene_data
+    from femref.sweep import run_sweep
+
+    base = default_scene_data()
+    base.update(models=["fem"], estimators=[], **case)
+    sweep = {"case": base, "samples": samples, "seed": 5, "models": ["fem"],
+             "parameters": {"cars.0.velocity": {"uniform": [1.5, 3.0]}}, "outputs": {"record_length": record_length, "force_length": force_length}}
+    (folder / "cal.yaml").write_text(yaml.safe_dump(sweep, sort_keys=False))
+    with distributed.Client(processes=False, n_workers=1, threads_per_worker=1, dashboard_address=None) as client:
+        summary = run_sweep(folder / "cal.yaml", folder / "cal.h5", client=client)
+    assert summary.complete and summary.failed == 0
+    return folder / "cal.yaml", folder / "cal.h5"
