@@ -48,6 +48,7 @@ from typing import Annotated, Any, Literal, get_args
 from pydantic import BeforeValidator, Field, TypeAdapter, ValidationError, model_validator
 from pydantic_core import PydanticCustomError
 
+from ann.networks import TRAIN_EXTRA
 from femref.case.errors import CaseError, Problem, did_you_mean, problems_error, problems_from
 from femref.case.loader import read_yaml_file
 from femref.case.fields import CaseModel, Count, TaggedSpec, _reject_bool, _tagged_union
@@ -194,9 +195,6 @@ NETWORK_SPECS: dict[str, type[TaggedSpec]] = {"mlp": MlpSpec, "rbf": RbfSpec}
 NetworkSpec = _tagged_union(NETWORK_SPECS, "network")
 
 
-#: The optional extra that installs scikit-learn, the trainer of the scikit-learn MLP solvers and of RBF networks
-#: (:data:`ann.networks.TRAIN_EXTRA`; not imported here: validating a study stays light).
-TRAIN_EXTRA = "femref[train]"
 
 
 def training_dependency_available() -> bool:
@@ -217,7 +215,8 @@ def training_dependency_problems(networks: dict[str, Any]) -> list[Problem]:
     needing = {name: spec for name, spec in networks.items() if isinstance(spec, RbfSpec) or (isinstance(spec, MlpSpec) and spec.solver != MOMENTUM)}
     if not needing or training_dependency_available():
         return []
-    install = f"scikit-learn, which is not installed: it is the optional extra {TRAIN_EXTRA} (pip install '{TRAIN_EXTRA}')"
+    extra = f"femref[{TRAIN_EXTRA}]"
+    install = f"scikit-learn, which is not installed: it is the optional extra {extra} (pip install '{extra}')"
     problems = []
     for name, spec in needing.items():
         if isinstance(spec, MlpSpec):
@@ -308,6 +307,6 @@ def parse_study(data: Any, *, source: str = "<study>") -> StudyFile:
 
 
 __all__ = [
-    "MOMENTUM", "SKLEARN_UNITS", "TRAIN", "TRAIN_EXTRA", "FeatureSpec", "MlpSpec", "RbfSpec", "SetSpec", "StudyFile", "load_study", "parse_study",
+    "MOMENTUM", "SKLEARN_UNITS", "TRAIN", "FeatureSpec", "MlpSpec", "RbfSpec", "SetSpec", "StudyFile", "load_study", "parse_study",
     "training_dependency_available", "training_dependency_problems",
 ]
