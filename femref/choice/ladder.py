@@ -162,11 +162,7 @@ def model_ladder(scene: ImpactScene, step: StepRule = impact_time_step, mesh_dof
     """
     rungs = [_rung("rigid", "rigid", 0, scene, step), _rung("quasi_rigid", "quasi_rigid", 0, scene, step)]
     partners = {"rigid": "quasi_rigid", "quasi_rigid": "rigid"}
-    if mesh_dofs is None:
-        modes = mode_counts(scene, MODE_COUNTS)
-    else:
-        ndof = mesh_dofs(scene)
-        modes = sorted(k for k in set(MODE_COUNTS) if 1 <= k <= ndof - 2)
+    modes = mode_counts(scene, MODE_COUNTS, None if mesh_dofs is None else mesh_dofs(scene))
     for k in modes:
         rungs.append(_rung(f"modal_k{k}", "modal", k, dataclasses.replace(scene, modal_modes=k), step))
     partners.update({f"modal_k{k}": f"modal_k{2 * k}" for k in modes if 2 * k in modes})

@@ -25,13 +25,15 @@ def with_elements(scene: ImpactScene, elements: int) -> ImpactScene:
     return dataclasses.replace(scene, fem=dataclasses.replace(scene.fem, elements=elements))
 
 
-def mode_counts(scene: ImpactScene, candidates: tuple[int, ...] | None = None) -> list[int]:
-    """The mode counts every car's fem mesh holds (``≤ ndof − 2``) among ``candidates``
-    (default: :data:`MODE_COUNTS` and the case's ``modal_modes``), ascending."""
-    ndof = min(
-        (body_nodes(car.body.half_length, scene.fem.elements, car.body.jumps, scene.fem.grading).size - 1) * scene.fem.order + 1
-        for car in scene.cars
-    )
+def mode_counts(scene: ImpactScene, candidates: tuple[int, ...] | None = None, ndof: int | None = None) -> list[int]:
+    """The mode counts every car's fem mesh holds (``≤ ndof − 2``, ``ndof`` the smallest car's DOFs: given, or
+    counted on the meshes) among ``candidates`` (default: :data:`MODE_COUNTS` and the case's ``modal_modes``),
+    ascending."""
+    if ndof is None:
+        ndof = min(
+            (body_nodes(car.body.half_length, scene.fem.elements, car.body.jumps, scene.fem.grading).size - 1) * scene.fem.order + 1
+            for car in scene.cars
+        )
     if candidates is None:
         candidates = (*MODE_COUNTS, scene.modal_modes)
     return sorted(k for k in set(candidates) if 1 <= k <= ndof - 2)
