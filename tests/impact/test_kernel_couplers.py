@@ -302,7 +302,9 @@ def test_compiled_iteration_steps_like_coupler_solve(name: str):
 
 
 def test_brent_root_is_scipy_brentq():
-    """The transcription of Brent's method returns scipy's root to the bit (same evaluations)."""
+    """The transcription of Brent's method returns scipy's root (same evaluations) to a few ulps: the compiled
+    table law may round its last bit differently from the Python one on another CPU (1 ulp seen), and Brent's
+    iterates then part by that much."""
     laws = K.pack_laws([Coupling(TABLE), Coupling(TABLE)])
     gain_u = np.array([[-2e-9, 1e-9], [1e-9, -2e-9]])
     gain_v = 2e3 * gain_u
@@ -322,7 +324,7 @@ def test_brent_root_is_scipy_brentq():
         low, high = sorted((P[0], P[0] - f0))
         expected = scipy.optimize.brentq(excess, low, high, xtol=1e-4)
         got = K.brent_root(laws, K.new_state(laws), 1e-3, 0, closure_free, rate_free, gain_u, gain_v, P.copy(), np.zeros(2), low, high, 1e-4)
-        assert got == expected
+        assert abs(got - expected) <= 4.0 * np.spacing(abs(expected))
 
 
 # --- failures ------------------------------------------------------------------------------
