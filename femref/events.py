@@ -6,7 +6,9 @@ Layout (every quantity carries its unit as the attribute ``units``)::
     /scene                                attrs: kind = measured, cars, couplers (JSON)
     /events/<k>/                          attrs: start, end, trigger_time (s), trigger_probe, flags (JSON),
                                           impact_type, zero_harmonic_ratio, classification_confidence,
-                                          closing_speed (m/s), epsilon, alarm, alarm_basis, wear, wear_basis
+                                          closing_speed, closing_speed_lower, closing_speed_upper (m/s: the
+                                          speed and its interval), closing_speed_source (records | given |
+                                          none), closing_speed_basis, epsilon, alarm, alarm_basis, wear, wear_basis
     /events/<k>/records/time, <car>/<sensor>          the event's records on one grid (s, m/s²)
     /events/<k>/<estimator>/<coupler>/time, force, force_lower, force_upper
                                           attrs: peak_force, peak_lower, peak_upper (N), bound
@@ -83,11 +85,11 @@ class ForceEstimate:
 
 @dataclass
 class ClosureResult:
-    """The draft gear's closure on one coupler, from ``estimator``'s force history: ``status`` closed /
-    not closed / ambiguous with its reason (``message``); the closure force (N) and time (s) at the
-    change point between the open and the closed gear's branches, the force's 95 % profile interval
-    (N), the slope ratio across the change point, the change point's F-test p-value and the fit's RMS
-    residual over the peak (NaN where not found)."""
+    """The draft gear's closure on one coupler, from ``estimator``'s force history and the stroke made of it:
+    ``status`` closed / not closed / ambiguous with its reason (``message``); the closure force (N) and time
+    (s) where the coupler's compliance drops (:func:`reduced.signal_tools.detect_closure_force`), the force's
+    95 % profile interval (N), the stiffening (open over closed compliance there), the change point's F-test
+    p-value and the fit's RMS stroke residual over the stroke travel (NaN where not found)."""
 
     coupler: str
     estimator: str
@@ -118,6 +120,10 @@ class EventResult:
     zero_harmonic_ratio: float = np.nan
     classification_confidence: float = np.nan
     closing_speed: float = np.nan
+    closing_speed_lower: float = np.nan
+    closing_speed_upper: float = np.nan
+    closing_speed_source: str = "none"
+    closing_speed_basis: str = ""
     epsilon: float = np.nan
     estimates: list[ForceEstimate] = field(default_factory=list)
     closures: list[ClosureResult] = field(default_factory=list)
@@ -128,7 +134,7 @@ class EventResult:
 
 
 EVENT_UNITS = {
-    "start": "s", "end": "s", "trigger_time": "s", "closing_speed": "m/s", "epsilon": "1",
+    "start": "s", "end": "s", "trigger_time": "s", "closing_speed": "m/s", "closing_speed_lower": "m/s", "closing_speed_upper": "m/s", "epsilon": "1",
     "zero_harmonic_ratio": "1", "classification_confidence": "1",
 }
 
@@ -152,10 +158,11 @@ def write_events(path: str | Path, scene_facts: dict[str, Any], events: list[Eve
 
 
 def _write_event(group: h5py.Group, event: EventResult) -> None:
-    for key in ("start", "end", "trigger_time", "closing_speed", "epsilon", "zero_harmonic_ratio", "classification_confidence"):
+    for key in ("start", "end", "trigger_time", "closing_speed", "closing_speed_lower", "closing_speed_upper", "epsilon", "zero_harmonic_ratio",
+                "classification_confidence"):
         group.attrs[key] = float(getattr(event, key))
     group.attrs["units"] = json.dumps(EVENT_UNITS)
-    for key in ("trigger_probe", "impact_type", "alarm", "alarm_basis", "wear", "wear_basis"):
+    for key in ("trigger_probe", "impact_type", "closing_speed_source", "closing_speed_basis", "alarm", "alarm_basis", "wear", "wear_basis"):
         group.attrs[key] = getattr(event, key)
     group.attrs["flags"] = json.dumps(list(event.flags))
     records = group.create_group("records")
@@ -170,10 +177,10 @@ def _write_event(group: h5py.Group, event: EventResult) -> None:
         peak, lower, upper = estimate.peak
         sub.attrs.update(peak_force=peak, peak_lower=lower, peak_upper=upper, bound=estimate.bound, status=estimate.status,
                          message=estimate.message, wall_time_s=estimate.wall_time_s, settings=json.dumps(estimate.settings))
-        if estimate.bound != "calibrated":
-            sub.attrs["in_calibrated_range"] = "n/a"  # only a calibrated bound has a range it holds in
+        if estimate.in_calibrated_range is None:
+            sub.attrs["in_calibrated_range"] = "n/a"  # no calibration covers this estimate: no range it holds in
         else:
-            sub.attrs["in_calibrated_range"] = "unknown" if estimate.in_calibrated_range is None else str(bool(estimate.in_calibrated_range)).lower()
+            sub.attrs["in_calibrated_range"] = str(bool(estimate.in_calibrated_range)).lower()
         sub.attrs["units"] = json.dumps({"peak_force": "N", "peak_lower": "N", "peak_upper": "N", "wall_time_s": "s"})
     closures = group.create_group("closure")
     for closure in event.closures:
@@ -182,7 +189,7 @@ def _write_event(group: h5py.Group, event: EventResult) -> None:
                          force_lower=closure.force_lower, force_upper=closure.force_upper, stiffening=closure.stiffening,
                          p_value=closure.p_value, residual=closure.residual, estimator=closure.estimator, message=closure.message)
         sub.attrs["units"] = json.dumps({"closure_force": "N", "closure_time": "s", "force_lower": "N", "force_upper": "N",
-                                         "stiffening": "1", "p_value": "1", "residual": "1 (of the peak force)"})
+                                         "stiffening": "1", "p_value": "1", "residual": "1 (of the stroke travel)"})
 
 
 def _dataset(group: h5py.Group, name: str, data: NDArray, units: str) -> None:

@@ -1,7 +1,9 @@
 """The ``couplers`` of an impact case: which neighbours each joins, its force law, contact and slack.
 
-Coupler laws (registry :data:`COUPLER_LAW_SPECS`): ``kelvin_voigt``, ``draft_gear`` and
-``table``, each built into a :mod:`reduced.couplers` law. Whether a coupler's cars exist
+Coupler laws (registry :data:`COUPLER_LAW_SPECS`): ``kelvin_voigt``, ``power_law``,
+``draft_gear``, ``table`` and ``friction_gear`` (its ``loading`` curve from the registry
+:data:`LOADING_CURVE_SPECS`: ``cubic`` or ``exponential``), each built into a
+:mod:`reduced.couplers` law. Whether a coupler's cars exist
 and are neighbours in line order is checked on the case (:func:`_coupler_pair_problems`),
 once the cars are valid.
 """
@@ -16,9 +18,19 @@ from pydantic_core import PydanticCustomError
 
 from femref.case.errors import Problem, did_you_mean, problems_error
 from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, Real, TaggedSpec, _name_rule, _tagged_union
-from femref.case.plausibility import plausible, sequence_check
+from femref.case.plausibility import BOUNDS, format_number, plausible, sequence_check
 from reduced import couplers as reduced_couplers
-from reduced.couplers import CONTACT_KINDS, KelvinVoigt, StandardLinearDraftGear
+from reduced.couplers import (
+    CONTACT_KINDS,
+    CubicLoading,
+    ExponentialLoading,
+    HystereticTable,
+    KelvinVoigt,
+    PowerLawGear,
+    StandardLinearDraftGear,
+    friction_gear,
+    rated_closure_force,
+)
 
 __all__ = [
     "COUPLER_LAW_SPECS",
@@ -27,13 +39,23 @@ __all__ = [
     "CouplerLawSpec",
     "CouplerName",
     "CouplerSpec",
+    "CubicLoadingCurve",
     "DraftGearLaw",
+    "ExponentialLoadingCurve",
+    "FrictionGearLaw",
     "KelvinVoigtLaw",
+    "LOADING_CURVE_SPECS",
+    "LoadingCurveSpec",
+    "PowerLawGearLaw",
     "TableLaw",
 ]
 
 #: Default of the table law's rate threshold between loading and unloading (m/s).
 DEFAULT_SWITCH_VELOCITY = 0.01
+
+#: Closure (m) at which a power law's secant stiffness and damping terms are checked for plausibility
+#: (the closure of reduced.couplers.PowerLawGear.reference_stiffness).
+REFERENCE_CLOSURE = 0.01
 
 #: Coupler numbers within the plausible range of rail vehicles (femref.case.plausibility).
 Stiffness = Annotated[PositiveReal, plausible("coupler_stiffness")]
@@ -172,8 +194,161 @@ class TableLaw(CouplerLawSpec):
         )
 
 
+class PowerLawGearLaw(CouplerLawSpec):
+    """Power-law gear with preload and closure-dependent damping (reduced.couplers.PowerLawGear):
+    ``P = sgn(δ) (c |δ|ⁿ + N0) + γ(δ) δ̇``, ``γ(δ) = Σ_k γ_k |δ|^k``."""
+
+    tag: ClassVar[str] = "power_law"
+    stiffness: PositiveReal = Field(
+        description=f"Spring coefficient c (N/mⁿ), > 0; its secant c·({REFERENCE_CLOSURE * 1e3:g} mm)^(n−1) must be a plausible coupler stiffness. Required."
+    )
+    exponent: Annotated[Real, Field(ge=1), plausible("gear_exponent")] = Field(
+        default=1.0, description="Exponent n, >= 1 (n < 1 is infinitely stiff at zero closure). Default 1."
+    )
+    preload: Annotated[NonNegativeReal, plausible("coupler_force")] = Field(
+        default=0.0, description="Preload N0 (N), >= 0: the force jumps to ±N0 as the closure passes 0. Default 0."
+    )
+    damping: tuple[NonNegativeReal, ...] = Field(
+        default=(0.0,), min_length=1,
+        description="Damping coefficients [γ_0, γ_1, …] of γ(δ) = Σ γ_k |δ|^k (γ_k in N·s/m^(k+1)), each >= 0; at least one. Default [0].",
+    )
+
+    @model_validator(mode="after")
+    def _plausible_at_reference_closure(self) -> "PowerLawGearLaw":
+        """``c δ_r^(n−1)`` and each ``γ_k δ_r^k`` at ``δ_r`` = :data:`REFERENCE_CLOSURE` within the coupler bounds."""
+        secant = self.stiffness * REFERENCE_CLOSURE ** (self.exponent - 1.0)
+        problems = []
+        if (rule := BOUNDS["coupler_stiffness"].rule(secant)) is not None:
+            problems.append(Problem(("stiffness",), f"its secant c·({REFERENCE_CLOSURE:g} m)^(n−1) = {format_number(secant)} N/m: {rule}", self.stiffness))
+        for k, gamma in enumerate(self.damping):
+            if (rule := BOUNDS["coupler_damping"].rule(gamma * REFERENCE_CLOSURE**k)) is not None:
+                problems.append(Problem(("damping", k), f"γ_{k}·({REFERENCE_CLOSURE:g} m)^{k} = {format_number(gamma * REFERENCE_CLOSURE**k)} N·s/m: {rule}", gamma))
+        if problems:
+            raise problems_error(problems)
+        return self
+
+    def build(self) -> PowerLawGear:
+        return PowerLawGear(stiffness=self.stiffness, exponent=self.exponent, preload=self.preload, damping=self.damping)
+
+
+class LoadingCurveSpec(TaggedSpec):
+    """A friction gear's loading curve ``L(δ)`` (N), convex, built into a ``reduced.couplers`` curve."""
+
+    def build(self) -> Any:
+        raise NotImplementedError
+
+
+class CubicLoadingCurve(LoadingCurveSpec):
+    """``L(δ) = k1 δ + k3 δ³`` (reduced.couplers.CubicLoading)."""
+
+    tag: ClassVar[str] = "cubic"
+    linear_stiffness: Annotated[NonNegativeReal, plausible("gear_linear_stiffness")] = Field(description="k1 (N/m), >= 0. Required.")
+    cubic_stiffness: Annotated[NonNegativeReal, plausible("gear_cubic_stiffness")] = Field(description="k3 (N/m³), >= 0. Required.")
+
+    @model_validator(mode="after")
+    def _rises(self) -> "CubicLoadingCurve":
+        if self.linear_stiffness == 0.0 and self.cubic_stiffness == 0.0:
+            raise problems_error([Problem(("cubic_stiffness",), "linear_stiffness and cubic_stiffness are both 0: a gear that never pushes", 0.0)])
+        return self
+
+    def build(self) -> CubicLoading:
+        return CubicLoading(self.linear_stiffness, self.cubic_stiffness)
+
+
+class ExponentialLoadingCurve(LoadingCurveSpec):
+    """``L(δ) = a (e^{b δ} − 1)`` (reduced.couplers.ExponentialLoading)."""
+
+    tag: ClassVar[str] = "exponential"
+    amplitude: Annotated[PositiveReal, plausible("gear_curve_amplitude")] = Field(description="a (N), > 0. Required.")
+    rate: PositiveReal = Field(description="b (1/m), > 0; b·solid_closure within 1e-3–40. Required.")
+
+    def build(self) -> ExponentialLoading:
+        return ExponentialLoading(self.amplitude, self.rate)
+
+
+#: Loading curves of the friction gear by case-file name.
+LOADING_CURVE_SPECS: Mapping[str, type[LoadingCurveSpec]] = {"cubic": CubicLoadingCurve, "exponential": ExponentialLoadingCurve}
+
+AnyLoadingCurve = _tagged_union(LOADING_CURVE_SPECS, "loading curve")
+
+#: Relative agreement a given ``rated_closure_force`` must have with L(δ_c) (the resolved case writes it exactly).
+RATED_FORCE_RTOL = 1e-9
+
+
+class FrictionGearLaw(CouplerLawSpec):
+    """Friction draft gear with hysteresis and a solid stop (reduced.couplers.friction_gear, a tabulated
+    HystereticTable): ``loading`` L(δ) up to the ``solid_closure`` δ_c, unloading ``U = r L``, both rising
+    with ``solid_stiffness`` k_s beyond δ_c; ``P = U + (L − U) clip(δ̇/v_s, 0, 1) + c_v δ̇``, odd in (δ, δ̇).
+    Its rated closure force ``L(δ_c)`` is filled in as ``rated_closure_force``."""
+
+    tag: ClassVar[str] = "friction_gear"
+    loading: AnyLoadingCurve = Field(description="Loading curve L(δ) up to the solid closure: exactly one of cubic {linear_stiffness k1 N/m, "
+                                     "cubic_stiffness k3 N/m³} (L = k1 δ + k3 δ³) or exponential {amplitude a N, rate b 1/m} (L = a (e^{bδ} − 1)). Required.")
+    unloading_ratio: Real = Field(description="r = U/L on the gear travel, in [0, 1]: friction gears 0.3–0.5, polymer-like gears near 1. Required.")
+    solid_closure: Annotated[PositiveReal, plausible("coupler_travel")] = Field(description="Closure δ_c (m) at which the gear closes solid, > 0 (typically 0.06–0.09). Required.")
+    solid_stiffness: Stiffness = Field(description="Stiffness k_s (N/m) beyond the solid closure, at least the loading slope L'(δ_c) (real gears 20–50× that). Required.")
+    damping: Damping = Field(default=0.0, description="Viscous term c_v δ̇ added to either curve (N·s/m), >= 0. Default 0.")
+    switch_velocity: PositiveReal = Field(
+        default=DEFAULT_SWITCH_VELOCITY,
+        description=f"Closure rate (m/s) over which the force blends between the curves, > 0. Default {DEFAULT_SWITCH_VELOCITY}.",
+    )
+    rated_closure_force: PositiveReal | None = Field(
+        default=None,
+        description="Derived, L(δ_c) (N): the force at which the gear closes solid. Leave it out: validation fills it in (femref validate "
+        f"shows it); given, it must equal L(δ_c) to a relative {RATED_FORCE_RTOL:g}.",
+    )
+
+    @model_validator(mode="after")
+    def _gear(self) -> "FrictionGearLaw":
+        problems = self._curve_problems()
+        if problems:
+            raise problems_error(problems)
+        curve = self.loading.build()
+        rated = rated_closure_force(curve, self.solid_closure)
+        if (rule := BOUNDS["coupler_force"].rule(rated)) is not None:
+            problems.append(Problem(("solid_closure",), f"the rated closure force L({self.solid_closure:g} m) = {format_number(rated)} N: {rule}", self.solid_closure))
+        slope = curve.slope(self.solid_closure)
+        if self.solid_stiffness < slope:
+            rule = f"must be at least the loading slope at the solid closure, L'({self.solid_closure:g} m) = {slope:.6g} N/m: the solid stop stiffens the gear"
+            problems.append(Problem(("solid_stiffness",), rule, self.solid_stiffness))
+        if self.rated_closure_force is not None and abs(self.rated_closure_force - rated) > RATED_FORCE_RTOL * rated:
+            rule = f"is derived: it must equal L(solid_closure) = {rated!r} N (leave it out and validation fills it in)"
+            problems.append(Problem(("rated_closure_force",), rule, self.rated_closure_force))
+        if problems:
+            raise problems_error(problems)
+        object.__setattr__(self, "rated_closure_force", rated)  # the filled-in derived key (frozen model)
+        return self
+
+    def _curve_problems(self) -> list[Problem]:
+        """The unloading ratio's rule and an exponential curve's exponent ``b δ_c`` (before L(δ_c) is evaluated)."""
+        problems = []
+        if not 0.0 <= self.unloading_ratio <= 1.0:
+            problems.append(Problem(("unloading_ratio",), "must lie in [0, 1]: the unloading curve lies between 0 and the loading curve", self.unloading_ratio))
+        if isinstance(self.loading, ExponentialLoadingCurve):
+            exponent = self.loading.rate * self.solid_closure
+            if (rule := BOUNDS["gear_curve_exponent"].rule(exponent)) is not None:
+                problems.append(Problem(("loading", "exponential", "rate"), f"rate·solid_closure = {format_number(exponent)}: {rule}", self.loading.rate))
+        return problems
+
+    def build(self) -> HystereticTable:
+        return friction_gear(
+            self.loading.build(),
+            unloading_ratio=self.unloading_ratio,
+            solid_closure=self.solid_closure,
+            solid_stiffness=self.solid_stiffness,
+            damping=self.damping,
+            switch_velocity=self.switch_velocity,
+        )
+
+
 #: Coupler laws by case-file name.
-COUPLER_LAW_SPECS: Mapping[str, type[CouplerLawSpec]] = {"kelvin_voigt": KelvinVoigtLaw, "draft_gear": DraftGearLaw, "table": TableLaw}
+COUPLER_LAW_SPECS: Mapping[str, type[CouplerLawSpec]] = {
+    "kelvin_voigt": KelvinVoigtLaw,
+    "draft_gear": DraftGearLaw,
+    "table": TableLaw,
+    "power_law": PowerLawGearLaw,
+    "friction_gear": FrictionGearLaw,
+}
 
 AnyCouplerLaw = _tagged_union(COUPLER_LAW_SPECS, "coupler law")
 
@@ -199,7 +374,7 @@ class CouplerSpec(CaseModel):
         default=None, description="Coupler name, unique; letters, digits, '_', '-', '.'. Default c<k> for the k-th coupler (1-based)."
     )
     between: Between = Field(description="The two cars it joins, neighbours in line order: [cars[i].name, cars[i+1].name]. Required.")
-    law: AnyCouplerLaw = Field(description="Force law: exactly one of kelvin_voigt, draft_gear, table. Required.")
+    law: AnyCouplerLaw = Field(description=f"Force law: exactly one of {', '.join(COUPLER_LAW_SPECS)}. Required.")
     contact: Literal[CONTACT_KINDS] = Field(  # type: ignore[valid-type]
         default="compression_only",
         description="compression_only (free to roll: the cars may separate) or bilateral (coupled: tension too). Default compression_only.",

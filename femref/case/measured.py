@@ -9,8 +9,11 @@ Layout of a measured case file::
     cars:        >= 2 cars in line order (rear to front), each a rod body (as in impact cases)
                  or only its mass and length (rigid estimates only), with its sensors' positions
     couplers:    one between each pair of neighbours that touch: {name, between}
-    events:      {trigger, pre, post}: an event starts where a channel's |a| first exceeds
-                 trigger (m/s²); it spans [t − pre, t + post]
+    events:      {trigger, pre, post, rearm, quiet, max_window}: an event starts where a channel's
+                 |a| first exceeds trigger (m/s²) and rings while one exceeds rearm; it spans
+                 [t − pre, t_last + post], at most max_window long; the trigger re-arms after
+                 quiet s below rearm (femref.sensing.events); closing_speed: the speeds the user
+                 has {value, uncertainty, time} (radar, wayside), replacing the estimates
     estimators:  inverse_rigid, inverse_quasi_rigid, kalman (femref.core.catalog.MEASURED_ESTIMATORS), or a
                  saved network {name: ann_<name>, network: file.npz} (needs kalman: its contact instant)
     kalman:      {modes}: elastic modes per car of the kalman estimator's model
@@ -49,6 +52,8 @@ from femref.sensing import recordings
 from femref.sensing.measurement import FILTER_ORDER
 from femref.sensing.network import NetworkContract
 from femref.sensing.calibration import CalibrationFileError, read_calibration
+from femref.sensing.closing_speed import StatedSpeed
+from femref.sensing.events import MAX_WINDOW, QUIET, REARM_FRACTION
 
 __all__ = ["ChannelSpec", "KalmanSettings", "MeasuredCarSpec", "MeasuredCase", "MeasuredCouplerSpec", "RecordFileSpec", "TimeSpec"]
 
@@ -195,12 +200,77 @@ class MeasuredCouplerSpec(CaseModel):
     between: Between = Field(description="The two cars it joins, neighbours in line order: [cars[i].name, cars[i+1].name]. Required.")
 
 
+class ClosingSpeedSpec(CaseModel):
+    """A closing speed the user has (radar, a wayside detector), which replaces the estimate from the records."""
+
+    value: PositiveReal = Field(description="The coupler's cars' closing speed at contact (m/s), > 0. Required.")
+    uncertainty: NonNegativeReal = Field(description="Its uncertainty (m/s, ± about value), >= 0. Required.")
+    time: Real | None = Field(
+        default=None, description="Time (s, on the records' clock) inside the window of the event it belongs to. Default null: every event; required with more than one speed."
+    )
+
+    def stated(self) -> StatedSpeed:
+        return StatedSpeed(self.value, self.uncertainty, self.time)
+
+
 class EventSettings(CaseModel):
-    """How events are cut from the records: a trigger level and the window around it."""
+    """How events are cut from the records (:mod:`femref.sensing.events`): the trigger and re-arm levels, the
+    quiet time before re-arming and the window around the impact."""
 
     trigger: PositiveReal = Field(description="An event starts where a channel's |a| first exceeds this (m/s²), > 0. Required.")
     pre: NonNegativeReal = Field(default=0.05, description="Window before the trigger (s). Default 0.05.")
-    post: PositiveReal = Field(default=0.5, description="Window after the trigger (s). Default 0.5.")
+    post: PositiveReal = Field(default=0.5, description="Window after the last sample above rearm, while the cars ring (s). Default 0.5.")
+    rearm: PositiveReal | None = Field(
+        default=None, description=f"Re-arm level (m/s²), in (0, trigger]: samples above it are the cars still ringing. Default {REARM_FRACTION:g} × trigger."
+    )
+    quiet: PositiveReal = Field(
+        default=QUIET, description=f"Time every channel stays below rearm before the trigger re-arms (s); given, shorter than the records. Default {QUIET:g}."
+    )
+    max_window: PositiveReal = Field(
+        default=MAX_WINDOW, description=f"Longest event window (s), >= pre + post; a window that reaches it is flagged capped. Default {MAX_WINDOW:g}."
+    )
+    closing_speed: ClosingSpeedSpec | tuple[ClosingSpeedSpec, ...] | None = Field(
+        default=None,
+        description="Closing speeds the user has {value, uncertainty, time} (m/s, m/s, s), one or a list (each with its time): "
+                    "they replace the estimates from the records for their events. Default null: estimated.",
+    )
+
+    @field_validator("closing_speed", mode="after")
+    @classmethod
+    def _timed_speeds(cls, speeds: ClosingSpeedSpec | tuple[ClosingSpeedSpec, ...] | None) -> ClosingSpeedSpec | tuple[ClosingSpeedSpec, ...] | None:
+        if isinstance(speeds, tuple) and len(speeds) > 1:
+            untimed = [Problem((i, "time"), "required when more than one closing speed is given (it names the event)") for i, speed in enumerate(speeds) if speed.time is None]
+            if untimed:
+                raise problems_error(untimed)
+        return speeds
+
+    def stated_speeds(self) -> tuple[StatedSpeed, ...]:
+        """The closing speeds the case gives, as :class:`femref.sensing.closing_speed.StatedSpeed`."""
+        speeds = self.closing_speed
+        if speeds is None:
+            return ()
+        return tuple(speed.stated() for speed in (speeds if isinstance(speeds, tuple) else (speeds,)))
+
+    @model_validator(mode="after")
+    def _trigger_rules(self) -> "EventSettings":
+        problems = []
+        if self.rearm is not None and self.rearm > self.trigger:
+            problems.append(Problem(("rearm",), f"must be <= events.trigger = {self.trigger:g} m/s² (the hysteresis lies below the trigger)", self.rearm))
+        if self.max_window < self.pre + self.post:
+            problems.append(Problem(("max_window",), f"must be >= events.pre + events.post = {self.pre + self.post:g} s", self.max_window))
+        if problems:
+            raise problems_error(problems)
+        return self
+
+    def span_problems(self, span: float) -> list[Problem]:
+        """The settings against the records' common span (s): a window must fit in it, and so must a quiet time
+        the case gives (the default may exceed a short record of one impact)."""
+        problems = []
+        if self.pre + self.post >= span:
+            problems.append(Problem(("post",), f"pre + post = {self.pre + self.post:g} s must be shorter than the records' common span of {span:g} s", self.post))
+        if "quiet" in self.model_fields_set and self.quiet >= span:
+            problems.append(Problem(("quiet",), f"must be shorter than the records' common span of {span:g} s (the trigger could never re-arm)", self.quiet))
+        return problems
 
 
 class KalmanSettings(CaseModel):
@@ -276,7 +346,7 @@ class MeasuredCase(SceneCase):
     records: tuple[RecordFileSpec, ...] = Field(description="The record files, one per recorder; at least one. Required.")
     cars: tuple[MeasuredCarSpec, ...] = Field(description="Two or more cars in line order (rear to front). Required.")
     couplers: tuple[MeasuredCouplerSpec, ...] = Field(description="One or more couplers between neighbouring cars. Required.")
-    events: EventSettings = Field(description="Event detection: {trigger, pre, post}. Required (trigger at least).")
+    events: EventSettings = Field(description="Event detection: {trigger, pre, post, rearm, quiet, max_window}. Required (trigger at least).")
     estimators: Annotated[tuple[MeasuredEstimatorEntry, ...], AfterValidator(_estimators_rule)] = Field(
         default=("inverse_rigid",),
         description=f"Estimators run on every event: {', '.join(MEASURED_ESTIMATORS)} or a network {{name: ann_<name>, network: file.npz}}; unique. Default [inverse_rigid].",
@@ -434,18 +504,27 @@ class MeasuredCase(SceneCase):
         return problems
 
     def _record_problems(self) -> list[Problem]:
-        """Each file read as the run will read it: a bad file, channel or unit is the case's error."""
+        """Each file read as the run will read it: a bad file, channel or unit is the case's error; the event
+        settings against the span the files share."""
         problems = []
+        spans = []
         for i, record in enumerate(self.records):
             try:
                 read = recordings.read_records([record.source()])
             except recordings.RecordError as error:
                 problems.append(Problem(("records", i), str(error)))
                 continue
+            spans.append(read.span)
             rate = min(channel.rate for channel in read.channels.values())
             if record.anti_alias is not None and record.anti_alias.corner >= 0.5 * rate:
                 rule = f"must be below the file's Nyquist frequency rate/2 = {0.5 * rate:g} Hz"
                 problems.append(Problem(("records", i, "anti_alias", "corner"), rule, record.anti_alias.corner))
+        if not problems:
+            span = min(last for _, last in spans) - max(first for first, _ in spans)
+            if span <= 0.0:
+                problems.append(Problem(("records",), "the files share no time span (each file's times plus its clock_offset)"))
+            else:
+                problems += [problem.under(("events",)) for problem in self.events.span_problems(span)]
         return problems
 
     def record_sources(self) -> tuple[recordings.RecordFile, ...]:

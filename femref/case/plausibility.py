@@ -86,6 +86,12 @@ BOUNDS: dict[str, Bound] = {
     "coupler_damping": Bound("a coupler damping of", "N·s/m", 0.0, 1e10, "draft gears 1e4–1e6 N·s/m", zero_ok=True),
     "coupler_travel": Bound("a coupler travel of", "m", 1e-5, 10.0, "draft gear strokes 0.05–0.2 m", zero_ok=True),
     "coupler_force": Bound("a coupler force of", "N", 0.0, 1e10, "couplers fail near 4e6 N", zero_ok=True),
+    # Gear curves (femref.case.couplers: friction_gear, power_law).
+    "gear_linear_stiffness": Bound("a linear stiffness k1 of", "N/m", 1e3, 1e12, "friction gears 1e6–1e8 N/m", zero_ok=True),
+    "gear_cubic_stiffness": Bound("a cubic stiffness k3 of", "N/m³", 1e5, 1e13, "friction gears 1e8–1e10 N/m³", zero_ok=True),
+    "gear_curve_amplitude": Bound("a loading-curve amplitude of", "N", 10.0, 1e9, "friction gears 1e4–1e6 N"),
+    "gear_curve_exponent": Bound("a loading-curve exponent b·δ_c of", "(dimensionless)", 1e-3, 40.0, "friction gears 1–5"),
+    "gear_exponent": Bound("a power-law exponent n of", "(dimensionless)", 1.0, 10.0, "gear curves n = 1–3"),
     "end_time": Bound("a simulated time of", "s", 0.0, 1e4, "impacts last 0.1–10 s", zero_ok=True),
     "time_step": Bound("a time step of", "s", 1e-10, 1e4, "fem steps of car bodies 1e-6–1e-3 s"),
     # End loads of single-body cases (femref.case.single, femref.case.signals): only a high bound, small loads are fine.

@@ -207,11 +207,15 @@ def _percent(value: float | None, lower: bool = False) -> str:
 
 def _in_range_note(score: dict) -> str:
     """The line under a run whose quasi-rigid cars leave their range: the share of the record outside, and its
-    errors where they hold (femref.run.scoring.in_range_errors)."""
+    errors where they hold (femref.run.scoring.in_range_errors) — or, when the in-range part does not hold the impact,
+    that its scores are degenerate and why."""
+    outside = f"outside its range {_percent(score['outside_range_fraction'])} of the record (shaded in the report)"
+    if "in_range_degenerate" in score:
+        return f"{outside}; no in-range scores, the in-range part is degenerate — {score['in_range_degenerate']}"
     errors = [(label, score.get(f"{q}_rms_in_range_error_max")) for label, q in
               (("P rms err", "coupler_force"), ("a rms err", "acceleration"), ("a_v rms err", "vertical_acceleration"))]
     shown = ", ".join(f"{label} {_percent(value)}" for label, value in errors if value is not None)
-    return f"outside its range {_percent(score['outside_range_fraction'])} of the record (shaded in the report); in range: {shown}"
+    return f"{outside}; in range: {shown}"
 
 
 def _self_check_only(score: dict) -> bool:
@@ -233,8 +237,16 @@ def _self_check_note(score: dict, quantity: str) -> str:
     return f"warning: {score['reference_warning']}; {own}"
 
 
+def _closing_speed(event) -> str:
+    """An event's closing speed and its interval, ``given`` when the case gave it (m/s)."""
+    if not math.isfinite(event.closing_speed):
+        return ""
+    given = " given" if event.closing_speed_source == "given" else ""
+    return f"{event.closing_speed:.2f} [{event.closing_speed_lower:.2f}–{event.closing_speed_upper:.2f}]{given}"
+
+
 def event_table(outcome) -> Table:
-    """One row per event and estimator of a measured case: type, closing speed, peak force with its 95 %
+    """One row per event and estimator of a measured case: type, closing speed with its interval, peak force with its 95 %
     band (blank without a bound), closure, wear and alarm; flags below the table's rows of their event."""
     several = len(outcome.scene.couplers) > 1
     table = Table(title=f"measured records: {len(outcome.events)} event(s); peak force with its 95 % band", title_justify="left")
@@ -250,7 +262,7 @@ def event_table(outcome) -> Table:
                 f"{event.trigger_time:.4f}" if head else "",
                 event.impact_type if head else "",
                 _fmt(event.zero_harmonic_ratio, "{:.2f}") if head else "",
-                _fmt(event.closing_speed, "{:.2f}") if head else "",
+                _closing_speed(event) if head else "",
                 estimate.estimator + (f" @{estimate.coupler}" if several else ""),
                 estimate.status,
                 _fmt(peak / 1e3, "{:.1f}"),
@@ -260,6 +272,8 @@ def event_table(outcome) -> Table:
                 event.alarm if head else "",
             )
         notes = list(event.flags) + [f"{e.estimator}: {e.message}" for e in event.estimates if not e.ok]
+        if event.closing_speed_source == "none":
+            notes.append(f"no closing speed: {event.closing_speed_basis}")
         for note in notes:
             table.add_row("", "", "", "", "", f"[yellow]{note}[/yellow]", "", "", "", "", "", "")
     return table

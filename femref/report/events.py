@@ -85,6 +85,15 @@ def _event(name: str, group: h5py.Group) -> EventData:
     return event
 
 
+def _closing_speed(attrs: dict[str, Any]) -> str:
+    """An event's closing speed with its interval and where it came from (m/s); files written before the interval
+    existed show the speed alone."""
+    speed = _number(attrs["closing_speed"], "{:.2f}")
+    if not speed or "closing_speed_lower" not in attrs:
+        return speed
+    return f"{speed} [{attrs['closing_speed_lower']:.2f} – {attrs['closing_speed_upper']:.2f}] ({attrs['closing_speed_source']})"
+
+
 def _event_table(events: list[EventData]) -> str:
     columns = ("event", "trigger (s)", "type", "ρ0", "closing speed (m/s)", "estimator", "coupler", "status", "peak (kN)",
                "95 % band (kN)", "bound", "closure", "wear", "alarm", "flags")
@@ -101,13 +110,14 @@ def _event_table(events: list[EventData]) -> str:
             head = k == 0
             cells = [
                 event.index if head else "", f"{a['trigger_time']:.4f}" if head else "", a["impact_type"] if head else "",
-                _number(a["zero_harmonic_ratio"], "{:.2f}") if head else "", _number(a["closing_speed"], "{:.2f}") if head else "",
+                _number(a["zero_harmonic_ratio"], "{:.2f}") if head else "", _closing_speed(a) if head else "",
                 estimate.estimator, estimate.coupler, status, _number(e["peak_force"] / 1e3, "{:.1f}"), band, e["bound"],
                 closure if head else "", a["wear"] if head else "", a["alarm"] if head else "", flags if head else "",
             ]
             rows.append("<tr>" + "".join(f"<td>{escape(str(cell))}</td>" for cell in cells) + "</tr>")
     header = "<tr>" + "".join(f"<th>{escape(c)}</th>" for c in columns) + "</tr>"
-    notes = [f"event {event.index}: alarm — {event.attrs['alarm_basis']}; wear — {event.attrs['wear_basis']}" for event in events]
+    notes = [f"event {event.index}: closing speed — {event.attrs.get('closing_speed_basis', '')}; alarm — {event.attrs['alarm_basis']}; "
+             f"wear — {event.attrs['wear_basis']}" for event in events]
     return f'<div class="wide"><table>{header}{"".join(rows)}</table></div>' + "".join(f"<p>{escape(n)}</p>" for n in notes)
 
 

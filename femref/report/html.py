@@ -219,12 +219,25 @@ class MetricName:
 def metric_columns(scores: dict[str, dict[str, Any]]) -> list[str]:
     """The summary's columns: reference, wall time, speed-up, the worst-item aggregates, then any attribute that
     is not a per-item error."""
-    names = {name for metrics in scores.values() for name in metrics if not is_self_check(name)} - {UNDEFINED}
+    names = {name for metrics in scores.values() for name in metrics if not is_self_check(name)} - {UNDEFINED, IN_RANGE_DEGENERATE}
     parsed = [MetricName.parse(n) for n in names]
     leading = [n for n in LEADING_METRICS if n in names]
     aggregates = [m.name for m in sorted((m for m in parsed if m.aggregate), key=lambda m: (m.order(), m.name))]
     rest = sorted(m.name for m in parsed if m.quantity is None and m.name not in leading)
     return leading + aggregates + rest
+
+
+#: The score femref.run.scoring.in_range_errors writes when a run's in-range part is degenerate (the report sits below
+#: the runner and reads the name, not the module; tests/run/test_in_range_degenerate.py holds the two equal).
+IN_RANGE_DEGENERATE = "in_range_degenerate"
+
+
+def _in_range_notes(scores: dict[str, dict[str, Any]]) -> list[str]:
+    """One paragraph per run whose in-range part is degenerate (it does not hold the impact: ``in_range_degenerate``,
+    femref.run.scoring.in_range_errors): no in-range scores, and why — told in a sentence, not a score column."""
+    return [f'<p class="in-range"><strong>{escape(model)}: no in-range scores</strong> — the in-range part is degenerate, '
+            f"{escape(str(metrics[IN_RANGE_DEGENERATE]))}.</p>"
+            for model, metrics in scores.items() if IN_RANGE_DEGENERATE in metrics]
 
 
 def is_self_check(name: str) -> bool:
@@ -292,9 +305,11 @@ def _scores_section(result: ResultFile) -> str:
         "<p>Relative errors in %; peak-time errors signed, in ms; speed-up = reference wall time / model wall time; "
         "n/a = undefined: the reference signal vanishes (hover for the reason). The summary shows each error's worst "
         "coupler or probe; the tables below give every coupler and probe. A run with quasi-rigid cars that leave their "
-        "range (shaded in the plots) is also scored in range: over the samples outside the shaded intervals.</p>"
+        "range (shaded in the plots) is also scored in range: over the samples outside the shaded intervals, unless that "
+        "part does not hold the impact (less than a quarter of the contact, e.g. only the ringing after separation): "
+        "then its in-range scores are n/a and a line says why.</p>"
     )
-    parts = [note, *_self_check_notes(scores), _score_table(scores, metric_columns(scores), "summary", "summary")]
+    parts = [note, *_self_check_notes(scores), *_in_range_notes(scores), _score_table(scores, metric_columns(scores), "summary", "summary")]
     items = item_columns(scores)
     couplers = {item: names for item, names in items.items() if any(MetricName.parse(n).of_coupler for n in names)}
     probes = {item: names for item, names in items.items() if item not in couplers}

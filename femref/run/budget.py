@@ -54,7 +54,7 @@ import numpy as np
 from femref.case.errors import CaseError, Problem
 from femref.core.body import Body
 from femref.core.signals import Tabulated
-from femref.run.timestep import impact_candidates, single_body_candidates, smallest_candidate
+from femref.run.timestep import impact_candidates, loaded_bending, single_body_candidates, smallest_candidate, transit_time
 
 if TYPE_CHECKING:
     from femref.scene import ImpactScene, ModelRun, Scene
@@ -316,8 +316,10 @@ def resolution_warnings(scene) -> list[str]:
     it, or when the runner chooses the step); each text starts with the key.
 
     * Impact: a step above a tenth of the shortest wave travel time ``l√(m/EA)`` of the cars or a twentieth of the
-      coupler contact time, or fewer elements than twenty per wavelength of the contact pulse,
-      ``2l/h < 40 T_wave/T_contact``.
+      coupler contact time, or — on cars whose couplers bend them — above the shortest bending mesh transit time ``h²/c_b,max``
+      (the automatic rule's own, :data:`femref.run.timestep.BENDING_MESH_RULE`: a coupler force that jumps at
+      contact drives every bending mode of the mesh, docs/formulas.md §X8), or fewer elements than twenty per
+      wavelength of the contact pulse, ``2l/h < 40 T_wave/T_contact``.
     * Transient (:func:`transient_resolution_warnings`): the same rules with the body's wave travel time and the
       loads' shortest time scale ``T_load`` in place of the contact time.
     """
@@ -328,6 +330,7 @@ def resolution_warnings(scene) -> list[str]:
         return []
     contact = scene.contact_time()
     wave = [car.body.wave_travel_time for car in scene.cars]
+    bending = [transit_time(beam, scene.fem.elements, wave_speed(beam)) for beam in map(loaded_bending, scene.cars) if beam is not None]
     warnings = []
     if scene.dt is not None:
         if scene.dt > STEP_PER_WAVE_TIME * min(wave):
@@ -336,6 +339,10 @@ def resolution_warnings(scene) -> list[str]:
         elif math.isfinite(contact) and scene.dt > STEP_PER_CONTACT_TIME * contact:
             warnings.append(f"time.dt = {scene.dt:.3g} s is above a twentieth of the coupler contact time ({contact:.3g} s): "
                             "the fem reference under-resolves the pulse")
+        elif bending and scene.dt > min(bending):
+            warnings.append(f"time.dt = {scene.dt:.3g} s is above the bending mesh transit time h²√(m/EI) of the cars that bend "
+                            f"({min(bending):.3g} s on {scene.fem.elements} elements): the fem reference under-resolves the bending "
+                            "the couplers excite")
     needed = 2.0 * max(wave) / (ELEMENT_PER_WAVELENGTH * contact) if math.isfinite(contact) else 0.0
     if scene.fem.elements < needed:
         warnings.append(f"fem.elements = {scene.fem.elements} is below the {math.ceil(needed)} elements that resolve the contact pulse "

@@ -7,7 +7,8 @@ on one common time grid (:func:`femref.sensing.events.window`):
 
 * removes each channel's offset (the median over the ``pre`` window before the trigger: the
   cars are at rest or rolling freely there, their acceleration zero) and measures its noise
-  there (1.4826 × the median absolute deviation);
+  there (1.4826 × the median absolute deviation, with its effective sample count:
+  :func:`femref.sensing.noise_gate.quiet_noise`);
 * classifies it from the zero-harmonic ratio of the relative acceleration of the first
   coupler's cars (:func:`femref.sensing.impact_type.classify_records`);
 * runs every estimator: ``inverse_rigid`` and ``inverse_quasi_rigid``
@@ -21,13 +22,14 @@ on one common time grid (:func:`femref.sensing.events.window`):
   history, a number and a bound, else the first with a history and a number — for the closing
   speed, ε, the gear's closure, the wear and the alarm:
 
-  - closing speed ``v = ∫_{t_c}^{t_p} (a_front − a_rear) dt`` from the force's rise ``t_c``
-    to its peak ``t_p``: the relative velocity is zero at the largest closure, which the
-    peak marks for a spring-like coupler (a dashpot moves the peak earlier: on the default
-    scene's draft gear the estimate is 12 % low);
+  - closing speed with an interval (:func:`femref.sensing.closing_speed.from_force`): the mean over
+    the contact of the relative velocity the force gives the cars, ``(1/T) ∫ ∫ P/m* dt dt``, raised
+    by at most the stroke left at separation; or the speed the case gives for the event
+    (``events.closing_speed``), which replaces it;
   - ``ε = T_wave / T_load``, ``T_wave = l/c`` the longest wave travel time of the cars and
     ``T_load = π √(∫P² / ∫Ṗ²)`` the pulse's time scale (NaN when a car has no body);
-  - closure: :func:`reduced.signal_tools.detect_closure_force` on the primary force;
+  - closure: :func:`reduced.signal_tools.detect_closure_force` on the primary force and the coupler's stroke
+    made of it with the closing speed and the car masses (:func:`_coupler_stroke`);
   - wear: ``worn`` if the gear closed below ``(1 − tolerance) ×`` its rated closure force,
     ``ok`` if at or above it, ``unknown`` if it did not close or no rating was given;
   - alarm: ``certain`` if the peak band's lower end reaches the limit, ``possible`` if only
@@ -42,6 +44,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.integrate import cumulative_trapezoid
 
 from femref.events import ClosureResult, EventResult, ForceEstimate
 from femref.fem.build import FemSettings
@@ -49,11 +52,14 @@ from femref.models import Progress, ProgressFor
 from femref.models.inverse import ESTIMATORS as INVERSE_ESTIMATORS
 from femref.models.modal import modal_car
 from femref.scene.impact import Car
-from femref.scene.measured import MeasuredScene
+from femref.scene.measured import MeasuredCoupler, MeasuredScene
+from femref.sensing import closing_speed as speeds
 from femref.sensing import events as event_finder
+from femref.sensing.closing_speed import ClosingSpeed
 from femref.sensing.contact import ContactEstimate, onset_time
-from femref.sensing.impact_type import classify_records, relative_acceleration
+from femref.sensing.impact_type import classify_records
 from femref.sensing.network import ImpactTypeNetworks, NetworkEstimator
+from femref.sensing.noise_gate import QuietNoise, quiet_noise
 from femref.sensing.recordings import Recordings, read_records
 from reduced import kalman
 from reduced.signal_tools import detect_closure_force
@@ -97,7 +103,7 @@ def run_measured(scene: MeasuredScene, progress_for: ProgressFor | None = None) 
     recordings = read_records(scene.records)
     if step is not None:
         step(1, 1)
-    found = event_finder.find_events(recordings, scene.trigger, scene.pre, scene.post)
+    found = event_finder.find_events(recordings, scene.trigger, scene.pre, scene.post, rearm=scene.rearm, quiet=scene.quiet, max_window=scene.max_window)
     events = []
     for number, event in enumerate(found, start=1):
         step = progress_for(event_label(number, len(found), event.trigger_time)) if progress_for else None
@@ -123,7 +129,7 @@ def _event(scene: MeasuredScene, recordings: Recordings, event: event_finder.Eve
             progress(done, total)
 
     t, raw = event_finder.window(recordings, event)
-    records, noise_std = _quiet_corrected(t, raw, event)
+    records, noise_std, quiet = _quiet_corrected(t, raw, event)
     result = EventResult(
         index=event.index, start=event.start, end=event.end, trigger_time=event.trigger_time,
         trigger_probe=event.trigger_probe, flags=tuple(event.flags), time=t, records=records,
@@ -138,34 +144,39 @@ def _event(scene: MeasuredScene, recordings: Recordings, event: event_finder.Eve
         result.estimates.append(network_estimate(scene, network, t, records, noise_std, result.estimates, contacts, result.impact_type))
         stepped()
     first = _primary(scene, result).get(scene.couplers[0].name)
+    speed = _closing_speed(scene, event, first, quiet, result.impact_type)
+    result.closing_speed, result.closing_speed_lower, result.closing_speed_upper = speed.value, speed.lower, speed.upper
+    result.closing_speed_source, result.closing_speed_basis = speed.source, speed.basis
     if first is not None:
-        result.closing_speed = _closing_speed(scene, t, records, first)
         result.epsilon = _epsilon(scene, first)
     if scene.calibration is not None:
-        _calibrated(scene, result, noise_std)
+        _calibrated(scene, result, quiet)
     primary = _primary(scene, result)
     for coupler in scene.couplers:
         estimate = primary.get(coupler.name)
         if estimate is not None:
-            result.closures.append(_closure(estimate))
+            result.closures.append(_closure(scene, coupler, primary, result.closing_speed))
     result.alarm, result.alarm_basis = _alarm(scene, list(primary.values()))
     result.wear, result.wear_basis = _wear(scene, result.closures)
     return result
 
 
-def _quiet_corrected(t: NDArray[np.float64], raw: dict[str, NDArray[np.float64]], event: event_finder.Event) -> tuple[dict[str, NDArray[np.float64]], dict[str, float]]:
-    """Each channel less its median before the trigger (its offset), and ``1.4826 × `` its median absolute
-    deviation there (its noise std, m/s²): robust to the impact's first rise, which a channel near the
-    coupler records before the trigger fires on it (a plain standard deviation read 0.37 m/s² there for
-    0.05 m/s² of noise). With fewer than :data:`MIN_QUIET_SAMPLES` quiet samples no offset is removed
-    and the noise is taken equal on every channel (the kalman estimator estimates its scale)."""
+def _quiet_corrected(t: NDArray[np.float64], raw: dict[str, NDArray[np.float64]], event: event_finder.Event
+                     ) -> tuple[dict[str, NDArray[np.float64]], dict[str, float], dict[str, QuietNoise]]:
+    """Each channel less its median before the trigger (its offset), its noise std there (m/s²) as the
+    estimators weigh it, and that noise with its effective sample count for the calibration's noise gate
+    (:func:`femref.sensing.noise_gate.quiet_noise`: ``1.4826 ×`` the median absolute deviation, robust to the
+    impact's first rise, which a channel near the coupler records before the trigger fires on it — a plain
+    standard deviation read 0.37 m/s² there for 0.05 m/s² of noise). With fewer than :data:`MIN_QUIET_SAMPLES`
+    quiet samples no offset is removed, the noise is not measured and the estimators take it equal on every
+    channel (the kalman estimator estimates its scale)."""
     quiet = t < event.trigger_time
     if np.count_nonzero(quiet) < MIN_QUIET_SAMPLES:
-        return dict(raw), {probe: 1.0 for probe in raw}
+        return dict(raw), {probe: 1.0 for probe in raw}, {probe: QuietNoise(math.nan, 0, 0.0) for probe in raw}
     records = {probe: a - float(np.median(a[quiet])) for probe, a in raw.items()}
-    noise = {probe: 1.4826 * float(np.median(np.abs(a[quiet]))) for probe, a in records.items()}
-    floor = max(max(noise.values()), 1e-12) * 1e-3
-    return records, {probe: max(value, floor) for probe, value in noise.items()}
+    measured = {probe: quiet_noise(a[quiet]) for probe, a in records.items()}
+    floor = max(max(found.std for found in measured.values()), 1e-12) * 1e-3
+    return records, {probe: max(found.std, floor) for probe, found in measured.items()}, measured
 
 
 def _classify(scene: MeasuredScene, result: EventResult) -> None:
@@ -361,14 +372,18 @@ def network_estimate(scene: MeasuredScene, estimator: NetworkEstimator, t: NDArr
     return estimate
 
 
-def _calibrated(scene: MeasuredScene, result: EventResult, noise_std: dict[str, float]) -> None:
+def _calibrated(scene: MeasuredScene, result: EventResult, quiet: dict[str, QuietNoise]) -> None:
     """Calibrated bands on the inverse estimates of the calibrated coupler (:mod:`femref.sensing.calibration`):
-    ``P ∈ [P̂/(1 + e_hi), P̂/(1 + e_lo)]`` inside the calibrated closing speeds, car masses, anti-alias filter,
-    sensor noise and impact type; outside, no band and the reason."""
+    ``P ∈ [P̂/(1 + e_hi), P̂/(1 + e_lo)]`` inside the calibrated closing speeds (the event's interval not wholly
+    outside them; one that straddles an edge is said in the message), car masses, anti-alias filter, sensor
+    noise (the gate of :mod:`femref.sensing.noise_gate`) and impact type; outside, no band, ``in_calibrated_range``
+    false and the reason."""
     calibration = scene.calibration
     assert calibration is not None
     filters = {probe: None if declared is None else declared.corner for probe, declared in scene.anti_alias.items()}
-    outside = calibration.outside(result.closing_speed, {car.name: car.mass for car in scene.cars}, filters, noise_std, result.impact_type)
+    speed = (result.closing_speed_lower, result.closing_speed_upper)
+    outside = calibration.outside(speed, {car.name: car.mass for car in scene.cars}, filters, quiet, result.impact_type)
+    notes = "".join(f"; {note}" for note in calibration.edge_notes(speed))
     for estimate in result.estimates:
         if estimate.estimator not in calibration.errors or estimate.coupler != calibration.coupler or not estimate.ok:
             continue
@@ -380,7 +395,7 @@ def _calibrated(scene: MeasuredScene, result: EventResult, noise_std: dict[str, 
         low, high = estimate.force / (1.0 + e_hi), estimate.force / (1.0 + e_lo)
         estimate.lower, estimate.upper = np.minimum(low, high), np.maximum(low, high)
         estimate.bound = "calibrated"
-        estimate.message = f"calibrated peak error 95 % band [{e_lo:+.1%}, {e_hi:+.1%}]"
+        estimate.message = f"calibrated peak error 95 % band [{e_lo:+.1%}, {e_hi:+.1%}]" + notes
 
 
 def _primary(scene: MeasuredScene, result: EventResult) -> dict[str, ForceEstimate]:
@@ -395,9 +410,13 @@ def _primary(scene: MeasuredScene, result: EventResult) -> dict[str, ForceEstima
     return primary
 
 
-def _closure(estimate: ForceEstimate) -> ClosureResult:
+def _closure(scene: MeasuredScene, coupler: MeasuredCoupler, primary: dict[str, ForceEstimate], closing_speed: float) -> ClosureResult:
+    """The gear's closure on ``coupler`` from its primary force and the stroke :func:`_coupler_stroke` makes of it
+    (:func:`reduced.signal_tools.detect_closure_force`)."""
+    estimate = primary[coupler.name]
     try:
-        found = detect_closure_force(estimate.time, np.nan_to_num(estimate.force))
+        stroke = _coupler_stroke(scene, coupler, primary, closing_speed)
+        found = detect_closure_force(estimate.time, np.nan_to_num(estimate.force), stroke)
     except ValueError as error:
         return ClosureResult(estimate.coupler, estimate.estimator, "ambiguous", message=str(error))
     diagnostics = dict(message=found.reason, stiffening=found.stiffening, p_value=found.p_value, residual=found.residual)
@@ -408,16 +427,50 @@ def _closure(estimate: ForceEstimate) -> ClosureResult:
                          force_lower=low, force_upper=high, **diagnostics)
 
 
-def _closing_speed(scene: MeasuredScene, t: NDArray[np.float64], records: dict[str, NDArray[np.float64]], estimate: ForceEstimate) -> float:
+def _coupler_stroke(scene: MeasuredScene, coupler: MeasuredCoupler, primary: dict[str, ForceEstimate], closing_speed: float) -> NDArray[np.float64]:
+    """The coupler's stroke (m, compression positive) from the rigid motion of its two cars::
+
+        δ(t) = v₀ (t − t₀) + ∫_{t₀}^{t} ∫_{t₀}^{s} (a_rear − a_front) dr ds,    m_k a_k = P_{k−1} − P_k
+
+    ``v₀`` the closing speed, ``t₀`` the window's start (the cars are apart and unloaded there), ``P`` the
+    primary forces of this coupler and of its neighbours (none for a two-car line; a neighbour without a
+    force history is taken as unloaded). No closing speed, no stroke: ValueError. Made from the force itself, the stroke carries the estimator's own smoothing and
+    delay, so the force–stroke line of the solid gear stays straight. An error ``Δv₀`` of the closing
+    speed adds ``Δv₀ (t − t₀)``, a common error of the masses scales δ and adds such a term: with the
+    closing speed 10 % off the closure force moved by up to 3.5 % on the tests' gears (docs/formulas.md
+    §A5). A centre-of-mass stroke: on elastic cars it also holds the bodies' compression, in series with
+    the gear on both branches."""
+    estimate = primary[coupler.name]
+    t = estimate.time
+    force = {name: np.nan_to_num(e.force) for name, e in primary.items() if e.time.shape == t.shape and np.array_equal(e.time, t)}
+    behind = next((c.name for c in scene.couplers if c.front == coupler.rear), None)
+    ahead = next((c.name for c in scene.couplers if c.rear == coupler.front), None)
+    zero = np.zeros(t.size)
+    own = force[coupler.name]
+    rear = (force.get(behind, zero) - own) / scene.cars[coupler.rear].mass
+    front = (own - force.get(ahead, zero)) / scene.cars[coupler.front].mass
+    rate = cumulative_trapezoid(rear - front, t, initial=0.0)
+    if not math.isfinite(closing_speed):
+        raise ValueError("no closing speed for the event: no stroke to find the gear's closure in")
+    return closing_speed * (t - t[0]) + cumulative_trapezoid(rate, t, initial=0.0)
+
+
+def _closing_speed(scene: MeasuredScene, event: event_finder.Event, estimate: ForceEstimate | None, quiet: dict[str, QuietNoise],
+                   impact_type: str) -> ClosingSpeed:
+    """The first coupler's closing speed: the case's for this event if it gives one, else from the primary
+    force ``estimate`` (:func:`femref.sensing.closing_speed.from_force`; the noise of the relative acceleration
+    from the quiet stretch of the cars' central channels)."""
+    stated = scene.closing_speed_for(event.start, event.end)
+    if stated is not None:
+        return stated
+    if estimate is None:
+        return speeds.unknown("no force history with a number to read it from")
     coupler = scene.couplers[0]
-    relative = relative_acceleration(scene.cars, coupler, records)
-    force = np.nan_to_num(estimate.force)
-    peak = int(np.argmax(force))
-    rising = np.flatnonzero(force[:peak + 1] <= 0.05 * force[peak])
-    contact = int(rising[-1]) if rising.size else 0
-    if peak <= contact:
-        return math.nan
-    return float(np.trapezoid(relative[contact:peak + 1], t[contact:peak + 1]))
+    rear, front = scene.cars[coupler.rear], scene.cars[coupler.front]
+    channels = [quiet.get(f"{car.name}/{min(car.sensors, key=lambda name: abs(car.sensors[name]))}") for car in (rear, front)]
+    noise = math.sqrt(sum(c.std**2 for c in channels if c is not None and c.measured))
+    reduced_mass = rear.mass * front.mass / (rear.mass + front.mass)
+    return speeds.from_force(estimate.time, estimate.force, reduced_mass, noise, impact_type)
 
 
 def _epsilon(scene: MeasuredScene, estimate: ForceEstimate) -> float:

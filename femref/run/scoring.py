@@ -32,7 +32,9 @@ does not sample is missed by both alike. Per coupler ``coupler_force_peak_error_
 records, prefixed ``measured_``. A run whose quasi-rigid cars leave their range somewhere
 (``settings["quasi_rigid_range"]``, :mod:`femref.run.validity`) is also scored where they are
 inside it: ``<quantity>_rms_in_range_error_<item>`` and ``outside_range_fraction``
-(:func:`in_range_errors`). A result of peak estimates only — a network estimator,
+(:func:`in_range_errors`) — NaN, with ``in_range_degenerate`` saying why, when that part holds
+less than a quarter of the reference's contact (only the ringing after separation, or a
+sliver: :func:`in_range_degeneracy`). A result of peak estimates only — a network estimator,
 ``couplers[c]["peak_force"]`` and no time axis — is scored on those peaks alone
 (:func:`score_peak_estimates`).
 
@@ -299,7 +301,21 @@ def score_impact_results(results: list[ModelResult]) -> dict[str, dict[str, Any]
     return scores
 
 
-def in_range_errors(reference: ModelResult, result: ModelResult) -> Metrics:
+IN_RANGE_DEGENERATE = "in_range_degenerate"
+"""The score that says, in words, why a run's in-range part is degenerate (absent when it holds the impact)."""
+
+IN_RANGE_CONTACT_LEVEL = 0.01
+"""The reference is in contact where a coupler's compression exceeds this share of its peak (``P_ref > 0.01 max P_ref``)."""
+
+IN_RANGE_MIN_CONTACT = 0.25
+"""The least share of the reference's contact samples the in-range part must hold for its scores to speak of the impact:
+a quarter of the pulse holds its rise or its fall, the part of the impact a car model is judged on."""
+
+IN_RANGE_MIN_SAMPLES = 10
+"""The least number of in-range samples inside the contact: an rms over fewer is one oscillation at best."""
+
+
+def in_range_errors(reference: ModelResult, result: ModelResult) -> dict[str, Any]:
     """Errors of a run with quasi-rigid cars where they are inside their range (:mod:`femref.run.validity`).
 
     With ``I`` the result's samples outside every interval of ``settings["quasi_rigid_range"]["outside"]``
@@ -308,8 +324,12 @@ def in_range_errors(reference: ModelResult, result: ModelResult) -> Metrics:
         <q>_rms_in_range_error_<item> = rms_I(q − q_ref) / rms_I(q_ref)
 
     for the coupler forces and every scored sensor quantity, their maxima ``<q>_rms_in_range_error_max``, and
-    ``outside_range_fraction`` = the share of the result's samples outside. Empty when nothing is marked (the
-    whole-record scores then say it all) or fewer than two samples are in range."""
+    ``outside_range_fraction`` = the share of the result's samples outside. When ``I`` does not hold the impact
+    (:func:`in_range_degeneracy`: less than a quarter of the reference's contact, e.g. only the ringing after
+    separation) ``in_range_degenerate`` says why in words and every in-range score is **NaN** (no aggregate): over
+    a post-separation tail the reference force is ≈ 0 and the acceleration error measures the cars' free
+    ringing, not the model on the impact, and a number there would be read as one. Empty when nothing is marked
+    (the whole-record scores then say it all)."""
     marked = result.settings.get("quasi_rigid_range") or {}
     if not marked.get("outside") or "time" not in result.axes:
         return {}
@@ -318,7 +338,10 @@ def in_range_errors(reference: ModelResult, result: ModelResult) -> Metrics:
     for start, end in marked["outside"]:
         outside |= (t >= start) & (t <= end)
     inside = ~outside
-    metrics: Metrics = {"outside_range_fraction": float(np.mean(outside))}
+    metrics: dict[str, Any] = {"outside_range_fraction": float(np.mean(outside))}
+    _, reason = in_range_degeneracy(reference, t, inside)
+    if reason:
+        metrics[IN_RANGE_DEGENERATE] = reason
     if np.count_nonzero(inside) < 2:
         return metrics
     view = ModelResult(result.model, axes={"time": t[inside]})
@@ -326,12 +349,54 @@ def in_range_errors(reference: ModelResult, result: ModelResult) -> Metrics:
     view.probes = {p: {q: np.asarray(out[q])[inside] for q in SCORED_SENSOR_QUANTITIES if q in out} for p, out in result.probes.items()}
     whole = score_impact(reference, view)
     rms = "_rms_error_"
+    in_range: Metrics = {}
     for name, value in whole.items():
         if rms in name and not name.endswith("_error_max"):
             quantity, item = name.split(rms, 1)
-            metrics[f"{quantity}_{IN_RANGE_STATISTIC}_error_{item}"] = value
-    metrics.update(_aggregates(metrics))
+            in_range[f"{quantity}_{IN_RANGE_STATISTIC}_error_{item}"] = math.nan if reason else value
+    metrics.update(in_range)
+    metrics.update(_aggregates(in_range))
     return metrics
+
+
+def in_range_degeneracy(reference: ModelResult, time: NDArray[np.float64], inside: NDArray[np.bool_]) -> tuple[float, str]:
+    """``(c, reason)``: the share ``c`` of the reference's contact samples that are in range, and why the in-range part
+    is degenerate ("" when it is not).
+
+    On the result's samples ``time`` inside the reference's time axis, the reference is in contact where some
+    coupler's compression ``P_ref(t) > IN_RANGE_CONTACT_LEVEL · max P_ref`` (``np.interp`` of each coupler's force).
+    With ``C`` those samples and ``I`` the in-range ones (``inside``), ``c = |C ∩ I| / |C|``. Degenerate when
+    ``c < IN_RANGE_MIN_CONTACT`` or ``|C ∩ I| < IN_RANGE_MIN_SAMPLES`` — *after separation* when most in-range samples
+    lie after the reference's last contact sample (its force below 1 % of the peak there), else *too short*. The
+    reason is one sentence without ``"; "`` (the separator of the scores' ``undefined`` list). A
+    reference that never compresses has no contact (``c`` NaN): then only fewer than ``IN_RANGE_MIN_SAMPLES``
+    in-range samples make the part degenerate (too short)."""
+    t_ref = np.asarray(reference.axes["time"], dtype=float)
+    window = (time >= t_ref[0]) & (time <= t_ref[-1])
+    contact = np.zeros(time.size, dtype=bool)
+    for outputs in reference.couplers.values():
+        if "force" not in outputs:
+            continue
+        force = np.asarray(outputs["force"], dtype=float)
+        peak = float(np.max(force))
+        if peak > 0.0:
+            contact |= window & (np.interp(time, t_ref, force) > IN_RANGE_CONTACT_LEVEL * peak)
+    samples = int(np.count_nonzero(inside & window))
+    if not contact.any():
+        if samples < IN_RANGE_MIN_SAMPLES:
+            return math.nan, f"too short: {samples} in-range samples (fewer than {IN_RANGE_MIN_SAMPLES})"
+        return math.nan, ""
+    held = int(np.count_nonzero(contact & inside))
+    share = held / int(np.count_nonzero(contact))
+    if share >= IN_RANGE_MIN_CONTACT and held >= IN_RANGE_MIN_SAMPLES:
+        return share, ""
+    separation = float(time[np.flatnonzero(contact)[-1]])
+    after = int(np.count_nonzero(inside & window & (time > separation)))
+    holds = f"it holds {share:.0%} of the contact, {held} samples ({IN_RANGE_MIN_CONTACT:.0%} and {IN_RANGE_MIN_SAMPLES} needed)"
+    if samples and after > samples / 2:
+        return share, (f"after separation: {after / samples:.0%} of the in-range samples lie after {separation:.3g} s, where the "
+                       f"reference coupler force is below {IN_RANGE_CONTACT_LEVEL:.0%} of its peak, and {holds}")
+    return share, f"too short: {holds}"
 
 
 def _with_context(metrics: Metrics, reference: ModelResult, result: ModelResult) -> dict[str, Any]:
@@ -428,13 +493,18 @@ UNDEFINED_BECAUSE: tuple[tuple[str, str], ...] = (
 
 
 def undefined_reasons(metrics: dict[str, Any]) -> dict[str, str]:
-    """The NaN metrics among ``metrics`` and why each is undefined (its reference scale vanishes)."""
+    """The NaN metrics among ``metrics`` and why each is undefined (its reference scale vanishes, or — an in-range
+    score — the in-range part is degenerate: ``in_range_degenerate``)."""
     reasons = {}
+    degenerate = metrics.get(IN_RANGE_DEGENERATE)
     for name, value in metrics.items():
         if isinstance(value, float) and math.isnan(value):
-            reasons[name] = next((why for part, why in UNDEFINED_BECAUSE if part in name), "undefined")
+            if degenerate and f"_{IN_RANGE_STATISTIC}_error_" in name:
+                reasons[name] = f"the in-range part is degenerate ({degenerate})"
+            else:
+                reasons[name] = next((why for part, why in UNDEFINED_BECAUSE if part in name), "undefined")
     return reasons
 
 
-__all__ = ["AGGREGATES", "IN_RANGE_STATISTIC", "SCORED_SENSOR_QUANTITIES", "coupler_force_errors", "in_range_errors", "ASYMPTOTIC_ORDERS", "PeakError", "peak_error", "reference_error_estimate", "reference_peaks", "score_impact", "score_peak_estimates", "score_results",
+__all__ = ["AGGREGATES", "IN_RANGE_CONTACT_LEVEL", "IN_RANGE_DEGENERATE", "IN_RANGE_MIN_CONTACT", "IN_RANGE_MIN_SAMPLES", "IN_RANGE_STATISTIC", "SCORED_SENSOR_QUANTITIES", "coupler_force_errors", "in_range_degeneracy", "in_range_errors", "ASYMPTOTIC_ORDERS", "PeakError", "peak_error", "reference_error_estimate", "reference_peaks", "score_impact", "score_peak_estimates", "score_results",
            "sensor_errors", "undefined_reasons"]

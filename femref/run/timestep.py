@@ -16,11 +16,23 @@ the same grid, so the step is the fem mesh's,
 
 Impact: each model run steps at what its own cars need,
 
-    dt = min(T_contact/100, T_h (fem cars), 4l/(k c_max)/20 (modal cars with k modes), end/20),
+    dt = min(T_contact/100, T_h (fem cars), T_h,b (fem cars whose couplers bend them), 4l/(k c_max)/20 (modal cars with k modes),
+             end/20),
 
 ``T_contact`` the shortest rigid-body contact time of the couplers
 (:meth:`femref.scene.ImpactScene.contact_time`): all a run of rigid and quasi-rigid cars
 needs. The scores interpolate the reference onto each run's axis.
+
+A fem car that bends also steps within its Hermite mesh's bending transit time
+``T_h,b = h²/c_b,max`` (``c_b = √(EI/m)``: :data:`BENDING_MESH_RULE`) when its couplers load the
+beam (an offset or a slope: :func:`loaded_bending`). A coupler force that jumps
+at contact (a damper met at the closing speed) puts a step end moment ``h ΔP`` on the beam, whose
+modal force ``h ΔP φ_n'(±l)`` grows with the mode number: every mode of the mesh is driven. The
+generalized-α error of that response grows with the mesh's highest bending frequency
+(``ω_max ∝ c_b/h²``): measured on two bending cars against their exact modal solution it is
+``≈ C N³ dt²`` on ``N`` elements (peak coupler force and centre vertical acceleration alike;
+the force's constant within 25 % over a hundredfold Voigt viscosity), so the axial rule ``dt ∝ h`` lets it grow like ``N`` — doubling at
+each refinement — while ``dt ∝ h²`` makes it fall like ``1/N`` (docs/formulas.md §X8).
 
 The returned rule names the candidate that won (it is recorded in the result file).
 """
@@ -35,10 +47,11 @@ import numpy as np
 from femref.core.body import Body
 from femref.fem.build import FemSettings
 from femref.fem.mesh import body_nodes
-from femref.scene import ImpactScene, ModelRun, Scene
+from femref.scene import Car, ImpactScene, ModelRun, Scene
 
 GIVEN = "given in the case"
 MESH_RULE = "mesh wave transit time"
+BENDING_MESH_RULE = "bending mesh transit time"
 
 
 def smallest_candidate(candidates: dict[str, float]) -> tuple[float, str]:
@@ -79,20 +92,32 @@ def single_body_time_step(scene: Scene) -> tuple[float, str]:
     return dt, f"automatic: {rule}"
 
 
+def loaded_bending(car: Car) -> Body | None:
+    """The car's bending (a beam body) when its couplers load it — a coupler offset or slope not zero — else None: an
+    unloaded beam is never excited, and the car steps as its rod alone."""
+    if car.bending is None or not (any(car.coupler_offset) or any(car.coupler_slope)):
+        return None
+    return car.bending
+
+
 def impact_candidates(scene: ImpactScene, run: ModelRun, elements: int, speed: Callable[[Body], float]) -> dict[str, float]:
     """The automatic rule's candidate steps of one impact run (module docstring) on ``elements`` elements per fem or
-    modal car, the wave speed of a body given by ``speed``: a fem car adds its mesh transit time, a modal car a
-    twentieth of the period of its highest kept mode, ``4l/(k c_max)`` for a free rod."""
+    modal car, the wave speed of a body given by ``speed``: a fem car adds its mesh transit time — and, when it bends,
+    its beam's, ``h²/c_b,max`` (``speed`` of the car's bending, a beam body) — a modal car a twentieth of the period
+    of its highest kept mode, ``4l/(k c_max)`` for a free rod."""
     candidates = {"coupler contact time / 100": scene.contact_time() / 100.0, "end time / 20": scene.end / 20.0}
-    for i, fidelity in enumerate(run.fidelity):
-        if fidelity not in ("fem", "modal"):
-            continue
-        body = scene.cars[i].body
-        if fidelity == "fem":
-            rule, value = MESH_RULE, transit_time(body, elements, speed(body))
-        else:
-            rule, value = "highest modal period / 20", 4.0 * body.half_length / (scene.modal_modes * speed(body)) / 20.0
+
+    def add(rule: str, value: float) -> None:
         candidates[rule] = min(candidates.get(rule, math.inf), value)
+
+    for car, fidelity in zip(scene.cars, run.fidelity):
+        if fidelity == "fem":
+            add(MESH_RULE, transit_time(car.body, elements, speed(car.body)))
+            bending = loaded_bending(car)
+            if bending is not None:
+                add(BENDING_MESH_RULE, transit_time(bending, elements, speed(bending)))
+        elif fidelity == "modal":
+            add("highest modal period / 20", 4.0 * car.body.half_length / (scene.modal_modes * speed(car.body)) / 20.0)
     return candidates
 
 
@@ -105,5 +130,5 @@ def impact_time_step(scene: ImpactScene, run: ModelRun) -> tuple[float, str]:
     return dt, f"automatic: {rule}"
 
 
-__all__ = ["GIVEN", "MESH_RULE", "impact_candidates", "impact_time_step", "mesh_transit_time", "single_body_candidates", "single_body_time_step",
-           "smallest_candidate", "transit_time"]
+__all__ = ["BENDING_MESH_RULE", "GIVEN", "MESH_RULE", "impact_candidates", "impact_time_step", "loaded_bending", "mesh_transit_time",
+           "single_body_candidates", "single_body_time_step", "smallest_candidate", "transit_time"]

@@ -118,11 +118,15 @@ def measured_scene_from_case(case: MeasuredCase) -> MeasuredScene:
         trigger=case.events.trigger,
         pre=case.events.pre,
         post=case.events.post,
+        rearm=case.events.rearm,
+        quiet=case.events.quiet,
+        max_window=case.events.max_window,
         estimators=tuple(entry for entry in case.estimators if isinstance(entry, str)),
         kalman=KalmanModel(case.kalman.modes, case.kalman.mass_tolerance, case.kalman.frequency_tolerance, tuple(case.kalman.damping_factors)),
         networks=tuple(_network_of(i, spec) for i, spec in enumerate(case.estimators) if isinstance(spec, AnnEstimatorSpec)),
         checks=Checks(checks.alarm, checks.rated_closure_force, checks.wear_tolerance),
         calibration=read_calibration(case.calibration) if case.calibration is not None else None,
+        closing_speeds=case.events.stated_speeds(),
     )
 
 

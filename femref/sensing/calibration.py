@@ -12,8 +12,12 @@ the band
 calibrated on other impacts is not made up for this one. The ranges are the closing speeds and
 car masses the sweep covered, and its measurement chain: the anti-alias corner its records went
 through (a recorder with another filter is outside) and the largest sensor noise (an event
-noisier than 1.25 × that is outside), and the impact type (a compression-only coupler's
-impacts are free to roll, a bilateral one's coupled; an event classified otherwise is outside).
+whose quiet-stretch noise refutes it, by a one-sided test that allows for the estimate's own
+sampling error at 1 % false rejects per event: :mod:`femref.sensing.noise_gate`), and the impact
+type (a compression-only coupler's impacts are free to roll, a bilateral one's coupled; an event
+classified otherwise is outside). The closing speed is an interval (:mod:`femref.sensing.closing_speed`):
+an event is outside the calibrated speeds only when its interval lies wholly outside them, and an
+interval that straddles an edge is said (:meth:`Calibration.edge_notes`).
 
 File (written atomically)::
 
@@ -36,11 +40,10 @@ import h5py
 import numpy as np
 from numpy.typing import NDArray
 
+from femref.sensing.noise_gate import FALSE_REJECT, QuietNoise, exceedance, noise_limit
+
 QUANTILES = (0.025, 0.975)
 """The band's quantiles of the relative peak error: a 95 % band."""
-NOISE_MARGIN = 1.25
-"""An event's channel noise may exceed the largest calibrated noise by this factor (a std measured on
-50 quiet samples scatters by about 10 %)."""
 
 
 class CalibrationFileError(ValueError):
@@ -65,18 +68,22 @@ class Calibration:
         lo, hi = np.quantile(self.errors[estimator], QUANTILES)
         return float(lo), float(hi)
 
-    def outside(self, closing_speed: float, masses: dict[str, float], lowpass: dict[str, float | None] | None = None,
-                noise: dict[str, float] | None = None, impact_type: str | None = None) -> list[str]:
-        """Why an event is outside the calibrated ranges (empty when inside): its closing speed (m/s), car
-        masses (kg), and — when given — each channel's anti-alias corner (Hz, None: unfiltered) against the
-        calibration's chain, each channel's noise std (m/s²) against :data:`NOISE_MARGIN` × the largest
-        calibrated one, and its impact type against the calibration's."""
+    def outside(self, closing_speed: tuple[float, float], masses: dict[str, float], lowpass: dict[str, float | None] | None = None,
+                noise: dict[str, QuietNoise] | None = None, impact_type: str | None = None) -> list[str]:
+        """Why an event is outside the calibrated ranges (empty when inside): its closing-speed interval
+        ``(lower, upper)`` (m/s; outside only when it lies wholly outside the calibrated speeds), car masses
+        (kg), and — when given — each channel's anti-alias corner (Hz, None: unfiltered) against the
+        calibration's chain, each channel's quiet-stretch noise against the largest calibrated one
+        (:meth:`noise_outside`), and its impact type against the calibration's."""
         reasons = []
         if impact_type is not None and impact_type != self.impact_type:
             reasons.append(f"a {impact_type} impact; the calibration's impacts were {self.impact_type}")
         lo, hi = self.closing_speed
-        if not (math.isfinite(closing_speed) and lo <= closing_speed <= hi):
-            reasons.append(f"closing speed {closing_speed:.3g} m/s outside the calibrated [{lo:.3g}, {hi:.3g}] m/s")
+        lower, upper = closing_speed
+        if not (math.isfinite(lower) and math.isfinite(upper)):
+            reasons.append(f"no closing speed to check against the calibrated [{lo:.3g}, {hi:.3g}] m/s")
+        elif upper < lo or lower > hi:
+            reasons.append(f"closing speed [{lower:.3g}, {upper:.3g}] m/s outside the calibrated [{lo:.3g}, {hi:.3g}] m/s")
         for car, mass in masses.items():
             if car not in self.masses:
                 reasons.append(f"car {car} was not in the calibration (its cars: {', '.join(self.masses)})")
@@ -88,12 +95,34 @@ class Calibration:
             if not (corner is None and self.lowpass is None or corner is not None and self.lowpass is not None
                     and math.isclose(corner, self.lowpass, rel_tol=1e-6)):
                 reasons.append(f"{probe} is recorded {_chain(corner)}; the calibration's records were {_chain(self.lowpass)}")
-        limit = NOISE_MARGIN * self.noise[1]
-        noisy = {probe: std for probe, std in (noise or {}).items() if std > limit}
-        if noisy:
-            worst = max(noisy, key=noisy.__getitem__)
-            reasons.append(f"{worst}'s noise {noisy[worst]:.3g} m/s² exceeds the calibrated {self.noise[1]:.3g} m/s² (× {NOISE_MARGIN:g})")
+        return reasons + self.noise_outside(noise or {})
+
+    def noise_outside(self, noise: dict[str, QuietNoise]) -> list[str]:
+        """The channels whose quiet-stretch noise refutes the largest calibrated noise ``σ_cal``: ``σ̂ > r σ_cal``,
+        ``r`` the one-sided limit of :func:`femref.sensing.noise_gate.noise_limit` for the channel's effective
+        quiet samples, the channels tested together at :data:`femref.sensing.noise_gate.FALSE_REJECT` per event.
+        A channel without quiet samples cannot be checked and is said."""
+        reasons = []
+        calibrated = self.noise[1]
+        for probe, found in noise.items():
+            if not found.measured:
+                reasons.append(f"{probe}'s noise was not measured (no quiet samples before the trigger): the calibrated noise cannot be checked")
+                continue
+            limit = noise_limit(found.effective_samples, len(noise)) * calibrated
+            if found.std > limit:
+                p = exceedance(found.std / calibrated, found.effective_samples) if calibrated > 0.0 else 0.0
+                reasons.append(f"{probe}'s noise {found.std:.3g} m/s² exceeds the calibrated {calibrated:.3g} m/s² beyond its sampling scatter "
+                               f"(limit {limit:.3g} m/s² for {found.effective_samples:.0f} effective quiet samples at {FALSE_REJECT:.0%} false rejects "
+                               f"per event; p = {p:.2g})")
         return reasons
+
+    def edge_notes(self, closing_speed: tuple[float, float]) -> list[str]:
+        """A closing-speed interval ``(lower, upper)`` (m/s) that straddles an edge of the calibrated speeds:
+        inside, but the band may hold for a speed the calibration did not cover."""
+        lo, hi = self.closing_speed
+        lower, upper = closing_speed
+        return [f"the closing speed [{lower:.3g}, {upper:.3g}] m/s straddles the calibrated edge {edge:.3g} m/s"
+                for edge in (lo, hi) if lower < edge < upper]
 
 
 def _chain(corner: float | None) -> str:
@@ -146,4 +175,4 @@ def read_calibration(path: str | Path) -> Calibration:
     return calibration
 
 
-__all__ = ["NOISE_MARGIN", "QUANTILES", "Calibration", "CalibrationFileError", "read_calibration", "write_calibration"]
+__all__ = ["QUANTILES", "Calibration", "CalibrationFileError", "read_calibration", "write_calibration"]

@@ -8,6 +8,8 @@ positive); every law has the interface of :class:`CouplerLaw`. Modules:
 * :mod:`.power_law` — :class:`PowerLawGear`, ``P = sgn(δ) (c |δ|ⁿ + N0) + γ(δ) δ̇``;
 * :mod:`.draft_gear` — :class:`StandardLinearDraftGear`, series springs and a gear with a stroke;
 * :mod:`.table` — :class:`HystereticTable`, tabulated loading/unloading curves;
+* :mod:`.friction_gear` — :func:`friction_gear`, a friction gear with hysteresis and a solid stop
+  (:class:`CubicLoading` or :class:`ExponentialLoading`) tabulated as a :class:`HystereticTable`;
 * :mod:`.coupling` — :class:`Coupling` (contact, slack), :class:`CouplerResponse`,
   :data:`CONTACT_KINDS`, the registry :data:`COUPLER_LAWS` and :func:`coupling_from_name`.
 """
@@ -15,6 +17,15 @@ positive); every law has the interface of :class:`CouplerLaw`. Modules:
 from .base import Branch, CouplerLaw, CouplerTangent
 from .coupling import CONTACT_KINDS, COUPLER_LAWS, CouplerResponse, Coupling, coupling_from_name
 from .draft_gear import StandardLinearDraftGear
+from .friction_gear import (
+    TABULATION_TOLERANCE,
+    CubicLoading,
+    ExponentialLoading,
+    LoadingCurve,
+    friction_gear,
+    rated_closure_force,
+    tabulation_nodes,
+)
 from .kelvin_voigt import KelvinVoigt
 from .power_law import PowerLawGear
 from .table import HystereticTable
@@ -27,9 +38,16 @@ __all__ = [
     "CouplerResponse",
     "CouplerTangent",
     "Coupling",
+    "CubicLoading",
+    "ExponentialLoading",
     "HystereticTable",
     "KelvinVoigt",
+    "LoadingCurve",
     "PowerLawGear",
     "StandardLinearDraftGear",
+    "TABULATION_TOLERANCE",
     "coupling_from_name",
+    "friction_gear",
+    "rated_closure_force",
+    "tabulation_nodes",
 ]

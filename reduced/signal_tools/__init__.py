@@ -11,8 +11,8 @@ every setting is an explicit argument or a field of a small frozen class. Module
   :func:`robust_noise_std` and :func:`integrate_twice`;
 * :mod:`.classification` — :func:`zero_frequency_ratio`, :func:`classify_impact`,
   :class:`ImpactClassification` (free to roll vs coupled, docs/formulas.md §B);
-* :mod:`.closure_force` — :func:`detect_closure_force`, :class:`ClosureForceEstimate`
-  (docs/formulas.md §A5);
+* :mod:`.closure_force` — :func:`detect_closure_force` (where the force–stroke compliance drops),
+  :class:`ClosureForceEstimate` (docs/formulas.md §A5);
 * :mod:`.records` — :func:`resample_record`, :func:`peak_normalise`, :class:`FeatureScaler`.
 """
 

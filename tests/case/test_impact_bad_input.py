@@ -125,14 +125,14 @@ RULES = {
     "draft gear missing key": ({"couplers.0.law": {"draft_gear": {"gear_stiffness": 3.4e7}}}, "couplers[0].law.draft_gear.stroke", "required key is missing"),
     "zero stiffness": ({"couplers.0.law.kelvin_voigt.stiffness": 0.0}, "couplers[0].law.kelvin_voigt.stiffness", "must be > 0"),
     "negative damping": ({"couplers.0.law.kelvin_voigt.damping": -1.0}, "couplers[0].law.kelvin_voigt.damping", "must be >= 0"),
-    "law with no key": ({"couplers.0.law": {}}, "couplers[0].law", "give exactly one of kelvin_voigt, draft_gear, table; got an empty mapping"),
+    "law with no key": ({"couplers.0.law": {}}, "couplers[0].law", "give exactly one of kelvin_voigt, draft_gear, table, power_law, friction_gear; got an empty mapping"),
     "law with two keys": (
         {"couplers.0.law": {"kelvin_voigt": {"stiffness": 4.0e7}, "draft_gear": DRAFT_GEAR}},
         "couplers[0].law",
-        "give exactly one of kelvin_voigt, draft_gear, table; got kelvin_voigt and draft_gear together",
+        "give exactly one of kelvin_voigt, draft_gear, table, power_law, friction_gear; got kelvin_voigt and draft_gear together",
     ),
     "unknown law name": ({"couplers.0.law": {"kelvin_voight": {"stiffness": 4.0e7}}}, "couplers[0].law.kelvin_voight", r"unknown coupler law \(did you mean 'kelvin_voigt'\?\)"),
-    "law as a number": ({"couplers.0.law": 4.0e7}, "couplers[0].law", "must be a mapping with exactly one key out of kelvin_voigt, draft_gear, table"),
+    "law as a number": ({"couplers.0.law": 4.0e7}, "couplers[0].law", "must be a mapping with exactly one key out of kelvin_voigt, draft_gear, table, power_law, friction_gear"),
     # table law
     "table of one point": (
         {"couplers.1.law": {"table": {"closure": [0.0], "loading": [0.0], "unloading": [0.0]}}},

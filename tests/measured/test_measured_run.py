@@ -37,7 +37,8 @@ def test_the_default_scene_recorded_gives_the_fem_force_within_its_band(tmp_path
     outcome = run_measured(scene_from_case(load_case(event.path)))
     assert len(outcome.events) == 1
     found = outcome.events[0]
-    assert found.trigger_time == pytest.approx(event.contact_time, abs=0.01) and not found.flags
+    # the records end 0.5 s after contact, sooner than post (0.49 s) after the cars' ringing: the window is truncated
+    assert found.trigger_time == pytest.approx(event.contact_time, abs=0.01) and found.flags == ("truncated",)
     assert found.impact_type == "free_to_roll" and found.zero_harmonic_ratio > 0.95
     estimates = {e.estimator: e for e in found.estimates}
     assert all(e.ok for e in estimates.values()), [e.message for e in estimates.values()]
@@ -82,7 +83,7 @@ def test_alarm_possible_when_only_the_bands_upper_end_crosses(tmp_path):
 @pytest.mark.parametrize("rated, wear", [(1.05, "ok"), (1.5, "worn")])
 def test_a_gear_driven_solid_is_closed_and_judged_against_its_rating(tmp_path, rated, wear):
     """At 4 m/s the gear closes at 67 % of the peak; its closure force from the kalman force is within
-    5 % of the fem's exact one (measured −2.1 %; the fem force where the gear stroke ``x_g = δ − D P``,
+    5 % of the fem's exact one (measured −2.7 %, from the force against the stroke made of it; the fem force where the gear stroke ``x_g = δ − D P``,
     ``D = 1/c1 + 1/c2``, reaches 0.165 m), and the wear check compares it with the rating: a rating 5 %
     above the measured closure is within tolerance, 50 % above is worn."""
     event = simulated_event(tmp_path, _gear_solid(4.0), estimators=("kalman",))

@@ -24,6 +24,7 @@ HOMES = {
         "power_law": ["PowerLawGear"],
         "draft_gear": ["StandardLinearDraftGear"],
         "table": ["HystereticTable"],
+        "friction_gear": ["TABULATION_TOLERANCE", "CubicLoading", "ExponentialLoading", "LoadingCurve", "friction_gear", "rated_closure_force", "tabulation_nodes"],
         "coupling": ["CONTACT_KINDS", "COUPLER_LAWS", "CouplerResponse", "Coupling", "coupling_from_name"],
     },
     "reduced.signal_tools": {

@@ -117,7 +117,8 @@ def test_clipping_and_gaps_are_marked_not_refused(tmp_path):
 def test_a_stream_with_three_impacts_gives_three_events(tmp_path):
     """Pulses 2 s apart on one car, seen 5 ms later on the other (slower recorder, offset clock): three
     events, triggered within one sample of where the first channel crosses the level; a quiet stream none;
-    an event over a clipped stretch is flagged; a window cut by the record's end is truncated."""
+    an event over a clipped stretch is flagged; a window cut by the record's end is truncated, one longer than the
+    impacts' spacing is cut short where the next event's window starts."""
     t = np.arange(0, 7.0, 5e-4)
     starts = (1.0, 3.0, 5.0)
     a = sum(pulse(t, s) for s in starts)
@@ -136,8 +137,9 @@ def test_a_stream_with_three_impacts_gives_three_events(tmp_path):
     np.testing.assert_allclose([e.trigger_time for e in events], level_time, atol=5e-4)
     assert all(any(f.startswith("saturated: anvil/y") for f in e.flags) for e in events)
     assert find_events(recordings, trigger=25.0, pre=0.05, post=0.5) == []
-    late = find_events(recordings, trigger=5.0, pre=0.05, post=3.0)
-    assert len(late) == 2 and "truncated" in late[1].flags and "truncated" not in late[0].flags
+    late = find_events(recordings, trigger=5.0, pre=0.05, post=3.0)  # windows longer than the impacts' spacing
+    assert len(late) == 3 and "truncated" in late[2].flags and "truncated" not in late[0].flags
+    assert [e.end for e in late[:2]] == pytest.approx([t - 0.05 for t in level_time[1:]], abs=5e-4)  # cut short at the next pre
 
 
 def test_window_puts_two_rates_on_one_grid(tmp_path):

@@ -1,0 +1,123 @@
+"""A channel's noise before the trigger, and a noise gate that allows for the estimate's own sampling error.
+
+**The estimate** (:func:`quiet_noise`, what a measured run weighs the channels by): over the ``n``
+quiet samples ``y_i`` before the trigger,
+
+    σ̂ = 1.4826 · median_i |y_i − median y|        (m/s²)
+
+the median absolute deviation scaled to a Gaussian's standard deviation (``1.4826 = 1/z``,
+``z = Φ⁻¹(3/4) = 0.6745``); robust to the impact's first rise, which a channel near the coupler
+records before the trigger fires.
+
+**Its sampling distribution.** For ``n`` independent Gaussian samples of std σ, ``|y_i|`` has the
+half-normal CDF ``G(c) = 2Φ(c/σ) − 1``, and the sample median ``q̂`` of ``n`` such values has
+``G(q̂) ~ Beta((n + 1)/2, (n + 1)/2)`` (exact for odd ``n``: the ``(n + 1)/2``-th of ``n`` uniform order
+statistics; the even-``n`` median, the mean of two neighbours, lies between them). With ``σ̂ = q̂/z``:
+
+    P(σ̂ > r σ) = 1 − I_{G(r z σ)}(a, a),   a = (n + 1)/2,   G(r z σ) = 2Φ(r z) − 1
+
+(``I`` the regularised incomplete beta function), whose spread is ``sd(σ̂/σ) ≈ 1.166/√n`` (16.5 % at
+``n = 50``: the MAD's 37 % efficiency). Centring on the sample median instead of the true zero
+lowers the exceedance (at ``n = 51``: 5 % → 4.0 %, 1 % → 0.8 %): the law is conservative for it.
+
+**Correlated samples.** Noise that passed through the recorder's anti-alias filter is correlated
+from sample to sample, and ``n`` correlated samples carry the information of fewer. The count
+used is ``n_eff = n / τ̂``, ``τ̂ = 1 + 2 Σ_{k=1}^{K} ρ̂_k²``: the variance inflation of a Gaussian
+series' second moment (``Var s² = (2σ⁴/n) Σ_k ρ_k²``), ``ρ̂_k`` the quiet samples' autocorrelation at
+lag ``k``, summed while ``|ρ̂_k| ≥ 2/√n`` (beyond, ``ρ̂_k`` is indistinguishable from white noise's
+scatter, and white noise keeps ``τ̂ ≈ 1``). Measured (tests/measured/test_noise_gate.py): white
+noise gives ``n_eff ≈ n``; noise that went through the chain's 100 Hz filter at 1 kHz gives
+``n_eff ≈ 14`` of 50, conservative against the spread the MAD actually has there (≈ 18).
+
+**The gate** (:func:`noise_limit`): a one-sided test of ``σ ≤ σ_cal`` per channel at level
+``α_ch = 1 − (1 − α)^{1/m}`` for ``m`` channels (Šidák: an event at the calibrated noise on every
+channel is refused with probability ``α``), refusing when
+
+    σ̂ > r σ_cal,   r = Φ⁻¹((1 + B⁻¹(1 − α_ch; a, a))/2) / z,   a = (n_eff + 1)/2
+
+``α`` is :data:`FALSE_REJECT`. At ``n_eff = 50`` and five channels ``r = 1.52`` (one channel: 1.41; at
+``n_eff = 14``, five channels: 2.03). Measured on the yard's five channels through the measurement chain
+(tests/measured/test_noise_gate.py, 2000 events at the calibrated noise): 0.3 % refused with white noise,
+0.15 % with noise that went through the filter (the fixed 1.25 × limit refused 26 % and 49 %); at twice the
+calibrated noise on every channel 100 % and 88 % are refused, on one channel alone 92 % (white).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.special import betainc, betaincinv, ndtr, ndtri
+
+MAD_SCALE = 1.4826
+"""``1/Φ⁻¹(3/4)``: the median absolute deviation of a Gaussian is ``σ/1.4826``."""
+FALSE_REJECT = 0.01
+"""The gate's false-reject rate per event: the probability that an event recorded at exactly the calibrated
+noise on every channel is refused."""
+_Z = float(ndtri(0.75))
+
+
+@dataclass(frozen=True)
+class QuietNoise:
+    """A channel's noise std ``std`` (m/s², :func:`quiet_noise`) from ``samples`` quiet samples worth
+    ``effective_samples`` independent ones (0 samples: not measured, ``std`` NaN)."""
+
+    std: float
+    samples: int
+    effective_samples: float
+
+    @property
+    def measured(self) -> bool:
+        return self.samples > 0
+
+
+def quiet_noise(quiet: NDArray[np.float64]) -> QuietNoise:
+    """``σ̂ = 1.4826 median|y − median y|`` of the quiet samples ``y`` (m/s²) with their effective count
+    ``n / τ̂`` (module docstring)."""
+    y = np.asarray(quiet, dtype=float)
+    n = y.size
+    if n == 0:
+        return QuietNoise(math.nan, 0, 0.0)
+    centred = y - float(np.median(y))
+    std = MAD_SCALE * float(np.median(np.abs(centred)))
+    return QuietNoise(std, n, n / correlation_time(y))
+
+
+def correlation_time(y: NDArray[np.float64]) -> float:
+    """``τ̂ = 1 + 2 Σ_{k=1}^{K} ρ̂_k²`` (samples, ≥ 1): the samples' autocorrelation summed while
+    ``|ρ̂_k| ≥ 2/√n``."""
+    x = np.asarray(y, dtype=float) - float(np.mean(y))
+    n = x.size
+    energy = float(x @ x)
+    if n < 4 or energy <= 0.0:
+        return 1.0
+    tau = 1.0
+    for lag in range(1, n // 2):
+        rho = float(x[:-lag] @ x[lag:]) / energy
+        if abs(rho) < 2.0 / math.sqrt(n):
+            break
+        tau += 2.0 * rho * rho
+    return tau
+
+
+def noise_limit(effective_samples: float, channels: int = 1, false_reject: float = FALSE_REJECT) -> float:
+    """``r``: a channel's ``σ̂`` above ``r σ_cal`` refutes ``σ ≤ σ_cal`` (module docstring), for ``channels``
+    channels tested together at ``false_reject`` per event."""
+    if not effective_samples > 0.0:
+        raise ValueError(f"the noise gate needs quiet samples; effective count {effective_samples!r}")
+    per_channel = 1.0 - (1.0 - false_reject) ** (1.0 / max(channels, 1))
+    a = 0.5 * (effective_samples + 1.0)
+    median_quantile = float(betaincinv(a, a, 1.0 - per_channel))
+    return float(ndtri(0.5 * (1.0 + median_quantile))) / _Z
+
+
+def exceedance(ratio: float, effective_samples: float) -> float:
+    """``P(σ̂ > ratio · σ)`` for ``effective_samples`` independent Gaussian samples (module docstring): the
+    p-value of a channel's noise ``ratio`` times the calibrated one."""
+    a = 0.5 * (effective_samples + 1.0)
+    return float(1.0 - betainc(a, a, 2.0 * ndtr(ratio * _Z) - 1.0))
+
+
+__all__ = ["FALSE_REJECT", "MAD_SCALE", "QuietNoise", "correlation_time", "exceedance", "noise_limit", "quiet_noise"]
