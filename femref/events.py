@@ -2,7 +2,8 @@
 
 Layout (every quantity carries its unit as the attribute ``units``)::
 
-    /                                     attrs: femref_version, case_yaml, created
+    /                                     attrs: femref_version, case_yaml, created, complete (false while
+                                          written), events_written
     /scene                                attrs: kind = measured, cars, couplers (JSON)
     /events/<k>/                          attrs: start, end, trigger_time (s), trigger_probe, flags (JSON),
                                           impact_type, zero_harmonic_ratio, classification_confidence,
@@ -17,12 +18,28 @@ Layout (every quantity carries its unit as the attribute ``units``)::
                                           closure_time (s), estimator, message
 
 Bands are 95 % (lower, upper); an estimator without a bound stores NaN bands and
-``bound = none``. The file is written under a temporary name and renamed when complete.
+``bound = none``.
+
+**Written as the events finish** (:func:`event_file`, :class:`EventWriter`). The file is made under a
+temporary name beside the final one (:func:`femref.core.publishing.atomic_path`) with the root attributes
+``complete = false`` and ``events_written = 0``; each event is added as soon as it is found, the file
+opened, the event's group written, ``events_written`` raised and the file closed (flushed) again; when the
+last event is in, ``complete = true`` and the temporary is renamed to the final name. A run never holds
+more than the event in hand, and a run killed (``kill -9``, a power cut) loses at most that event: its
+temporary ``.<name>.femref-<pid>.tmp`` is an event file of the ``events_written`` events finished before the
+kill, readable as it is (``femref report`` reads it; ``complete = false`` says it is a part), while the
+previous file under the final name stays as it was. The next run into the same output removes that
+temporary (a leftover, :func:`femref.core.publishing.remove_leftovers`): copy it first to keep those events.
+A kill in the milliseconds while an event's group is written may leave that group partial; only the first
+``events_written`` groups are complete.
 """
 
 from __future__ import annotations
 
+import contextlib
+import dataclasses
 import json
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
@@ -34,6 +51,7 @@ from numpy.typing import NDArray
 
 from femref import __version__
 from femref.core.catalog import SCENE_GROUP
+from femref.core.hdf5_writing import hdf5_writer
 from femref.core.publishing import atomic_path
 
 EVENTS_GROUP = "events"
@@ -139,22 +157,74 @@ EVENT_UNITS = {
 }
 
 
-def write_events(path: str | Path, scene_facts: dict[str, Any], events: list[EventResult], case_yaml: str = "") -> Path:
-    """Write the event results to ``path`` (atomically) and return the path."""
-    path = Path(path)
-    with atomic_path(path) as temporary:
-        with h5py.File(temporary, "w") as h5:
+def without_histories(event: EventResult) -> EventResult:
+    """``event`` as a summary: every scalar, flag and message kept, its records dropped and each estimate's histories
+    cut to the sample of its peak (so ``peak`` is the same) and its settings dropped: what a table of many events
+    reads, at a few kilobytes each."""
+    def at_peak(estimate: ForceEstimate) -> ForceEstimate:
+        k = slice(estimate.peak_index, estimate.peak_index + 1) if estimate.ok else slice(0, min(1, estimate.force.size))
+        return dataclasses.replace(estimate, time=estimate.time[k].copy(), force=estimate.force[k].copy(), lower=estimate.lower[k].copy(),
+                                   upper=estimate.upper[k].copy(), settings={})
+
+    return dataclasses.replace(event, time=event.time[:0].copy(), records={}, estimates=[at_peak(e) for e in event.estimates])
+
+
+#: Root attributes of an event file while it is written (module docstring).
+COMPLETE, EVENTS_WRITTEN = "complete", "events_written"
+
+
+class EventWriter:
+    """Adds events to the event file at ``path`` (a temporary while the run lasts), each opened, written and closed
+    again as it finishes (module docstring); :attr:`count` the events written. The file is written through
+    :func:`femref.core.hdf5_writing.hdf5_writer` (a full disk: one ``OSError``), which takes no HDF5 file lock: a
+    reader looking at the events written so far does not stop the run (between events the file is closed and whole)."""
+
+    def __init__(self, path: Path, scene_facts: dict[str, Any], case_yaml: str = "") -> None:
+        self.path = Path(path)
+        self.count = 0
+        with hdf5_writer(self.path, "w") as h5:
             h5.attrs["femref_version"] = __version__
             h5.attrs["case_yaml"] = case_yaml
             h5.attrs["created"] = datetime.now(timezone.utc).isoformat(timespec="seconds")
+            h5.attrs[COMPLETE] = False
+            h5.attrs[EVENTS_WRITTEN] = 0
             scene = h5.create_group(SCENE_GROUP)
             scene.attrs["kind"] = "measured"
             for key, value in scene_facts.items():
                 scene.attrs[key] = json.dumps(value)
-            root = h5.create_group(EVENTS_GROUP)
-            for event in events:
-                _write_event(root.create_group(str(event.index)), event)
-    return path
+            h5.create_group(EVENTS_GROUP)
+
+    def write(self, event: EventResult) -> None:
+        """Add ``event`` and count it; the file is closed (flushed) when this returns."""
+        with hdf5_writer(self.path, "a") as h5:
+            _write_event(h5[EVENTS_GROUP].create_group(str(event.index)), event)
+            h5.attrs[EVENTS_WRITTEN] = self.count + 1
+        self.count += 1
+
+    def finish(self) -> None:
+        """Mark the file complete (every event in)."""
+        with hdf5_writer(self.path, "a") as h5:
+            h5.attrs[COMPLETE] = True
+
+    __call__ = write  # the writer is the sink femref.run.measured.run_measured takes
+
+
+@contextlib.contextmanager
+def event_file(path: str | Path, scene_facts: dict[str, Any], case_yaml: str = "") -> Iterator[EventWriter]:
+    """An :class:`EventWriter` on a temporary beside ``path``, renamed to ``path`` when the block ends without error
+    (removed on an error: nothing is ever left half-written under the final name)."""
+    with atomic_path(Path(path)) as temporary:
+        writer = EventWriter(temporary, scene_facts, case_yaml)
+        yield writer
+        writer.finish()
+
+
+def write_events(path: str | Path, scene_facts: dict[str, Any], events: list[EventResult], case_yaml: str = "") -> Path:
+    """Write the event results to ``path`` (atomically, :func:`event_file`) and return the path."""
+    with event_file(path, scene_facts, case_yaml) as write:
+        for event in events:
+            write(event)
+    return Path(path)
 
 
 def _write_event(group: h5py.Group, event: EventResult) -> None:
@@ -197,4 +267,5 @@ def _dataset(group: h5py.Group, name: str, data: NDArray, units: str) -> None:
     dataset.attrs["units"] = units
 
 
-__all__ = ["ALARM_STATUSES", "BOUNDS", "CLOSURE_STATUSES", "EVENTS_GROUP", "WEAR_STATUSES", "ClosureResult", "EventResult", "ForceEstimate", "write_events"]
+__all__ = ["ALARM_STATUSES", "BOUNDS", "CLOSURE_STATUSES", "COMPLETE", "EVENTS_GROUP", "EVENTS_WRITTEN", "WEAR_STATUSES", "ClosureResult", "EventResult",
+           "EventWriter", "ForceEstimate", "event_file", "without_histories", "write_events"]

@@ -52,7 +52,6 @@ import contextlib
 import hashlib
 import json
 import os
-import shutil
 import time
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
@@ -66,7 +65,8 @@ from numpy.typing import NDArray
 
 from femref import __version__
 from femref.core.catalog import SCENE_GROUP
-from femref.core.publishing import create_temporary, atomic_path, remove_leftovers
+from femref.core.hdf5_writing import hdf5_writer
+from femref.core.publishing import create_temporary, atomic_path, discard_temporary, remove_leftovers
 
 UNITS = {
     "time": "s",
@@ -195,13 +195,13 @@ def write_results(
         staged: dict[str, list[Path]] = {}
         if any(result.fields for result in results):
             staging = create_temporary(path, part="fields", folder=True)
-            cleanup.callback(shutil.rmtree, staging, True)
+            cleanup.callback(discard_temporary, staging)  # and its writer sidecar
             for result in results:
                 if result.fields:
                     staged[result.model] = _write_xdmf_pair(staging, field_file_name(path, result.model), result.fields)
         published = []
         with atomic_path(path) as tmp_name:
-            with h5py.File(tmp_name, "w") as h5:
+            with hdf5_writer(tmp_name) as h5:  # a full disk: one OSError, never an HDF5 crash
                 h5.attrs["femref_version"] = __version__
                 h5.attrs["case_yaml"] = case_yaml
                 h5.attrs["created"] = datetime.now(timezone.utc).isoformat(timespec="seconds")

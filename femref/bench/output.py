@@ -31,6 +31,7 @@ import numpy as np
 
 from femref import __version__
 from femref.bench.run import PRIMARY_ERROR, RATIO_BASE, SECONDARY_ERROR, VERTICAL_ERROR, BenchOutcome, BenchRow
+from femref.core.hdf5_writing import hdf5_writer
 from femref.core.publishing import atomic_path
 
 __all__ = ["COLUMNS", "LABEL_GID", "pareto_figure", "place_labels", "plot_pareto", "write_bench_table"]
@@ -73,7 +74,7 @@ def write_bench_table(path: str | Path, case_yaml: str, outcome: BenchOutcome) -
     times = np.full((len(outcome.rows), outcome.repeats), np.nan)
     for i, row in enumerate(outcome.rows):
         times[i, : len(row.wall_times_s)] = row.wall_times_s
-    with atomic_path(path) as tmp_name, h5py.File(tmp_name, "w") as h5:
+    with atomic_path(path) as tmp_name, hdf5_writer(tmp_name) as h5:
         h5.attrs["femref_version"] = __version__
         h5.attrs["created"] = datetime.now(timezone.utc).isoformat(timespec="seconds")
         bench = h5.create_dataset("bench", data=table)

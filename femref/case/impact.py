@@ -203,6 +203,12 @@ class ImpactCase(SceneCase):
             if coupler.vertical_offset != 0.0 and flat:
                 rule = f"an inclined coupler pushes its cars vertically: cars {', '.join(flat)} need a bending_stiffness"
                 problems.append(Problem(("couplers", k, "vertical_offset"), rule, coupler.vertical_offset))
+        lowpass, dt = (self.measurement.lowpass if self.measurement is not None else None), self.time.dt
+        if lowpass is not None and dt is not None and lowpass >= 0.5 / (dt * self.time.output_stride):
+            nyquist = 0.5 / (dt * self.time.output_stride)
+            rule = (f"must be below the Nyquist frequency 1/(2 time.dt × time.output_stride) = {nyquist:g} Hz of the stored samples "
+                    "the filter runs on: refine time.dt or lower the corner")
+            problems.append(Problem(("measurement", "lowpass"), rule, lowpass))
         if problems:
             raise problems_error(problems)
         return self

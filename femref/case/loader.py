@@ -12,6 +12,8 @@ number 10⁹ as in YAML 1.2 (YAML 1.1 reads it as text).
 Limits, so that a small hostile file cannot exhaust memory, time or the stack (every
 case, sweep and study file goes through :func:`read_yaml_file`):
 
+* a file is a regular file (:func:`femref.core.files.regular_file`: a FIFO or a device is
+  refused before it is opened, a loop of symbolic links named as such);
 * a file holds at most :data:`MAX_YAML_BYTES` bytes;
 * collections nest at most :data:`MAX_YAML_DEPTH` levels (``[[[…]]]``), counted
   through aliases: an alias nests its anchor's levels where it is used;
@@ -36,6 +38,7 @@ from pydantic import TypeAdapter, ValidationError
 
 from femref.case.errors import CaseError, Problem, problems_from
 from femref.case.kinds import CASE_KINDS, Case
+from femref.core.files import NotRegularFile, regular_file
 
 __all__ = ["MAX_YAML_BYTES", "MAX_YAML_DEPTH", "MAX_YAML_NODES", "load_case", "load_yaml_text", "parse_case", "read_yaml_file", "resolved_yaml"]
 
@@ -162,16 +165,20 @@ def load_case(path: str | Path) -> Case:
 def read_yaml_file(path: str | Path, what: str) -> Any:
     """The YAML document of a ``what`` file (case, sweep, study) in this module's dialect.
 
-    Raises :class:`CaseError` (source: the path) for a missing or unreadable file, a
-    file larger than :data:`MAX_YAML_BYTES` or not UTF-8 text, a YAML syntax error, or
-    a document beyond the nesting or size limits (module docstring).
+    Raises :class:`CaseError` (source: the path) for a missing or unreadable file, a path that
+    is not a regular file (a FIFO, a device, a folder, a loop of symbolic links), a file larger
+    than :data:`MAX_YAML_BYTES` or not UTF-8 text, a YAML syntax error, or a document beyond
+    the nesting or size limits (module docstring).
     """
     source = str(path)
     try:
+        regular_file(path)  # before opening: a FIFO would block the open until a writer came
         with open(path, "rb") as handle:
             data = handle.read(MAX_YAML_BYTES + 1)
     except FileNotFoundError:
         raise CaseError(Problem((), f"{what} file not found"), source) from None
+    except NotRegularFile as error:
+        raise CaseError(Problem((), f"cannot read the {what} file: it {error}"), source) from None
     except OSError as error:
         raise CaseError(Problem((), f"cannot read the {what} file: {error.strerror or error}"), source) from None
     if len(data) > MAX_YAML_BYTES:

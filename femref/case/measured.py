@@ -21,9 +21,14 @@ Layout of a measured case file::
                  gear's rated closure force (N) and the relative shortfall that counts as worn
     calibration: the inverse estimators' error bands (a file of femref calibrate)
 
-Every record file is read when the case is loaded (:mod:`femref.sensing.recordings`): a
+Every record file is read when the case is loaded (:mod:`femref.sensing.recordings`) and
+what was read is kept for the run, which reads a file again only if it changed since: a
 missing file, channel or unit, a time column that does not increase, a channel that is
-all NaN are case errors naming the file, channel and rule. The relations between keys —
+all NaN, a file that is not a regular file, points outside itself (HDF5 external storage,
+external links, virtual datasets) or exceeds the limits of size, samples and rate
+(:mod:`femref.sensing.record_files`) are case errors naming the file, channel and rule;
+so is an event grid (``events.max_window`` × the highest rate × the channels) beyond
+:data:`~femref.sensing.recordings.MAX_EVENT_VALUES`. The relations between keys —
 channels against the cars' sensors, couplers against the cars, estimators against what
 they need (a rod body, two sensors on the front car) — are checked once the keys are valid.
 
@@ -37,7 +42,7 @@ import math
 from pathlib import Path
 from typing import Annotated, Any, ClassVar, Literal, Union
 
-from pydantic import AfterValidator, BeforeValidator, Discriminator, Field, Tag, ValidationInfo, field_validator, model_validator
+from pydantic import AfterValidator, BeforeValidator, Discriminator, Field, PrivateAttr, Tag, ValidationInfo, field_validator, model_validator
 from pydantic_core import PydanticCustomError
 
 from femref.case.base import SceneCase
@@ -48,7 +53,7 @@ from femref.case.errors import Problem, did_you_mean, problems_error
 from femref.case.estimators import ANY_IMPACT, AnnEstimatorSpec, _estimator_kind, _estimator_shape
 from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, ProbeName, Real, _duplicates, _name_rule, resolve_case_path
 from femref.core.catalog import MEASURED_ESTIMATORS
-from femref.sensing import recordings
+from femref.sensing import record_files, recordings
 from femref.sensing.measurement import FILTER_ORDER
 from femref.sensing.network import NetworkContract
 from femref.sensing.calibration import CalibrationFileError, read_calibration
@@ -105,7 +110,9 @@ class TimeSpec(CaseModel):
     column: Column | None = Field(default=None, description="CSV time column: header name or 0-based index.")
     dataset: str | None = Field(default=None, description="HDF5 time dataset path.")
     unit: TimeUnit = Field(default="s", description=f"Unit of the time column or dataset: {', '.join(recordings.TIME_UNITS)}. Default s.")
-    rate: PositiveReal | None = Field(default=None, description="Sampling rate (Hz) of a file without a time column.")
+    rate: Annotated[PositiveReal, Field(le=recordings.MAX_RECORD_RATE)] | None = Field(
+        default=None, description=f"Sampling rate (Hz) of a file without a time column, at most {recordings.MAX_RECORD_RATE:g}."
+    )
     start: Real = Field(default=0.0, description="Time of the first sample (s) with a rate. Default 0.")
 
     @model_validator(mode="after")
@@ -134,6 +141,7 @@ class RecordFileSpec(CaseModel):
         default=None,
         description="The recorder's Butterworth low-pass {corner (Hz), order}: kalman models it, networks need it. Default null: not declared.",
     )
+    _read: recordings.RecordRead | None = PrivateAttr(default=None)  # what validation read (MeasuredCase._record_problems), for the run
 
     @field_validator("file", mode="after")
     @classmethod
@@ -148,7 +156,7 @@ class RecordFileSpec(CaseModel):
         return channels
 
     def source(self) -> recordings.RecordFile:
-        """The file as :mod:`femref.sensing.recordings` reads it."""
+        """The file as :mod:`femref.sensing.recordings` reads it, with what validation read of it (read again if it changed)."""
         time = self.time
         return recordings.RecordFile(
             path=self.file,
@@ -159,6 +167,7 @@ class RecordFileSpec(CaseModel):
                 for probe, channel in self.channels.items()
             ),
             anti_alias=None if self.anti_alias is None else recordings.AntiAlias(self.anti_alias.corner, self.anti_alias.order),
+            kept=self._read,
         )
 
 
@@ -326,6 +335,17 @@ MeasuredEstimatorEntry = Annotated[
 ]
 
 
+def _calibrated_coupler_problem(path: Path, coupler: str, couplers: tuple[MeasuredCouplerSpec, ...] | None) -> Problem | None:
+    """A calibration of a coupler the case does not have would never give a band: a case error naming both."""
+    if couplers is None:  # the couplers are invalid themselves: their own problem is reported
+        return None
+    names = [spec.name for spec in couplers]
+    if coupler in names:
+        return None
+    return Problem((), f"{path}: attribute coupler: the calibration is of coupler {coupler!r}, which this case does not have; "
+                       f"couplers: {', '.join(str(name) for name in names)}")
+
+
 def _estimators_rule(entries: tuple[str | AnnEstimatorSpec, ...]) -> tuple[str | AnnEstimatorSpec, ...]:
     names = [entry if isinstance(entry, str) else entry.name for entry in entries]
     problems = _duplicates(names, "estimator", lambda i: (i,))
@@ -370,8 +390,11 @@ class MeasuredCase(SceneCase):
             raise problems_error([Problem((), str(error))]) from None
         cars = info.data.get("cars")
         if cars is not None and set(calibration.masses) != {car.name for car in cars}:
-            rule = f"calibrates cars {', '.join(calibration.masses)}, not this case's {', '.join(car.name for car in cars)}"
+            rule = f"{path}: attribute masses calibrates cars {', '.join(calibration.masses)}, not this case's {', '.join(car.name for car in cars)}"
             raise problems_error([Problem((), rule)])
+        problem = _calibrated_coupler_problem(path, calibration.coupler, info.data.get("couplers"))
+        if problem is not None:
+            raise problems_error([problem])
         return path
 
     @field_validator("records", mode="after")
@@ -504,17 +527,24 @@ class MeasuredCase(SceneCase):
         return problems
 
     def _record_problems(self) -> list[Problem]:
-        """Each file read as the run will read it: a bad file, channel or unit is the case's error; the event
-        settings against the span the files share."""
+        """Each file read as the run will read it (and kept for it): a bad file, channel or unit is the case's error,
+        the files together within :data:`~femref.sensing.record_files.MAX_RECORD_VALUES`; the event settings against
+        the span the files share, an event's grid within :data:`~femref.sensing.recordings.MAX_EVENT_VALUES`."""
         problems = []
         spans = []
+        rates = []
+        values_left = record_files.MAX_RECORD_VALUES
         for i, record in enumerate(self.records):
             try:
-                read = recordings.read_records([record.source()])
+                kept = recordings.read_record_file(record.source(), values_left)
             except recordings.RecordError as error:
                 problems.append(Problem(("records", i), str(error)))
                 continue
+            record._read = kept
+            values_left -= kept.values
+            read = recordings.Recordings({channel.probe: channel for channel in kept.channels})
             spans.append(read.span)
+            rates.append((max(channel.rate for channel in kept.channels), record.file.name))
             rate = min(channel.rate for channel in read.channels.values())
             if record.anti_alias is not None and record.anti_alias.corner >= 0.5 * rate:
                 rule = f"must be below the file's Nyquist frequency rate/2 = {0.5 * rate:g} Hz"
@@ -525,7 +555,21 @@ class MeasuredCase(SceneCase):
                 problems.append(Problem(("records",), "the files share no time span (each file's times plus its clock_offset)"))
             else:
                 problems += [problem.under(("events",)) for problem in self.events.span_problems(span)]
+            problems += self._event_grid_problems(*max(rates), sum(len(record.channels) for record in self.records))
         return problems
+
+    def _event_grid_problems(self, rate: float, file: str, channels: int) -> list[Problem]:
+        """An event's records on its grid — ``max_window × rate + 1`` samples at the highest ``rate`` (Hz, of
+        ``file``), for each of ``channels`` — within :data:`~femref.sensing.recordings.MAX_EVENT_VALUES`, so no
+        window asks for more before the first one is cut."""
+        window = self.events.max_window
+        values = (math.floor(window * rate) + 1) * channels
+        if values <= recordings.MAX_EVENT_VALUES:
+            return []
+        longest = math.floor((recordings.MAX_EVENT_VALUES // channels - 1) / rate * 1e3) / 1e3  # s, rounded down to the ms
+        rule = (f"an event's grid holds max_window × rate × channels = {window:g} s × {rate:.4g} Hz ({file}) × {channels} = {values:.3g} values; "
+                f"the limit is {recordings.MAX_EVENT_VALUES:.3g}: give max_window (and pre + post) at most {longest:g} s")
+        return [Problem(("events", "max_window"), rule, window)]
 
     def record_sources(self) -> tuple[recordings.RecordFile, ...]:
         """Every record file as :mod:`femref.sensing.recordings` reads it."""

@@ -12,7 +12,7 @@ from __future__ import annotations
 import click
 
 from femref.cli.bench import bench_command
-from femref.cli.common import PROGRESS_KEY
+from femref.cli.common import PROGRESS_KEY, faults_end_cleanly
 from femref.cli.figures import figures_command
 from femref.cli.report import report_command
 from femref.cli.run import run_command, validate_command
@@ -24,11 +24,13 @@ from femref.cli.sweep import calibrate_command, study_command, sweep_command
 EPILOG = """\b
 Exit codes:
   0    success
-  1    a failure during the run (a model, the sweep machinery, a study step);
-       the message says where
+  1    a failure during the run (a model, the sweep machinery, a study step,
+       an OS error such as a full disk); one error: line says where
   2    bad input: the message names the key path or option and the rule;
        nothing is written
-  130  interrupted (sweeps and studies keep what they stored; run again to resume)
+  130  interrupted (Ctrl-C; SIGTERM alike, with exit code 143): stopped within
+       a second, no file left half-written (sweeps and studies keep what they
+       stored; run again to resume)
 
 \b
 Environment:
@@ -43,7 +45,16 @@ Environment:
 """
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]}, epilog=EPILOG)
+class FemrefGroup(click.Group):
+    """The command group: every command runs inside :func:`femref.cli.common.faults_end_cleanly` (an OS error or a
+    signal ends it with one line and its exit code, never a traceback)."""
+
+    def invoke(self, ctx: click.Context):
+        with faults_end_cleanly():
+            return super().invoke(ctx)
+
+
+@click.group(cls=FemrefGroup, context_settings={"help_option_names": ["-h", "--help"]}, epilog=EPILOG)
 @click.version_option(package_name="femref")
 @click.option(
     "--progress/--no-progress",

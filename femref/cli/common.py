@@ -5,7 +5,10 @@ imports what it drives when it runs, so ``femref --help`` stays light.
 
 Exit codes (docs/design.md §5): 0 success, 2 bad input (the message names the key path and
 the rule; nothing is written), 1 a failure during the run, 130 interrupted (sweeps and studies
-keep what they stored). Every command that writes checks its output path before any work
+keep what they stored), 143 terminated (SIGTERM, handled as Ctrl-C). Every command runs inside
+:func:`faults_end_cleanly`: an ``OSError`` (a full disk, a quota, an I/O error) ends it with one
+``error:`` line naming the path and exit 1, SIGINT and SIGTERM with one ``interrupted`` line.
+Every command that writes checks its output path before any work
 (:func:`check_output`: exit 2, nothing written): its folder must exist and be writable, and it
 may not be one of the command's inputs — the files given on the command line and every file a
 case names (:func:`case_input_files`: record files, CSV loads, network files, a calibration, a
@@ -18,10 +21,14 @@ Progress (``femref --progress/--no-progress``, env ``FEMREF_PROGRESS``) goes to 
 
 from __future__ import annotations
 
+import errno
 import os
+import signal
 import sys
+import threading
 from contextlib import contextmanager
 from pathlib import Path
+from types import FrameType
 from typing import Iterable, Iterator
 
 import click
@@ -32,6 +39,53 @@ from rich.table import Table
 EXIT_BAD_INPUT = 2
 EXIT_RUN_FAILURE = 1
 EXIT_INTERRUPTED = 130
+#: SIGTERM's exit code (128 + 15, as a shell reports a process it ended): handled as Ctrl-C otherwise.
+EXIT_TERMINATED = 128 + signal.SIGTERM
+
+
+@contextmanager
+def faults_end_cleanly() -> Iterator[None]:
+    """Run a command so that faults end it in one line: SIGTERM is raised like Ctrl-C (``KeyboardInterrupt``, so
+    every writer removes its temporary and a sweep keeps what it stored), an interrupt prints ``interrupted (SIGINT)``
+    and exits 130 (SIGTERM: 143), an ``OSError`` prints ``error: …`` (:func:`os_error_message`) and exits 1.
+
+    Long loops return to Python often enough for this to act within a second, compiled ones included
+    (:func:`femref.impact.kernels.loop.solve_compiled` steps in chunks of about 0.1 s of work).
+    """
+    received = [signal.SIGINT]
+
+    def interrupt(signum: int, frame: FrameType | None) -> None:
+        received[0] = signum
+        raise KeyboardInterrupt
+
+    handled = (signal.SIGINT, signal.SIGTERM)
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = {signum: signal.signal(signum, interrupt) for signum in handled} if main_thread else {}
+    try:
+        yield
+    except KeyboardInterrupt:
+        click.echo(f"interrupted ({signal.Signals(received[0]).name}): stopped; no file is left half-written", err=True)
+        sys.exit(EXIT_TERMINATED if received[0] == signal.SIGTERM else EXIT_INTERRUPTED)
+    except OSError as error:
+        if error.errno == errno.EPIPE:  # stdout closed early (``femref run | head``): click's own quiet handling
+            raise
+        click.echo(f"error: {os_error_message(error)}", err=True)
+        sys.exit(EXIT_RUN_FAILURE)
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+
+
+def os_error_message(error: OSError) -> str:
+    """One line for an OS error: the path, the reason and the errno's name, then its notes — what a write left
+    (:func:`femref.core.publishing.note_output`): ``/data/.out.h5.femref-7.tmp: No space left on device (ENOSPC);
+    nothing was written to /data/out.h5 (the previous out.h5 is unchanged); its temporary … was removed``."""
+    reason = error.strerror or str(error)
+    code = errno.errorcode.get(error.errno or 0)
+    if code:
+        reason += f" ({code})"
+    paths = [os.fsdecode(name) for name in (error.filename, error.filename2) if name is not None]
+    return "; ".join([f"{' -> '.join(paths)}: {reason}" if paths else reason, *getattr(error, "__notes__", [])])
 
 
 def load_case_or_default(case_path: Path | None):
@@ -81,7 +135,8 @@ def clean_leftovers(path: Path) -> None:
     """Remove the temporaries of ``path`` that no running process writes — a killed run's (pid-named) and an older
     femref's (``tmp*`` field-file folders, ``.<name>.<random>.tmp`` files: :func:`femref.core.publishing.legacy_leftovers`) —
     and say so on stderr, one line each; name (and keep) an older femref's temporary that is not certainly unused
-    or holds more than femref wrote (:func:`femref.core.publishing.clean_leftovers`)."""
+    or holds more than femref wrote, and one whose writer runs out of this run's sight (another PID namespace or
+    host: :func:`femref.core.publishing.unseen_temporaries`) (:func:`femref.core.publishing.clean_leftovers`)."""
     from femref.core.publishing import clean_leftovers as remove
 
     cleanup = remove(path)
@@ -92,6 +147,9 @@ def clean_leftovers(path: Path) -> None:
     for kept, why in cleanup.kept:
         click.echo(f"note: kept {kept}: it looks like an older femref's temporary of {path.name}, but {why}; "
                    "remove it yourself if no femref run is writing it", err=True)
+    for kept, writer in cleanup.unseen:
+        click.echo(f"note: kept {kept}: a temporary of {path.name} written by {writer}, which this run cannot see "
+                   "(another container or host); remove it yourself if no femref run is writing it", err=True)
 
 
 def source_name(case_path: Path | None) -> str:

@@ -89,7 +89,7 @@ def run_command(case_path: Path | None, output: Path | None, tolerance: float | 
     output = output or Path(f"{case_path.stem if case_path else 'default'}.h5")
     check_output(output, "-o", _inputs(case, case_path), default=defaulted, writes=field_file_paths(output, field_models(case)))
     if case.kind == "measured":
-        _run_measured(case, scene, output)
+        _run_measured(case, scene, output, source_name(case_path))
         return
     if getattr(case, "tolerance", None) is not None:
         _run_choice(case, scene, output, console)
@@ -146,26 +146,33 @@ def _inputs(case, case_path: Path | None) -> dict[str, Path | None]:
     return {"CASE": case_path, **case_input_files(case)}
 
 
-def _run_measured(case, scene, output: Path) -> None:
-    """Every event of a measured case (femref.run.measured): write /events, print the event table.
+def _run_measured(case, scene, output: Path, source: str = "<case>") -> None:
+    """Every event of a measured case (femref.run.measured): write /events as each event finishes, print the event table.
 
     Progress as for the models of a run (:func:`model_progress`): a stage while the records are read,
-    then one per event (its classification, estimators and networks the steps of its bar)."""
-    from femref.case import resolved_yaml
+    then one per event (its classification, estimators and networks the steps of its bar). The events go
+    into the output's temporary as they finish (:func:`femref.events.event_file`), renamed to the output when
+    the last is in; the events found over the work budget (exit 2) or a record changed since validation leave
+    nothing under the output name."""
+    from femref.case import CaseError, resolved_yaml
     from femref.cli.tables import event_table
-    from femref.events import write_events
+    from femref.events import event_file
     from femref.run.measured import run_measured
     from femref.sensing.recordings import RecordError
 
+    facts = {"cars": [car.name for car in scene.cars], "couplers": [c.name for c in scene.couplers], "estimators": list(scene.estimators)}
     try:
-        with model_progress(Console(stderr=True), keep_finished=False) as progress_for:
-            outcome = run_measured(scene, progress_for)
-    except RecordError as error:  # a record file changed since the case was validated
+        with event_file(output, facts, resolved_yaml(case)) as write, model_progress(Console(stderr=True), keep_finished=False) as progress_for:
+            outcome = run_measured(scene, progress_for, sink=write, source=source)
+    except (RecordError, CaseError) as error:  # a record file changed since the case was validated; the events over the budget
         click.echo(f"error: {error}", err=True)
         sys.exit(EXIT_BAD_INPUT)
-    facts = {"cars": [car.name for car in scene.cars], "couplers": [c.name for c in scene.couplers], "estimators": list(scene.estimators)}
-    written = write_events(output, facts, outcome.events, resolved_yaml(case))
     print_table(event_table(outcome))
+    noisy = {event.index: flag for event in outcome.events for flag in event.flags if flag.startswith("trigger in the noise")}
+    if noisy:  # the first event's flag names the channels; every such event is flagged in the table and the file
+        click.echo(f"warning: event(s) {', '.join(map(str, noisy))}: {next(iter(noisy.values()))}", err=True)
+    for note in outcome.search.notes():  # spikes ignored, triggers outside the recorders' common span
+        click.echo(f"warning: {note}", err=True)
     if not outcome.events:
-        click.echo(f"warning: no channel exceeds the trigger level {scene.trigger:g} m/s²: no event", err=True)
-    finish([written], [])
+        click.echo(f"warning: no event: {outcome.search.no_event_reason()}", err=True)
+    finish([output], [])

@@ -1,9 +1,20 @@
 """Where femref writes files: under a temporary name, published by a rename, never half-written; the leftovers of
 killed and older runs; the rule every writer applies to its output path before any work.
 
-Temporaries are named ``.<final name>.femref-<pid>[.<part>].tmp`` beside the final file (:func:`temporary_path`):
-a write that fails removes its temporary, a killed one leaves it, and the next write of the same final name
-removes the leftovers whose process no longer exists — never a live run's (:func:`remove_leftovers`).
+Temporaries are named ``.<final name>.femref-<pid>[.<part>].tmp`` beside the final file (:func:`temporary_path`),
+each with a sidecar ``<temporary>.writer`` made before it that identifies its writer beyond the pid — machine
+(boot id), PID namespace, pid and start time (:mod:`femref.core.writers`): a write that fails removes its
+temporary, a killed one leaves it, and the next write of the same final name removes the leftovers whose
+writer ended — never a live run's, nor one of a writer it cannot see (another container, another host
+sharing the folder), which it keeps and names (:func:`remove_leftovers`, :func:`unseen_temporaries`). A
+pid-named temporary without a sidecar (femref before writer sidecars) is judged by its pid alone.
+
+An OS error while writing (a full disk, a quota, an I/O error) ends the write with that ``OSError``, noted
+with what it left (:func:`note_output`): the temporary removed and the previous file unchanged
+(:func:`atomic_path`). HDF5 files are written through :func:`femref.core.hdf5_writing.hdf5_writer`, which keeps the HDF5
+library from ever seeing a failed write (after one, HDF5 2.0 leaves its caches inconsistent: it printed a
+traceback per object and then crashed with SIGSEGV on a full disk) and raises the recorded error once the
+file is closed.
 
 Older femref versions (before pid-named temporaries) named theirs at random: the result file
 ``.<final name>.<8 random characters>.tmp`` (``tempfile.mkstemp``) and a folder ``tmp<8 random characters>``
@@ -24,6 +35,7 @@ killed and older runs.
 from __future__ import annotations
 
 import contextlib
+import glob
 import os
 import re
 import shutil
@@ -31,6 +43,8 @@ import time
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+
+from femref.core.writers import SIDECAR_SUFFIX, process_alive, read_sidecar, sidecar_of, write_sidecar, writer_running
 
 _TEMPORARY = re.compile(r"^\.(?P<final>.+)\.femref-(?P<pid>\d+)(?:-\d+)?(?:\.(?P<part>[a-z]+))?\.tmp$")
 
@@ -42,53 +56,101 @@ def temporary_path(path: str | Path, part: str = "") -> Path:
 
 
 def create_temporary(path: Path, part: str = "", folder: bool = False) -> Path:
-    """Create (exclusively) the temporary file or folder of ``path``; ``-<n>`` after the pid if taken."""
+    """Create (exclusively) the temporary file or folder of ``path``, its writer sidecar first
+    (:mod:`femref.core.writers`); ``-<n>`` after the pid if taken."""
     base = temporary_path(path, part)
     for n in range(1, 1000):
         candidate = base if n == 1 else base.with_name(base.name.replace(f"-{os.getpid()}", f"-{os.getpid()}-{n}", 1))
+        try:
+            sidecar = write_sidecar(candidate)
+        except FileExistsError:
+            continue
         try:
             if folder:
                 candidate.mkdir()
             else:
                 os.close(os.open(candidate, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600))
-            return candidate
-        except FileExistsError:
+        except FileExistsError:  # a temporary without a sidecar (an older femref's): not ours to reuse
+            sidecar.unlink(missing_ok=True)
             continue
+        except BaseException:
+            sidecar.unlink(missing_ok=True)
+            raise
+        return candidate
     raise FileExistsError(f"{base}: no free temporary name")
 
 
-def _process_alive(pid: int) -> bool:
+def discard_temporary(temporary: Path) -> str:
+    """Remove this process's ``temporary`` (file or folder), if still there — published ones are not — and its writer
+    sidecar; ``""``, or why the temporary could not be removed (it is then left, with its sidecar)."""
     try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:  # another user's process
-        return True
-    return True
+        if temporary.is_dir() and not temporary.is_symlink():
+            shutil.rmtree(temporary)
+        else:
+            temporary.unlink(missing_ok=True)
+    except OSError as error:
+        return error.strerror or str(error)
+    sidecar_of(temporary).unlink(missing_ok=True)
+    return ""
 
 
-def leftovers(path: str | Path) -> list[Path]:
-    """Temporaries of ``path``'s final name (files or folders) whose writing process is no longer alive."""
-    path = Path(path)
+def _temporaries(path: Path) -> list[Path]:
+    """The pid-named temporaries of ``path``'s final name in its folder (files or folders)."""
     if not path.parent.is_dir():
         return []
     found = []
     for entry in path.parent.iterdir():
         match = _TEMPORARY.match(entry.name)
-        if match and match["final"] == path.name and int(match["pid"]) != os.getpid() and not _process_alive(int(match["pid"])):
+        if match and match["final"] == path.name:
             found.append(entry)
     return sorted(found)
 
 
+def _writer_running(temporary: Path) -> bool | None:
+    """Whether the writer of ``temporary`` still runs (:func:`femref.core.writers.writer_running`), None when this
+    process cannot tell (its sidecar names a writer out of sight, or cannot be read yet). Without a sidecar (an
+    older femref's temporary): whether a process of the pid in its name lives here."""
+    if sidecar_of(temporary).exists():
+        writer = read_sidecar(temporary)
+        return None if writer is None else writer_running(writer)
+    pid = int(_TEMPORARY.match(temporary.name)["pid"])
+    return pid == os.getpid() or process_alive(pid)
+
+
+def leftovers(path: str | Path) -> list[Path]:
+    """Temporaries of ``path``'s final name (files or folders) whose writer ended (module docstring)."""
+    return [entry for entry in _temporaries(Path(path)) if _writer_running(entry) is False]
+
+
+def unseen_temporaries(path: str | Path) -> list[tuple[Path, str]]:
+    """Temporaries of ``path``'s final name whose writer this process cannot see, each with who wrote it (a
+    process of another container or host, :meth:`femref.core.writers.Writer.describe`): kept, never removed."""
+    unseen = []
+    for entry in _temporaries(Path(path)):
+        if _writer_running(entry) is None:
+            writer = read_sidecar(entry)
+            unseen.append((entry, writer.describe() if writer else "a femref process whose sidecar cannot be read yet"))
+    return unseen
+
+
 def remove_leftovers(path: str | Path) -> list[Path]:
-    """Remove :func:`leftovers` of ``path`` (a killed run's temporaries); return what was removed."""
+    """Remove :func:`leftovers` of ``path`` (a killed run's temporaries) and their sidecars, and the sidecars whose
+    writer ended without a temporary; return the temporaries removed."""
+    path = Path(path)
     removed = []
     for entry in leftovers(path):
         if entry.is_dir() and not entry.is_symlink():
             shutil.rmtree(entry, ignore_errors=True)
         else:
             entry.unlink(missing_ok=True)
+        sidecar_of(entry).unlink(missing_ok=True)
         removed.append(entry)
+    if path.parent.is_dir():
+        for sidecar in path.parent.glob(f".{glob.escape(path.name)}.femref-*{SIDECAR_SUFFIX}"):
+            temporary = sidecar.with_name(sidecar.name.removesuffix(SIDECAR_SUFFIX))
+            writer = read_sidecar(temporary)
+            if not temporary.exists() and writer is not None and writer_running(writer) is False:
+                sidecar.unlink(missing_ok=True)
     return removed
 
 
@@ -333,21 +395,39 @@ def same_file(a: Path, b: Path) -> bool:
 @dataclass
 class LeftoverCleanup:
     """What :func:`clean_leftovers` did for one output: the temporaries it removed — a killed run's (``killed``),
-    an older femref's (``legacy``) — and those it kept with the reason (``kept``: not certainly unused)."""
+    an older femref's (``legacy``) — those it kept with the reason (``kept``: an older femref's, not certainly
+    unused) and those it kept with their writer (``unseen``: a writer of another container or host)."""
 
     killed: list[Path] = field(default_factory=list)
     legacy: list[Path] = field(default_factory=list)
     kept: list[tuple[Path, str]] = field(default_factory=list)
+    unseen: list[tuple[Path, str]] = field(default_factory=list)
 
 
 def clean_leftovers(path: str | Path) -> LeftoverCleanup:
     """Remove the temporaries of ``path`` that no running process writes — a killed run's (pid-named,
     :func:`remove_leftovers`) and an older femref's (``tmp*`` field-file folders,
     ``.<name>.<random>.tmp`` files: :func:`remove_legacy_leftovers`); return what was removed
-    and what was kept (an older femref's temporary that is not certainly unused, or holds more than femref wrote)."""
+    and what was kept (an older femref's temporary that is not certainly unused, or holds more than femref wrote;
+    a temporary whose writer this process cannot see: :func:`unseen_temporaries`)."""
     killed = remove_leftovers(path)
     legacy = remove_legacy_leftovers(path)
-    return LeftoverCleanup(killed, legacy.removed, legacy.kept)
+    return LeftoverCleanup(killed, legacy.removed, legacy.kept, unseen_temporaries(path))
+
+
+def note_output(error: OSError, path: Path, temporary: Path | None, leftover: str = "") -> OSError:
+    """``error`` (unchanged: its type and message stay the OS's) with a note of what it left of ``path``: nothing
+    written there (the previous file unchanged), and the temporary removed — or, if removing it failed too
+    (``leftover``: why), its name to remove by hand. The command line prints the note on the error's line."""
+    before = f"the previous {path.name} is unchanged" if path.exists() else "there was no file"
+    if temporary is None:
+        after = ""
+    elif leftover:
+        after = f"; its temporary {temporary} is left ({leftover}): remove it by hand"
+    else:
+        after = f"; its temporary {temporary.name} was removed"
+    error.add_note(f"nothing was written to {path} ({before}){after}")
+    return error
 
 
 @contextlib.contextmanager
@@ -356,24 +436,31 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
 
     On any error (or interrupt) the temporary file is removed, so nothing is ever left
     under the final name half-written (docs/design.md §4); a kill leaves the temporary
-    (:func:`temporary_path`), which the next write of ``path`` removes. The file gets the
-    permissions of a newly created file (umask). Creates the folder.
+    (:func:`temporary_path`), which the next write of ``path`` removes. An ``OSError`` (a full
+    disk, a quota, an I/O error, in the block or in the rename) comes out unchanged with a note of what it left
+    (:func:`note_output`). The file gets the permissions of a newly created file (umask). Creates the folder.
     """
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    remove_leftovers(path)
-    tmp = create_temporary(path)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        remove_leftovers(path)
+        tmp = create_temporary(path)
+    except OSError as error:
+        raise note_output(error, path, None)
     try:
         yield tmp
         umask = os.umask(0)
         os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)
         os.replace(tmp, path)
+    except OSError as error:
+        raise note_output(error, path, tmp, discard_temporary(tmp))
     except BaseException:
-        tmp.unlink(missing_ok=True)
+        discard_temporary(tmp)
         raise
+    discard_temporary(tmp)  # published: its sidecar
 
 
 __all__ = ["HDF5_SIGNATURE", "LEGACY_QUIET_SECONDS", "LeftoverCleanup", "LegacyCleanup", "LegacyLeftovers", "OutputPathError", "atomic_path",
-           "check_output_path", "clean_leftovers", "create_temporary", "legacy_leftovers", "leftovers", "output_problem", "remove_leftovers",
-           "remove_legacy_leftovers", "same_file", "temporary_path"]
+           "check_output_path", "clean_leftovers", "create_temporary", "discard_temporary", "legacy_leftovers", "leftovers", "note_output",
+           "output_problem", "remove_leftovers", "remove_legacy_leftovers", "same_file", "temporary_path", "unseen_temporaries"]

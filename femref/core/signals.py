@@ -18,14 +18,14 @@ from __future__ import annotations
 
 import itertools
 import math
-import os
-import stat
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from femref.core.files import NotRegularFile, regular_file
 
 
 class Signal(Protocol):
@@ -239,13 +239,14 @@ def check_csv_size(path: str | Path) -> int:
     The estimate is the file size over the bytes per row of its first and of its last
     :data:`_SAMPLE_BYTES` (complete lines only), the larger of the two, so a record whose rows grow
     longer down the file is not refused for its short first rows. Only these two samples are read.
-    Raises :class:`CsvTooLarge`, ``ValueError`` for a path that is not a regular file (a device, a pipe, a
+    Raises :class:`CsvTooLarge`, ``ValueError`` for a path that is not a regular file (a device, a pipe, a loop of links, a
     folder), ``FileNotFoundError`` or ``OSError``.
     """
     path = Path(path)
-    status = os.stat(path)
-    if not stat.S_ISREG(status.st_mode):  # a device or a pipe (/dev/zero) has no size and may never end
-        raise ValueError(f"CSV file {path} is not a regular file")
+    try:
+        status = regular_file(path)  # a device or a pipe (/dev/zero) has no size and may never end
+    except NotRegularFile as error:
+        raise ValueError(f"CSV file {path} {error}") from None
     size = status.st_size
     if size > MAX_CSV_BYTES:
         raise CsvTooLarge(f"CSV file {path} holds {_size(size)}; a load record may hold at most {_size(MAX_CSV_BYTES)} "

@@ -1,5 +1,10 @@
-"""The report page of a measured case's event file (docs/design.md §4.5): the event table and, per event
+"""The report of a measured case's event file (docs/design.md §4.5): the event table and, per event
 and coupler, every estimator's force with its 95 % band.
+
+Up to :data:`EVENTS_PER_PAGE` events make one page. A file of more makes an index page — the facts, one
+row per event read from its attributes only (no history is read, no figure drawn) with a link to its page,
+the resolved case — and a page per :data:`EVENTS_PER_PAGE` events (:func:`event_pages`, named by
+:func:`page_name`) holding their full table and their figures, drawn one event at a time with progress.
 
 Read with h5py only (the report reads files, never the product's objects); drawn with the
 figures' Agg helpers; assembled like the result-file page (:mod:`femref.report.html`).
@@ -9,6 +14,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from html import escape
 from pathlib import Path
@@ -19,7 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from femref.core.catalog import SCENE_GROUP
-from femref.events import EVENTS_GROUP
+from femref.events import COMPLETE, EVENTS_GROUP, EVENTS_WRITTEN
 from femref.report.figures import MODEL_COLORS, Picture, _legend, _new_figure, figure_png
 from femref.report.html import STYLE, _pictures, hide_local_paths
 
@@ -52,33 +58,129 @@ def is_event_file(h5: h5py.File) -> bool:
     return SCENE_GROUP in h5 and h5[SCENE_GROUP].attrs.get("kind") == "measured"
 
 
-def event_report(path: Path, h5: h5py.File) -> str:
-    """The whole page of the open event file ``h5`` (read from ``path``)."""
-    events = [_event(name, group) for name, group in sorted(h5[EVENTS_GROUP].items(), key=lambda item: int(item[0]))] if EVENTS_GROUP in h5 else []
+def event_report(path: Path, h5: h5py.File, output: str | None = None) -> str:
+    """The page of the open event file ``h5`` (read from ``path``): the whole report when it holds at most
+    :data:`EVENTS_PER_PAGE` events; else the index of the report written to ``output`` (a file name; default
+    ``path``'s stem + ``.html``) — one row per event, read from the events' attributes only, each linking to its
+    page of :func:`event_pages`, no figure."""
+    names = _event_names(h5)
     title = f"femref report — {path.name}"
-    facts = [("result file", path.name), ("scene", "measured"), ("events", str(len(events))),
-             ("femref version", str(h5.attrs.get("femref_version", "unknown"))), ("created", str(h5.attrs.get("created", "unknown")))]
+    facts = _facts(path, h5, len(names))
+    if len(names) <= EVENTS_PER_PAGE:
+        events = [_event(name, h5[EVENTS_GROUP][name]) for name in names]
+        body = [
+            "<h2>Events</h2>",
+            _event_table(events, path.resolve().parent) if events else "<p>No event: no channel exceeds the trigger level.</p>",
+            "<h2>Coupler forces</h2>",
+            _pictures([picture for event in events for picture in _force_pictures(event)], "no force estimate to draw"),
+        ]
+        return _page(title, facts, body, _case_section(path, h5))
+    index = output or f"{path.stem}.html"
+    pages = _pages(names)
+    rows = []
+    for first, chunk in pages:
+        link = page_name(index, first, len(chunk), len(names))
+        rows += [_index_row(_event(name, h5[EVENTS_GROUP][name], histories=False), link) for name in chunk]
+    links = " · ".join(f'<a href="{escape(page_name(index, first, len(chunk), len(names)))}">events {first + 1}–{first + len(chunk)}</a>'
+                       for first, chunk in pages)
     body = [
-        f"<h1>{escape(title)}</h1>",
-        '<table class="facts">' + "".join(f"<tr><th>{escape(k)}</th><td>{escape(v)}</td></tr>" for k, v in facts) + "</table>",
         "<h2>Events</h2>",
-        _event_table(events) if events else "<p>No event: no channel exceeds the trigger level.</p>",
-        "<h2>Coupler forces</h2>",
-        _pictures([picture for event in events for picture in _force_pictures(event)], "no force estimate to draw"),
-        "<h2>Resolved case</h2>",
-        f"<pre>{escape(hide_local_paths(str(h5.attrs.get('case_yaml', '')), path.resolve().parent))}</pre>",
+        f"<p>{len(names)} events on {len(pages)} pages of at most {EVENTS_PER_PAGE}, each with the events' estimates and "
+        f"coupler forces: {links}</p>",
+        '<div class="wide"><table>' + "<tr>" + "".join(f"<th>{escape(c)}</th>" for c in INDEX_COLUMNS) + "</tr>" + "".join(rows) + "</table></div>",
     ]
+    return _page(title, facts + [("pages", str(len(pages)))], body, _case_section(path, h5))
+
+
+#: Events on one page of a report; a file with more gets an index page and a page per this many events.
+EVENTS_PER_PAGE = 20
+INDEX_COLUMNS = ("event", "trigger (s)", "type", "closing speed (m/s)", "peak (kN) per estimator", "closure", "wear", "alarm", "flags", "page")
+
+
+def page_name(index: str, first: int, count: int, total: int) -> str:
+    """The page of events ``first`` … ``first + count − 1`` (0-based) of a report whose index is the file ``index``:
+    ``<index stem>_events_0021-0040.html`` (numbered from 1, as wide as ``total``)."""
+    width = len(str(total))
+    return f"{Path(index).stem}_events_{first + 1:0{width}d}-{first + count:0{width}d}.html"
+
+
+def event_pages(path: Path, h5: h5py.File, output: str | None = None, progress_for: Callable[[str], Callable[[int, int], None] | None] | None = None
+                ) -> Iterator[tuple[str, str]]:
+    """``(file name, page)`` of each page of :data:`EVENTS_PER_PAGE` events of the report whose index is ``output``
+    (:func:`event_report`; nothing when the file holds no more than one page): the events' table and their coupler
+    forces, drawn one event at a time. ``progress_for(label)`` is called as each page starts (``events 21–40 of
+    1000``) and the callback it may return gets ``(done, total)`` after each event drawn."""
+    names = _event_names(h5)
+    if len(names) <= EVENTS_PER_PAGE:
+        return
+    index = output or f"{path.stem}.html"
+    for first, chunk in _pages(names):
+        label = f"events {first + 1}–{first + len(chunk)} of {len(names)}"
+        step = progress_for(label) if progress_for is not None else None
+        events, pictures = [], []
+        for done, name in enumerate(chunk, start=1):
+            event = _event(name, h5[EVENTS_GROUP][name])
+            pictures += _force_pictures(event)
+            events.append(event)
+            if step is not None:
+                step(done, len(chunk))
+        body = [
+            f'<p><a href="{escape(Path(index).name)}">index of all {len(names)} events</a></p>',
+            "<h2>Events</h2>", _event_table(events, path.resolve().parent),
+            "<h2>Coupler forces</h2>", _pictures(pictures, "no force estimate to draw"),
+        ]
+        yield page_name(index, first, len(chunk), len(names)), _page(f"femref report — {path.name}, {label}", [("result file", path.name)], body, "")
+
+
+def _event_names(h5: h5py.File) -> list[str]:
+    return sorted(h5[EVENTS_GROUP], key=int) if EVENTS_GROUP in h5 else []
+
+
+def _pages(names: list[str]) -> list[tuple[int, list[str]]]:
+    return [(first, names[first:first + EVENTS_PER_PAGE]) for first in range(0, len(names), EVENTS_PER_PAGE)]
+
+
+def _facts(path: Path, h5: h5py.File, count: int) -> list[tuple[str, str]]:
+    facts = [("result file", path.name), ("scene", "measured"), ("events", str(count)),
+             ("femref version", str(h5.attrs.get("femref_version", "unknown"))), ("created", str(h5.attrs.get("created", "unknown")))]
+    if not h5.attrs.get(COMPLETE, True):  # a killed run's temporary: the events finished before the kill
+        facts.append(("complete", f"no: the run stopped after {int(h5.attrs.get(EVENTS_WRITTEN, count))} events"))
+    return facts
+
+
+def _case_section(path: Path, h5: h5py.File) -> str:
+    return f"<h2>Resolved case</h2>\n<pre>{escape(hide_local_paths(str(h5.attrs.get('case_yaml', '')), path.resolve().parent))}</pre>"
+
+
+def _page(title: str, facts: list[tuple[str, str]], body: list[str], tail: str) -> str:
     head = f'<head><meta charset="utf-8"/><title>{escape(title)}</title><style>{STYLE}</style></head>'
-    return "<!DOCTYPE html>\n<html lang=\"en\">\n" + head + "\n<body>\n" + "\n".join(body) + "\n</body>\n</html>\n"
+    parts = [f"<h1>{escape(title)}</h1>",
+             '<table class="facts">' + "".join(f"<tr><th>{escape(k)}</th><td>{escape(v)}</td></tr>" for k, v in facts) + "</table>",
+             *body, tail]
+    return "<!DOCTYPE html>\n<html lang=\"en\">\n" + head + "\n<body>\n" + "\n".join(p for p in parts if p) + "\n</body>\n</html>\n"
 
 
-def _event(name: str, group: h5py.Group) -> EventData:
+def _index_row(event: EventData, link: str) -> str:
+    a = event.attrs
+    peaks = "; ".join(f"{e.estimator} {_number(e.attrs['peak_force'] / 1e3, '{:.1f}')}" + ("" if e.attrs["status"] == "ok" else f" ({e.attrs['status']})")
+                      for e in event.estimates)
+    closure = "; ".join(f"{c}: {v['status']}" for c, v in event.closures.items())
+    cells = [event.index, f"{a['trigger_time']:.4f}", a["impact_type"], _closing_speed(a), peaks, closure, a["wear"], a["alarm"],
+             "; ".join(json.loads(a.get("flags", "[]")))]
+    return ("<tr>" + "".join(f"<td>{escape(str(cell))}</td>" for cell in cells)
+            + f'<td><a href="{escape(link)}">page</a></td></tr>')
+
+
+def _event(name: str, group: h5py.Group, histories: bool = True) -> EventData:
+    """An event group as read: its attributes, each estimate's (with its histories unless ``histories`` is False:
+    the index reads no dataset) and the closures."""
     event = EventData(name, {k: _value(v) for k, v in group.attrs.items()})
     for estimator, sub in group.items():
         if estimator in NOT_ESTIMATES:
             continue
         for coupler, data in sub.items():
-            arrays = [np.asarray(data[key][()], dtype=float) for key in ("time", "force", "force_lower", "force_upper")]
+            keys = ("time", "force", "force_lower", "force_upper")
+            arrays = [np.asarray(data[key][()], dtype=float) if histories else np.empty(0) for key in keys]
             event.estimates.append(EstimateData(estimator, coupler, *arrays, {k: _value(v) for k, v in data.attrs.items()}))
     if "closure" in group:
         event.closures = {coupler: {k: _value(v) for k, v in sub.attrs.items()} for coupler, sub in group["closure"].items()}
@@ -94,7 +196,9 @@ def _closing_speed(attrs: dict[str, Any]) -> str:
     return f"{speed} [{attrs['closing_speed_lower']:.2f} – {attrs['closing_speed_upper']:.2f}] ({attrs['closing_speed_source']})"
 
 
-def _event_table(events: list[EventData]) -> str:
+def _event_table(events: list[EventData], folder: Path) -> str:
+    """The events' table and their notes; every message shows a local path relative to ``folder`` (the result file's)
+    or by name (:func:`femref.report.html.hide_local_paths`)."""
     columns = ("event", "trigger (s)", "type", "ρ0", "closing speed (m/s)", "estimator", "coupler", "status", "peak (kN)",
                "95 % band (kN)", "bound", "closure", "wear", "alarm", "flags")
     rows = []
@@ -102,11 +206,11 @@ def _event_table(events: list[EventData]) -> str:
         a = event.attrs
         closure = "; ".join(f"{c}: {v['status']}" + (f" at {v['closure_force'] / 1e3:.0f} kN" if v["status"] == "closed" else "")
                             for c, v in event.closures.items())
-        flags = "; ".join(json.loads(a.get("flags", "[]")))
+        flags = hide_local_paths("; ".join(json.loads(a.get("flags", "[]"))), folder)
         for k, estimate in enumerate(event.estimates):
             e = estimate.attrs
             band = f"{e['peak_lower'] / 1e3:.0f} – {e['peak_upper'] / 1e3:.0f}" if math.isfinite(e["peak_lower"]) else ""
-            status = e["status"] if e["status"] == "ok" else f"{e['status']}: {e['message']}"
+            status = e["status"] if e["status"] == "ok" else f"{e['status']}: {hide_local_paths(str(e['message']), folder)}"
             head = k == 0
             cells = [
                 event.index if head else "", f"{a['trigger_time']:.4f}" if head else "", a["impact_type"] if head else "",
@@ -118,7 +222,7 @@ def _event_table(events: list[EventData]) -> str:
     header = "<tr>" + "".join(f"<th>{escape(c)}</th>" for c in columns) + "</tr>"
     notes = [f"event {event.index}: closing speed — {event.attrs.get('closing_speed_basis', '')}; alarm — {event.attrs['alarm_basis']}; "
              f"wear — {event.attrs['wear_basis']}" for event in events]
-    return f'<div class="wide"><table>{header}{"".join(rows)}</table></div>' + "".join(f"<p>{escape(n)}</p>" for n in notes)
+    return f'<div class="wide"><table>{header}{"".join(rows)}</table></div>' + "".join(f"<p>{escape(hide_local_paths(n, folder))}</p>" for n in notes)
 
 
 def _force_pictures(event: EventData) -> list[Picture]:
@@ -157,4 +261,4 @@ def _value(value: Any) -> Any:
     return value
 
 
-__all__ = ["event_report", "is_event_file"]
+__all__ = ["EVENTS_PER_PAGE", "event_pages", "event_report", "is_event_file", "page_name"]

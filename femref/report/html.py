@@ -57,8 +57,9 @@ QUANTITY_LABELS = {
 STATISTIC_LABELS = {"peak": "peak error", "peak_time": "peak time error", "rms": "rms error", "rms_in_range": "rms error in range",
                     "max": "max error"}
 COUPLER_QUANTITY = "coupler_force"
-LOCAL_PATH = re.compile(r"(?<![\w.~/-])(?:/[^\s/'\",:{}\[\]<>]+){2,}")
-"""An absolute POSIX path of at least two components, not part of a longer word (``m/s`` is not one)."""
+LOCAL_PATH = re.compile(r"(?<![\w.~/-])(?:/[^\s/'\",:{}\[\]<>]+(?: [^\s/'\",:{}\[\]<>]+)*){2,}")
+"""An absolute POSIX path of at least two components, not part of a longer word (``m/s`` is not one); a component
+may hold single spaces (``/home/ann smith/yard``), so a folder name with a space is not left half shown."""
 
 
 def render_page(result: ResultFile, plots: list[Picture], field_maps: list[Picture]) -> str:

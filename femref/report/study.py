@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from femref.report.figures import MODEL_COLORS, Picture, _new_figure, figure_png
-from femref.report.html import STYLE, _pictures
+from femref.report.html import STYLE, _pictures, hide_local_paths
 
 NETWORKS_GROUP = "networks"
 
@@ -48,12 +48,13 @@ def is_study_file(h5: h5py.File) -> bool:
 
 
 def study_report(path: Path, h5: h5py.File) -> str:
-    """The whole page of the open study file ``h5`` (read from ``path``)."""
+    """The whole page of the open study file ``h5`` (read from ``path``): the file by its name, the study's paths
+    relative to its folder or by name (:func:`femref.report.html.hide_local_paths`) — a page carries no local path."""
     networks = [_network(name, group) for name, group in h5[NETWORKS_GROUP].items()]
     sets = [SetErrors(name, {e: _attrs(g.attrs) for e, g in group.items() if isinstance(g, h5py.Group)})
             for name, group in h5.items() if name != NETWORKS_GROUP and isinstance(group, h5py.Group)]
     title = f"femref report — {path.name}"
-    facts = [("study file", str(path)), ("networks", str(len(networks))), ("evaluation sets", ", ".join(s.name for s in sets) or "none"),
+    facts = [("study file", path.name), ("networks", str(len(networks))), ("evaluation sets", ", ".join(s.name for s in sets) or "none"),
              ("femref version", str(_attr(h5.attrs.get("femref_version", "unknown"))))]
     body = [
         f"<h1>{escape(title)}</h1>",
@@ -63,7 +64,7 @@ def study_report(path: Path, h5: h5py.File) -> str:
         "<h2>Training loss</h2>",
         _pictures([loss_picture(n) for n in networks], "no networks"),
         "<h2>Study</h2>",
-        f"<pre>{escape(str(_attr(h5.attrs['study_yaml'])))}</pre>",
+        f"<pre>{escape(hide_local_paths(str(_attr(h5.attrs['study_yaml'])), path.resolve().parent))}</pre>",
     ]
     head = f'<head><meta charset="utf-8"/><title>{escape(title)}</title><style>{STYLE}</style></head>'
     return "<!DOCTYPE html>\n<html lang=\"en\">\n" + head + "\n<body>\n" + "\n".join(body) + "\n</body>\n</html>\n"

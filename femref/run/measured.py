@@ -2,7 +2,7 @@
 the gear's closure, wear and alarm.
 
 :func:`run_measured` reads the scene's record files (:mod:`femref.sensing.recordings`),
-cuts the stream into events (:func:`femref.sensing.events.find_events`) and for each event,
+cuts the stream into events (:func:`femref.sensing.events.search_events`) and for each event,
 on one common time grid (:func:`femref.sensing.events.window`):
 
 * removes each channel's offset (the median over the ``pre`` window before the trigger: the
@@ -33,24 +33,30 @@ on one common time grid (:func:`femref.sensing.events.window`):
   - wear: ``worn`` if the gear closed below ``(1 − tolerance) ×`` its rated closure force,
     ``ok`` if at or above it, ``unknown`` if it did not close or no rating was given;
   - alarm: ``certain`` if the peak band's lower end reaches the limit, ``possible`` if only
-    its upper end (or, without a bound, the peak itself) does, else ``none``.
+    its upper end (or, without a bound, the peak itself) does, or if a channel saturated during the
+    event, else ``none``.
+
+* before the primary is chosen for the closing speed, every estimate whose peak exceeds the force the
+  speed's upper end allows (:mod:`femref.sensing.peak_bound`) is made ``implausible``, without a number.
 """
 
 from __future__ import annotations
 
 import math
 import time as _time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy.integrate import cumulative_trapezoid
 
-from femref.events import ClosureResult, EventResult, ForceEstimate
+from femref.events import ClosureResult, EventResult, ForceEstimate, without_histories
 from femref.fem.build import FemSettings
 from femref.models import Progress, ProgressFor
 from femref.models.inverse import ESTIMATORS as INVERSE_ESTIMATORS
 from femref.models.modal import modal_car
+from femref.run.event_budget import check_events
 from femref.scene.impact import Car
 from femref.scene.measured import MeasuredCoupler, MeasuredScene
 from femref.sensing import closing_speed as speeds
@@ -60,6 +66,7 @@ from femref.sensing.contact import ContactEstimate, onset_time
 from femref.sensing.impact_type import classify_records
 from femref.sensing.network import ImpactTypeNetworks, NetworkEstimator
 from femref.sensing.noise_gate import QuietNoise, quiet_noise
+from femref.sensing.peak_bound import implausible, line_reduced_mass
 from femref.sensing.recordings import Recordings, read_records
 from reduced import kalman
 from reduced.signal_tools import detect_closure_force
@@ -84,13 +91,20 @@ class MeasuredOutcome:
     scene: MeasuredScene
     recordings: Recordings
     events: list[EventResult]
+    search: event_finder.EventSearch
+    """How the events were found: spikes ignored, triggers outside the recorders' common span
+    (:class:`femref.sensing.events.EventSearch`; its notes are the run's warnings)."""
+    streamed: bool = False
+    """True when a sink took each event as it finished: ``events`` are then summaries without their histories
+    (:func:`femref.events.without_histories`)."""
 
 
 #: The progress label while the record files are read.
 READ_LABEL = "read records"
 
 
-def run_measured(scene: MeasuredScene, progress_for: ProgressFor | None = None) -> MeasuredOutcome:
+def run_measured(scene: MeasuredScene, progress_for: ProgressFor | None = None, sink: Callable[[EventResult], None] | None = None,
+                 source: str = "<case>") -> MeasuredOutcome:
     """Every event of the scene's records (module docstring).
 
     ``progress_for(label)``, if given, is called when a stage starts — :data:`READ_LABEL` while the
@@ -98,17 +112,34 @@ def run_measured(scene: MeasuredScene, progress_for: ProgressFor | None = None) 
     the callback it may return gets ``(done, total)`` after each step of that stage: the records read;
     the event's classification, each estimator (kalman's filters, the inverse estimators) and each
     saved network.
+
+    ``sink(event)``, if given, takes each event's full result as soon as it is done (``femref run`` writes it:
+    :class:`femref.events.EventWriter`) and the outcome keeps only its summary, so memory does not grow with the
+    events' histories. Once the trigger has found the events, before the first event's estimators run, their total
+    cost is checked against the work budget (:func:`femref.run.event_budget.check_events`: a
+    :class:`~femref.case.CaseError` at ``source``).
     """
     step = progress_for(READ_LABEL) if progress_for else None
     recordings = read_records(scene.records)
     if step is not None:
         step(1, 1)
-    found = event_finder.find_events(recordings, scene.trigger, scene.pre, scene.post, rearm=scene.rearm, quiet=scene.quiet, max_window=scene.max_window)
+    search = event_finder.search_events(recordings, _trigger_settings(scene))
+    found = search.events
+    check_events(scene, recordings, found, source)
     events = []
     for number, event in enumerate(found, start=1):
         step = progress_for(event_label(number, len(found), event.trigger_time)) if progress_for else None
-        events.append(_event(scene, recordings, event, step))
-    return MeasuredOutcome(scene, recordings, events)
+        result = _event(scene, recordings, event, step)
+        if sink is not None:
+            sink(result)
+            result = without_histories(result)
+        events.append(result)
+    return MeasuredOutcome(scene, recordings, events, search, streamed=sink is not None)
+
+
+def _trigger_settings(scene: MeasuredScene) -> event_finder.TriggerSettings:
+    """The scene's ``events`` settings as the trigger takes them."""
+    return event_finder.TriggerSettings(scene.trigger, scene.pre, scene.post, scene.rearm, scene.quiet, scene.max_window)
 
 
 def event_label(number: int, count: int, trigger_time: float) -> str:
@@ -143,8 +174,7 @@ def _event(scene: MeasuredScene, recordings: Recordings, event: event_finder.Eve
     for network in scene.networks:
         result.estimates.append(network_estimate(scene, network, t, records, noise_std, result.estimates, contacts, result.impact_type))
         stepped()
-    first = _primary(scene, result).get(scene.couplers[0].name)
-    speed = _closing_speed(scene, event, first, quiet, result.impact_type)
+    speed, first = _checked_closing_speed(scene, event, result, quiet)
     result.closing_speed, result.closing_speed_lower, result.closing_speed_upper = speed.value, speed.lower, speed.upper
     result.closing_speed_source, result.closing_speed_basis = speed.source, speed.basis
     if first is not None:
@@ -156,7 +186,8 @@ def _event(scene: MeasuredScene, recordings: Recordings, event: event_finder.Eve
         estimate = primary.get(coupler.name)
         if estimate is not None:
             result.closures.append(_closure(scene, coupler, primary, result.closing_speed))
-    result.alarm, result.alarm_basis = _alarm(scene, list(primary.values()))
+    saturated = [flag for flag in event.flags if flag.startswith("saturated")]
+    result.alarm, result.alarm_basis = _alarm(scene, list(primary.values()), saturated, [e for e in result.estimates if e.status == "implausible"])
     result.wear, result.wear_basis = _wear(scene, result.closures)
     return result
 
@@ -473,6 +504,35 @@ def _closing_speed(scene: MeasuredScene, event: event_finder.Event, estimate: Fo
     return speeds.from_force(estimate.time, estimate.force, reduced_mass, noise, impact_type)
 
 
+def _checked_closing_speed(scene: MeasuredScene, event: event_finder.Event, result: EventResult, quiet: dict[str, QuietNoise]
+                           ) -> tuple[ClosingSpeed, ForceEstimate | None]:
+    """The first coupler's closing speed (:func:`_closing_speed`) and the primary estimate it came from, every estimate
+    whose peak exceeds the force the speed's upper end allows made ``implausible``, without a number
+    (:func:`femref.sensing.peak_bound.implausible`, the cars behind the first coupler against those ahead); an
+    implausible primary gives way to the next estimate, and the speed is read again from it."""
+    reduced_mass = line_reduced_mass([car.mass for car in scene.cars], 0)
+    while True:
+        first = _primary(scene, result).get(scene.couplers[0].name)
+        speed = _closing_speed(scene, event, first, quiet, result.impact_type)
+        flagged = [estimate for estimate in result.estimates if estimate.ok and _flag_implausible(estimate, speed.upper, reduced_mass)]
+        if not any(estimate is first for estimate in flagged):
+            return speed, first
+
+
+def _flag_implausible(estimate: ForceEstimate, closing_speed_upper: float, reduced_mass: float) -> bool:
+    """Make ``estimate`` ``implausible`` (its peak kept in the message and ``settings``, no number) when its peak
+    exceeds :func:`femref.sensing.peak_bound.peak_force_bound`; whether it did."""
+    peak = estimate.peak[0]
+    reason = implausible(peak, closing_speed_upper, reduced_mass)
+    if reason is None:
+        return False
+    estimate.status, estimate.message = "implausible", reason
+    estimate.settings["implausible_peak"] = peak
+    estimate.force = np.full(estimate.force.shape, np.nan)
+    estimate.lower, estimate.upper = estimate.force.copy(), estimate.force.copy()
+    return True
+
+
 def _epsilon(scene: MeasuredScene, estimate: ForceEstimate) -> float:
     force = np.nan_to_num(estimate.force)
     rate = np.gradient(force, estimate.time)
@@ -481,7 +541,11 @@ def _epsilon(scene: MeasuredScene, estimate: ForceEstimate) -> float:
     return max(waves) / load_time if waves and len(waves) == len(scene.cars) else math.nan
 
 
-def _alarm(scene: MeasuredScene, estimates: list[ForceEstimate]) -> tuple[str, str]:
+def _alarm(scene: MeasuredScene, estimates: list[ForceEstimate], saturated: list[str], implausible: list[ForceEstimate]) -> tuple[str, str]:
+    """``certain``, ``possible`` or ``none`` from the primary ``estimates`` against the limit (module docstring), and
+    why. A channel ``saturated`` during the event (its quality flags) makes ``none`` ``possible``: the records clip,
+    the real peak lies above what they show. With no primary estimate, an ``implausible`` one at the limit makes it
+    ``possible``: nothing rules the limit out."""
     limit = scene.checks.alarm
     if limit is None:
         return "none", "no alarm limit given"
@@ -496,6 +560,13 @@ def _alarm(scene: MeasuredScene, estimates: list[ForceEstimate]) -> tuple[str, s
             found = "possible" if peak >= limit else "none"
             basis.append(f"{estimate.coupler}: {estimate.estimator} peak {peak:.4g} N without a bound against {limit:.4g} N")
         level = max(level, found, key=("none", "possible", "certain").index)
+    if not estimates:
+        reaches = any(e.settings["implausible_peak"] >= limit for e in implausible)
+        level = "possible" if reaches else level
+        basis.append(f"no estimate with a number{'; an implausible one reaches the limit' if reaches else ''}")
+    if saturated and level == "none":
+        level = "possible"
+        basis.append(f"a channel saturated during the event ({'; '.join(saturated)}): the records clip, the real peak is higher than they show")
     return level, "; ".join(basis)
 
 

@@ -17,11 +17,18 @@ the same grid, so the step is the fem mesh's,
 Impact: each model run steps at what its own cars need,
 
     dt = min(T_contact/100, T_h (fem cars), T_h,b (fem cars whose couplers bend them), 4l/(k c_max)/20 (modal cars with k modes),
-             end/20),
+             end/20, 1/(4 f_c s) (a measurement low-pass)),
 
 ``T_contact`` the shortest rigid-body contact time of the couplers
 (:meth:`femref.scene.ImpactScene.contact_time`): all a run of rigid and quasi-rigid cars
 needs. The scores interpolate the reference onto each run's axis.
+
+A measurement chain's anti-alias low-pass (corner ``f_c``) runs on the model's stored samples, every
+``s = time.output_stride``-th step (:func:`femref.sensing.measurement.measure`), and needs ``f_c``
+below their Nyquist frequency ``1/(2 dt s)``; the rule keeps it an octave below (:data:`LOWPASS_RULE`).
+A soft coupler (a contact time of seconds) otherwise gives a rigid run ``end/20`` — 25 ms for a 0.5 s
+impact, a Nyquist frequency of 20 Hz under a 100 Hz filter. A step the case gives must keep ``f_c`` below
+that Nyquist frequency (a case error otherwise: ``femref.case.impact``).
 
 A fem car that bends also steps within its Hermite mesh's bending transit time
 ``T_h,b = h²/c_b,max`` (``c_b = √(EI/m)``: :data:`BENDING_MESH_RULE`) when its couplers load the
@@ -52,6 +59,7 @@ from femref.scene import Car, ImpactScene, ModelRun, Scene
 GIVEN = "given in the case"
 MESH_RULE = "mesh wave transit time"
 BENDING_MESH_RULE = "bending mesh transit time"
+LOWPASS_RULE = "measurement low-pass: 1/(4 corner × output_stride)"
 
 
 def smallest_candidate(candidates: dict[str, float]) -> tuple[float, str]:
@@ -104,8 +112,11 @@ def impact_candidates(scene: ImpactScene, run: ModelRun, elements: int, speed: C
     """The automatic rule's candidate steps of one impact run (module docstring) on ``elements`` elements per fem or
     modal car, the wave speed of a body given by ``speed``: a fem car adds its mesh transit time — and, when it bends,
     its beam's, ``h²/c_b,max`` (``speed`` of the car's bending, a beam body) — a modal car a twentieth of the period
-    of its highest kept mode, ``4l/(k c_max)`` for a free rod."""
+    of its highest kept mode, ``4l/(k c_max)`` for a free rod; a measurement low-pass of corner ``f_c`` adds
+    ``1/(4 f_c output_stride)``."""
     candidates = {"coupler contact time / 100": scene.contact_time() / 100.0, "end time / 20": scene.end / 20.0}
+    if scene.measurement is not None and scene.measurement.lowpass is not None:
+        candidates[LOWPASS_RULE] = 1.0 / (4.0 * scene.measurement.lowpass * scene.output_stride)
 
     def add(rule: str, value: float) -> None:
         candidates[rule] = min(candidates.get(rule, math.inf), value)
@@ -130,5 +141,5 @@ def impact_time_step(scene: ImpactScene, run: ModelRun) -> tuple[float, str]:
     return dt, f"automatic: {rule}"
 
 
-__all__ = ["BENDING_MESH_RULE", "GIVEN", "MESH_RULE", "impact_candidates", "impact_time_step", "loaded_bending", "mesh_transit_time",
+__all__ = ["BENDING_MESH_RULE", "GIVEN", "LOWPASS_RULE", "MESH_RULE", "impact_candidates", "impact_time_step", "loaded_bending", "mesh_transit_time",
            "single_body_candidates", "single_body_time_step", "smallest_candidate", "transit_time"]

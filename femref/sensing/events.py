@@ -4,8 +4,11 @@
 envelope ``e(t) = max over channels |a(t)|`` (m/s²; a channel with no sample at ``t``, or NaN,
 does not count):
 
-* *armed*, an event opens at the first sample with ``e > level`` (the trigger); its trigger
-  probe is the channel with the largest ``|a|`` there;
+* *armed*, an event opens at the first sample with ``e > level`` (the trigger) that *holds*: within
+  ``hold`` s from it (:data:`HOLD`) two or more channels exceed the level, or one channel exceeds it at
+  each of its samples there (two or more). A spike that does not hold — a glitch of one to three samples
+  on one channel at 1 kHz — is no event: it is ignored and counted (:attr:`EventTrigger.glitches`, named
+  in the run's warnings). Its trigger probe is the channel with the largest ``|a|`` there;
 * while it is open, every sample with ``e > rearm`` (the re-arm level, below the trigger: the
   hysteresis) is the cars still ringing; the trigger *re-arms* at the first sample ``quiet``
   seconds after the last such one, so a ring that dips under the trigger and rises over it
@@ -23,15 +26,21 @@ does not count):
 The trigger takes the stream in chunks ``(time, {channel: values})`` in time order (channels
 without a sample at a time hold NaN there) and keeps its state between them: it returns each
 window as soon as no later sample can change it, and the same windows for any cutting of the
-same stream into chunks. Each chunk is searched with numpy for the few samples where the state
-changes (the first trigger, the first gap of ``quiet`` between ringing samples); there is no
-Python loop over samples.
+same stream into chunks (a trigger whose hold time runs past a chunk's end waits for the next).
+Each chunk is searched with numpy for the few samples where the state changes (the first trigger,
+the first gap of ``quiet`` between ringing samples); Python loops only over triggers that do not hold.
 
-:func:`find_events`: every channel of a :class:`Recordings` merged onto the union of their
-sample times (:func:`stream_chunks`) and fed to the trigger. Each window is clipped to the span
-every channel covers (then the event is flagged ``truncated``), and every gap or saturated
+:func:`search_events`: every channel of a :class:`Recordings` merged onto the union of their
+sample times (:func:`stream_chunks`), each less its baseline — a running median that follows a
+sensor's bias or drift and leaves an impact's contact whole (:mod:`femref.sensing.baseline`), so
+a bias never opens an event — and fed to the trigger, chunk by chunk. Each window is clipped to the
+span every channel covers (then the event is flagged ``truncated``; a window wholly outside it is
+no event, and :class:`EventSearch` says so with each recorder's span), and every gap or saturated
 stretch of any channel that overlaps it is named in its flags (``"saturated: hammer/front
 1.2031–1.2050 s"``): the estimates of such an event are not to be trusted silently.
+Each channel's noise is measured in the stream's quiet stretches on the way
+(:class:`femref.sensing.baseline.NoiseMeter`); with the trigger within :data:`NOISE_MARGIN` σ of a
+channel's, every event is flagged (:func:`trigger_in_noise`). :func:`find_events`: the trigger on the records as they are.
 
 :func:`window`: the event's records resampled by linear interpolation onto one uniform grid
 ``t_k = start + k / rate`` over the window (absolute times, s), ``rate`` the highest rate of
@@ -47,6 +56,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from femref.sensing.baseline import NoiseMeter, RunningBaseline
 from femref.sensing.recordings import Recordings
 
 REARM_FRACTION = 0.5
@@ -59,6 +69,16 @@ MAX_WINDOW = 5.0
 """The default longest event window (s), from its start ``t_trigger − pre`` to its end."""
 CHUNK_SAMPLES = 1 << 18
 """Samples of the merged stream per chunk fed to the trigger by :func:`find_events`."""
+HOLD = 0.003
+"""The default hold time (s): a single channel opens an event only if its samples stay above the trigger this long
+(module docstring). A third of the shortest plausible contact, ``π √(m*/k) ≈ 10`` ms for 20 t cars (``m* = 10`` t) on the
+stiffest plausible gear (``k = 1e9`` N/m): a half-sine contact of 10 ms stays above the trigger for 3 ms when its peak
+is 12 % over it; at 1 kHz four samples, so a spike of up to three samples on one channel is no event."""
+NOISE_MARGIN = 5.0
+"""A trigger below this many noise σ of a channel lies in the noise (:func:`trigger_in_noise`): Gaussian noise exceeds
+5 σ at ``5.7e-7`` of its samples, ten times an hour at 1 kHz on five channels."""
+GLITCHES_NAMED = 5
+"""Ignored spikes named in the search's notes (all are counted)."""
 
 
 @dataclass(frozen=True)
@@ -74,6 +94,7 @@ class TriggerSettings:
     rearm: float | None = None
     quiet: float = QUIET
     max_window: float = MAX_WINDOW
+    hold: float = HOLD
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.level) and self.level > 0.0):
@@ -86,6 +107,8 @@ class TriggerSettings:
             raise ValueError(f"quiet must be a positive time (s), got {self.quiet!r}")
         if not (math.isfinite(self.max_window) and self.max_window >= self.pre + self.post):
             raise ValueError(f"max_window must be >= pre + post = {self.pre + self.post:g} s, got {self.max_window!r}")
+        if not (math.isfinite(self.hold) and self.hold >= 0.0):
+            raise ValueError(f"hold must be a time >= 0 (s), got {self.hold!r}")
 
     @property
     def rearm_level(self) -> float:
@@ -125,6 +148,12 @@ class EventTrigger:
     _last_time: float = field(default=-math.inf, init=False)
     _ringing: _Ringing | None = field(default=None, init=False)
     _pending: tuple[EventWindow, float] | None = field(default=None, init=False)  # re-armed: its window, t_last
+    _names: list[str] | None = field(default=None, init=False)
+    _carry: tuple[NDArray[np.float64], NDArray[np.float64]] | None = field(default=None, init=False)  # (t, |a|) from a trigger not yet held
+    glitches: int = field(default=0, init=False)
+    """Spikes above the trigger ignored so far: on one channel, held less than ``hold`` (module docstring)."""
+    first_glitches: list[tuple[float, str]] = field(default_factory=list, init=False)
+    """The first :data:`GLITCHES_NAMED` of them: ``(time, channel)``."""
     never_rearmed_after: float | None = field(default=None, init=False)
     """Set by :meth:`finish` when a capped window's ringing never went quiet to the end of the stream, more than
     another ``max_window`` after the cap: that window's trigger time (s). The trigger never re-armed after it, so an
@@ -142,24 +171,42 @@ class EventTrigger:
         values = [np.asarray(channels[name], dtype=float) for name in names]
         if not names or any(v.shape != t.shape for v in values):
             raise ValueError(f"a chunk needs one or more channels, each with one value per time ({t.size})")
+        if self._names is None:
+            self._names = names
+        elif names != self._names:
+            raise ValueError(f"every chunk needs the channels {self._names}, got {names}")
         magnitude = np.abs(np.array(values))
+        self._last_time = float(t[-1])
+        if self._carry is not None:
+            t, magnitude = np.concatenate([self._carry[0], t]), np.concatenate([self._carry[1], magnitude], axis=1)
+        return self._process(t, magnitude, final=False)
+
+    def _process(self, t: NDArray[np.float64], magnitude: NDArray[np.float64], final: bool) -> list[EventWindow]:
+        """Run the state machine over the samples ``t`` (with ``|a|`` per channel); a trigger whose hold time runs
+        past the last sample is carried to the next chunk (unless ``final``: the stream has ended)."""
         envelope = np.fmax.reduce(magnitude, axis=0)
         decided: list[EventWindow] = []
+        self._carry = None
         k = 0
         while k < t.size:
             if self._ringing is None:
-                k = self._armed(t, envelope, magnitude, names, k, decided)
+                k = self._armed(t, envelope, magnitude, k, decided, final)
             else:
                 k = self._ring(t, envelope, k)
-        self._settle(float(t[-1]), decided)
-        self._last_time = float(t[-1])
+        if self._carry is None:
+            self._settle(float(t[-1]), decided)
+        elif self._carry[0][0] > t[0]:
+            self._settle(float(t[t < self._carry[0][0]][-1]), decided)
         return decided
 
     def finish(self) -> list[EventWindow]:
         """The windows still open at the stream's end (their ends may lie beyond it). When a capped window's
         ringing never went quiet to the end of a stream that ran on for more than another ``max_window`` after
-        the cap, :attr:`never_rearmed_after` names it."""
+        the cap, :attr:`never_rearmed_after` names it. A trigger still within its hold time at the end is
+        decided on the samples there are."""
         decided: list[EventWindow] = []
+        if self._carry is not None:
+            decided += self._process(*self._carry, final=True)
         if self._pending is not None:
             decided.append(self._pending[0])
         ringing = self._ringing
@@ -171,24 +218,46 @@ class EventTrigger:
         return decided
 
     def _armed(self, t: NDArray[np.float64], envelope: NDArray[np.float64], magnitude: NDArray[np.float64],
-               names: list[str], k: int, decided: list[EventWindow]) -> int:
-        """From sample ``k`` while armed: the next trigger opens an event (deciding the pending window); the
-        index to go on from."""
-        above = np.flatnonzero(envelope[k:] > self.settings.level)
-        if self._pending is not None and above.size:
+               k: int, decided: list[EventWindow], final: bool) -> int:
+        """From sample ``k`` while armed: the next trigger that holds opens an event (deciding the pending window);
+        spikes that do not hold are counted; the index to go on from (the chunk's end when a trigger's hold time
+        runs past it: then it is carried)."""
+        level, hold = self.settings.level, self.settings.hold
+        above = k + np.flatnonzero(envelope[k:] > level)
+        j, skip = -1, -1
+        for candidate in above:
+            if candidate < skip:
+                continue  # part of the spike just ignored
+            if hold > 0.0 and not final and t[-1] <= t[candidate] + hold:  # its hold time goes on in the next chunk
+                self._carry = (t[candidate:], magnitude[:, candidate:])
+                return t.size
+            stop = int(np.searchsorted(t, t[candidate] + hold, side="right"))
+            if hold == 0.0 or _holds(magnitude[:, candidate:stop], level):
+                j = int(candidate)
+                break
+            self._ignore(float(t[candidate]), magnitude[:, candidate])
+            skip = stop
+        if self._pending is not None and j >= 0:
             pending, last_loud = self._pending
-            trigger_time = float(t[k + above[0]])
+            trigger_time = float(t[j])
             if trigger_time < pending.end:
                 end = min(max(trigger_time - self.settings.pre, last_loud), pending.end)
                 pending = replace(pending, end=end, flags=(*pending.flags, f"cut short: the next event triggers at {trigger_time:.6g} s"))
             decided.append(pending)
             self._pending = None
-        if not above.size:
+        if j < 0:
             return t.size
-        j = k + int(above[0])
-        probe = names[int(np.nanargmax(magnitude[:, j]))]
+        assert self._names is not None
+        probe = self._names[int(np.nanargmax(magnitude[:, j]))]
         self._ringing = _Ringing(float(t[j]), probe, float(t[j]))
         return j + 1
+
+    def _ignore(self, time: float, magnitude: NDArray[np.float64]) -> None:
+        """Count a spike that did not hold (and name it, among the first)."""
+        assert self._names is not None
+        self.glitches += 1
+        if len(self.first_glitches) < GLITCHES_NAMED:
+            self.first_glitches.append((time, self._names[int(np.nanargmax(magnitude))]))
 
     def _ring(self, t: NDArray[np.float64], envelope: NDArray[np.float64], k: int) -> int:
         """From sample ``k`` while an event is open: its ringing samples up to the re-arm, if this chunk
@@ -232,6 +301,15 @@ class EventTrigger:
             ringing.returned = True
 
 
+def _holds(magnitude: NDArray[np.float64], level: float) -> bool:
+    """Whether a trigger holds over its hold time (``|a|`` per channel from the trigger sample on): two or more
+    channels above ``level``, or one channel above it at each of its two or more samples there."""
+    finite, above = np.isfinite(magnitude), magnitude > level
+    if np.count_nonzero(above.any(axis=1)) >= 2:
+        return True
+    return bool(np.any((np.count_nonzero(finite, axis=1) >= 2) & np.all(above | ~finite, axis=1)))
+
+
 @dataclass(frozen=True)
 class Event:
     """Event ``index`` (0-based, in time order): its window ``start``–``end`` (s), the trigger sample's time
@@ -264,12 +342,71 @@ def stream_chunks(recordings: Recordings, samples: int = CHUNK_SAMPLES) -> Itera
         yield t, values
 
 
-def find_events(recordings: Recordings, trigger: float, pre: float, post: float, *, rearm: float | None = None,
-                quiet: float = QUIET, max_window: float = MAX_WINDOW) -> list[Event]:
-    """The events of the stream (module docstring); ValueError for settings out of their range
-    (:class:`TriggerSettings`)."""
-    machine = EventTrigger(TriggerSettings(trigger, pre, post, rearm, quiet, max_window))
-    windows = [window for t, values in stream_chunks(recordings) for window in machine.feed(t, values)] + machine.finish()
+@dataclass(frozen=True)
+class EventSearch:
+    """What :func:`search_events` found: the events, each channel's noise in the quiet stretches (m/s²,
+    :class:`femref.sensing.baseline.NoiseMeter`), the loudest channel and its largest ``|a − b|`` (m/s²), the spikes
+    ignored (counted, the first named), and the triggers whose windows fell wholly outside the span every recorder
+    covers, with that span and each file's (s)."""
+
+    settings: TriggerSettings
+    events: list[Event]
+    noise: dict[str, float]
+    loudest: tuple[str, float]
+    glitches: int
+    first_glitches: tuple[tuple[float, str], ...]
+    outside_span: tuple[float, ...]
+    span: tuple[float, float]
+    file_spans: dict[str, tuple[float, float]]
+
+    def notes(self) -> list[str]:
+        """The search's warnings for the run to print: spikes ignored, triggers outside the recorders' common span."""
+        notes = []
+        if self.glitches:
+            named = ", ".join(f"{probe} at {time:.4f} s" for time, probe in self.first_glitches)
+            more = f" and {self.glitches - len(self.first_glitches)} more" if self.glitches > len(self.first_glitches) else ""
+            notes.append(f"{self.glitches} spike(s) above the trigger on one channel, held less than hold = {self.settings.hold * 1e3:g} ms, "
+                         f"ignored (no event): {named}{more}")
+        if self.outside_span:
+            times = ", ".join(f"{t:.4g}" for t in self.outside_span[:GLITCHES_NAMED]) + (" …" if len(self.outside_span) > GLITCHES_NAMED else "")
+            spans = "; ".join(f"{name} {lo:.6g}–{hi:.6g} s" for name, (lo, hi) in self.file_spans.items())
+            notes.append(f"{len(self.outside_span)} trigger(s) (at {times} s) fell outside the span every recorder covers, "
+                         f"{self.span[0]:.6g}–{self.span[1]:.6g} s ({self.span[1] - self.span[0]:.3g} s): no event there; the recorders "
+                         f"cover {spans} (check their clock_offset)")
+        return notes
+
+    def no_event_reason(self) -> str:
+        """Why there is no event: triggers only outside the common span, only spikes, or no channel above the trigger."""
+        if self.outside_span:
+            return f"every trigger fell outside the span every recorder covers ({self.span[0]:.6g}–{self.span[1]:.6g} s): the recorders' spans barely overlap"
+        if self.glitches:
+            return f"the only samples above the trigger {self.settings.level:g} m/s² were spikes on one channel, held less than {self.settings.hold * 1e3:g} ms"
+        probe, largest = self.loudest
+        return (f"no channel exceeds the trigger level {self.settings.level:g} m/s² once its baseline is removed "
+                f"(largest |a − baseline|: {largest:.3g} m/s² on {probe})")
+
+
+def search_events(recordings: Recordings, settings: TriggerSettings, *, remove_baseline: bool = True, samples: int = CHUNK_SAMPLES) -> EventSearch:
+    """The events of the stream (module docstring): the merged stream (:func:`stream_chunks`, chunks of ``samples``)
+    less each channel's baseline (:class:`femref.sensing.baseline.RunningBaseline`; with ``remove_baseline`` false
+    the records as they are) through the trigger, chunk by chunk."""
+    machine, baseline, meter = EventTrigger(settings), RunningBaseline(), NoiseMeter()
+    loudest: dict[str, float] = {}
+    windows: list[EventWindow] = []
+
+    def trigger(t: NDArray[np.float64], values: dict[str, NDArray[np.float64]]) -> None:
+        if t.size:
+            for probe, a in values.items():
+                finite = np.abs(a[np.isfinite(a)])
+                loudest[probe] = max(loudest.get(probe, 0.0), float(finite.max()) if finite.size else 0.0)
+            meter.feed(t, values)
+            windows.extend(machine.feed(t, values))
+
+    for t, values in stream_chunks(recordings, samples):
+        trigger(*(baseline.feed(t, values) if remove_baseline else (t, values)))
+    if remove_baseline:
+        trigger(*baseline.finish())
+    windows += machine.finish()
     if machine.never_rearmed_after is not None:
         k = next(i for i, w in enumerate(windows) if w.trigger_time == machine.never_rearmed_after)
         note = (f"never re-armed: the records stayed above rearm = {machine.settings.rearm_level:g} m/s² with no quiet stretch of "
@@ -278,13 +415,41 @@ def find_events(recordings: Recordings, trigger: float, pre: float, post: float,
         windows[k] = replace(windows[k], flags=(*windows[k].flags, note))
     first, last = recordings.span
     events: list[Event] = []
+    outside: list[float] = []
     for found in windows:
         start, end = max(found.start, first), min(found.end, last)
         if end <= start:
+            outside.append(found.trigger_time)
             continue
         flags = (["truncated"] if start > found.start or end < found.end else []) + list(found.flags) + _quality_flags(recordings, start, end)
         events.append(Event(len(events), start, end, found.trigger_time, found.trigger_probe, tuple(flags)))
-    return events
+    files: dict[str, tuple[float, float]] = {}
+    for channel in recordings.channels.values():
+        files[channel.file] = (float(channel.time[0]), float(channel.time[-1]))
+    noise = meter.noise()
+    in_noise = trigger_in_noise(settings.level, noise)
+    if in_noise is not None:
+        events = [replace(event, flags=(*event.flags, in_noise)) for event in events]
+    return EventSearch(settings, events, noise, max(loudest.items(), key=lambda item: item[1], default=("", 0.0)), machine.glitches,
+                       tuple(machine.first_glitches), tuple(outside), (first, last), files)
+
+
+def trigger_in_noise(level: float, noise: Mapping[str, float]) -> str | None:
+    """The flag of the events of a stream whose trigger ``level`` (m/s²) lies below :data:`NOISE_MARGIN` σ of a channel's
+    noise (``noise``: channel → σ, m/s², in the stream's quiet stretches), or None."""
+    noisy = {probe: sigma for probe, sigma in noise.items() if math.isfinite(sigma) and level < NOISE_MARGIN * sigma}
+    if not noisy:
+        return None
+    named = ", ".join(f"{probe} σ = {sigma:.3g} m/s²" for probe, sigma in noisy.items())
+    return (f"trigger in the noise: trigger = {level:g} m/s² is below {NOISE_MARGIN:g} σ of the noise in the quiet stretches "
+            f"({named}); noise alone crosses it, the event may be noise")
+
+
+def find_events(recordings: Recordings, trigger: float, pre: float, post: float, *, rearm: float | None = None,
+                quiet: float = QUIET, max_window: float = MAX_WINDOW, hold: float = HOLD) -> list[Event]:
+    """The trigger's events on the records as they are, no baseline removed (:func:`search_events`; a measured run
+    removes it); ValueError for settings out of their range (:class:`TriggerSettings`)."""
+    return search_events(recordings, TriggerSettings(trigger, pre, post, rearm, quiet, max_window, hold), remove_baseline=False).events
 
 
 def window(recordings: Recordings, event: Event, rate: float | None = None) -> tuple[NDArray[np.float64], dict[str, NDArray[np.float64]]]:
@@ -306,5 +471,5 @@ def _quality_flags(recordings: Recordings, start: float, end: float) -> list[str
     ]
 
 
-__all__ = ["CHUNK_SAMPLES", "MAX_WINDOW", "QUIET", "REARM_FRACTION", "Event", "EventTrigger", "EventWindow", "TriggerSettings",
-           "find_events", "stream_chunks", "window"]
+__all__ = ["CHUNK_SAMPLES", "HOLD", "MAX_WINDOW", "NOISE_MARGIN", "QUIET", "REARM_FRACTION", "Event", "EventSearch", "EventTrigger", "EventWindow",
+           "TriggerSettings", "find_events", "search_events", "stream_chunks", "trigger_in_noise", "window"]

@@ -12,29 +12,38 @@ different rates and their clocks may differ by a known offset. A channel's rate 
 declared rate, or 1 / the median time step.
 
 **Errors** (:class:`RecordError`, naming the file, the channel or time source and the
-rule): a missing or unreadable file; a missing column or dataset; an unknown unit; a cell
-that is not a number; fewer than two samples; a time that is not finite, or does not
-increase (duplicated or going back: the first offending row is named); a channel whose
-length differs from its time axis; a channel with no finite value; the same probe in two
-places.
+rule): a missing or unreadable file; a file that is not a regular file, or points outside
+itself, or is larger than the limits (:mod:`femref.sensing.record_files`); a missing column
+or dataset, a column the header names twice; an unknown unit; a cell that is not a number;
+fewer than two samples; a time that is not finite, or does not increase (duplicated or going
+back: the first offending row is named); a rate above :data:`MAX_RECORD_RATE`; a channel
+whose length differs from its time axis; a channel with no finite value; the same probe in
+two places.
 
 **Quality, not errors**: NaN runs inside a channel and time steps longer than 1.5 × the
 median step are *gaps*; runs of three or more samples at a channel's extreme value (the
-largest |a| it records, reached by a flat top) are *saturated*. Both are kept per probe as
-:class:`QualityInterval` (start, end in s, reason) for the events they fall in to carry.
+largest |a| it records, reached by a flat top) are *saturated*; samples with
+|a| > :data:`PLAUSIBLE_ACCELERATION` are *implausible* (no car body moves so). All are kept
+per probe as :class:`QualityInterval` (start, end in s, reason) for the events they fall in
+to carry.
+
+What validation read is kept (:class:`RecordRead`, with the file's :func:`file_stamp`):
+:func:`read_records` takes a file's channels from its ``kept`` read while the file is
+unchanged, so a case's records are parsed once, not once to validate and again to run.
 """
 
 from __future__ import annotations
 
-import csv
-from collections.abc import Callable, Iterator, Sequence
-from contextlib import contextmanager
-from dataclasses import dataclass
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 
-import h5py
 import numpy as np
 from numpy.typing import NDArray
+
+from femref.sensing import record_files
+from femref.sensing.record_files import HDF5_SUFFIXES, RecordError, SampleLimit, read_columns
 
 ACCELERATION_UNITS: dict[str, float] = {"m/s^2": 1.0, "g": 9.80665, "mm/s^2": 1.0e-3}
 """Acceleration units a channel may declare, and their value in m/s²."""
@@ -44,15 +53,22 @@ GAP_STEP = 1.5
 """A time step longer than this many median steps is a gap."""
 SATURATED_RUN = 3
 """Samples in a row at a channel's extreme that make it saturated."""
-HDF5_SUFFIXES = (".h5", ".hdf5", ".hdf")
-
-
-Reader = Callable[[str | int | None, str], NDArray[np.float64]]
-"""``read(column or dataset, what)``: one column of an open record file, as floats."""
-
-
-class RecordError(ValueError):
-    """A record file that cannot be read as declared: the message names the file, channel and rule."""
+MAX_RECORD_RATE = 50_000.0
+"""Highest sampling rate of a record (Hz), declared or 1 / the median time step. Shock and impact loggers on rail cars
+sample at 1–20 kHz: the accelerometers' usable band ends near 10 kHz, and the impact's content (the cars' axial modes,
+the gear's closure) lies below 1 kHz. A faster record holds nothing more of the impact and multiplies every event's
+grid (:data:`MAX_EVENT_VALUES`); time stamps nanoseconds apart ask for a GHz grid."""
+PLAUSIBLE_ACCELERATION = 1000.0 * 9.80665
+"""Largest |a| (m/s², 1000 g) a car-body accelerometer records of a coupling impact. The hardest yard impact (~4.5 MN,
+the gear solid) decelerates even an empty 20 t car by 4.5e6 / 2e4 = 225 m/s² (23 g) as a rigid body; ringing near the
+coupler multiplies that locally by a few, and shock loggers' ranges end at ±200–500 g. A sample beyond is a glitch, a
+wrong unit or a sensor knocked loose: flagged ``implausible``, never taken silently."""
+MAX_EVENT_VALUES = 2_000_000
+"""Most values of one event's records on its grid (:func:`femref.sensing.events.window`: ``max_window × rate``
+samples, the highest channel rate, times the channels), checked when the case is loaded: a fixed ceiling on what one
+event may ask, whatever the estimators. The default 5 s window of five channels at 50 kHz holds 1.25e6. At the limit
+an event's records are 16 MB and ``inverse_rigid`` holds about 0.5 GB (240 bytes a value, measured on a 250 s window);
+the costlier estimators (kalman) are priced below it by the work budget (:mod:`femref.run.event_budget`)."""
 
 
 @dataclass(frozen=True)
@@ -88,13 +104,15 @@ class AntiAlias:
 @dataclass(frozen=True)
 class RecordFile:
     """One recorder's file: its times, its clock offset (s, added to them), its channels and the
-    anti-alias filter its channels passed before sampling (None: not declared)."""
+    anti-alias filter its channels passed before sampling (None: not declared); ``kept``: what an earlier
+    reading of it gave (:class:`RecordRead`, used while the file is unchanged; None: read it)."""
 
     path: Path
     time: TimeSource
     clock_offset: float
     channels: tuple[ChannelSource, ...]
     anti_alias: AntiAlias | None = None
+    kept: RecordRead | None = field(default=None, compare=False, repr=False)
 
 
 @dataclass(frozen=True)
@@ -120,6 +138,50 @@ class Channel:
     anti_alias: AntiAlias | None = None
 
 
+Stamp = tuple[int, int, int, int]
+"""``(st_dev, st_ino, st_size, st_mtime_ns)`` of a file: a different file, or the same one rewritten, has another."""
+
+
+def file_stamp(path: Path) -> Stamp | None:
+    """The :data:`Stamp` of ``path``, None when it cannot be ``stat``\\ ed."""
+    try:
+        status = path.stat()
+    except OSError:
+        return None
+    return (status.st_dev, status.st_ino, status.st_size, status.st_mtime_ns)
+
+
+@dataclass(frozen=True, eq=False)
+class RecordRead:
+    """A file's channels as read, and its :func:`file_stamp` taken before the reading (None: unknown, read again).
+
+    Equal when the stamps and every channel's samples are (cases compare what they kept in ``==``)."""
+
+    stamp: Stamp | None
+    channels: tuple[Channel, ...]
+
+    @property
+    def values(self) -> int:
+        """Values held: the samples of the time axis and of each channel."""
+        time = self.channels[0].time.size if self.channels else 0  # one time axis for the file's channels
+        return time + sum(channel.acceleration.size for channel in self.channels)
+
+    def current(self, path: Path) -> bool:
+        """True while the file at ``path`` is the one read, unchanged."""
+        return self.stamp is not None and self.stamp == file_stamp(path)
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, RecordRead):
+            return NotImplemented
+        return self.stamp == other.stamp and len(self.channels) == len(other.channels) and all(
+            a.probe == b.probe and np.array_equal(a.time, b.time) and np.array_equal(a.acceleration, b.acceleration, equal_nan=True)
+            for a, b in zip(self.channels, other.channels)
+        )
+
+    def __hash__(self) -> int:
+        return hash((self.stamp, tuple(channel.probe for channel in self.channels)))
+
+
 @dataclass(frozen=True, eq=False)
 class Recordings:
     """Every recorded probe's :class:`Channel`, in the order declared."""
@@ -133,42 +195,58 @@ class Recordings:
 
 
 def read_records(files: Sequence[RecordFile]) -> Recordings:
-    """Every channel of every file in SI units on its own time axis (module docstring); RecordError for a bad file."""
+    """Every channel of every file in SI units on its own time axis (module docstring); RecordError for a bad file.
+
+    A file whose ``kept`` read is current (:meth:`RecordRead.current`) is not read again. The files together hold at
+    most :data:`~femref.sensing.record_files.MAX_RECORD_VALUES` values."""
     channels: dict[str, Channel] = {}
     where: dict[str, str] = {}
+    values_left = record_files.MAX_RECORD_VALUES
     for record in files:
         name = record.path.name
         for source in record.channels:
             if source.probe in where:
                 raise RecordError(f"{name}: channel {source.probe}: also recorded in {where[source.probe]}; one channel per probe")
             where[source.probe] = name
-        for channel in _read_file(record):
-            channels[channel.probe] = channel
+        kept = record.kept
+        read = kept if kept is not None and kept.current(record.path) else read_record_file(record, values_left)
+        values_left -= read.values
+        channels.update((channel.probe, channel) for channel in read.channels)
     return Recordings(channels)
 
 
-def _read_file(record: RecordFile) -> list[Channel]:
+def read_record_file(record: RecordFile, values_left: int | None = None) -> RecordRead:
+    """The channels of one file (module docstring) with the file's stamp before the reading; ``values_left``: how many
+    of :data:`~femref.sensing.record_files.MAX_RECORD_VALUES` the file may still hold (the others' share spent; None:
+    all of them)."""
     path, name = record.path, record.path.name
-    if not path.exists():
-        raise RecordError(f"{name}: file not found ({path})")
+    values_left = record_files.MAX_RECORD_VALUES if values_left is None else values_left
     for source in record.channels:
         if source.unit not in ACCELERATION_UNITS:
             raise RecordError(f"{name}: channel {source.probe}: unknown unit {source.unit!r}; units: {', '.join(ACCELERATION_UNITS)}")
-    if record.time.rate is None and record.time.unit not in TIME_UNITS:
+    rate = record.time.rate
+    if rate is None and record.time.unit not in TIME_UNITS:
         raise RecordError(f"{name}: time: unknown unit {record.time.unit!r}; units: {', '.join(TIME_UNITS)}")
+    if rate is not None and not (math.isfinite(rate) and 0.0 < rate <= MAX_RECORD_RATE):
+        raise RecordError(f"{name}: time: rate {rate:g} Hz is outside (0, {MAX_RECORD_RATE:g}] Hz, the rates a rail-car recorder samples at")
     hdf5 = path.suffix.lower() in HDF5_SUFFIXES
-    with (_hdf5_reader(path) if hdf5 else _csv_reader(path)) as read:
-        values = {source.probe: read(source.dataset if hdf5 else source.column, f"channel {source.probe}") for source in record.channels}
-        raw = None if record.time.rate is not None else read(record.time.dataset if hdf5 else record.time.column, "time")
-    if raw is None:
-        size = max(v.size for v in values.values())
-        time = record.time.start + np.arange(size) / record.time.rate
-        rate = float(record.time.rate)  # type: ignore[arg-type]
-    else:
-        time = raw * TIME_UNITS[record.time.unit]
+    requests = [(source.dataset if hdf5 else source.column, f"channel {source.probe}") for source in record.channels]
+    if rate is None:
+        requests.append((record.time.dataset if hdf5 else record.time.column, "time"))
+    stamp = file_stamp(path)
+    columns = read_columns(path, requests, SampleLimit.for_file(len(record.channels) + 1, values_left))
+    values = {source.probe: columns[k] for k, source in enumerate(record.channels)}
+    if rate is None:
+        time = columns[-1]
+        time *= TIME_UNITS[record.time.unit]  # in place: every array read_columns returns is the record's own
         _check_time(name, time)
         rate = 1.0 / float(np.median(np.diff(time)))
-    time = time + record.clock_offset
+        if rate > MAX_RECORD_RATE:
+            raise RecordError(f"{name}: time: the median step {1.0 / rate:.3g} s is a rate of {rate:.4g} Hz, above {MAX_RECORD_RATE:g} Hz, "
+                              "the highest a rail-car recorder samples at (a time column in the wrong unit?)")
+    else:
+        time = record.time.start + np.arange(max(v.size for v in values.values())) / rate
+    time += record.clock_offset
     channels = []
     for source in record.channels:
         a = values[source.probe]
@@ -177,70 +255,9 @@ def _read_file(record: RecordFile) -> list[Channel]:
             raise RecordError(f"{label}: {a.size} samples against {time.size} sample times")
         if not np.any(np.isfinite(a)):
             raise RecordError(f"{label}: no finite value")
-        a = a * ACCELERATION_UNITS[source.unit]
-        channels.append(Channel(source.probe, time, a, rate, name, _quality(time, a), record.anti_alias))
-    return channels
-
-
-@contextmanager
-def _csv_reader(path: Path) -> Iterator[Reader]:
-    """``read(column, what)``: one column of a CSV file with a header row, as floats (an empty cell is NaN)."""
-    name = path.name
-    try:
-        with path.open(newline="", encoding="utf-8") as handle:
-            rows = [row for row in csv.reader(handle) if row]
-    except (OSError, UnicodeDecodeError) as error:
-        raise RecordError(f"{name}: cannot read the file: {error}") from None
-    if len(rows) < 3:
-        raise RecordError(f"{name}: needs a header row and at least two rows of samples, has {len(rows)} row(s)")
-    header = [cell.strip() for cell in rows[0]]
-
-    def read(column: str | int | None, what: str) -> NDArray[np.float64]:
-        if isinstance(column, int):
-            if not 0 <= column < len(header):
-                raise RecordError(f"{name}: {what} (column {column}): no such column; the file has {len(header)} columns")
-            index = column
-        elif column in header:
-            index = header.index(column)
-        else:
-            raise RecordError(f"{name}: {what} (column {column!r}): no such column (columns: {', '.join(header)})")
-        values = np.empty(len(rows) - 1)
-        for k, row in enumerate(rows[1:]):
-            cell = row[index].strip() if index < len(row) else ""
-            if cell == "" or cell.lower() == "nan":
-                values[k] = np.nan
-                continue
-            try:
-                values[k] = float(cell)
-            except ValueError:
-                raise RecordError(f"{name}: {what} (column {header[index]!r}): row {k + 2} is not a number ({cell!r})") from None
-        return values
-
-    yield read
-
-
-@contextmanager
-def _hdf5_reader(path: Path) -> Iterator[Reader]:
-    """``read(dataset, what)``: one 1-D dataset of an HDF5 file, as floats."""
-    name = path.name
-    try:
-        h5 = h5py.File(path, "r")
-    except OSError as error:
-        raise RecordError(f"{name}: cannot read the file as HDF5: {error}") from None
-
-    def read(dataset: str | int | None, what: str) -> NDArray[np.float64]:
-        if not isinstance(dataset, str) or dataset not in h5 or not isinstance(h5[dataset], h5py.Dataset):
-            raise RecordError(f"{name}: {what} (dataset {dataset!r}): no such dataset")
-        try:
-            values = np.asarray(h5[dataset][()], dtype=float).squeeze()
-        except (TypeError, ValueError):
-            raise RecordError(f"{name}: {what} (dataset {dataset!r}): not numbers") from None
-        if values.ndim != 1:
-            raise RecordError(f"{name}: {what} (dataset {dataset!r}): must be one-dimensional, has shape {values.shape}")
-        return values
-
-    with h5:
-        yield read
+        a *= ACCELERATION_UNITS[source.unit]
+        channels.append(Channel(source.probe, time, a, float(rate), name, _quality(time, a), record.anti_alias))
+    return RecordRead(stamp, tuple(channels))
 
 
 def _check_time(name: str, time: NDArray[np.float64]) -> None:
@@ -258,7 +275,8 @@ def _check_time(name: str, time: NDArray[np.float64]) -> None:
 
 
 def _quality(time: NDArray[np.float64], a: NDArray[np.float64]) -> tuple[QualityInterval, ...]:
-    """Gaps (NaN runs, long steps) and saturated stretches (flat tops at the channel's extreme) of one channel."""
+    """Gaps (NaN runs, long steps), saturated stretches (flat tops at the channel's extreme) and implausible ones
+    (|a| > :data:`PLAUSIBLE_ACCELERATION`) of one channel."""
     intervals = []
     missing = ~np.isfinite(a)
     for first, last in _runs(missing):
@@ -266,12 +284,14 @@ def _quality(time: NDArray[np.float64], a: NDArray[np.float64]) -> tuple[Quality
     steps = np.diff(time)
     for k in np.flatnonzero(steps > GAP_STEP * np.median(steps)):
         intervals.append(QualityInterval(float(time[k]), float(time[k + 1]), "gap"))
-    extreme = np.nanmax(np.abs(a))
+    magnitude = np.abs(a)
+    extreme = np.nanmax(magnitude)
     if extreme > 0.0:
-        at_extreme = np.abs(a) == extreme
-        for first, last in _runs(at_extreme):
+        for first, last in _runs(magnitude == extreme):
             if last - first + 1 >= SATURATED_RUN:
                 intervals.append(QualityInterval(float(time[first]), float(time[last]), "saturated"))
+    for first, last in _runs(magnitude > PLAUSIBLE_ACCELERATION):
+        intervals.append(QualityInterval(float(time[first]), float(time[last]), "implausible"))
     return tuple(sorted(intervals, key=lambda q: q.start))
 
 
@@ -283,6 +303,7 @@ def _runs(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:
 
 __all__ = [
     "AntiAlias",
-    "ACCELERATION_UNITS", "TIME_UNITS", "Channel", "ChannelSource", "QualityInterval", "RecordError", "RecordFile",
-    "Recordings", "TimeSource", "read_records",
+    "ACCELERATION_UNITS", "HDF5_SUFFIXES", "MAX_EVENT_VALUES", "MAX_RECORD_RATE", "PLAUSIBLE_ACCELERATION", "TIME_UNITS", "Channel", "ChannelSource",
+    "QualityInterval", "RecordError", "RecordFile", "RecordRead", "Recordings", "Stamp", "TimeSource", "file_stamp", "read_record_file",
+    "read_records",
 ]

@@ -39,7 +39,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import h5py
 import numpy as np
 import yaml
 from numpy.typing import NDArray
@@ -50,6 +49,7 @@ from femref.case.errors import CaseError, Problem
 from femref.sensing.records import record_times
 from femref.core.catalog import ESTIMATORS as INVERSE_ESTIMATORS
 from femref.core.threads import one_blas_thread  # scored next to the networks: every one femref has
+from femref.core.hdf5_writing import hdf5_writer
 from femref.core.publishing import atomic_path
 from femref.study.spec import TRAIN, StudyFile
 from femref.sweep import Sweep, SweepData, parse_sweep, read_sweep, run_sweep
@@ -546,7 +546,7 @@ def write_study(outcome: StudyOutcome, path: Path) -> None:
     dataset ``loss_curve`` (epochs,): the training loss per epoch (empty for an RBF network and
     an lbfgs-trained MLP). Written to a temporary name and renamed.
     """
-    with atomic_path(path) as tmp, h5py.File(tmp, "w") as h5:
+    with atomic_path(path) as tmp, hdf5_writer(tmp) as h5:
         h5.attrs["femref_version"] = __version__
         h5.attrs["study_yaml"] = yaml.safe_dump(outcome.study.model_dump(mode="json"), sort_keys=False)
         for trained in outcome.networks:

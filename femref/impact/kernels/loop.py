@@ -24,8 +24,11 @@ scene (:func:`line_plan`), what depends on a car's system, step and maps (its fa
 form) once per system (:func:`~femref.impact.kernels.cars.prepared_car`). A run then copies
 them: a rigid run's set-up is about 0.1 ms.
 
-With a progress callback the steps run in chunks of about a hundredth of the run, and the
-callback is called between them; otherwise in one call.
+The steps run in chunks of about :data:`CHUNK_SECONDS` of work (:func:`chunk_after`: the first
+chunk short, each next one sized by the speed of the last), so that Python runs between them: a
+signal (Ctrl-C, SIGTERM: ``KeyboardInterrupt``) stops a run within that time rather than at its
+end, and a progress callback is called (with one, a chunk is at most a hundredth of the run). A call
+costs microseconds: the chunks do not slow a run.
 """
 
 from __future__ import annotations
@@ -52,6 +55,11 @@ from femref.impact.kernels.cars import (
 from femref.impact.response import ImpactResponse, failure_message, sensor_histories
 from femref.impact.systems import CarSystem
 from femref.scene import ImpactScene
+
+#: Seconds of stepping between two returns to Python (signals, progress): :func:`chunk_after`.
+CHUNK_SECONDS = 0.1
+#: Steps of a run's first chunk, before its speed is known.
+FIRST_CHUNK = 64
 
 # entries of the loop's counters
 STEP, OUTPUT, ITERATIONS, ITERATIONS_MAX, CHANGES, FAILED_STEP, WORST, FAILURE_KIND = range(8)
@@ -149,12 +157,15 @@ def solve_compiled(
     change = np.zeros(1)
     tolerance = line.force_tolerance
     setup_time = _time.perf_counter() - started
-    chunk = steps if progress is None else max(1, steps // 100)
+    longest = steps if progress is None else max(1, steps // 100)  # a progress bar moves by hundredths at least
+    chunk = min(FIRST_CHUNK, longest)
     while (counters[STEP] <= steps or counters[OUTPUT] == 0) and counters[WORST] < 0:
         stop = min(steps, int(counters[STEP]) + chunk - 1)
+        chunk_started = _time.perf_counter()
         run_steps(pool.layout, pool.values, laws, couplers, dt, tolerance, gain_u, gain_v, outputs, stop, counters, change,
                   history["displacement"], history["velocity"], history["acceleration"], history["force"], history["closure"], history["energy"],
                   history["coupler_work"], np.zeros(n_c), np.zeros(n_c), np.zeros(n_c, dtype=np.int64))
+        chunk = min(longest, chunk_after(chunk, _time.perf_counter() - chunk_started))
         if progress is not None:
             progress(stop if counters[WORST] < 0 else int(counters[FAILED_STEP]) - 1, steps)
     failed = counters[WORST] >= 0
@@ -183,6 +194,12 @@ def solve_compiled(
         message=message,
         coupler_work=history["coupler_work"],
     )
+
+
+def chunk_after(chunk: int, seconds: float) -> int:
+    """Steps of the next chunk after ``chunk`` steps took ``seconds``: ``chunk · CHUNK_SECONDS / seconds``, at least
+    1 and at most 8 times ``chunk`` (a chunk timed too short, e.g. at a clock tick, does not make the next one long)."""
+    return max(1, min(8 * chunk, int(chunk * CHUNK_SECONDS / max(seconds, 1e-9))))
 
 
 @njit(cache=True, _nrt=False, inline="always")
@@ -254,4 +271,4 @@ def run_steps(layout, w, laws, couplers, dt, tolerance, gain_u, gain_v, outputs,
     counters[STEP] = stop + 1
 
 
-__all__ = ["LinePlan", "coupler_maps", "line_plan", "record", "run_steps", "solve_compiled"]
+__all__ = ["CHUNK_SECONDS", "FIRST_CHUNK", "LinePlan", "chunk_after", "coupler_maps", "line_plan", "record", "run_steps", "solve_compiled"]

@@ -1,0 +1,219 @@
+"""The work budget of a measured scene: events × estimators × the event grid (docs/design.md §3.5).
+
+A measured run reads its records, finds the events in them, and runs every estimator on each event's window,
+resampled onto one grid at the fastest channel's rate (:func:`femref.sensing.events.window`). Its cost is
+
+    work   = Σ over events of the event's grid samples × the per-sample cost of every estimator (:func:`event_cost`)
+    memory = the records held + the largest event (events are written as they finish and not kept)
+
+The number of events is unknown before the trigger runs, so the budget is checked twice:
+
+* **before any work** (:func:`measured_costs`, through :func:`femref.run.budget.predict` and ``femref run``'s
+  check): one event at its largest — a window of ``events.max_window`` on the fastest record's grid, every
+  channel — from the case and the records' headers (:func:`record_size`: dataset shapes, a CSV file's size, the
+  times of its first rows); an event grid that alone is over the budget is refused, naming ``events.post``,
+  ``events.max_window``, the record that sets the rate or ``kalman.modes``, whichever lies furthest beyond a
+  typical case;
+* **once the trigger has run** (:func:`check_events`, by :func:`femref.run.measured.run_measured` before the first
+  event's estimators): the work of the events found, each on its own window, summed. Detection streams the records
+  in chunks and costs little beside the estimators, so the total is counted exactly rather than bounded by the
+  stream's length over the shortest event spacing (``quiet``): that bound, 14 400 events for two hours of records
+  at the default 0.5 s, would refuse every long stream for events it does not hold.
+
+Both raise :class:`~femref.case.CaseError` (exit 2) as :func:`femref.run.budget.check_costs` does, and
+``FEMREF_BUDGET`` raises both limits.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import os
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import h5py
+import numpy as np
+
+from femref.case.errors import CaseError, Problem
+from femref.run.costs import Cost, check_costs
+from femref.sensing.recordings import HDF5_SUFFIXES, TIME_UNITS, RecordFile, Recordings
+
+if TYPE_CHECKING:
+    from femref.scene.measured import MeasuredScene
+    from femref.sensing.events import Event
+
+_BYTES = 8.0  # a float64
+
+#: Typical settings of a measured case: beyond them a key drives the cost (its factor is the ratio).
+_TYPICAL_RATE, _TYPICAL_POST, _TYPICAL_WINDOW, _TYPICAL_EVENTS = 1.0e3, 0.5, 5.0, 100
+_TYPICAL_KALMAN_STATES = 37  # four modes per car, a 4th-order anti-alias filter on five channels
+#: Force rates the kalman filter runs side by side in its likelihood search (reduced.kalman.estimate_force).
+_KALMAN_BATCH = 15
+#: Time samples read from a record's head to find its rate (the budget reads no more of a record).
+_HEAD_SAMPLES = 1024
+_HEAD_BYTES = 1 << 16
+
+
+@dataclass(frozen=True)
+class RecordSize:
+    """A record file as the budget sees it: its samples, its rate (Hz), its channels, and the key that sets the rate
+    (``records.<i>.time.rate`` when the case declares it, ``records.<i>.file`` when the file's times do)."""
+
+    samples: int
+    rate: float
+    channels: int
+    key: str
+
+
+def record_size(record: RecordFile, index: int) -> RecordSize:
+    """The size of ``record``: what validation read of it (``record.kept``: its samples and rates exactly), else from its
+    header only: an HDF5 file's dataset shapes and its first :data:`_HEAD_SAMPLES`
+    times; a CSV file's size over the bytes per row of its first or last 64 KiB, whichever has the longer rows (within
+    a few % of the rows read; short first rows do not inflate it), and the times of its first rows. The rate is
+    ``1 / median step`` of those times (the declared rate if the case gives one). ValueError when the head cannot be
+    read as declared (validation reads the whole file first, so this does not happen to a validated case)."""
+    declared = record.time.rate
+    key = f"records.{index}.time.rate" if declared is not None else f"records.{index}.file"
+    if record.kept is not None and record.kept.channels:  # validation read the file: its exact counts and rates
+        channels = record.kept.channels
+        return RecordSize(max(c.acceleration.size for c in channels), max(c.rate for c in channels), len(record.channels), key)
+    if record.path.suffix.lower() in HDF5_SUFFIXES:
+        with h5py.File(record.path, "r") as h5:
+            samples = max(int(np.prod(h5[c.dataset].shape)) for c in record.channels if c.dataset is not None)
+            head = None if declared is not None else np.asarray(h5[record.time.dataset][:_HEAD_SAMPLES], dtype=float).ravel()
+    else:
+        size = os.stat(record.path).st_size
+        with open(record.path, "rb") as handle:
+            text = handle.read(_HEAD_BYTES)
+            handle.seek(max(size - _HEAD_BYTES, 0))
+            tail = handle.read(_HEAD_BYTES)
+        lines = text[: text.rfind(b"\n") + 1] if size > len(text) else text
+        rows = [row for row in csv.reader(lines.decode("utf-8", errors="replace").splitlines()) if row]
+        tail = tail[tail.find(b"\n") + 1:]
+        per_row = max(len(lines) / max(len(rows), 1), len(tail) / max(tail.count(b"\n"), 1), 1.0)
+        samples = max(int(size / per_row) - 1, len(rows) - 1)
+        head = None
+        if declared is None:
+            header = [cell.strip() for cell in rows[0]]
+            column = record.time.column if isinstance(record.time.column, int) else header.index(str(record.time.column))
+            head = np.array([float(row[column]) for row in rows[1 : _HEAD_SAMPLES + 1] if column < len(row) and row[column].strip()])
+    if declared is not None:
+        rate = float(declared)
+    else:
+        steps = np.diff(head * TIME_UNITS[record.time.unit])
+        if steps.size == 0 or not np.all(np.isfinite(steps)) or float(np.median(steps)) <= 0.0:
+            raise ValueError(f"{record.path.name}: no increasing times in the first rows")
+        rate = 1.0 / float(np.median(steps))
+    return RecordSize(samples, rate, len(record.channels), key)
+
+
+def kalman_states(scene: MeasuredScene) -> int:
+    """The kalman filter's state size: ``2 × modes`` (each elastic mode's displacement and rate) for each car of the
+    first coupler, the force, and the anti-alias filter's ``order`` states of each of their recorded channels that
+    declares one (:mod:`reduced.kalman`)."""
+    coupler = scene.couplers[0]
+    cars = {scene.cars[coupler.rear].name, scene.cars[coupler.front].name}
+    filters = sum(f.order for probe, f in scene.anti_alias.items() if f is not None and probe.split("/")[0] in cars)
+    return 2 * 2 * scene.kalman.modes + 1 + filters
+
+
+def _kalman_channels(scene: MeasuredScene) -> int:
+    coupler = scene.couplers[0]
+    cars = {scene.cars[coupler.rear].name, scene.cars[coupler.front].name}
+    return sum(1 for probe in scene.anti_alias if probe.split("/")[0] in cars)
+
+
+def event_cost(scene: MeasuredScene, samples: int, channels: int, rate: float, what: str = "") -> Cost:
+    """One event on a grid of ``samples`` times × ``channels`` (``rate`` Hz): its work and the memory it holds.
+    Per sample (work units, measured on the reference machine and rounded up; kalman on 1075 – 17 185 samples with
+    29 – 85 states, checked against a run in tests/measured/test_measured_scale.py)::
+
+        every event     1e-6 s per channel + 2e-5 s (window, offsets, classification, closing speed, closure)
+        inverse_rigid   1e-6 s;  inverse_quasi_rigid 2e-6 s (+ 0.05 s set-up)
+        kalman          1e-4 s + 5e-8 s × n² + (1 + corners) × 2e-5 s   (n states, kalman_states; the likelihood
+                        search over 15 force rates side by side, then the smoother of the nominal cars and of each
+                        tolerance corner: frequency × (1 ± tolerance) × each damping factor)
+        network         2e-4 s (the contact instant from a kalman filter at the event's force rate)
+
+    Memory: the window's records three times (read, offset-removed, kept), four histories per estimator and coupler,
+    and the kalman search's batch, ``15 × (3n + 4m)`` values a sample (``m`` channels of the filtered cars)."""
+    couplers = len(scene.couplers)
+    work = samples * (1e-6 * channels + 2e-5)
+    memory = _BYTES * samples * (3 * channels + 4 * couplers * (len(scene.estimators) + len(scene.networks)))
+    for name in scene.estimators:
+        if name == "inverse_rigid":
+            work += 1e-6 * samples
+        elif name == "inverse_quasi_rigid":
+            work += 2e-6 * samples + 0.05
+        elif name == "kalman":
+            n, m = kalman_states(scene), _kalman_channels(scene)
+            corners = len({1.0 - scene.kalman.frequency_tolerance, 1.0 + scene.kalman.frequency_tolerance}) * len(set(scene.kalman.damping_factors))
+            work += samples * (1e-4 + 5e-8 * n**2 + (1 + corners) * 2e-5)
+            memory += _BYTES * samples * (_KALMAN_BATCH * (3 * n + 4 * m) + 4 * n)
+    if scene.networks:
+        n = kalman_states(scene)
+        work += len(scene.networks) * 2e-4 * samples
+        memory = max(memory, _BYTES * samples * (3 * channels + 8 * n))
+    factors: dict[str, tuple[float, object]] = {
+        "events.post": (scene.post / _TYPICAL_POST, scene.post),
+        "events.max_window": (scene.max_window / _TYPICAL_WINDOW, scene.max_window),
+    }
+    if "kalman" in scene.estimators:
+        factors["kalman.modes"] = ((kalman_states(scene) / _TYPICAL_KALMAN_STATES) ** 2, scene.kalman.modes)
+    size = f"{samples:.3g} samples × {channels} channels ({samples / rate:.3g} s at {rate:.4g} Hz) × {len(scene.estimators) + len(scene.networks)} estimators"
+    return Cost("event", work, memory, size, factors, what=what or "one event")
+
+
+def _records_memory(sizes: list[RecordSize]) -> float:
+    """The records as read: each file's times and channels (the trigger's chunks of the merged stream are bounded)."""
+    return sum(_BYTES * s.samples * (s.channels + 1) for s in sizes)
+
+
+def measured_costs(scene: MeasuredScene) -> list[Cost]:
+    """What ``femref run`` of a measured ``scene`` costs at most per event, before any work: the largest event grid —
+    a window of ``max_window`` on the grid of the fastest channel, every channel (:func:`event_cost`) — with the
+    records it reads (:func:`record_size`: headers only). The number of events is not known before the trigger
+    runs: :func:`check_events` checks their total once it has (before the first event's estimators)."""
+    sizes = []
+    for i, record in enumerate(scene.records):
+        try:
+            sizes.append(record_size(record, i))
+        except (OSError, ValueError, KeyError, IndexError) as error:  # changed since validation read it
+            raise CaseError(Problem(("records", i, "file"), f"cannot be sized from its header for the work budget: {error}", record.path.name)) from None
+    fastest = max(sizes, key=lambda s: s.rate)
+    samples = int(scene.max_window * fastest.rate) + 1
+    cost = event_cost(scene, samples, sum(s.channels for s in sizes), fastest.rate,
+                      what=f"one event (a window of events.max_window = {scene.max_window:g} s at the records' {fastest.rate:.4g} Hz)")
+    cost.memory += _records_memory(sizes)
+    cost.factors[fastest.key] = (fastest.rate / _TYPICAL_RATE, f"{fastest.rate:.4g} Hz")
+    return [cost]
+
+
+def check_events(scene: MeasuredScene, recordings: Recordings, events: list[Event], source: str = "<case>") -> Cost:
+    """Refuse the events the trigger found when their total exceeds the budget (:func:`check_costs`): the work of every
+    event on its own window's grid, summed, and the memory of the largest (events are written as they finish and
+    not kept: memory does not add up) with the records held. Raises :class:`CaseError` naming ``records`` (the stream
+    that holds so many events) or, when one event alone is over, the key driving it; returns the total."""
+    fastest = max(recordings.channels.values(), key=lambda c: c.rate)
+    rate, channels = fastest.rate, len(recordings.channels)
+    index = next((i for i, record in enumerate(scene.records) if record.path.name == fastest.file), 0)
+    rate_key = f"records.{index}.time.rate" if scene.records[index].time.rate is not None else f"records.{index}.file"
+    times = {id(c.time): c.time.size for c in recordings.channels.values()}  # one time axis per recorder, shared by its channels
+    held = _BYTES * (sum(times.values()) + sum(c.acceleration.size for c in recordings.channels.values()))
+    costs = [event_cost(scene, int((e.end - e.start) * rate) + 1, channels, rate, what=f"event {e.index} ({e.end - e.start:.3g} s)") for e in events]
+    if not costs:
+        return Cost("events", 0.0, held, "no event")
+    largest = max(costs, key=lambda c: c.memory)
+    first, last = recordings.span
+    total = Cost("events", sum(c.work for c in costs), largest.memory + held,
+                 f"{len(events)} events in {last - first:.4g} s of records, the largest {largest.size}",
+                 {"records": (len(events) / _TYPICAL_EVENTS, f"{len(events)} events")}, what=f"the run of the {len(events)} events found")
+    for cost in (max(costs, key=lambda c: c.work), largest):  # one event alone over: its own keys
+        cost.factors[rate_key] = (rate / _TYPICAL_RATE, f"{rate:.4g} Hz")
+        check_costs([dataclasses.replace(cost, memory=cost.memory + held)], source, cost.title)
+    check_costs([total], source, "the events")
+    return total
+
+
+__all__ = ["RecordSize", "check_events", "event_cost", "kalman_states", "measured_costs", "record_size"]
