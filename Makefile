@@ -6,7 +6,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test test-slow bench env clean
+.PHONY: demo test test-slow bench snapshot env clean
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -34,6 +34,13 @@ test-slow: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_fem.py
+
+# Every case and the gallery's headlines into a new folder, before and after a refactor (docs/design.md §9.3):
+#   make snapshot SNAPSHOT=build/before; ...; make snapshot SNAPSHOT=build/after
+#   .venv/bin/python scripts/snapshot.py compare build/before build/after
+SNAPSHOT ?= build/snapshot
+snapshot: $(STAMP)
+	$(BIN)/python scripts/snapshot.py take $(SNAPSHOT)
 
 clean:
 	rm -rf $(VENV) results .pytest_cache
