@@ -1,5 +1,5 @@
-"""The layout of ``reduced``: the couplers and signal tools packages re-export what their
-modules define, the rigid closed forms and the ODE driver return one two-mass history
+"""The layout of ``reduced``: the couplers, signal tools and kalman packages re-export what
+their modules define, the rigid closed forms and the ODE driver return one two-mass history
 type, and nothing in ``reduced`` imports femref or ann."""
 
 from __future__ import annotations
@@ -42,6 +42,14 @@ HOMES = {
         "classification": ["IMPACT_KINDS", "ImpactClassification", "classify_impact", "zero_frequency_ratio"],
         "closure_force": ["ClosureForceEstimate", "detect_closure_force"],
         "records": ["SCALER_KINDS", "FeatureScaler", "peak_normalise", "resample_record"],
+    },
+    "reduced.kalman": {
+        "cars": ["CarDynamics", "CoupledCars", "SensorFilter"],
+        "augmented": ["AugmentedModel", "augmented_model", "forced_response"],
+        "linear_gaussian": ["GaussianSmoothing", "kalman_smoother", "van_loan_discretisation"],
+        "steady": [],
+        "estimate": ["DEFAULT_FORCE_RATE_RANGE", "NOISE_SCALES", "ForceEstimate", "estimate_force"],
+        "variants": ["VariantForceEstimate", "estimate_force_with_variants"],
     },
 }
 

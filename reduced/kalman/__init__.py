@@ -1,0 +1,60 @@
+"""Joint input-state estimation of the coupler force between two cars from car-body accelerations.
+
+Model (continuous time; Lourens et al., MSSP 2012). Each car ``c`` (``rear`` = hammer,
+``front`` = anvil) is linear in its own coordinates ``q_c`` (n_c DOFs)::
+
+    M_c q̈_c + C_c q̇_c + K_c q_c = B_c L_c,   L_c = b_c P,   a_c = O_c q̈_c
+
+``L_c`` are the car's end loads (a rod: ``(F1, F2)``, internal axial forces at −l and +l,
+tension positive), ``P`` the coupler force (compression positive): ``b_rear = (0, −1)``,
+``b_front = (−1, 0)``; ``a_c`` the accelerometer outputs (``O_c`` is S_c × n_c). Through the
+equation of motion the outputs feed ``P`` through directly::
+
+    a_c = O_c M_c⁻¹ (B_c b_c P − C_c q̇_c − K_c q_c)
+
+``P`` is a random walk, ``Ṗ = w``, ``E[w(t) w(s)] = q_P δ(t − s)`` (force-rate intensity,
+N²/s); each channel carries white noise of declared std ``σ_i`` (m/s²).
+
+The derivation goes on in the modules, in the order of the data flow:
+
+* :mod:`.cars` — :class:`CarDynamics`, :class:`SensorFilter`, :class:`CoupledCars`: the cars and the
+  recorders' anti-alias filter as the caller declares them;
+* :mod:`.augmented` — :class:`AugmentedModel`, :func:`augmented_model`: the rigid-body motion removed
+  exactly, the random-walk force appended, the filter states joined, sampled exactly (Van Loan),
+  whitened and scaled, detectability checked (PBH); :func:`forced_response`, the model's noise-free
+  samples under a prescribed force;
+* :mod:`.linear_gaussian` — :func:`van_loan_discretisation`, :func:`kalman_smoother` (the Joseph-form
+  reference filter and de Jong's RTS smoother, result :class:`GaussianSmoothing`) and the stationary
+  covariance (the DARE by doubling): generic, nothing of cars;
+* :mod:`.steady` — the O(dim²)-per-step estimator: the stationary filter and smoother with the
+  initial force as a regression (de Jong 1991), their likelihood and the smoothed force;
+* :mod:`.estimate` — :func:`estimate_force`, :class:`ForceEstimate`: the force-rate search, the
+  noise scale, the peak and its band, the status (:data:`DEFAULT_FORCE_RATE_RANGE`,
+  :data:`NOISE_SCALES`);
+* :mod:`.variants` — :func:`estimate_force_with_variants`, :class:`VariantForceEstimate`: the band
+  widened to the envelope over perturbed models.
+"""
+
+from .augmented import AugmentedModel, augmented_model, forced_response
+from .cars import CarDynamics, CoupledCars, SensorFilter
+from .estimate import DEFAULT_FORCE_RATE_RANGE, NOISE_SCALES, ForceEstimate, estimate_force
+from .linear_gaussian import GaussianSmoothing, kalman_smoother, van_loan_discretisation
+from .variants import VariantForceEstimate, estimate_force_with_variants
+
+__all__ = [
+    "DEFAULT_FORCE_RATE_RANGE",
+    "AugmentedModel",
+    "CarDynamics",
+    "CoupledCars",
+    "ForceEstimate",
+    "GaussianSmoothing",
+    "NOISE_SCALES",
+    "VariantForceEstimate",
+    "SensorFilter",
+    "augmented_model",
+    "estimate_force",
+    "estimate_force_with_variants",
+    "forced_response",
+    "kalman_smoother",
+    "van_loan_discretisation",
+]

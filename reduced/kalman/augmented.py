@@ -1,0 +1,318 @@
+"""The filter's model of two coupled cars (:func:`augmented_model`, :class:`AugmentedModel`): the
+rigid-body motion removed exactly, the random-walk force appended, the recorders' filter states
+joined, sampled exactly, whitened and scaled, detectability checked; :func:`forced_response`, its
+noise-free samples under a prescribed force.
+
+Rigid-body motion and drift (Naets, Cuadrado & Desmet, MSSP 2015). Write ``q = Φ_r r + Φ_e e``
+with the mass-normalised modes of ``(K, M)``: ``Φ_r`` spans the null space of ``K`` (rigid
+motion), ``Λ_e = diag(ω_j²)``. Internal forces do no work on rigid motion, ``K Φ_r = 0`` and
+``C Φ_r = 0`` (checked; a model that breaks it is refused), so::
+
+    r̈ = Φ_rᵀ B b P,   ë + C_ee ė + Λ_e e = Φ_eᵀ B b P,   a = O M⁻¹ B b P − O Φ_e (Λ_e e + C_ee ė)
+
+The rigid displacement ``r`` *and velocity* ``ṙ`` enter no output and no other state's
+equation: they are unobservable and exactly disconnected from everything observable. Kept
+in the filter their covariance only grows (a constant velocity or position offset is
+invisible to accelerometers) and contributes nothing, so they are removed — exactly, not
+as an approximation. The filter state is::
+
+    z = [e_rear, ė_rear, e_front, ė_front, P]
+
+and the car speeds (``v0 ± σ_v``) do not enter: no prior on ``ṙ`` can inform ``P`` since
+``ṙ`` never reaches an output (if wanted, ``ṙ(t) = ṙ(0) + Φ_rᵀ B b ∫₀ᵗ P``). What remains is
+observable, so no dummy measurement is needed: the quasi-static part of ``P`` — which an
+acceleration-only filter on a *grounded* structure cannot see (a static load only deforms
+it, ``a = 0``; Naets' remedy is a dummy zero-displacement measurement) — is seen here
+directly as the rigid-body acceleration, ``M a_rigid = ±P``, of a free car. A dummy
+"elastic displacement = 0" measurement would be wrong here: the deformation *responds* to
+``P`` (quasi-statically ``e = Λ_e⁻¹ Φ_eᵀ B b P``), so it would pull the force towards zero.
+The premise is checked on every model by the PBH test on the marginal eigenvalues of the
+augmented system, ``rank [λI − A; H] = dim z`` for ``Re λ ≥ 0`` (detectability); a model that
+fails it (e.g. grounded cars) gets the status "force not detectable ...". The tests show a
+flat, bounded force estimate over a 5 s quiet tail after the impact.
+
+Discretisation at the record's step ``h``, exact for the random-walk state (a zero-order
+hold on ``P`` is not: ``P`` varies inside the step). With ``ż = A z + G w``, ``G = e_P``
+(Van Loan 1978)::
+
+    expm([[−A, G q_P Gᵀ], [0, Aᵀ]] h) = [[·, E12], [0, E22]],
+    F = E22ᵀ = e^{Ah},   Q = F E12 = ∫₀ʰ e^{Aτ} G q_P Gᵀ e^{Aᵀτ} dτ
+
+``Q`` is linear in ``q_P``: computed once for ``q_P = 1`` and scaled. Samples:
+``y_k = H z_k + v_k``, ``v_k ~ N(0, R)``, ``R = diag(σ_i²)``. Internally the outputs are
+whitened (``R = I``) and the states scaled so that one unit of each is about one noise
+std on the sensors (conditioning).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.linalg import eigh, expm
+
+from reduced import _checks
+
+from .cars import CarDynamics, CoupledCars, SensorFilter
+from .linear_gaussian import stationary_covariances, van_loan_discretisation
+
+RIGID_TOLERANCE = 1e-9  # ω² ≤ this × max ω² counts as a rigid-body mode
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True, eq=False)
+class _ElasticBlock:
+    """A car without its rigid motion: ``ẋ = A x + u P``, ``a = H x + d P``, ``x = (e, ė)``."""
+
+    system: FloatArray  # (2k, 2k)
+    input: FloatArray  # (2k,)
+    output: FloatArray  # (S, 2k)
+    feedthrough: FloatArray  # (S,)
+    frequencies: FloatArray  # ω_j (k,)
+    modal_force: FloatArray  # Φ_eᵀ B b (k,)
+
+
+def _elastic_block(car: CarDynamics, name: str) -> _ElasticBlock:
+    """Remove the rigid-body motion exactly (module docstring)."""
+    try:
+        lam, phi = eigh(car.stiffness, car.mass)
+    except np.linalg.LinAlgError:
+        raise ValueError(f"{name} car: mass must be positive definite") from None
+    top = float(np.max(np.abs(lam), initial=0.0))
+    rigid = lam <= RIGID_TOLERANCE * top if top > 0.0 else np.ones(lam.size, dtype=bool)
+    if np.any(lam[~rigid] < 0.0):
+        raise ValueError(f"{name} car: stiffness must be positive semi-definite (eigenvalue {lam.min():.3g})")
+    c_modal = phi.T @ car.damping @ phi
+    scale = float(np.max(np.abs(c_modal), initial=0.0))
+    if np.any(rigid) and scale > 0.0 and np.max(np.abs(c_modal[rigid])) > 1e-8 * scale:
+        raise ValueError(f"{name} car: damping acts on the rigid-body motion (C Φ_r ≠ 0); internal damping must not")
+    elastic = ~rigid
+    k = int(np.sum(elastic))
+    lam_e, phi_e, c_e = lam[elastic], phi[:, elastic], c_modal[np.ix_(elastic, elastic)]
+    force = car.load_map @ car.coupler_load
+    modal_force = phi_e.T @ force
+    system = np.zeros((2 * k, 2 * k))
+    system[:k, k:] = np.eye(k)
+    system[k:, :k] = -np.diag(lam_e)
+    system[k:, k:] = -c_e
+    seen = car.sensor_map @ phi_e
+    return _ElasticBlock(
+        system=system,
+        input=np.concatenate([np.zeros(k), modal_force]),
+        output=np.hstack([-seen * lam_e, -seen @ c_e]),
+        feedthrough=car.sensor_map @ np.linalg.solve(car.mass, force),
+        frequencies=np.sqrt(lam_e),
+        modal_force=modal_force,
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class AugmentedModel:
+    """The augmented model ``z = [e_rear, ė_rear, e_front, ė_front, P]`` in scaled states.
+
+    Physical states are ``z = D z̃`` with ``D = diag(state_unit)`` (modal coordinates of the
+    mass-normalised elastic modes, their rates, and N); every matrix here acts on ``z̃``.
+    ``system_matrix`` Ã and ``noise_input`` G̃ (continuous: ``ż̃ = Ã z̃ + G̃ w``),
+    ``transition`` F̃ and ``unit_process_covariance`` Q̃₁ (``q_P = 1``) at ``step``;
+    ``observation`` ``H D`` maps ``z̃`` to the accelerations (m/s²); ``noise_std`` σ per
+    channel; ``quasi_static_direction`` ``u`` (scaled) the state of a unit coupler force in
+    quasi-static equilibrium; ``undetectable`` the marginal eigenvalues failing the PBH test
+    (empty for a sound model).
+    """
+
+    system_matrix: FloatArray
+    noise_input: FloatArray
+    transition: FloatArray
+    unit_process_covariance: FloatArray
+    observation: FloatArray
+    noise_std: FloatArray
+    state_unit: FloatArray
+    quasi_static_direction: FloatArray
+    step: float
+    undetectable: tuple[complex, ...]
+
+    @property
+    def force_index(self) -> int:
+        """Index of ``P`` in the state."""
+        return int(self.transition.shape[0] - 1)
+
+    @property
+    def whitened_observation(self) -> FloatArray:
+        """``R^{-1/2} H D``: the observation in units of each channel's noise std."""
+        return self.observation / self.noise_std[:, None]
+
+    def process_covariance(self, force_rate: float) -> FloatArray:
+        """``Q̃ = q_P Q̃₁``."""
+        return _checks.positive("force_rate", force_rate) * self.unit_process_covariance
+
+    def stationary_covariance(self, force_rate: float) -> FloatArray:
+        """``P̃∞``: the stationary predicted covariance (ArithmeticError if not detectable)."""
+        q = self.process_covariance(force_rate)
+        return stationary_covariances(self.transition, q[None], self.whitened_observation)[0]
+
+    def prior_covariance(self, force_rate: float, initial_force_std: float) -> FloatArray:
+        """``P̃∞ + σ_0² u uᵀ``, the estimator's prior (:mod:`.steady`; ``u`` is per newton)."""
+        d = _checks.positive("initial_force_std", initial_force_std) ** 2
+        u = self.quasi_static_direction
+        return self.stationary_covariance(force_rate) + d * np.outer(u, u)
+
+
+def augmented_model(model: CoupledCars, step: float, noise_std: float | ArrayLike) -> AugmentedModel:
+    """The two cars without their rigid motion, plus the random-walk force, sampled at ``step`` (s)."""
+    h = _checks.sample_step("step", step)
+    sigma = _noise(noise_std, model.channels)
+    blocks = [_elastic_block(model.rear, "rear"), _elastic_block(model.front, "front")]
+    sizes = [b.system.shape[0] for b in blocks]
+    n = sum(sizes) + 1
+    a = np.zeros((n, n))
+    hm = np.zeros((model.channels, n))
+    u = np.zeros(n)
+    u[-1] = 1.0
+    row, col = 0, 0
+    for b, size in zip(blocks, sizes):
+        s, k = b.output.shape[0], size // 2
+        a[col : col + size, col : col + size] = b.system
+        a[col : col + size, -1] = b.input
+        hm[row : row + s, col : col + size] = b.output
+        hm[row : row + s, -1] = b.feedthrough
+        u[col : col + k] = b.modal_force / b.frequencies**2
+        row, col = row + s, col + size
+    # state units: one unit of each state ≈ one noise std on the sensors
+    norms = np.linalg.norm(hm / sigma[:, None], axis=0)
+    unit = np.ones(n)
+    unit[-1] = 1.0 / norms[-1] if norms[-1] > 0.0 else 1.0
+    col = 0
+    for b, size in zip(blocks, sizes):
+        k = size // 2
+        for j, w in enumerate(b.frequencies):
+            seen = norms[col + j] / w**2  # ‖O φ_j / σ‖
+            if seen > 0.0:
+                unit[col + j] = 1.0 / (w**2 * seen)
+            elif b.modal_force[j] != 0.0:
+                unit[col + j] = abs(b.modal_force[j]) * unit[-1] / w**2
+            unit[col + k + j] = unit[col + j] * w
+        col += size
+    if any(f is not None for f in model.channel_filters):
+        a, hm, u, unit = _with_sensor_filters(model.channel_filters, a, hm, u, unit, sigma)
+        n = a.shape[0]
+    a_scaled = a * unit[None, :] / unit[:, None]
+    g = np.zeros(n)
+    g[-1] = 1.0 / unit[-1]
+    transition, unit_process = van_loan_discretisation(a_scaled, g, 1.0, h)
+    observation = hm * unit[None, :]
+    return AugmentedModel(
+        system_matrix=a_scaled,
+        noise_input=g,
+        transition=transition,
+        unit_process_covariance=unit_process,
+        observation=observation,
+        noise_std=sigma,
+        state_unit=unit,
+        quasi_static_direction=u / unit,
+        step=h,
+        undetectable=_undetectable(a_scaled, observation / sigma[:, None]),
+    )
+
+
+def _with_sensor_filters(filters: tuple[SensorFilter | None, ...], a: FloatArray, hm: FloatArray, u: FloatArray, unit: FloatArray,
+                         sigma: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """The model with each channel's anti-alias filter (:class:`SensorFilter`) between its acceleration
+    and its sample: ``z = [elastic states, filter states, P]``, a filter driven by its channel's ``hm z``
+    and sampled as ``c_f w``; an unfiltered channel keeps its row of ``hm``. Filter states are in units
+    of their channel's noise std; at a quasi-static force each holds its channel's DC value ``hm u``
+    (the rigid acceleration) times ``−A_f⁻¹ b_f``."""
+    n, channels = a.shape[0], hm.shape[0]
+    spaces = [None if f is None else f.state_space() for f in filters]
+    size = n + sum(0 if s is None else s[2].size for s in spaces)
+    model = slice(0, n - 1)
+    full = np.zeros((size, size))
+    full[: n - 1, : n - 1] = a[model, model]
+    full[: n - 1, -1] = a[model, -1]
+    observation = np.zeros((channels, size))
+    direction = np.zeros(size)
+    direction[: n - 1], direction[-1] = u[model], u[-1]
+    units = np.ones(size)
+    units[: n - 1], units[-1] = unit[model], unit[-1]
+    dc = hm @ u
+    start = n - 1
+    for c, space in enumerate(spaces):
+        if space is None:
+            observation[c, : n - 1], observation[c, -1] = hm[c, model], hm[c, -1]
+            continue
+        a_f, b_f, c_f = space
+        block = slice(start, start + c_f.size)
+        full[block, block] = a_f
+        full[block, : n - 1] = np.outer(b_f, hm[c, model])
+        full[block, -1] = b_f * hm[c, -1]
+        observation[c, block] = c_f
+        direction[block] = dc[c] * _dc_states(a_f, b_f)
+        units[block] = sigma[c]
+        start += c_f.size
+    return full, observation, direction, units
+
+
+def _dc_states(a_f: FloatArray, b_f: FloatArray) -> FloatArray:
+    """The filter's states at a unit constant input: ``−A_f⁻¹ b_f``."""
+    return -np.linalg.solve(a_f, b_f)
+
+
+def forced_response(model: CoupledCars, time: ArrayLike, force: ArrayLike) -> FloatArray:
+    """The model's samples ``y_k = H z_k`` (N × channels, m/s², no noise) under the prescribed coupler force
+    ``P`` (N, on the uniform ``time``), from rest; exact for ``P`` linear between samples.
+
+    With ``z = [x, P]`` (:func:`augmented_model`), ``ẋ = A_xx x + A_xP P``; over a step ``h`` with
+    ``P = P_k + s τ``: ``x_{k+1} = Φ x_k + Γ₀ P_k + Γ₁ s``, ``[Φ Γ₀ Γ₁]`` the top rows of
+    ``expm([[A_xx, A_xP, 0], [0, 0, 1], [0, 0, 0]] h)``.
+    """
+    t = _checks.time_grid("time", time, uniform=True, min_length=2)
+    p = np.asarray(force, dtype=float)
+    if p.shape != t.shape or not np.all(np.isfinite(p)):
+        raise ValueError(f"force must be finite and of the time's shape {t.shape}")
+    h = float(t[1] - t[0])
+    aug = augmented_model(model, h, 1.0)
+    n = aug.system_matrix.shape[0] - 1
+    block = np.zeros((n + 2, n + 2))
+    block[:n, : n + 1] = aug.system_matrix[:n, :]
+    block[n, n + 1] = 1.0
+    e = expm(block * h)
+    phi, gamma0, gamma1 = e[:n, :n], e[:n, n], e[:n, n + 1]
+    scaled = p / aug.state_unit[-1]
+    slope = np.diff(scaled, append=scaled[-1]) / h
+    states = np.empty((t.size, n))
+    x = np.zeros(n)
+    for k in range(t.size):
+        states[k] = x
+        x = phi @ x + gamma0 * scaled[k] + gamma1 * slope[k]
+    return states @ aug.observation[:, :n].T + np.outer(scaled, aug.observation[:, n])
+
+
+def _undetectable(system: FloatArray, observation: FloatArray) -> tuple[complex, ...]:
+    """Marginal eigenvalues λ (Re λ ≥ −1e-9 ‖A‖) with ``rank [λI − A; H] < n`` (PBH)."""
+    n = system.shape[0]
+    size = max(float(np.linalg.norm(system, 2)), 1.0)
+    hn = observation / max(float(np.linalg.norm(observation, 2)), 1e-300)
+    bad: list[complex] = []
+    for lam in np.linalg.eigvals(system):
+        if lam.real < -1e-9 * size:
+            continue
+        pbh = np.vstack([(lam * np.eye(n) - system) / size, hn])
+        if np.linalg.svd(pbh, compute_uv=False)[-1] < 1e-9:
+            bad.append(complex(lam))
+    return tuple(bad)
+
+
+def _noise(noise_std: float | ArrayLike, channels: int) -> FloatArray:
+    s = np.asarray(noise_std, dtype=float)
+    s = np.full(channels, float(s)) if s.ndim == 0 else s
+    if s.shape != (channels,) or not np.all(np.isfinite(s)) or np.any(s <= 0.0):
+        raise ValueError(f"noise_std must be > 0, a scalar or one per channel ({channels}), got {noise_std!r}")
+    return s
+
+
+__all__ = [
+    "AugmentedModel",
+    "augmented_model",
+    "forced_response",
+]
