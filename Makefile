@@ -26,7 +26,9 @@ demo: $(STAMP)
 # spinning threads made network training 2-10x slower (tests that need more threads set their own).
 TEST_ENV := OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1
 
+# The linter first (its rules and why: pyproject.toml [tool.ruff]), then the suite.
 test: $(STAMP)
+	$(BIN)/ruff check .
 	$(TEST_ENV) $(BIN)/python -m pytest -q
 
 test-slow: $(STAMP)

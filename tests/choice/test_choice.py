@@ -29,9 +29,10 @@ from femref.run.resolutions import with_elements
 from femref.run.scoring import score_impact
 from femref.scene.build import scene_from_case
 
-PEAK = "peak_coupler_force"
-from support.paths import CASES
 from support.convergence import observed_order
+from support.paths import CASES
+
+PEAK = "peak_coupler_force"
 
 
 # ---------------------------------------------------------------------------------------------

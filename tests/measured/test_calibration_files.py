@@ -280,7 +280,7 @@ def test_a_range_edge_holds_within_the_relative_tolerance() -> None:
     zero_width = calibration(masses={"hammer": (m, m), "anvil": (ANVIL, ANVIL)}, closing_speed=(2.2, 2.2))
     assert zero_width.outside((2.2 * (1 + 0.5e-6), 2.3), {"hammer": m * (1 - 0.5e-6), "anvil": ANVIL}) == []
     outside = zero_width.outside((2.2 * (1 + 2e-6), 2.3), {"hammer": m * (1 - 2e-6), "anvil": ANVIL})
-    assert outside == [f"closing speed [2.2, 2.3] m/s outside the calibrated [2.2, 2.2] m/s",
+    assert outside == ["closing speed [2.2, 2.3] m/s outside the calibrated [2.2, 2.2] m/s",
                        f"car hammer's mass {m * (1 - 2e-6):.6g} kg outside the calibrated [{m:.6g}, {m:.6g}] kg (relative tolerance 1e-06)"]
 
 

@@ -50,7 +50,9 @@ def linear_mass_rule() -> BodyQuadrature:
 def exact_moments(y):
     """``∫_{−l}^{y} s^p (a + b s) ds``, p = 0, 1, 2, for the linear mass ``a + b s``."""
     a, b = M0, M0 * SLOPE / L
-    F = lambda s: np.stack([a * s + b * s**2 / 2, a * s**2 / 2 + b * s**3 / 3, a * s**3 / 3 + b * s**4 / 4], axis=-1)
+    def F(s):
+        return np.stack([a * s + b * s**2 / 2, a * s**2 / 2 + b * s**3 / 3, a * s**3 / 3 + b * s**4 / 4], axis=-1)
+
     return F(np.asarray(y)) - F(np.asarray(-L))
 
 
