@@ -395,13 +395,13 @@ def _compare_json(one: Any, other: Any, where: str, report: Comparison) -> None:
         else:
             for index, (x, y) in enumerate(zip(one, other)):
                 _compare_json(x, y, f"{where}[{index}]", report)
-    elif _is_number(one) and _is_number(other) and (isinstance(one, float) or isinstance(other, float)):
+    elif is_number(one) and is_number(other) and (isinstance(one, float) or isinstance(other, float)):
         _compare_values(np.float64(one), np.float64(other), where, report)
     elif type(one) is not type(other) or one != other:
         report.differ(where, f"{_short(repr(one))} / {_short(repr(other))}")
 
 
-def _is_number(value: Any) -> bool:
+def is_number(value: Any) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 

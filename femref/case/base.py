@@ -13,7 +13,7 @@ from pydantic import Field, model_validator
 
 from femref.case.capabilities import refusal
 from femref.case.errors import Problem, problems_error
-from femref.case.fields import CaseModel, _foreign_key_rule
+from femref.case.fields import CaseModel, foreign_key_rule
 from femref.core.catalog import SCENE_KINDS
 
 __all__ = ["SceneCase", "case_classes"]
@@ -26,7 +26,7 @@ class SceneCase(CaseModel):
 
     @classmethod
     def _unknown_key_rule(cls, key: Any, known: list[str]) -> str:
-        return _foreign_key_rule(cls, key, known, case_classes(), "kind", "-case") or super()._unknown_key_rule(key, known)
+        return foreign_key_rule(cls, key, known, case_classes(), "kind", "-case") or super()._unknown_key_rule(key, known)
 
     @model_validator(mode="after")
     def _models_serve_the_scene(self) -> "SceneCase":

@@ -12,7 +12,7 @@ from typing import Annotated, Any, ClassVar, Literal, Union
 from pydantic import Field, ValidationInfo, field_validator, model_validator
 
 from femref.case.errors import Problem, problems_error
-from femref.case.fields import CaseModel, PositiveReal, _foreign_key_rule
+from femref.case.fields import CaseModel, PositiveReal, foreign_key_rule
 from femref.case.plausibility import BOUNDS, profile_problems
 from femref.case.profiles import NonNegativeProfile, PositiveProfile, ProfileSpec, UniformProfile, length_average
 from femref.core import profiles
@@ -38,7 +38,7 @@ class Body(CaseModel):
 
     @classmethod
     def _unknown_key_rule(cls, key: Any, known: list[str]) -> str:
-        return _foreign_key_rule(cls, key, known, BODY_TYPES, "type", "") or super()._unknown_key_rule(key, known)
+        return foreign_key_rule(cls, key, known, BODY_TYPES, "type", "") or super()._unknown_key_rule(key, known)
 
     @field_validator("*", mode="after")
     @classmethod

@@ -16,13 +16,13 @@ from pydantic_core import PydanticCustomError
 
 from femref.case.bodies import CarBody
 from femref.case.errors import Problem, problems_error
-from femref.case.fields import CaseModel, ProbeName, Real, _duplicates, _name_rule
+from femref.case.fields import CaseModel, ProbeName, Real, duplicates, name_rule
 from femref.case.plausibility import plausible
 
 __all__ = ["CarName", "CarSpec"]
 
 
-CarName = Annotated[str, AfterValidator(_name_rule("car"))]
+CarName = Annotated[str, AfterValidator(name_rule("car"))]
 
 
 class CarSpec(CaseModel):
@@ -84,11 +84,11 @@ class CarSpec(CaseModel):
         return value
 
 
-def _cars_rule(cars: tuple[CarSpec, ...]) -> tuple[CarSpec, ...]:
+def cars_rule(cars: tuple[CarSpec, ...]) -> tuple[CarSpec, ...]:
     """At least two cars, unique names."""
     if len(cars) < 2:
         raise problems_error([Problem((), f"an impact needs at least 2 cars, in line order (rear to front); got {len(cars)}")])
-    problems = _duplicates([car.name for car in cars], "car", lambda i: (i, "name"))
+    problems = duplicates([car.name for car in cars], "car", lambda i: (i, "name"))
     if problems:
         raise problems_error(problems)
     return cars

@@ -4,7 +4,7 @@ Coupler laws (registry :data:`COUPLER_LAW_SPECS`): ``kelvin_voigt``, ``power_law
 ``draft_gear``, ``table`` and ``friction_gear`` (its ``loading`` curve from the registry
 :data:`LOADING_CURVE_SPECS`: ``cubic`` or ``exponential``), each built into a
 :mod:`reduced.couplers` law. Whether a coupler's cars exist
-and are neighbours in line order is checked on the case (:func:`_coupler_pair_problems`),
+and are neighbours in line order is checked on the case (:func:`coupler_pair_problems`),
 once the cars are valid.
 """
 
@@ -17,7 +17,7 @@ from pydantic import AfterValidator, BeforeValidator, Field, model_validator
 from pydantic_core import PydanticCustomError
 
 from femref.case.errors import Problem, did_you_mean, problems_error
-from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, Real, TaggedSpec, _name_rule, _tagged_union
+from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, Real, TaggedSpec, name_rule, tagged_union
 from femref.case.plausibility import BOUNDS, format_number, plausible, sequence_check
 from reduced import couplers as reduced_couplers
 from reduced.couplers import (
@@ -63,7 +63,7 @@ Damping = Annotated[NonNegativeReal, plausible("coupler_damping")]
 Travel = Annotated[NonNegativeReal, plausible("coupler_travel")]
 
 
-CouplerName = Annotated[str, AfterValidator(_name_rule("coupler"))]
+CouplerName = Annotated[str, AfterValidator(name_rule("coupler"))]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -269,7 +269,7 @@ class ExponentialLoadingCurve(LoadingCurveSpec):
 #: Loading curves of the friction gear by case-file name.
 LOADING_CURVE_SPECS: Mapping[str, type[LoadingCurveSpec]] = {"cubic": CubicLoadingCurve, "exponential": ExponentialLoadingCurve}
 
-AnyLoadingCurve = _tagged_union(LOADING_CURVE_SPECS, "loading curve")
+AnyLoadingCurve = tagged_union(LOADING_CURVE_SPECS, "loading curve")
 
 #: Relative agreement a given ``rated_closure_force`` must have with L(δ_c) (the resolved case writes it exactly).
 RATED_FORCE_RTOL = 1e-9
@@ -350,7 +350,7 @@ COUPLER_LAW_SPECS: Mapping[str, type[CouplerLawSpec]] = {
     "friction_gear": FrictionGearLaw,
 }
 
-AnyCouplerLaw = _tagged_union(COUPLER_LAW_SPECS, "coupler law")
+AnyCouplerLaw = tagged_union(COUPLER_LAW_SPECS, "coupler law")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -420,7 +420,7 @@ def _line_order_rule(rear: int, front: int, names: list[str]) -> str:
     return f"{names[rear]} (cars[{rear}]) and {names[front]} (cars[{front}]) are not neighbours; a coupler joins [cars[i], cars[i+1]]: one of {pairs}"
 
 
-def _coupler_pair_problems(couplers: tuple[CouplerSpec, ...], names: list[str]) -> list[Problem]:
+def coupler_pair_problems(couplers: tuple[CouplerSpec, ...], names: list[str]) -> list[Problem]:
     """Couplers name known cars, join neighbours in line order, one coupler per pair."""
     index = {name: i for i, name in enumerate(names)}
     problems: list[Problem] = []

@@ -23,7 +23,7 @@ from pydantic_core import PydanticCustomError
 from femref.case.cars import CarSpec
 from femref.case.couplers import CouplerSpec
 from femref.case.errors import Problem, did_you_mean, problems_error
-from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, _name_rule, _reject_bool, resolve_case_path
+from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, name_rule, reject_bool, resolve_case_path
 from femref.core.catalog import ESTIMATORS as ESTIMATOR_NAMES
 from femref.sensing.network import NetworkContract, NetworkFileError, read_network
 
@@ -46,7 +46,7 @@ class MeasurementSpec(CaseModel):
         default=None, description="Low-pass corner frequency (Hz), > 0 and below rate/2 (Nyquist) when rate is given. Default null: no filter."
     )
     noise: NonNegativeReal = Field(default=0.0, description="Standard deviation of added white noise (m/s²), >= 0. Default 0.")
-    seed: Annotated[int, BeforeValidator(_reject_bool), Field(ge=0)] = Field(
+    seed: Annotated[int, BeforeValidator(reject_bool), Field(ge=0)] = Field(
         default=0, description="Seed of the noise generator, an integer >= 0. Default 0."
     )
     pitch_rate_noise: NonNegativeReal = Field(
@@ -85,7 +85,7 @@ def _is_network_name(name: str) -> bool:
 
 def _network_name(name: str) -> str:
     """A network estimator's result-group name: ``ann`` or ``ann_<name>`` (docs/design.md §4)."""
-    _name_rule("estimator")(name)
+    name_rule("estimator")(name)
     if not _is_network_name(name) or name == "ann_":
         raise PydanticCustomError("network_name", "network estimators are named ann or ann_<name> (docs/design.md §4)")
     return name
@@ -193,7 +193,7 @@ class AnnEstimatorSpec(CaseModel):
         return ("network",) if kind == ANY_IMPACT else ("network", kind)
 
 
-def _estimator_kind(value: Any) -> str | None:
+def estimator_kind(value: Any) -> str | None:
     """The union tag of an ``estimators`` entry: an inverse estimator's name or a network mapping."""
     if isinstance(value, str):
         return "inverse"
@@ -202,8 +202,8 @@ def _estimator_kind(value: Any) -> str | None:
     return None
 
 
-def _estimator_shape(value: Any) -> Any:
-    if _estimator_kind(value) is None:
+def estimator_kind_or_network(value: Any) -> Any:
+    if estimator_kind(value) is None:
         raise PydanticCustomError("estimator_shape", "must be an estimator name or a network {shape}", {"shape": "{name: ann_<name>, network: file.npz}"})
     return value
 
@@ -211,20 +211,20 @@ def _estimator_shape(value: Any) -> Any:
 #: One entry of ``estimators``: an inverse estimator's name or an :class:`AnnEstimatorSpec`.
 EstimatorEntry = Annotated[
     Union[Annotated[Annotated[str, AfterValidator(_known_estimator)], Tag("inverse")], Annotated[AnnEstimatorSpec, Tag("ann")]],  # noqa: UP007
-    Discriminator(_estimator_kind),
-    BeforeValidator(_estimator_shape),
+    Discriminator(estimator_kind),
+    BeforeValidator(estimator_kind_or_network),
 ]
 
 
-def _estimator_name(entry: str | AnnEstimatorSpec) -> str:
+def estimator_entry_name(entry: str | AnnEstimatorSpec) -> str:
     """The result-group name of an estimator."""
     return entry if isinstance(entry, str) else entry.name
 
 
-def _estimators_rule(entries: tuple[str | AnnEstimatorSpec, ...]) -> tuple[str | AnnEstimatorSpec, ...]:
+def estimators_rule(entries: tuple[str | AnnEstimatorSpec, ...]) -> tuple[str | AnnEstimatorSpec, ...]:
     """Each estimator once: names unique (a name listed twice, or two networks of one name)."""
     problems = []
-    names = [_estimator_name(entry) for entry in entries]
+    names = [estimator_entry_name(entry) for entry in entries]
     for i, (entry, name) in enumerate(zip(entries, names)):
         if name not in names[:i]:
             continue
@@ -241,7 +241,7 @@ def _estimators_rule(entries: tuple[str | AnnEstimatorSpec, ...]) -> tuple[str |
 # Estimators against the scene
 
 
-def _quasi_rigid_sensor_problems(at: int, cars: tuple[CarSpec, ...], couplers: tuple[CouplerSpec, ...]) -> list[Problem]:
+def quasi_rigid_sensor_problems(at: int, cars: tuple[CarSpec, ...], couplers: tuple[CouplerSpec, ...]) -> list[Problem]:
     """``inverse_quasi_rigid`` differentiates the acceleration along the front car of each coupler."""
     by_name = {car.name: car for car in cars}
     problems = []
@@ -256,7 +256,7 @@ def _quasi_rigid_sensor_problems(at: int, cars: tuple[CarSpec, ...], couplers: t
     return problems
 
 
-def _network_problems(contract: NetworkContract, cars: tuple[CarSpec, ...], couplers: tuple[CouplerSpec, ...] | None, data: Mapping[str, Any]) -> list[Problem]:
+def network_problems(contract: NetworkContract, cars: tuple[CarSpec, ...], couplers: tuple[CouplerSpec, ...] | None, data: Mapping[str, Any]) -> list[Problem]:
     """A network's contract against the scene: its coupler and probes exist, its records fit in
     ``time.end``, and the case measures the records as the training records were measured
     (same chain rate and low-pass; noise and seed may differ — testing on noisier records is legitimate).

@@ -4,12 +4,12 @@ Every model is frozen, forbids unknown keys (with a "did you mean …?" hint, or
 sibling model a key belongs to) and accepts finite numbers only:
 
 * numbers: :data:`Real`, :data:`PositiveReal`, :data:`NonNegativeReal`, :data:`Count`
-  (YAML ``true``/``false`` refused by :func:`_reject_bool`);
-* names: :data:`ProbeName` and :func:`_name_rule` (names that become HDF5 path parts),
-  :func:`_duplicates` (a problem at each repeat of a name);
+  (YAML ``true``/``false`` refused by :func:`reject_bool`);
+* names: :data:`ProbeName` and :func:`name_rule` (names that become HDF5 path parts),
+  :func:`duplicates` (a problem at each repeat of a name);
 * :class:`CaseModel`, the base of every model, and its unknown-key machinery
-  (:func:`_foreign_key_rule`, :func:`_validate_collecting`);
-* :class:`TaggedSpec`, a spec written ``{tag: {fields…}}``, and :func:`_tagged_union`, the
+  (:func:`foreign_key_rule`, :func:`validate_collecting`);
+* :class:`TaggedSpec`, a spec written ``{tag: {fields…}}``, and :func:`tagged_union`, the
   type "one of a registry of tagged specs" (profiles, signals, frequency axes, coupler laws);
 * :func:`resolve_case_path`, the rule for file paths written in a case (CSV loads, networks).
 
@@ -54,14 +54,14 @@ __all__ = [
 # Numbers
 
 
-def _reject_bool(value: Any) -> Any:
+def reject_bool(value: Any) -> Any:
     """YAML ``true``/``yes`` would otherwise pass as the number 1."""
     if isinstance(value, bool):
         raise PydanticCustomError("number_not_bool", "must be a number, not true/false")
     return value
 
 
-def _is_number(value: Any) -> bool:
+def is_number(value: Any) -> bool:
     """A number, or text that reads as one (YAML 1.1 reads ``1e9`` as text)."""
     if isinstance(value, bool):
         return False
@@ -77,18 +77,18 @@ def _is_number(value: Any) -> bool:
 
 
 #: A finite real number (NaN and ±inf are refused by every model's configuration).
-Real = Annotated[float, BeforeValidator(_reject_bool)]
+Real = Annotated[float, BeforeValidator(reject_bool)]
 PositiveReal = Annotated[Real, Field(gt=0)]
 NonNegativeReal = Annotated[Real, Field(ge=0)]
 #: An integer >= 1 (element counts, strides, sample counts).
-Count = Annotated[int, BeforeValidator(_reject_bool), Field(ge=1)]
+Count = Annotated[int, BeforeValidator(reject_bool), Field(ge=1)]
 
 
 # ---------------------------------------------------------------------------------------------
 # Base model: frozen, unknown keys refused with a hint, several problems collected
 
 
-def _validate_collecting(handler: Callable[[Any], Any], data: Any, problems: list[Problem]) -> Any:
+def validate_collecting(handler: Callable[[Any], Any], data: Any, problems: list[Problem]) -> Any:
     """Run ``handler(data)``; raise its problems together with ``problems`` if there are any."""
     try:
         result = handler(data)
@@ -125,10 +125,10 @@ class CaseModel(BaseModel):
         if not unknown:
             return handler(data)
         problems = [Problem((str(key),), cls._unknown_key_rule(key, list(fields))) for key in unknown]
-        return _validate_collecting(handler, {k: v for k, v in data.items() if k in fields}, problems)
+        return validate_collecting(handler, {k: v for k, v in data.items() if k in fields}, problems)
 
 
-def _foreign_key_rule(
+def foreign_key_rule(
     cls: type[CaseModel], key: Any, known: list[str], family: Mapping[str, type[CaseModel]], tag_field: str, noun: str
 ) -> str | None:
     """``'axial_stiffness' is a rod key, not a beam key`` when ``key`` belongs to a sibling model."""
@@ -155,7 +155,7 @@ class TaggedSpec(CaseModel):
         return {self.tag: handler(self)}
 
 
-def _tagged_union(registry: Mapping[str, type[TaggedSpec]], what: str, number_tag: str | None = None) -> Any:
+def tagged_union(registry: Mapping[str, type[TaggedSpec]], what: str, number_tag: str | None = None) -> Any:
     """The type "a number (if ``number_tag``) or a mapping with exactly one key of ``registry``"."""
     named = [name for name in registry if name != number_tag]
     expected = ("a number or " if number_tag else "") + f"a mapping with exactly one key out of {', '.join(named)}"
@@ -163,14 +163,14 @@ def _tagged_union(registry: Mapping[str, type[TaggedSpec]], what: str, number_ta
     def tag_of(value: Any) -> str | None:
         if isinstance(value, TaggedSpec):
             return value.tag
-        if number_tag is not None and _is_number(value):
+        if number_tag is not None and is_number(value):
             return number_tag
         if isinstance(value, Mapping) and len(value) == 1:
             return next(iter(value))
         return None
 
     def check_shape(value: Any) -> Any:
-        if isinstance(value, TaggedSpec) or (number_tag is not None and _is_number(value)):
+        if isinstance(value, TaggedSpec) or (number_tag is not None and is_number(value)):
             return value
         if not isinstance(value, Mapping):
             raise PydanticCustomError("spec_shape", "{rule}", {"rule": f"must be {expected}"})
@@ -199,7 +199,7 @@ def _probe_name(name: str) -> str:
 ProbeName = Annotated[str, AfterValidator(_probe_name)]
 
 
-def _name_rule(what: str) -> Callable[[str], str]:
+def name_rule(what: str) -> Callable[[str], str]:
     """A validator: ``what`` names use letters, digits, '_', '-', '.' (they become HDF5 path parts)."""
 
     def check(name: str) -> str:
@@ -210,7 +210,7 @@ def _name_rule(what: str) -> Callable[[str], str]:
     return check
 
 
-def _duplicates(names: list[str], what: str, path_of: Callable[[int], tuple[str | int, ...]]) -> list[Problem]:
+def duplicates(names: list[str], what: str, path_of: Callable[[int], tuple[str | int, ...]]) -> list[Problem]:
     """A problem at each repeat of a name, pointing back at its first use."""
     first: dict[str, int] = {}
     problems = []

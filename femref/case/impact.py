@@ -39,21 +39,21 @@ from pydantic_core import PydanticCustomError
 from femref.case.base import SceneCase, case_classes
 from femref.case.bodies import RodBody
 from femref.case.capabilities import MODELS, refusal
-from femref.case.cars import CarSpec, _cars_rule
-from femref.case.couplers import CouplerSpec, _coupler_pair_problems
+from femref.case.cars import CarSpec, cars_rule
+from femref.case.couplers import CouplerSpec, coupler_pair_problems
 from femref.case.errors import Problem, did_you_mean, problems_error
 from femref.case.estimators import (
     AnnEstimatorSpec,
     EstimatorEntry,
     MeasurementSpec,
-    _estimator_name,
-    _estimators_rule,
-    _network_problems,
-    _quasi_rigid_sensor_problems,
+    estimator_entry_name,
+    estimators_rule,
+    network_problems,
+    quasi_rigid_sensor_problems,
 )
-from femref.case.fields import _duplicates
-from femref.case.runs import DEFAULT_MODELS, ModalSettings, ModelRunEntry, ModelRunSpec, ToleranceSpec, _fidelities, _run_name, _runs_rule
-from femref.case.settings import FemSettings, IntegratorSettings, TimeSettings, _fem_field
+from femref.case.fields import duplicates
+from femref.case.runs import DEFAULT_MODELS, ModalSettings, ModelRunEntry, ModelRunSpec, ToleranceSpec, car_fidelities, run_name, runs_rule
+from femref.case.settings import FemSettings, IntegratorSettings, TimeSettings, fem_field
 from femref.core.catalog import ESTIMATORS as ESTIMATOR_NAMES
 
 __all__ = ["ImpactCase"]
@@ -80,13 +80,13 @@ class ImpactCase(SceneCase):
     """Cars in a line joined by couplers, moving at given velocities from ``t = 0`` (docs/design.md §3)."""
 
     kind: Literal["impact"] = Field(default="impact", description="impact. Required in the case file.")
-    cars: Annotated[tuple[CarSpec, ...], AfterValidator(_cars_rule)] = Field(
+    cars: Annotated[tuple[CarSpec, ...], AfterValidator(cars_rule)] = Field(
         description="Two or more cars in line order (rear to front): cars[i]'s +l end faces cars[i+1]'s −l end. Required."
     )
     couplers: tuple[CouplerSpec, ...] = Field(description="One or more couplers between neighbouring cars. Required.")
     time: TimeSettings = Field(description="Simulated interval and step. Required (time.end at least).")
     integrator: IntegratorSettings = Field(default_factory=IntegratorSettings, description="Time integrator. Default generalized_alpha with rho_inf 0.8.")
-    models: Annotated[tuple[ModelRunEntry, ...], AfterValidator(_runs_rule)] = Field(
+    models: Annotated[tuple[ModelRunEntry, ...], AfterValidator(runs_rule)] = Field(
         default=DEFAULT_MODELS,
         description=(
             f"Model runs: a model name ({', '.join(MODELS)}; a uniform run of that fidelity) or a mapping "
@@ -94,10 +94,10 @@ class ImpactCase(SceneCase):
             f"Default [{', '.join(DEFAULT_MODELS)}]."
         ),
     )
-    fem: FemSettings = _fem_field()
+    fem: FemSettings = fem_field()
     modal: ModalSettings = Field(default_factory=ModalSettings, description="Modal car model. Default: see ModalSettings (4 modes).")
     measurement: MeasurementSpec | None = Field(default=None, description="Accelerometer model. Default null: records on the model's time grid, no filter, no noise.")
-    estimators: Annotated[tuple[EstimatorEntry, ...], AfterValidator(_estimators_rule)] = Field(
+    estimators: Annotated[tuple[EstimatorEntry, ...], AfterValidator(estimators_rule)] = Field(
         default=(),
         description=(
             f"Estimators run on the fem sensor records: an inverse estimator ({', '.join(ESTIMATOR_NAMES)}) or a network "
@@ -125,10 +125,10 @@ class ImpactCase(SceneCase):
         if not couplers:
             raise PydanticCustomError("couplers_empty", "an impact needs at least one coupler between neighbouring cars")
         named = tuple(c if c.name is not None else c.model_copy(update={"name": f"c{k + 1}"}) for k, c in enumerate(couplers))
-        problems = _duplicates([c.name for c in named], "coupler", lambda k: (k, "name"))  # type: ignore[misc]
+        problems = duplicates([c.name for c in named], "coupler", lambda k: (k, "name"))  # type: ignore[misc]
         cars = info.data.get("cars")
         if cars is not None:
-            problems += _coupler_pair_problems(named, [car.name for car in cars])
+            problems += coupler_pair_problems(named, [car.name for car in cars])
         if problems:
             raise problems_error(problems)
         return named
@@ -169,18 +169,18 @@ class ImpactCase(SceneCase):
         cars, couplers, runs = (info.data.get(key) for key in ("cars", "couplers", "models"))
         if not entries or cars is None or runs is None:
             return entries
-        names = [_estimator_name(entry) for entry in entries]
+        names = [estimator_entry_name(entry) for entry in entries]
         car_names = [car.name for car in cars]
-        if not any(set(_fidelities(run, car_names)) == {"fem"} for run in runs):
+        if not any(set(car_fidelities(run, car_names)) == {"fem"} for run in runs):
             rule = "the estimators run on the fem sensor records; add fem (a uniform fem run) to models"
             raise problems_error([Problem((), rule, names)])
         problems = []
         if "inverse_quasi_rigid" in names and couplers is not None:
-            problems += _quasi_rigid_sensor_problems(names.index("inverse_quasi_rigid"), cars, couplers)
+            problems += quasi_rigid_sensor_problems(names.index("inverse_quasi_rigid"), cars, couplers)
         for i, entry in enumerate(entries):
             if isinstance(entry, AnnEstimatorSpec):
                 for kind, contract in entry.contracts.items():
-                    problems += [p.under((i, *entry.where(kind))) for p in _network_problems(contract, cars, couplers, info.data)]
+                    problems += [p.under((i, *entry.where(kind))) for p in network_problems(contract, cars, couplers, info.data)]
         if problems:
             raise problems_error(problems)
         return entries
@@ -220,4 +220,4 @@ class ImpactCase(SceneCase):
 
     def run_fidelities(self) -> dict[str, tuple[str, ...]]:
         """Run name → the fidelity of each car in line order, in the order of ``models``."""
-        return {_run_name(run): _fidelities(run, self.car_names) for run in self.models}
+        return {run_name(run): car_fidelities(run, self.car_names) for run in self.models}

@@ -48,10 +48,10 @@ from pydantic_core import PydanticCustomError
 from femref.case.base import SceneCase
 from femref.case.bodies import RodBody
 from femref.case.cars import CarName
-from femref.case.couplers import Between, CouplerName, _coupler_pair_problems
+from femref.case.couplers import Between, CouplerName, coupler_pair_problems
 from femref.case.errors import Problem, did_you_mean, problems_error
-from femref.case.estimators import ANY_IMPACT, AnnEstimatorSpec, _estimator_kind, _estimator_shape
-from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, ProbeName, Real, _duplicates, _name_rule, resolve_case_path
+from femref.case.estimators import ANY_IMPACT, AnnEstimatorSpec, estimator_kind, estimator_kind_or_network
+from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, ProbeName, Real, duplicates, name_rule, resolve_case_path
 from femref.core.catalog import MEASURED_ESTIMATORS
 from femref.sensing import record_files, recordings
 from femref.sensing.measurement import FILTER_ORDER
@@ -81,8 +81,8 @@ def _channel_name(name: str) -> str:
     car, _, sensor = name.partition("/")
     if not sensor or "/" in sensor:
         raise PydanticCustomError("channel_name", "channels are named <car>/<sensor>")
-    _name_rule("car")(car)
-    _name_rule("sensor")(sensor)
+    name_rule("car")(car)
+    name_rule("sensor")(sensor)
     return name
 
 
@@ -330,8 +330,8 @@ def _known_measured_estimator(name: str) -> str:
 #: One entry of a measured case's ``estimators``: an estimator's name or a saved network.
 MeasuredEstimatorEntry = Annotated[
     Union[Annotated[Annotated[str, AfterValidator(_known_measured_estimator)], Tag("inverse")], Annotated[AnnEstimatorSpec, Tag("ann")]],  # noqa: UP007
-    Discriminator(_estimator_kind),
-    BeforeValidator(_estimator_shape),
+    Discriminator(estimator_kind),
+    BeforeValidator(estimator_kind_or_network),
 ]
 
 
@@ -348,7 +348,7 @@ def _calibrated_coupler_problem(path: Path, coupler: str, couplers: tuple[Measur
 
 def _estimators_rule(entries: tuple[str | AnnEstimatorSpec, ...]) -> tuple[str | AnnEstimatorSpec, ...]:
     names = [entry if isinstance(entry, str) else entry.name for entry in entries]
-    problems = _duplicates(names, "estimator", lambda i: (i,))
+    problems = duplicates(names, "estimator", lambda i: (i,))
     if not entries:
         problems.append(Problem((), f"name at least one estimator: {', '.join(MEASURED_ESTIMATORS)}"))
     if problems:
@@ -418,7 +418,7 @@ class MeasuredCase(SceneCase):
     def _two_cars(cls, cars: tuple[MeasuredCarSpec, ...]) -> tuple[MeasuredCarSpec, ...]:
         if len(cars) < 2:
             raise problems_error([Problem((), f"a measured impact needs at least 2 cars, in line order (rear to front); got {len(cars)}")])
-        problems = _duplicates([car.name for car in cars], "car", lambda i: (i, "name"))
+        problems = duplicates([car.name for car in cars], "car", lambda i: (i, "name"))
         if problems:
             raise problems_error(problems)
         return cars
@@ -429,10 +429,10 @@ class MeasuredCase(SceneCase):
         if not couplers:
             raise problems_error([Problem((), "name at least one coupler between neighbouring cars")])
         named = tuple(c if c.name is not None else c.model_copy(update={"name": f"c{k + 1}"}) for k, c in enumerate(couplers))
-        problems = _duplicates([c.name for c in named], "coupler", lambda k: (k, "name"))  # type: ignore[misc]
+        problems = duplicates([c.name for c in named], "coupler", lambda k: (k, "name"))  # type: ignore[misc]
         cars = info.data.get("cars")
         if cars is not None:
-            problems += _coupler_pair_problems(named, [car.name for car in cars])  # type: ignore[arg-type]
+            problems += coupler_pair_problems(named, [car.name for car in cars])  # type: ignore[arg-type]
         if problems:
             raise problems_error(problems)
         return named

@@ -13,7 +13,7 @@ import numpy as np
 from pydantic import AfterValidator, Field, model_serializer, model_validator
 
 from femref.case.errors import Problem, problems_error
-from femref.case.fields import Real, TaggedSpec, _is_number, _tagged_union
+from femref.case.fields import Real, TaggedSpec, is_number, tagged_union
 from femref.core import profiles
 
 __all__ = [
@@ -53,7 +53,7 @@ class UniformProfile(ProfileSpec):
 
     @classmethod
     def _shorthand(cls, data: Any) -> Any:
-        return {"value": data} if _is_number(data) else data
+        return {"value": data} if is_number(data) else data
 
     @model_serializer(mode="wrap")
     def _serialize(self, handler: Callable[[Any], Any]) -> Any:
@@ -168,7 +168,7 @@ def _values_at_least(bound: float, strict: bool) -> Callable[[ProfileSpec], Prof
     return check
 
 
-_AnyProfile = _tagged_union(PROFILES, "profile kind", number_tag="uniform")
+_AnyProfile = tagged_union(PROFILES, "profile kind", number_tag="uniform")
 #: A profile whose values are all > 0 (mass per length, stiffness).
 PositiveProfile = Annotated[_AnyProfile, AfterValidator(_values_at_least(0.0, strict=True))]
 #: A profile whose values are all >= 0 (viscosity).

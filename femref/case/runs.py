@@ -17,7 +17,7 @@ from pydantic_core import PydanticCustomError
 
 from femref.case.capabilities import MODELS
 from femref.case.errors import Problem, did_you_mean, problems_error
-from femref.case.fields import CaseModel, _duplicates, _name_rule, _reject_bool
+from femref.case.fields import CaseModel, duplicates, name_rule, reject_bool
 from femref.core.catalog import ESTIMATORS as ESTIMATOR_NAMES
 from femref.core.catalog import CHOICE_GROUP, FIDELITIES, SCENE_GROUP, SCORES_GROUP
 
@@ -38,7 +38,7 @@ DEFAULT_MODELS: tuple[str, ...] = ("fem", "quasi_rigid", "rigid")
 #: Result-group names a mixed run may not take (docs/design.md §4: model names, ``ann_<name>``, scores).
 RESERVED_RUN_NAMES: tuple[str, ...] = (*MODELS, *ESTIMATOR_NAMES, SCORES_GROUP, SCENE_GROUP, CHOICE_GROUP)
 
-RunName = Annotated[str, AfterValidator(_name_rule("run"))]
+RunName = Annotated[str, AfterValidator(name_rule("run"))]
 
 
 def _fidelity(name: str) -> str:
@@ -118,22 +118,22 @@ ModelRunEntry = Annotated[
 ]
 
 
-def _run_name(entry: str | ModelRunSpec) -> str:
+def run_name(entry: str | ModelRunSpec) -> str:
     """The result-group name of a run: the model name of a uniform run, the given name of a mixed one."""
     return entry if isinstance(entry, str) else entry.name
 
 
-def _runs_rule(runs: tuple[str | ModelRunSpec, ...]) -> tuple[str | ModelRunSpec, ...]:
+def runs_rule(runs: tuple[str | ModelRunSpec, ...]) -> tuple[str | ModelRunSpec, ...]:
     """At least one run; run names unique."""
     if not runs:
         raise PydanticCustomError("models_empty", "must list at least one model run ({known})", {"known": ", ".join(FIDELITIES)})
-    problems = _duplicates([_run_name(run) for run in runs], "run", lambda i: (i,))
+    problems = duplicates([run_name(run) for run in runs], "run", lambda i: (i,))
     if problems:
         raise problems_error(problems)
     return runs
 
 
-def _fidelities(run: str | ModelRunSpec, car_names: list[str]) -> tuple[str, ...]:
+def car_fidelities(run: str | ModelRunSpec, car_names: list[str]) -> tuple[str, ...]:
     """Per-car fidelities of a run; a plain model name models every car alike."""
     return (run,) * len(car_names) if isinstance(run, str) else run.fidelities(car_names)
 
@@ -145,7 +145,7 @@ def _fidelities(run: str | ModelRunSpec, car_names: list[str]) -> tuple[str, ...
 class ModalSettings(CaseModel):
     """The modal car model: rigid mode, ``modes`` free-free elastic modes and a static correction."""
 
-    modes: Annotated[int, BeforeValidator(_reject_bool), Field(ge=1)] = Field(
+    modes: Annotated[int, BeforeValidator(reject_bool), Field(ge=1)] = Field(
         default=4, description="Elastic modes kept per modal car, an integer >= 1. Default 4."
     )
 
@@ -158,7 +158,7 @@ class ToleranceSpec(CaseModel):
     """The accuracy the run must reach: ``femref run`` then chooses the cheapest model expected
     to meet it (femref.choice). A bare number is ``{value: number}``."""
 
-    value: Annotated[float, BeforeValidator(_reject_bool), Field(gt=0.0, lt=1.0, allow_inf_nan=False)] = Field(
+    value: Annotated[float, BeforeValidator(reject_bool), Field(gt=0.0, lt=1.0, allow_inf_nan=False)] = Field(
         description="Largest acceptable relative error of the output, 0 < value < 1 (0.01 is 1 %). Required."
     )
     output: Literal[TOLERANCE_OUTPUTS] = Field(  # type: ignore[valid-type]

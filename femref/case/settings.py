@@ -15,7 +15,7 @@ from pydantic_core import PydanticCustomError
 
 from femref.case.bodies import Body
 from femref.case.errors import Problem, problems_error
-from femref.case.fields import CaseModel, Count, PositiveReal, Real, TaggedSpec, _tagged_union
+from femref.case.fields import CaseModel, Count, PositiveReal, Real, TaggedSpec, tagged_union
 from femref.case.plausibility import plausible
 
 __all__ = [
@@ -103,7 +103,7 @@ class LambdaRange(FrequencyRange):
 #: Frequency axes by case-file name.
 FREQUENCY_AXES: Mapping[str, type[FrequencyRange]] = {"omega": OmegaRange, "hz": HzRange, "lambda": LambdaRange}
 
-FrequencySpec = _tagged_union(FREQUENCY_AXES, "frequency axis")
+FrequencySpec = tagged_union(FREQUENCY_AXES, "frequency axis")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -180,5 +180,5 @@ class FemSettings(CaseModel):
     field_stride: Count = Field(default=1, description="Store the field at every n-th output sample, an integer >= 1. Default 1.")
 
 
-def _fem_field() -> Any:
+def fem_field() -> Any:
     return Field(default_factory=FemSettings, validate_default=True, description="Finite-element settings. Default: see FemSettings.")

@@ -27,7 +27,7 @@ from pydantic import Field, PlainValidator, PrivateAttr, ValidationInfo, field_v
 from pydantic_core import PydanticCustomError
 
 from femref.case.errors import Problem, problems_error
-from femref.case.fields import NonNegativeReal, PositiveReal, Real, TaggedSpec, _is_number, _tagged_union, resolve_case_path
+from femref.case.fields import NonNegativeReal, PositiveReal, Real, TaggedSpec, is_number, tagged_union, resolve_case_path
 from femref.case.plausibility import Bound, plausible
 from femref.core import signals
 
@@ -79,7 +79,7 @@ class ConstantSignal(SignalSpec):
 
     @classmethod
     def _shorthand(cls, data: Any) -> Any:
-        return {"value": data} if _is_number(data) else data
+        return {"value": data} if is_number(data) else data
 
     @model_serializer(mode="wrap")
     def _serialize(self, handler: Callable[[Any], Any]) -> Any:
@@ -253,4 +253,4 @@ SIGNALS: Mapping[str, type[SignalSpec]] = {
     "csv": CsvSignal,
 }
 
-AnySignal = _tagged_union(SIGNALS, "signal kind", number_tag="constant")
+AnySignal = tagged_union(SIGNALS, "signal kind", number_tag="constant")

@@ -28,9 +28,9 @@ from femref.case.base import SceneCase
 from femref.case.bodies import LOAD_OWNERS, BodySpec
 from femref.case.capabilities import MODELS
 from femref.case.errors import Problem, did_you_mean, problems_error
-from femref.case.fields import CaseModel, ProbeName, Real, _validate_collecting
+from femref.case.fields import CaseModel, ProbeName, Real, validate_collecting
 from femref.case.plausibility import BOUNDS, Bound, format_number
-from femref.case.settings import FemSettings, FrequencyRange, FrequencySpec, IntegratorSettings, TimeSettings, _fem_field
+from femref.case.settings import FemSettings, FrequencyRange, FrequencySpec, IntegratorSettings, TimeSettings, fem_field
 from femref.case.signals import AnySignal
 from femref.core import signals
 
@@ -204,7 +204,7 @@ class SingleBodyCase(SceneCase):
             else:
                 problems.append(Problem((str(key),), f"unknown load{did_you_mean(key, body.load_names)}; {takes}"))
         given = {k: v for k, v in value.items() if k in body.load_names}
-        return _validate_collecting(handler, {**{name: 0.0 for name in body.load_names}, **given}, problems)
+        return validate_collecting(handler, {**{name: 0.0 for name in body.load_names}, **given}, problems)
 
     @field_validator("probes", mode="after")
     @classmethod
@@ -245,7 +245,7 @@ class HarmonicCase(SingleBodyCase):
     kind: Literal["harmonic"] = Field(default="harmonic", description="harmonic. Required in the case file.")
     loads: HarmonicLoads = Field(description="Harmonic load amplitudes (N or N·m); the body's loads not given are 0; at least one non-zero. Required.")
     frequency: FrequencySpec = Field(description="Frequency axis: exactly one of omega (rad/s), hz, lambda (nondimensional). Required.")
-    fem: FemSettings = _fem_field()
+    fem: FemSettings = fem_field()
     models: ModelList = _models_field()
 
     @field_validator("frequency", mode="after")
@@ -289,7 +289,7 @@ class TransientCase(SingleBodyCase):
     loads: TransientLoads = Field(description="End-load histories; the body's loads not given are 0; at least one non-zero. Required.")
     time: TimeSettings = Field(description="Simulated interval and step. Required (time.end at least).")
     integrator: IntegratorSettings = Field(default_factory=IntegratorSettings, description="Time integrator. Default generalized_alpha with rho_inf 0.8.")
-    fem: FemSettings = _fem_field()
+    fem: FemSettings = fem_field()
     models: ModelList = _models_field()
 
     def load_signals(self, base_dir: Path | None = None) -> dict[str, signals.Signal]:

@@ -299,7 +299,7 @@ def read_csv_columns(path: str | Path, time_column: str | int, value_column: str
         if first_line is None:
             raise ValueError(f"CSV file {path} is empty")
         first = [c.strip() for c in first_line.split(",")]
-        has_header = not all(_is_number(c) for c in first)
+        has_header = not all(is_number(c) for c in first)
         header = first if has_header else None
         first_row = next(lines, None) if has_header else first_line
         if first_row is None:
@@ -330,7 +330,7 @@ def read_csv_columns(path: str | Path, time_column: str | int, value_column: str
     return np.asarray(times), np.asarray(values)
 
 
-def _is_number(text: str) -> bool:
+def is_number(text: str) -> bool:
     try:
         float(text)
     except ValueError:

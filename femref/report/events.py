@@ -26,8 +26,8 @@ from numpy.typing import NDArray
 
 from femref.core.catalog import SCENE_GROUP
 from femref.events import COMPLETE, EVENTS_GROUP, EVENTS_WRITTEN
-from femref.report.figures import MODEL_COLORS, Picture, _legend, _new_figure, figure_png
-from femref.report.html import STYLE, _pictures, hide_local_paths
+from femref.report.figures import MODEL_COLORS, Picture, figure_legend, new_figure, figure_png
+from femref.report.html import STYLE, pictures_html, hide_local_paths
 
 NOT_ESTIMATES = ("records", "closure")
 
@@ -72,7 +72,7 @@ def event_report(path: Path, h5: h5py.File, output: str | None = None) -> str:
             "<h2>Events</h2>",
             _event_table(events, path.resolve().parent) if events else "<p>No event: no channel exceeds the trigger level.</p>",
             "<h2>Coupler forces</h2>",
-            _pictures([picture for event in events for picture in _force_pictures(event)], "no force estimate to draw"),
+            pictures_html([picture for event in events for picture in _force_pictures(event)], "no force estimate to draw"),
         ]
         return _page(title, facts, body, _case_section(path, h5))
     index = output or f"{path.stem}.html"
@@ -127,7 +127,7 @@ def event_pages(path: Path, h5: h5py.File, output: str | None = None, progress_f
         body = [
             f'<p><a href="{escape(Path(index).name)}">index of all {len(names)} events</a></p>',
             "<h2>Events</h2>", _event_table(events, path.resolve().parent),
-            "<h2>Coupler forces</h2>", _pictures(pictures, "no force estimate to draw"),
+            "<h2>Coupler forces</h2>", pictures_html(pictures, "no force estimate to draw"),
         ]
         yield page_name(index, first, len(chunk), len(names)), _page(f"femref report — {path.name}, {label}", [("result file", path.name)], body, "")
 
@@ -228,7 +228,7 @@ def _event_table(events: list[EventData], folder: Path) -> str:
 def _force_pictures(event: EventData) -> list[Picture]:
     pictures = []
     for coupler in dict.fromkeys(e.coupler for e in event.estimates):
-        figure, (ax,) = _new_figure()
+        figure, (ax,) = new_figure()
         drawn = []
         for k, estimate in enumerate(e for e in event.estimates if e.coupler == coupler):
             if estimate.attrs["status"] != "ok":
@@ -242,7 +242,7 @@ def _force_pictures(event: EventData) -> list[Picture]:
         ax.set_xlabel("time after the trigger (s)")
         ax.set_ylabel("coupler force (kN, compression +)")
         ax.set_title(f"event {event.index}, coupler {coupler}")
-        _legend(ax)
+        figure_legend(ax)
         caption = (f"Event {event.index} ({event.attrs['impact_type']}), coupler {coupler}: each estimator's force, "
                    f"its 95 % band shaded where it has one; drawn: {', '.join(drawn) or 'none'}.")
         pictures.append(Picture(f"event {event.index} — {coupler}", caption, figure_png(figure)))

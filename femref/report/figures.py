@@ -136,7 +136,7 @@ def figure_png(figure: Figure) -> bytes:
     return buffer.getvalue()
 
 
-def _new_figure(rows: int = 1) -> tuple[Figure, list]:
+def new_figure(rows: int = 1) -> tuple[Figure, list]:
     height = FIGURE_SIZE[1] * (1.0 if rows == 1 else 0.75 * rows)
     figure = Figure(figsize=(FIGURE_SIZE[0], height), layout="constrained")
     axes = figure.subplots(rows, 1, sharex=True, squeeze=False)[:, 0]
@@ -165,7 +165,7 @@ def _time_axis(model: ModelData, samples: int, result: ResultFile, reference: Mo
     return None
 
 
-def _legend(ax) -> None:
+def figure_legend(ax) -> None:
     """A legend when something labelled was drawn (an empty legend only warns)."""
     if ax.get_legend_handles_labels()[0]:
         ax.legend(fontsize="small", loc="best")
@@ -201,7 +201,7 @@ def _coupler_force_picture(
     coupler: str, models: list[ModelData], reference: ModelData | None, result: ResultFile, styles: dict[str, dict]
 ) -> Picture:
     """Coupler force (kN, compression positive) against time; peak-only estimators as a tick at the peak."""
-    figure, (ax,) = _new_figure()
+    figure, (ax,) = new_figure()
     peak_only, undrawn = [], []
     for model in models:
         outputs = model.couplers.get(coupler, {})
@@ -224,7 +224,7 @@ def _coupler_force_picture(
     ax.set_xlabel("time t (s)")
     ax.set_ylabel("coupler force (kN, compression +)")
     ax.set_title(f"coupler {coupler}")
-    _legend(ax)
+    figure_legend(ax)
     caption = f"Coupler {coupler}: force against time, every model against the reference"
     if peak_only:
         caption += "; network estimators give the peak only, drawn as a horizontal tick at the reference's peak time"
@@ -238,7 +238,7 @@ def _force_closure_picture(coupler: str, models: list[ModelData], styles: dict[s
              and np.size(m.couplers[coupler]["force"]) == np.size(m.couplers[coupler]["closure"])]
     if not drawn:
         return None
-    figure, (ax,) = _new_figure()
+    figure, (ax,) = new_figure()
     closures, in_contact = [], []
     for model in drawn:
         outputs = model.couplers[coupler]
@@ -250,7 +250,7 @@ def _force_closure_picture(coupler: str, models: list[ModelData], styles: dict[s
     ax.set_xlabel("closure (mm, compression +)")
     ax.set_ylabel("coupler force (kN, compression +)")
     ax.set_title(f"coupler {coupler}: force against closure")
-    _legend(ax)
+    figure_legend(ax)
     caption = (
         f"Coupler {coupler}: force against closure (hysteresis) — loading up, unloading down; the area of the loop "
         f"is the energy the coupler dissipates. Drawn: {', '.join(m.name for m in drawn)}"
@@ -272,7 +272,7 @@ def _energy_picture(models: list[ModelData], reference: ModelData | None, result
     if not with_energy:
         return None
     shown = reference if reference in with_energy else with_energy[0]
-    figure, (parts_ax, drift_ax) = _new_figure(rows=2)
+    figure, (parts_ax, drift_ax) = new_figure(rows=2)
     time = _time_axis(shown, np.size(shown.energy["total"]), result, reference)
     if time is not None:
         for name, (label, color) in ENERGY_COMPONENTS.items():
@@ -291,8 +291,8 @@ def _energy_picture(models: list[ModelData], reference: ModelData | None, result
     parts_ax.set_title(f"energy balance — {shown.name}")
     drift_ax.set_ylabel("total − initial (% of initial)")
     drift_ax.set_xlabel("time t (s)")
-    _legend(parts_ax)
-    _legend(drift_ax)
+    figure_legend(parts_ax)
+    figure_legend(drift_ax)
     caption = (
         f"Energy balance. Top: the {shown.name} bookkeeping against time — kinetic, strain, dissipated in the bodies, "
         "stored and dissipated in the couplers, and their total, which a consistent run keeps at the initial kinetic "
@@ -325,7 +325,7 @@ def _time_acceleration_picture(
 ) -> Picture:
     """Acceleration (m/s², ``quantity``: the axial ``acceleration`` or the ``vertical_acceleration`` of a car
     that bends) at ``probe`` against time; with ``measured``, the reference's measured record thinner."""
-    figure, (ax,) = _new_figure()
+    figure, (ax,) = new_figure()
     undrawn = []
     curves: list[tuple[str, NDArray, NDArray, str]] = []  # name, time, values, colour
     for model in models:
@@ -351,7 +351,7 @@ def _time_acceleration_picture(
     ax.set_xlabel("time t (s)")
     ax.set_ylabel("vertical acceleration (m/s², up +)" if vertical else "acceleration (m/s²)")
     ax.set_title(f"probe {probe}" + (", vertical" if vertical else ""))
-    _legend(ax)
+    figure_legend(ax)
     caption = f"{'Vertical acceleration' if vertical else 'Acceleration'} at probe {probe} against time, models overlaid"
     if outside:
         caption += (f"; shaded in its colour: where {', '.join(m.name for m in outside)} is outside its range — an end force "
@@ -412,7 +412,7 @@ def harmonic_figures(result: ResultFile) -> list[Picture]:
 
 
 def _harmonic_picture(probe: str, models: list[ModelData], reference: ModelData | None, styles: dict[str, dict]) -> Picture:
-    figure, (re_ax, im_ax) = _new_figure(rows=2)
+    figure, (re_ax, im_ax) = new_figure(rows=2)
     for model in models:
         if "acceleration" not in model.probes.get(probe, {}) or model.axis is None:
             continue
@@ -424,7 +424,7 @@ def _harmonic_picture(probe: str, models: list[ModelData], reference: ModelData 
     im_ax.set_ylabel("Im a (m/s²)")
     im_ax.set_xlabel("nondimensional frequency λ = ω T_wave (1)")
     re_ax.set_title(f"probe {probe}")
-    _legend(re_ax)
+    figure_legend(re_ax)
     caption = (
         f"Complex acceleration amplitude at probe {probe} as stored (per the case's load amplitudes, "
         "time factor e^(−iωt)) against λ; reference solid, other models dashed."

@@ -74,11 +74,11 @@ def render_page(result: ResultFile, plots: list[Picture], field_maps: list[Pictu
         _scores_section(result),
         _models_section(result, folder),
         '<h2 id="plots">Plots</h2>',
-        _pictures(plots, "no plots: the file holds no model output to draw"),
+        pictures_html(plots, "no plots: the file holds no model output to draw"),
     ]
     if field_maps:  # a rendering failure's message may quote a library's path
         field_maps = [replace(p, problem=hide_local_paths(p.problem, folder)) for p in field_maps]
-        body += ['<h2 id="field">FEM field</h2>', _pictures(field_maps, "")]
+        body += ['<h2 id="field">FEM field</h2>', pictures_html(field_maps, "")]
     body += ['<h2 id="case">Resolved case</h2>', f"<pre>{escape(hide_local_paths(result.case_yaml, folder))}</pre>"]
     head = f'<head><meta charset="utf-8"/><title>{escape(title)}</title><style>{STYLE}</style></head>'
     return "<!DOCTYPE html>\n<html lang=\"en\">\n" + head + "\n<body>\n" + "\n".join(body) + "\n</body>\n</html>\n"
@@ -374,7 +374,7 @@ def _seconds(value: float) -> str:
     return "–" if math.isnan(value) else f"{value:.3g} s"
 
 
-def _pictures(pictures: Iterable[Picture], empty: str) -> str:
+def pictures_html(pictures: Iterable[Picture], empty: str) -> str:
     parts = [_picture(p) for p in pictures]
     if not parts and empty:
         return f"<p>{escape(empty)}</p>"

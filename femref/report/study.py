@@ -19,8 +19,8 @@ import h5py
 import numpy as np
 from numpy.typing import NDArray
 
-from femref.report.figures import MODEL_COLORS, Picture, _new_figure, figure_png
-from femref.report.html import STYLE, _pictures, hide_local_paths
+from femref.report.figures import MODEL_COLORS, Picture, new_figure, figure_png
+from femref.report.html import STYLE, pictures_html, hide_local_paths
 
 NETWORKS_GROUP = "networks"
 
@@ -62,7 +62,7 @@ def study_report(path: Path, h5: h5py.File) -> str:
         "<h2>Peak-force errors</h2>",
         _error_table(networks, sets),
         "<h2>Training loss</h2>",
-        _pictures([loss_picture(n) for n in networks], "no networks"),
+        pictures_html([loss_picture(n) for n in networks], "no networks"),
         "<h2>Study</h2>",
         f"<pre>{escape(hide_local_paths(str(_attr(h5.attrs['study_yaml'])), path.resolve().parent))}</pre>",
     ]
@@ -82,7 +82,7 @@ def loss_picture(network: NetworkData) -> Picture:
     if curve.size == 0:
         return Picture(title, "", None, f"{network.name}: no loss per epoch recorded (an RBF network is solved by least squares; "
                                               "an lbfgs-trained MLP keeps none)")
-    figure, (ax,) = _new_figure()
+    figure, (ax,) = new_figure()
     epochs = np.arange(1, curve.size + 1)
     positive = curve > 0.0
     ax.plot(epochs[positive], curve[positive], color=MODEL_COLORS[1], lw=1.3)

@@ -51,7 +51,7 @@ from pydantic_core import PydanticCustomError
 from ann.networks import TRAIN_EXTRA
 from femref.case.errors import CaseError, Problem, did_you_mean, problems_error, problems_from
 from femref.case.loader import read_yaml_file
-from femref.case.fields import CaseModel, Count, TaggedSpec, _reject_bool, _tagged_union
+from femref.case.fields import CaseModel, Count, TaggedSpec, reject_bool, tagged_union
 
 #: The training set's name; every other set is an evaluation set.
 TRAIN = "train"
@@ -61,7 +61,7 @@ class SetSpec(CaseModel):
     """One sweep of the study: how many samples, the seed, the model runs, extra parameters."""
 
     samples: Count = Field(description="Samples (random draws) of this set, >= 1. Required.")
-    seed: Annotated[int, BeforeValidator(_reject_bool), Field(ge=0)] = Field(description="Seed of this set's draws. Required.")
+    seed: Annotated[int, BeforeValidator(reject_bool), Field(ge=0)] = Field(description="Seed of this set's draws. Required.")
     models: tuple[Literal["fem", "modal", "quasi_rigid", "rigid"], ...] = Field(
         default=("fem",), min_length=1, description="Uniform model runs of every sample. Default [fem]."
     )
@@ -123,7 +123,7 @@ class MlpSpec(TaggedSpec):
     max_iter: Count = 3000
     batch_size: Count | None = None
     initial: str | None = None
-    seed: Annotated[int, BeforeValidator(_reject_bool), Field(ge=0)] = 0
+    seed: Annotated[int, BeforeValidator(reject_bool), Field(ge=0)] = 0
 
     @model_validator(mode="after")
     def _solver_can_train_it(self) -> "MlpSpec":
@@ -192,7 +192,7 @@ class RbfSpec(TaggedSpec):
 
 
 NETWORK_SPECS: dict[str, type[TaggedSpec]] = {"mlp": MlpSpec, "rbf": RbfSpec}
-NetworkSpec = _tagged_union(NETWORK_SPECS, "network")
+NetworkSpec = tagged_union(NETWORK_SPECS, "network")
 
 
 

@@ -18,7 +18,7 @@ import numpy as np
 from pydantic import Field, field_validator, model_validator
 
 from femref.case.errors import Problem, problems_error
-from femref.case.fields import PositiveReal, Real, TaggedSpec, _tagged_union
+from femref.case.fields import PositiveReal, Real, TaggedSpec, tagged_union
 
 __all__ = [
     "DISTRIBUTIONS",
@@ -208,4 +208,4 @@ DISTRIBUTIONS: Mapping[str, type[Distribution]] = {
     "choice": Choice,
     "grid": Grid,
 }
-AnyDistribution = _tagged_union(DISTRIBUTIONS, "distribution")
+AnyDistribution = tagged_union(DISTRIBUTIONS, "distribution")

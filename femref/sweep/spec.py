@@ -59,10 +59,10 @@ from pydantic import BeforeValidator, Field, TypeAdapter, ValidationError, model
 
 from femref.case import CaseError, ImpactCase, Problem, load_case, parse_case
 from femref.case.errors import problems_error, problems_from
-from femref.case.fields import CaseModel, Count, _reject_bool
+from femref.case.fields import CaseModel, Count, reject_bool
 from femref.case.loader import read_yaml_file
 from femref.sweep.distributions import AnyDistribution, Choice, Distribution, Grid
-from femref.sweep.keypaths import _assign, _parent, _parts, _PathError
+from femref.sweep.keypaths import assign, parent_of, key_parts, PathError
 
 __all__ = [
     "FIXED_KEYS",
@@ -95,7 +95,7 @@ RESERVED_GROUPS = ("parameters", "samples")
 # The sweep file
 
 
-RecordLength = Annotated[int, BeforeValidator(_reject_bool), Field(ge=2)]
+RecordLength = Annotated[int, BeforeValidator(reject_bool), Field(ge=2)]
 
 
 class OutputSettings(CaseModel):
@@ -117,7 +117,7 @@ class SweepFile(CaseModel):
     base: str | None = Field(default=None, description="Base impact case file, relative to the sweep file. Give base or case.")
     case: dict[str, Any] | None = Field(default=None, description="Inline base impact case. Give base or case.")
     samples: Count = Field(description="Random draws, >= 1 (per grid point when grid parameters exist). Required.")
-    seed: Annotated[int, BeforeValidator(_reject_bool), Field(ge=0)] = Field(description="Seed of the draws, an integer >= 0. Required.")
+    seed: Annotated[int, BeforeValidator(reject_bool), Field(ge=0)] = Field(description="Seed of the draws, an integer >= 0. Required.")
     models: list[Any] | None = Field(default=None, description="Model runs of every sample, as in a case file. Default: the base case's.")
     parameters: dict[Annotated[str, BeforeValidator(_key_path)], AnyDistribution] = Field(
         default_factory=dict, description="Case key path → distribution, applied in order. Default {} (repeats of the base case)."
@@ -219,8 +219,8 @@ class Sweep:
         data = self.base_data
         for path, value in values.items():
             try:
-                _assign(data, _parts(path), value)
-            except _PathError as error:
+                assign(data, key_parts(path), value)
+            except PathError as error:
                 return Sample(index, values, stored, None, f"{self.source}: parameters.{path}: {error} in this sample")
         if isinstance(data.get("measurement"), Mapping) and not self._sets_measurement_seed(values):
             data["measurement"]["seed"] = noise_seed(self.spec.seed, index)
@@ -307,7 +307,7 @@ def _key_path_problems(sweep: Sweep) -> list[Problem]:
     problems = []
     earlier: list[tuple[tuple[str, ...], Distribution]] = []
     for path, distribution in sweep.spec.parameters.items():
-        parts = _parts(path)
+        parts = key_parts(path)
         fixed = FIXED_KEYS.get(parts[0], FIXED_PATHS.get(path))
         if fixed is not None:
             problems.append(Problem(("parameters", path), f"cannot be swept: {fixed}"))
@@ -327,8 +327,8 @@ def _unknown_last_key(sweep: Sweep, parts: tuple[str, ...], distribution: Distri
     """
     data = sweep.base_data
     try:
-        parent = _parent(data, parts)
-    except _PathError:
+        parent = parent_of(data, parts)
+    except PathError:
         return None  # reachable through an earlier choice only: judged per sample
     if not isinstance(parent, Mapping) or parts[-1] in parent:
         return None
@@ -345,17 +345,17 @@ def _unknown_last_key(sweep: Sweep, parts: tuple[str, ...], distribution: Distri
 def _unreachable(base: Any, parts: tuple[str, ...], earlier: list[tuple[tuple[str, ...], Distribution]]) -> str | None:
     """None when ``parts`` can be set in the base case or in a value an earlier choice/grid puts above it."""
     try:
-        _parent(base, parts)
+        parent_of(base, parts)
         return None
-    except _PathError as error:
+    except PathError as error:
         rule = f"every part of a key path but the last must exist in the base case: {error}"
     for prefix, distribution in reversed(earlier):
         values = distribution.values if isinstance(distribution, (Choice, Grid)) else []
         if len(prefix) < len(parts) and parts[: len(prefix)] == prefix:
             for value in values:
                 try:
-                    _parent(value, parts[len(prefix) :])
+                    parent_of(value, parts[len(prefix) :])
                     return None
-                except _PathError:
+                except PathError:
                     continue
     return rule

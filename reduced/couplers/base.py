@@ -35,7 +35,7 @@ A law is a frozen dataclass with
   laws without the attribute are never mirrored.
 
 Here: :class:`CouplerTangent`, the :class:`CouplerLaw` protocol, the ``Branch`` type
-and ``_branch``, the branch helper of the piecewise laws.
+and ``select_branch``, the branch helper of the piecewise laws.
 """
 
 from __future__ import annotations
@@ -108,7 +108,7 @@ class CouplerLaw(Protocol):
     def reference_stiffness(self) -> float: ...
 
 
-def _branch(guards: NDArray[np.float64], branch: Branch | None) -> Branch:
+def select_branch(guards: NDArray[np.float64], branch: Branch | None) -> Branch:
     """The frozen branch, or the signs of the guards (a zero counts as positive)."""
     if branch is not None:
         return branch

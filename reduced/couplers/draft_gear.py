@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 
 from reduced import _checks
 
-from .base import Branch, CouplerTangent, _branch
+from .base import Branch, CouplerTangent, select_branch
 
 
 @dataclass(frozen=True)
@@ -137,7 +137,7 @@ class StandardLinearDraftGear:
 
     def _piece(self, state: NDArray[np.float64], branch: Branch | None) -> int:
         """+1 closed in compression, −1 closed in tension, 0 open."""
-        above, below = _branch(self.guards(0.0, 0.0, state), branch)
+        above, below = select_branch(self.guards(0.0, 0.0, state), branch)
         if above > 0:
             return 1
         if below < 0:

@@ -1,7 +1,7 @@
 """Power-law gear: ``P = sgn(δ) (c |δ|ⁿ + N0) + γ(δ) δ̇``, ``γ(δ) = Σ_k γ_k |δ|^k`` (N).
 
 :class:`PowerLawGear`: preload ``N0`` and closure-dependent damping ``γ``
-(docs/formulas.md §A3); :func:`reduced.nonlinear.power_law_peak_series` estimates its peak
+(docs/formulas.md §A3); :func:`reduced.power_law_peak.power_law_peak_series` estimates its peak
 closure and force in a free impact to second order in the damping.
 """
 
@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 
 from reduced import _checks
 
-from .base import Branch, CouplerTangent, _branch
+from .base import Branch, CouplerTangent, select_branch
 
 
 @dataclass(frozen=True)
@@ -88,7 +88,7 @@ class PowerLawGear:
         return np.array([closure])
 
     def force(self, closure: float, closure_rate: float, state: NDArray[np.float64], branch: Branch | None = None) -> float:
-        (side,) = _branch(self.guards(closure, closure_rate, state), branch)
+        (side,) = select_branch(self.guards(closure, closure_rate, state), branch)
         g, _ = self.damping_at(closure)
         return side * (self.stiffness * abs(closure) ** self.exponent + self.preload) + g * closure_rate
 

@@ -12,7 +12,7 @@ reference's, operation by operation, so the two agree to round-off:
   signs are strict (``> 0`` is +1, so a guard at exactly zero counts as negative), while a
   law method called with ``branch=None`` (the contact guards' law force, the stored energy,
   the dissipation rate, :func:`start`'s engaged force) picks its piece with the ``>= 0``
-  rule of :func:`reduced.couplers.base._branch` — :func:`law_branch` takes the rule. The
+  rule of :func:`reduced.couplers.base.select_branch` — :func:`law_branch` takes the rule. The
   kernels work on one coupler's :class:`CouplerLaw` (its scalars and its rows of the
   arrays); the entry points the tests compare with the laws' methods — :func:`law_branch`,
   :func:`law_force`, :func:`law_stored_energy`, :func:`law_dissipation_rate`,
@@ -511,7 +511,7 @@ def _law_branch(law, closure, state, strict):
     Power law: the side ``σ = ±1`` of ``δ``; draft gear: +1 closed in compression
     (``x_g − stroke`` positive), −1 closed in tension (``x_g + stroke`` negative), 0 open;
     the other laws have no guards (0). ``strict``: a guard is positive iff ``> 0``, the rule of
-    :meth:`Coupling.evaluate`; else iff ``>= 0``, the rule of ``reduced.couplers.base._branch``
+    :meth:`Coupling.evaluate`; else iff ``>= 0``, the rule of ``reduced.couplers.base.select_branch``
     (a law method called with ``branch=None``).
     """
     kind = law.kind
