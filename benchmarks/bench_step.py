@@ -34,8 +34,9 @@ from numba import njit
 from femref.case import parse_case
 from femref.case.defaults import DEFAULT_SCENE_SOURCE, default_scene_data
 from femref.fem import INTEGRATORS
-from femref.impact.kernels import cars as K
+from femref.impact.kernels import pool as K
 from femref.impact.kernels.loop import coupler_maps, solve_compiled
+from femref.impact.kernels.packing import pack_cars, prepared_car
 from femref.models import model_form
 from femref.run import load_compiled_loop
 from femref.run.timestep import impact_time_step
@@ -95,8 +96,8 @@ def measure(elements: int, steps: int, repeats: int) -> dict[str, float]:
     load_compiled_loop(scene)
     step = best_time(lambda: solve_compiled(scene, systems, integrator, dt), repeats=repeats)
     response = solve_compiled(scene, systems, integrator, dt)
-    prepared = [K.prepared_car(system, integrator, dt, *maps) for system, maps in zip(systems, coupler_maps(scene))]
-    pool = K.pack_cars(systems, prepared, [car.velocity for car in scene.cars], [np.zeros(2) for _ in scene.cars],
+    prepared = [prepared_car(system, integrator, dt, *maps) for system, maps in zip(systems, coupler_maps(scene))]
+    pool = pack_cars(systems, prepared, [car.velocity for car in scene.cars], [np.zeros(2) for _ in scene.cars],
                        [0] * len(scene.cars))
     inner = max(1, 200_000 // (elements + 1))
     bare = best_time(bare_step, pool.layout, pool.values, inner, repeats=repeats) / inner

@@ -197,8 +197,8 @@ def test_a_second_run_reuses_each_prepared_car_and_repeats_the_first():
     """Runs of the same systems at the same step share each car's packed, factorised form (the
     kernels only read it: a second run is the first to the bit); another step prepares anew."""
     from femref.fem import INTEGRATORS
-    from femref.impact.kernels.cars import prepared_car
     from femref.impact.kernels.loop import line_plan
+    from femref.impact.kernels.packing import prepared_car
 
     impact = scene(("fem", "quasi_rigid"), "draft_gear")
     systems = [model_form(f, "impact")(car, impact, 5e-4) for car, f in zip(impact.cars, impact.runs[0].fidelity)]

@@ -1,4 +1,5 @@
-"""Nonlinear couplers through the event-driven ODE (reduced.nonlinear, reduced.couplers)."""
+"""Nonlinear couplers through the event-driven ODE (reduced.nonlinear, reduced.couplers) and the power-law
+peak series against it (reduced.power_law_peak)."""
 
 from __future__ import annotations
 
@@ -17,7 +18,8 @@ from reduced.couplers import (
     StandardLinearDraftGear,
     coupling_from_name,
 )
-from reduced.nonlinear import IntegratorSettings, power_law_peak_estimate, power_law_peak_series, simulate_impact
+from reduced.nonlinear import IntegratorSettings, simulate_impact
+from reduced.power_law_peak import power_law_peak_estimate, power_law_peak_series
 from reduced.rigid import ImpactPair, kelvin_voigt_impact
 
 PAIR = ImpactPair.source_study()  # 119 t at 2.2 m/s against 100 t

@@ -4,8 +4,9 @@ Each module here reproduces a reference of :mod:`femref.impact` to round-off wit
 per step, and the tests hold it to that reference: :mod:`.couplers` the coupler laws of
 :mod:`reduced.couplers` (packed once per scene into arrays) and the coupler iteration of one
 step, :class:`femref.impact.couplers.CouplerSolve` (Newton, its Gauss–Seidel fallback, the
-energy bookkeeping); :mod:`.cars` the cars' steppers; :mod:`.loop` the time loop that calls
-both. Import the module you need.
+energy bookkeeping); :mod:`.cars` the cars' steppers, on the pool of :mod:`.pool` (every car
+of a run in two arrays, and the linear algebra on it) that :mod:`.packing` fills; :mod:`.loop`
+the time loop that calls both. Import the module you need.
 
 **The on-disk cache is kept true here.** numba's cache (``cache=True``) checks only the
 file that defines a function, so after an edit of ``couplers.py`` the cached loop of

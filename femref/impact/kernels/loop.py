@@ -1,7 +1,7 @@
 """The compiled impact loop: every step of a run in numba, Python only between chunks of steps.
 
 :func:`solve_compiled` packs the run — the cars into one pool
-(:func:`femref.impact.kernels.cars.pack_cars`), the couplers, the line's coupler maps and
+(:func:`femref.impact.kernels.packing.pack_cars`), the couplers, the line's coupler maps and
 the Schur gains — and calls :func:`run_steps`, which does per step what the readable loop
 of :func:`femref.impact.solver.solve_impact` does (the tests hold them together):
 
@@ -21,7 +21,7 @@ or outputs (a beam with its coupler below the neutral axis) changes these maps, 
 What a run packs is made once where it can be: what depends only on the scene (the packed
 laws, :func:`coupler_maps`, the couplers' forces at contact, the force tolerance) once per
 scene (:func:`line_plan`), what depends on a car's system, step and maps (its factorised
-form) once per system (:func:`~femref.impact.kernels.cars.prepared_car`). A run then copies
+form) once per system (:func:`~femref.impact.kernels.packing.prepared_car`). A run then copies
 them: a rigid run's set-up is about 0.1 ms.
 
 The steps run in chunks of about :data:`CHUNK_SECONDS` of work (:func:`chunk_after`: the first
@@ -48,9 +48,10 @@ from femref.impact.cars import car_settings_after
 from femref.impact.couplers import force_tolerance
 from femref.impact.kernels import cars as car_kernels
 from femref.impact.kernels import couplers as coupler_kernels
-from femref.impact.kernels.cars import (
+from femref.impact.kernels.packing import pack_cars, prepared_car
+from femref.impact.kernels.pool import (
     COUPLER_LOADS, COUPLER_OUTPUTS, END_COUNT, END_FREE, END_RATE_FREE, LOAD_COUNT, NEW_LOADS, SCALARS,
-    SUM_LOAD2, SUM_RATE2, pack_cars,
+    SUM_LOAD2, SUM_RATE2,
 )
 from femref.impact.response import ImpactResponse, failure_message, sensor_histories
 from femref.impact.systems import CarSystem
@@ -133,7 +134,7 @@ def solve_compiled(
     line = line_plan(scene)
     laws = line.laws
     couplers = coupler_kernels.CouplerState(*(array.copy() for array in line.couplers_at_contact))
-    prepared = [car_kernels.prepared_car(system, integrator, dt, *car_maps) for system, car_maps in zip(systems, line.maps)]
+    prepared = [prepared_car(system, integrator, dt, *car_maps) for system, car_maps in zip(systems, line.maps)]
     for spec, car in zip(scene.cars, prepared):
         if not car.positive_definite:
             raise ValueError(f"car {spec.name}: its mass or step matrix is not positive definite")
