@@ -1,9 +1,9 @@
 """The Python API: run a case and read its result file without the command line.
 
-A thin layer over the functions ``femref run`` drives — :func:`femref.case.load_case` /
-:func:`~femref.case.parse_case`, :func:`femref.scene.build.scene_from_case`,
-:func:`femref.run.run_scene` and :func:`femref.results.write_results` — plus readers of the
-result file (docs/design.md §4) into labelled arrays.
+A thin layer over the flow ``femref run`` drives — :func:`femref.case.load_case` /
+:func:`~femref.case.parse_case`, then :func:`femref.flow.plan_case` and :func:`femref.flow.run_plan`, which
+simulate, choose a model (a tolerance) or measure (a measured case's events) and write the result file —
+plus readers of the result file (docs/design.md §4) into labelled arrays.
 
 >>> from femref.api import run_case, open_result
 >>> outcome = run_case("cases/impact_free_roll.yaml", output="free_roll.h5")   # doctest: +SKIP
@@ -20,6 +20,8 @@ Nothing here prints; bad input raises :class:`femref.case.CaseError` (a ``ValueE
 output ``femref run -o`` would refuse raises :class:`femref.core.publishing.OutputPathError` (a
 ``ValueError``; the same rule, :func:`femref.core.publishing.check_output_path`), both before any work;
 a model that fails is a result with ``status == "failed"`` and its message, as from the CLI.
+:func:`run_case` returns what the case's flow gives: a :class:`RunOutcome`, a model choice or a
+measured case's events (its docstring).
 """
 
 from __future__ import annotations
@@ -30,6 +32,8 @@ from typing import TYPE_CHECKING, Any
 
 from femref.results import AXIS_NAMES
 from femref.core.publishing import OutputPathError
+from femref.flow import plan_case, run_plan
+from femref.models import ProgressFor
 from femref.run import RunOutcome, run_scene
 
 if TYPE_CHECKING:  # the readers' return types; neither library is needed to run a case
@@ -45,23 +49,33 @@ READ_EXTRA = "femref[xarray]"
 AXES = ("time", "omega")
 
 
-def run_case(case: str | Path | Mapping[str, Any], output: str | Path | None = None, *, base_dir: str | Path | None = None) -> RunOutcome:
-    """Validate ``case`` (a case file's path, or its parsed mapping), run every model it requests, score
-    them against the reference; with ``output``, also write the HDF5 result file (atomically, as
-    ``femref run -o output`` does: the resolved case, every model, the scores, the scene's facts).
+def run_case(case: str | Path | Mapping[str, Any], output: str | Path | None = None, *, base_dir: str | Path | None = None,
+             tolerance: float | None = None, progress_for: ProgressFor | None = None) -> Any:
+    """Validate ``case`` (a case file's path, or its parsed mapping) and run it as ``femref run`` does
+    (:func:`femref.flow.plan_case`, :func:`femref.flow.run_plan`: the same flow, decided once); with ``output``,
+    also write its result file (atomically, the same file ``femref run -o output`` writes).
 
-    ``base_dir`` resolves the relative file paths of a mapping (CSV profiles, networks; default: the
-    working directory); a path's own folder is used for a file. Raises :class:`femref.case.CaseError`
-    for bad input, and :class:`femref.core.publishing.OutputPathError` (a ``ValueError``) for an ``output`` that
-    ``femref run -o`` would refuse (:func:`check_run_output`: a missing or unwritable folder, a folder, the
-    case file or a file it names), both before any work and writing nothing; the temporaries of ``output``
-    that killed or older femref runs left are removed. Simulated cases only: a measured case is run by
-    ``femref run`` (its events), and a case with ``tolerance:`` by ``femref run`` or
-    :func:`femref.choice.choose_model` (the climb of the model ladder) — both are refused here rather
-    than run differently.
+    What it returns, by the case's flow:
+
+    * a simulated case: a :class:`femref.run.RunOutcome` — every model's result (a model that fails is a
+      result with ``status == "failed"`` and its message) and the scores against the reference;
+    * an impact case with a tolerance (the case's ``tolerance:`` or ``tolerance``, which overrides its value as
+      ``--tolerance`` does): a :class:`femref.choice.ModelChoice` — the ladder climbed, every run made
+      (``.results``), the ``chosen`` model and whether it ``met`` the tolerance; a RuntimeError when no rung ran;
+    * a measured case: a :class:`femref.run.measured.MeasuredOutcome` — the records as read, the event search
+      and every event (``.events``); with ``output`` the events are streamed to the file and kept as summaries
+      (without histories: read them from the file), without it they keep their histories.
+
+    ``base_dir`` resolves the relative file paths of a mapping (CSV profiles, networks, records; default: the
+    working directory); a path's own folder is used for a file. ``progress_for(label)`` may supply a progress
+    callback per model, rung or event. Raises :class:`femref.case.CaseError` for bad input (a tolerance on a
+    case that is not an impact, runs over the work budget), and :class:`femref.core.publishing.OutputPathError`
+    (a ``ValueError``) for an ``output`` that ``femref run -o`` would refuse (:func:`check_run_output`: a missing
+    or unwritable folder, a folder, the case file or a file it names), both before any work and writing
+    nothing; the temporaries of ``output`` that killed or older femref runs left are removed. A measured case
+    raises :class:`femref.sensing.recordings.RecordError` when a record changed since validation.
     """
-    from femref.case import CaseError, Problem, load_case, parse_case, resolved_yaml
-    from femref.scene.build import scene_from_case
+    from femref.case import load_case, parse_case
 
     if isinstance(case, Mapping):
         source = "<mapping>"
@@ -71,21 +85,12 @@ def run_case(case: str | Path | Mapping[str, Any], output: str | Path | None = N
         source = str(case)
         loaded = load_case(case)
         folder = Path(case).resolve().parent
-    if loaded.kind == "measured":
-        raise CaseError(Problem(("kind",), "run_case runs simulated cases; run a measured case with `femref run` (its events)", "measured"), source)
-    if getattr(loaded, "tolerance", None) is not None:
-        rule = "run_case runs the case's models; a tolerance (model choice) runs with `femref run` or femref.choice.choose_model"
-        raise CaseError(Problem(("tolerance",), rule, loaded.tolerance.value), source)
-    scene = scene_from_case(loaded, folder)
+    plan = plan_case(loaded, folder, source, tolerance)
     if output is not None:
         output = Path(output)
-        check_run_output(output, loaded, None if isinstance(case, Mapping) else Path(case), folder)
-    outcome = run_scene(scene, source=source)
-    if output is not None:
-        from femref.results import write_results
-
-        write_results(output, resolved_yaml(loaded), outcome.results, outcome.scores, scene=scene.facts())
-    return outcome
+        check_run_output(output, plan.case, None if isinstance(case, Mapping) else Path(case), folder)
+    outcome = run_plan(plan, output, progress_for)
+    return {"simulate": outcome.run, "choose": outcome.choice, "measure": outcome.measured}[outcome.flow]
 
 
 def check_run_output(output: Path, case: Any, case_path: Path | None = None, base_dir: Path | None = None) -> None:

@@ -33,6 +33,7 @@ LAYERS = {
     "run": 6,
     "choice": 7,
     "api": 7,
+    "flow": 7,
     "bench": 7,
     "sweep": 7,
     "study": 7,

@@ -4,7 +4,9 @@
 file atomically with the scene's facts and scores, prints the summary and exits 1 when
 a model failed (its message says where). A measured case runs its estimators on every
 event of its records instead (:func:`femref.run.measured.run_measured`) and writes ``/events``. With a tolerance it climbs the ladder of impact
-models instead (:mod:`femref.choice`) and keeps the cheapest expected within it.
+models instead (:mod:`femref.choice`) and keeps the cheapest expected within it. Which of the three, and the
+result file, is :mod:`femref.flow`'s (as for :func:`femref.api.run_case`); here the output check, the printing
+and the exit codes.
 """
 
 from __future__ import annotations
@@ -63,80 +65,58 @@ def run_command(case_path: Path | None, output: Path | None, tolerance: float | 
     Exit codes: 0 written, 1 a model failed (the message says where; the file keeps every
     run), 2 bad input (nothing written).
     """
-    from femref.case import CaseError, resolved_yaml
+    from femref.case import CaseError
     from femref.case.inputs import field_models
-    from femref.results import field_file_paths, write_results
-    from femref.run import run_scene
-    from femref.choice import check_ladder_budget
-    from femref.run.budget import check_budget
-    from femref.scene.build import scene_from_case
+    from femref.flow import plan_case
+    from femref.results import field_file_paths
 
-    console = Console(stderr=True)
     try:
         case, base_dir = load_case_or_default(case_path)
-        case = _with_tolerance(case, tolerance, source_name(case_path))
-        scene = scene_from_case(case, base_dir)
-        # Once per command, before any work (femref.run.budget; FEMREF_BUDGET raises it): the runs and the reference's
-        # self-check, or with a tolerance every rung of the ladder it may climb; run_scene and choose_model are told.
-        if case.kind == "impact" and getattr(case, "tolerance", None) is not None:
-            check_ladder_budget(scene, source_name(case_path))
-        else:
-            check_budget(scene, source_name(case_path))
+        # Once per command, before any work (femref.flow.plan_case): the flow, and its budget (femref.run.budget;
+        # FEMREF_BUDGET raises it): the runs and the reference's self-check, or with a tolerance every rung of the ladder.
+        plan = plan_case(case, base_dir, source_name(case_path), tolerance)
     except CaseError as error:
         click.echo(f"error: {error}", err=True)
         sys.exit(EXIT_BAD_INPUT)
     defaulted = output is None
     output = output or Path(f"{case_path.stem if case_path else 'default'}.h5")
-    check_output(output, "-o", _inputs(case, case_path), default=defaulted, writes=field_file_paths(output, field_models(case)))
-    if case.kind == "measured":
-        _run_measured(case, scene, output, source_name(case_path))
-        return
-    if getattr(case, "tolerance", None) is not None:
-        _run_choice(case, scene, output, console)
-        return
-
-    with model_progress(console) as progress_for:
-        outcome = run_scene(scene, progress_for, budget_checked=True)
-    written = write_results(output, resolved_yaml(case), outcome.results, outcome.scores, scene=scene.facts())
-    print_table(run_table(outcome))
-    finish(written, [(f"model {failed.model}", failed.message) for failed in outcome.failed])
+    check_output(output, "-o", _inputs(plan.case, case_path), default=defaulted, writes=field_file_paths(output, field_models(plan.case)))
+    for note in plan.notes:
+        click.echo(f"note: {note}", err=True)
+    if plan.flow == "measure":
+        _run_measured(plan, output)
+    elif plan.flow == "choose":
+        _run_choice(plan, output)
+    else:
+        _run_simulated(plan, output)
 
 
-def _with_tolerance(case, tolerance: float | None, source: str):
-    """The case with ``--tolerance`` in its ``tolerance.value`` (kept in the resolved case of the result file)."""
-    from femref.case import CaseError, Problem
-    from femref.case.runs import ToleranceSpec
+def _run_simulated(plan, output: Path) -> None:
+    """Run every model (femref.run.run_scene), write the results and scores, print the run table."""
+    from femref.flow import run_plan
 
-    if tolerance is None:
-        return case
-    if case.kind != "impact":
-        rule = "--tolerance: model choice serves impact cases (the ladder of impact models)"
-        raise CaseError(Problem(("kind",), rule, case.kind), source)
-    spec = ToleranceSpec(value=tolerance) if case.tolerance is None else ToleranceSpec(value=tolerance, output=case.tolerance.output)
-    return case.model_copy(update={"tolerance": spec})
+    with model_progress(Console(stderr=True)) as progress_for:
+        outcome = run_plan(plan, output, progress_for)
+    print_table(run_table(outcome.run))
+    finish(outcome.written, outcome.failures)
 
 
-def _run_choice(case, scene, output: Path, console: Console) -> None:
+def _run_choice(plan, output: Path) -> None:
     """Choose the model (femref.choice), write every run made and ``/choice``, print the ladder."""
-    from femref.case import resolved_yaml
-    from femref.choice import choose_model, run_rung
-    from femref.choice.output import choice_table, write_choice
-    from femref.results import write_results
+    from femref.choice.output import choice_table
+    from femref.flow import run_plan
 
-    if scene.estimators or scene.networks:
-        click.echo("note: with a tolerance the estimators are not run (they read the records of the models list's fem run)", err=True)
-    with model_progress(console) as progress_for:
+    with model_progress(Console(stderr=True)) as progress_for:
         try:
-            choice = choose_model(scene, case.tolerance.value, case.tolerance.output, runner=lambda rung: run_rung(rung, progress_for(rung.label)),
-                                  budget_checked=True)
+            choice = run_plan(plan, output, progress_for)
         except RuntimeError as error:
             click.echo(f"error: {error}", err=True)
             sys.exit(EXIT_RUN_FAILURE)
-    written = write_results(output, resolved_yaml(case), choice.results, extra=lambda h5: write_choice(h5, choice), scene=scene.facts())
-    print_table(choice_table(choice))
-    if not choice.met:
-        click.echo(f"warning: no model on the ladder is expected within {choice.tolerance:g}; kept {choice.chosen}, the most accurate", err=True)
-    finish(written, [])
+    print_table(choice_table(choice.choice))
+    if not choice.choice.met:
+        click.echo(f"warning: no model on the ladder is expected within {choice.choice.tolerance:g}; kept {choice.choice.chosen}, the most accurate",
+                   err=True)
+    finish(choice.written, [])
 
 
 def _inputs(case, case_path: Path | None) -> dict[str, Path | None]:
@@ -146,7 +126,7 @@ def _inputs(case, case_path: Path | None) -> dict[str, Path | None]:
     return {"CASE": case_path, **case_input_files(case)}
 
 
-def _run_measured(case, scene, output: Path, source: str = "<case>") -> None:
+def _run_measured(plan, output: Path) -> None:
     """Every event of a measured case (femref.run.measured): write /events as each event finishes, print the event table.
 
     Progress as for the models of a run (:func:`model_progress`): a stage while the records are read,
@@ -154,16 +134,14 @@ def _run_measured(case, scene, output: Path, source: str = "<case>") -> None:
     into the output's temporary as they finish (:func:`femref.events.event_file`), renamed to the output when
     the last is in; the events found over the work budget (exit 2) or a record changed since validation leave
     nothing under the output name."""
-    from femref.case import CaseError, resolved_yaml
+    from femref.case import CaseError
     from femref.cli.tables import event_table
-    from femref.events import event_file
-    from femref.run.measured import run_measured
+    from femref.flow import run_plan
     from femref.sensing.recordings import RecordError
 
-    facts = {"cars": [car.name for car in scene.cars], "couplers": [c.name for c in scene.couplers], "estimators": list(scene.estimators)}
     try:
-        with event_file(output, facts, resolved_yaml(case)) as write, model_progress(Console(stderr=True), keep_finished=False) as progress_for:
-            outcome = run_measured(scene, progress_for, sink=write, source=source)
+        with model_progress(Console(stderr=True), keep_finished=False) as progress_for:
+            outcome = run_plan(plan, output, progress_for).measured
     except (RecordError, CaseError) as error:  # a record file changed since the case was validated; the events over the budget
         click.echo(f"error: {error}", err=True)
         sys.exit(EXIT_BAD_INPUT)

@@ -248,8 +248,9 @@ def test_open_result_without_xarray_names_the_extra(api_result, monkeypatch) -> 
         open_result(api_result[1])
 
 
-def test_run_case_reads_a_case_file_and_refuses_what_it_does_not_run(tmp_path) -> None:
-    """A path runs with its folder as base; a harmonic result opens on its ω axis. A tolerance is refused (CaseError)."""
+def test_run_case_reads_a_case_file(tmp_path) -> None:
+    """A path runs with its folder as base; a harmonic result opens on its ω axis. A tolerance on a case that is not
+    an impact is refused (CaseError) as ``--tolerance`` is."""
     pytest.importorskip("xarray")
     from femref.case import CaseError
 
@@ -258,10 +259,57 @@ def test_run_case_reads_a_case_file_and_refuses_what_it_does_not_run(tmp_path) -
     model = outcome.results[0].model
     ds = open_result(tmp_path / "rod.h5", model)
     assert "omega" in ds.coords and ds.sizes["omega"] == outcome.results[0].axes["omega"].size
-    data = small_impact_case()
+    with pytest.raises(CaseError, match="--tolerance: model choice serves impact cases"):
+        run_case(CASES / "rod_harmonic.yaml", tolerance=0.01)
+
+
+def _datasets(path: Path) -> dict[str, np.ndarray]:
+    """Every dataset of an HDF5 file by its path, but the measured wall times (run-dependent)."""
+    found: dict[str, np.ndarray] = {}
+
+    def visit(name: str, item) -> None:
+        if isinstance(item, h5py.Dataset) and name.rsplit("/", 1)[-1] != "wall_time_s":
+            found[name] = item[()]
+
+    with h5py.File(path, "r") as h5:
+        h5.visititems(visit)
+    return found
+
+
+def _same_datasets(a: Path, b: Path) -> None:
+    left, right = _datasets(a), _datasets(b)
+    assert left.keys() == right.keys()
+    for name, values in left.items():
+        assert np.array_equal(values, right[name], equal_nan=values.dtype.kind == "f"), name
+
+
+def test_run_case_runs_a_measured_case_and_writes_what_the_cli_writes(tmp_path) -> None:
+    """run_case(cases/measured_yard.yaml, output) returns its two events and writes the file ``femref run -o`` writes
+    (every dataset equal, wall times aside); without an output the events keep their histories."""
+    outcome = run_case(CASES / "measured_yard.yaml", output=tmp_path / "api.h5")
+    assert len(outcome.events) == 2
+    result = CliRunner().invoke(main, ["run", str(CASES / "measured_yard.yaml"), "-o", str(tmp_path / "cli.h5")])
+    assert result.exit_code == 0, result.output
+    _same_datasets(tmp_path / "api.h5", tmp_path / "cli.h5")
+    with h5py.File(tmp_path / "api.h5", "r") as h5:
+        assert len(h5["events"]) == len(outcome.events)
+    kept = run_case(CASES / "measured_yard.yaml")
+    assert [event.index for event in kept.events] == [event.index for event in outcome.events] and not list(tmp_path.glob("*.tmp"))
+
+
+def test_run_case_with_a_tolerance_returns_the_chosen_model(tmp_path) -> None:
+    """A case with ``tolerance:`` climbs the ladder as ``femref run`` does: the choice comes back (the chosen model
+    among the runs made, met) and the file holds it; ``tolerance=`` overrides the case's value as --tolerance does."""
+    data = default_scene_data()
     data["tolerance"] = 0.01
-    with pytest.raises(CaseError, match="tolerance"):
-        run_case(data)
+    choice = run_case(data, output=tmp_path / "choice.h5")
+    assert choice.met and choice.tolerance == 0.01 and choice.chosen in {result.model for result in choice.results}
+    with h5py.File(tmp_path / "choice.h5", "r") as h5:
+        assert h5["choice"].attrs["chosen"] == choice.chosen and h5[choice.chosen].attrs["status"] == "ok"
+    result = CliRunner().invoke(main, ["run", "--tolerance", "0.01", "-o", str(tmp_path / "cli.h5")])
+    assert result.exit_code == 0, result.output
+    _same_datasets(tmp_path / "choice.h5", tmp_path / "cli.h5")
+    assert run_case(data, tolerance=0.2).tolerance == 0.2
 
 
 def test_api_is_documented_and_typed() -> None:
@@ -285,7 +333,7 @@ def refuse_to_run(monkeypatch):
     """Fail the test if run_case starts the run: the output is checked before any work."""
     import femref.api
 
-    monkeypatch.setattr(femref.api, "run_scene", lambda *args, **kwargs: pytest.fail("the run started before the output was checked"))
+    monkeypatch.setattr(femref.api, "run_plan", lambda *args, **kwargs: pytest.fail("the run started before the output was checked"))
 
 
 @pytest.mark.parametrize(
