@@ -10,8 +10,8 @@ The number of events is unknown before the trigger runs, so the budget is checke
 
 * **before any work** (:func:`measured_costs`, through :func:`femref.run.budget.predict` and ``femref run``'s
   check): one event at its largest — a window of ``events.max_window`` on the fastest record's grid, every
-  channel — from the case and the records' headers (:func:`record_size`: dataset shapes, a CSV file's size, the
-  times of its first rows); an event grid that alone is over the budget is refused, naming ``events.post``,
+  channel — from the case and the records as validation read them (:func:`record_size`: their samples and rates);
+  an event grid that alone is over the budget is refused, naming ``events.post``,
   ``events.max_window``, the record that sets the rate or ``kalman.modes``, whichever lies furthest beyond a
   typical case;
 * **once the trigger has run** (:func:`check_events`, by :func:`femref.run.measured.run_measured` before the first
@@ -26,18 +26,13 @@ Both raise :class:`~femref.case.CaseError` (exit 2) as :func:`femref.run.budget.
 
 from __future__ import annotations
 
-import csv
 import dataclasses
-import os
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-import h5py
-import numpy as np
-
 from femref.case.errors import CaseError, Problem
 from femref.run.costs import Cost, check_costs
-from femref.sensing.recordings import HDF5_SUFFIXES, TIME_UNITS, RecordFile, Recordings
+from femref.sensing.recordings import RecordError, RecordFile, Recordings, read_record_file
 
 if TYPE_CHECKING:
     from femref.scene.measured import MeasuredScene
@@ -50,9 +45,6 @@ _TYPICAL_RATE, _TYPICAL_POST, _TYPICAL_WINDOW, _TYPICAL_EVENTS = 1.0e3, 0.5, 5.0
 _TYPICAL_KALMAN_STATES = 37  # four modes per car, a 4th-order anti-alias filter on five channels
 #: Force rates the kalman filter runs side by side in its likelihood search (reduced.kalman.estimate_force).
 _KALMAN_BATCH = 15
-#: Time samples read from a record's head to find its rate (the budget reads no more of a record).
-_HEAD_SAMPLES = 1024
-_HEAD_BYTES = 1 << 16
 
 
 @dataclass(frozen=True)
@@ -67,45 +59,13 @@ class RecordSize:
 
 
 def record_size(record: RecordFile, index: int) -> RecordSize:
-    """The size of ``record``: what validation read of it (``record.kept``: its samples and rates exactly), else from its
-    header only: an HDF5 file's dataset shapes and its first :data:`_HEAD_SAMPLES`
-    times; a CSV file's size over the bytes per row of its first or last 64 KiB, whichever has the longer rows (within
-    a few % of the rows read; short first rows do not inflate it), and the times of its first rows. The rate is
-    ``1 / median step`` of those times (the declared rate if the case gives one). ValueError when the head cannot be
-    read as declared (validation reads the whole file first, so this does not happen to a validated case)."""
-    declared = record.time.rate
-    key = f"records.{index}.time.rate" if declared is not None else f"records.{index}.file"
-    if record.kept is not None and record.kept.channels:  # validation read the file: its exact counts and rates
-        channels = record.kept.channels
-        return RecordSize(max(c.acceleration.size for c in channels), max(c.rate for c in channels), len(record.channels), key)
-    if record.path.suffix.lower() in HDF5_SUFFIXES:
-        with h5py.File(record.path, "r") as h5:
-            samples = max(int(np.prod(h5[c.dataset].shape)) for c in record.channels if c.dataset is not None)
-            head = None if declared is not None else np.asarray(h5[record.time.dataset][:_HEAD_SAMPLES], dtype=float).ravel()
-    else:
-        size = os.stat(record.path).st_size
-        with open(record.path, "rb") as handle:
-            text = handle.read(_HEAD_BYTES)
-            handle.seek(max(size - _HEAD_BYTES, 0))
-            tail = handle.read(_HEAD_BYTES)
-        lines = text[: text.rfind(b"\n") + 1] if size > len(text) else text
-        rows = [row for row in csv.reader(lines.decode("utf-8", errors="replace").splitlines()) if row]
-        tail = tail[tail.find(b"\n") + 1:]
-        per_row = max(len(lines) / max(len(rows), 1), len(tail) / max(tail.count(b"\n"), 1), 1.0)
-        samples = max(int(size / per_row) - 1, len(rows) - 1)
-        head = None
-        if declared is None:
-            header = [cell.strip() for cell in rows[0]]
-            column = record.time.column if isinstance(record.time.column, int) else header.index(str(record.time.column))
-            head = np.array([float(row[column]) for row in rows[1 : _HEAD_SAMPLES + 1] if column < len(row) and row[column].strip()])
-    if declared is not None:
-        rate = float(declared)
-    else:
-        steps = np.diff(head * TIME_UNITS[record.time.unit])
-        if steps.size == 0 or not np.all(np.isfinite(steps)) or float(np.median(steps)) <= 0.0:
-            raise ValueError(f"{record.path.name}: no increasing times in the first rows")
-        rate = 1.0 / float(np.median(steps))
-    return RecordSize(samples, rate, len(record.channels), key)
+    """The size of ``record``: its samples and its fastest channel's rate (Hz), from what validation read of it
+    (``record.kept``), or — a record built without validation — from reading it with the record reader
+    (:func:`femref.sensing.recordings.read_record_file`, with its limits). RecordError for a file that cannot be read
+    as declared."""
+    key = f"records.{index}.time.rate" if record.time.rate is not None else f"records.{index}.file"
+    channels = (record.kept if record.kept is not None else read_record_file(record)).channels
+    return RecordSize(max(c.acceleration.size for c in channels), max(c.rate for c in channels), len(record.channels), key)
 
 
 def kalman_states(scene: MeasuredScene) -> int:
@@ -173,14 +133,14 @@ def _records_memory(sizes: list[RecordSize]) -> float:
 def measured_costs(scene: MeasuredScene) -> list[Cost]:
     """What ``femref run`` of a measured ``scene`` costs at most per event, before any work: the largest event grid —
     a window of ``max_window`` on the grid of the fastest channel, every channel (:func:`event_cost`) — with the
-    records it reads (:func:`record_size`: headers only). The number of events is not known before the trigger
+    records it reads (:func:`record_size`). The number of events is not known before the trigger
     runs: :func:`check_events` checks their total once it has (before the first event's estimators)."""
     sizes = []
     for i, record in enumerate(scene.records):
         try:
             sizes.append(record_size(record, i))
-        except (OSError, ValueError, KeyError, IndexError) as error:  # changed since validation read it
-            raise CaseError(Problem(("records", i, "file"), f"cannot be sized from its header for the work budget: {error}", record.path.name)) from None
+        except RecordError as error:  # a record built without validation, unreadable as declared
+            raise CaseError(Problem(("records", i), str(error))) from None
     fastest = max(sizes, key=lambda s: s.rate)
     samples = int(scene.max_window * fastest.rate) + 1
     cost = event_cost(scene, samples, sum(s.channels for s in sizes), fastest.rate,

@@ -49,6 +49,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from femref.sensing.noise_gate import MAD_SCALE
+
 BLOCK = 0.5
 """``B`` (s): the blocks whose medians make the baseline."""
 LONGEST_CONTACT = 1.2
@@ -64,7 +66,6 @@ NOISE_QUANTILE = 0.1
 NOISE_BINS = 100
 """Histogram bins per decade of the blocks' ``σ_j``."""
 _NOISE_DECADES = (-6, 6)
-MAD_SCALE = 1.4826
 
 
 def half_blocks(block: float = BLOCK, longest_contact: float = LONGEST_CONTACT) -> int:

@@ -313,9 +313,9 @@ def _write(path: Path, data: dict) -> Path:
     return path
 
 
-def test_a_records_size_and_rate_come_from_its_header(tmp_path):
-    """``record_size`` against the records as read (femref.sensing.recordings): an HDF5 file's samples and rate from
-    its dataset shapes and first 1024 times; a CSV file's from its size, its first and last 64 KiB (rows within 3 %)."""
+def test_a_records_size_and_rate_are_what_its_reader_reads(tmp_path):
+    """``record_size`` against the records as read (femref.sensing.recordings): an HDF5 and a CSV file's samples and
+    rate from what validation read of them, and the same from a record that carries no such read (read again)."""
     from femref.run.event_budget import record_size
     from femref.sensing.recordings import read_records
 
@@ -337,3 +337,4 @@ def test_a_records_size_and_rate_come_from_its_header(tmp_path):
     assert hdf5.rate == pytest.approx(read.channels["hammer/center"].rate, rel=1e-9)
     assert text.samples == pytest.approx(read.channels["anvil/center"].time.size, rel=0.03)  # rows of 21–23 bytes: measured +1.9 %
     assert text.rate == pytest.approx(read.channels["anvil/center"].rate, rel=1e-6)
+    assert [record_size(dataclasses.replace(record, kept=None), i) for i, record in enumerate(scene.records)] == [hdf5, text]
