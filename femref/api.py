@@ -51,29 +51,48 @@ AXES = ("time", "omega")
 
 def run_case(case: str | Path | Mapping[str, Any], output: str | Path | None = None, *, base_dir: str | Path | None = None,
              tolerance: float | None = None, progress_for: ProgressFor | None = None) -> Any:
-    """Validate ``case`` (a case file's path, or its parsed mapping) and run it as ``femref run`` does
-    (:func:`femref.flow.plan_case`, :func:`femref.flow.run_plan`: the same flow, decided once); with ``output``,
-    also write its result file (atomically, the same file ``femref run -o output`` writes).
+    """Validate a case and run it as ``femref run`` does, deciding its flow once.
 
-    What it returns, by the case's flow:
+    The flow (:func:`femref.flow.plan_case`, :func:`femref.flow.run_plan`) is the command line's:
+    simulate, choose a model to a tolerance, or measure a recorded case's events.
 
-    * a simulated case: a :class:`femref.run.RunOutcome` — every model's result (a model that fails is a
-      result with ``status == "failed"`` and its message) and the scores against the reference;
-    * an impact case with a tolerance (the case's ``tolerance:`` or ``tolerance``, which overrides its value as
-      ``--tolerance`` does): a :class:`femref.choice.ModelChoice` — the ladder climbed, every run made
-      (``.results``), the ``chosen`` model and whether it ``met`` the tolerance; a RuntimeError when no rung ran;
-    * a measured case: a :class:`femref.run.measured.MeasuredOutcome` — the records as read, the event search
-      and every event (``.events``); with ``output`` the events are streamed to the file and kept as summaries
-      (without histories: read them from the file), without it they keep their histories.
+    Parameters
+    ----------
+    case : str, Path or Mapping
+        A case file's path, or its parsed mapping.
+    output : str or Path, optional
+        Also write the result file, atomically: the file ``femref run -o output`` writes.
+    base_dir : str or Path, optional
+        Folder that resolves a mapping's relative file paths (CSV profiles, networks, records); default the
+        working directory. A case file's own folder is used for a path.
+    tolerance : float, optional
+        Overrides the case's ``tolerance:`` as ``--tolerance`` does (impact cases only).
+    progress_for : callable, optional
+        ``progress_for(label)`` → a progress callback per model, rung or event, or None.
 
-    ``base_dir`` resolves the relative file paths of a mapping (CSV profiles, networks, records; default: the
-    working directory); a path's own folder is used for a file. ``progress_for(label)`` may supply a progress
-    callback per model, rung or event. Raises :class:`femref.case.CaseError` for bad input (a tolerance on a
-    case that is not an impact, runs over the work budget), and :class:`femref.core.publishing.OutputPathError`
-    (a ``ValueError``) for an ``output`` that ``femref run -o`` would refuse (:func:`check_run_output`: a missing
-    or unwritable folder, a folder, the case file or a file it names), both before any work and writing
-    nothing; the temporaries of ``output`` that killed or older femref runs left are removed. A measured case
-    raises :class:`femref.sensing.recordings.RecordError` when a record changed since validation.
+    Returns
+    -------
+    femref.run.RunOutcome
+        A simulated case: every model's result (a failed model is a result with ``status == "failed"`` and its
+        message) and the scores against the reference.
+    femref.choice.ModelChoice
+        An impact case with a tolerance: the ladder climbed, every run made (``.results``), the ``chosen``
+        model and whether it ``met`` the tolerance.
+    femref.run.measured.MeasuredOutcome
+        A measured case: the records as read, the event search and every event (``.events``); with
+        ``output`` the events are streamed to the file and kept as summaries (read their histories from the
+        file), without it they keep their histories.
+
+    Raises
+    ------
+    femref.case.CaseError
+        Bad input, a tolerance on a case that is not an impact, runs over the work budget: before any work.
+    femref.core.publishing.OutputPathError
+        An ``output`` that ``femref run -o`` would refuse (:func:`check_run_output`), before any work.
+    femref.sensing.recordings.RecordError
+        A measured case's record changed since validation.
+    RuntimeError
+        A tolerance case in which no rung ran.
     """
     from femref.case import load_case, parse_case
 
@@ -94,15 +113,33 @@ def run_case(case: str | Path | Mapping[str, Any], output: str | Path | None = N
 
 
 def check_run_output(output: Path, case: Any, case_path: Path | None = None, base_dir: Path | None = None) -> None:
-    """Check ``output`` as ``femref run -o`` does, before any work (:func:`femref.core.publishing.check_output_path`): its
-    folder must exist and be writable, it may not be a folder, and neither it nor the field files a run writes beside
-    it (``<stem>_fem_fields.xdmf/.h5`` with ``fem.fields``) may be ``case_path`` or a file the validated ``case``
-    names (records, CSV loads, networks: :func:`femref.case.inputs.case_inputs`). Raises
-    :class:`femref.core.publishing.OutputPathError` (a ``ValueError``) naming ``output`` and the rule; nothing is written.
+    """Check a result path as ``femref run -o`` does, before any work, and remove stale temporaries.
 
-    Then removes the temporaries of ``output`` a killed femref run or an older femref left
-    (:func:`femref.core.publishing.clean_leftovers`); one an older femref left that is not certainly unused is kept, with
-    a :class:`UserWarning` naming it.
+    The rule is :func:`femref.core.publishing.check_output_path`'s: the folder must exist and be writable, the
+    path may not be a folder, and neither it nor the field files a run writes beside it
+    (``<stem>_fem_fields.xdmf/.h5`` with ``fem.fields``) may be the case file or a file the case names
+    (records, CSV loads, networks: :func:`femref.case.inputs.case_inputs`).
+
+    Parameters
+    ----------
+    output : Path
+        The result file to be written.
+    case : validated case
+        The case whose input files ``output`` may not overwrite.
+    case_path : Path, optional
+        The case file itself.
+    base_dir : Path, optional
+        Folder that resolves the case's relative file paths.
+
+    Raises
+    ------
+    femref.core.publishing.OutputPathError
+        A ``ValueError`` naming ``output`` and the rule; nothing is written.
+
+    Warns
+    -----
+    UserWarning
+        A temporary an older femref left that is not certainly unused is kept, and named.
     """
     import warnings
 
@@ -119,7 +156,18 @@ def check_run_output(output: Path, case: Any, case_path: Path | None = None, bas
 
 
 def result_models(path: str | Path) -> list[str]:
-    """The model (and estimator) groups of a result file, in file order."""
+    """The model and estimator groups of a result file.
+
+    Parameters
+    ----------
+    path : str or Path
+        A femref result file.
+
+    Returns
+    -------
+    list of str
+        The groups that carry a ``status`` attribute, in file order.
+    """
     import h5py
 
     with h5py.File(path, "r") as h5:
@@ -129,17 +177,29 @@ def result_models(path: str | Path) -> list[str]:
 def open_result(path: str | Path, model: str | None = None) -> "xarray.Dataset":
     """One model of a result file as an :class:`xarray.Dataset` with its time (or ω) coordinate.
 
-    Variables, by the file's names: per probe ``acceleration``, ``displacement``, … with
-    dimensions ``(time, probe)`` (NaN for a probe without that quantity, e.g. the vertical ones
-    on a car that does not bend); per coupler ``force`` ``(time, coupler)`` (a network
-    estimator's ``peak_force`` has ``(coupler,)`` only); ``energy_<term>`` ``(time,)``; the
-    measurement chain's records ``measured_<quantity>`` on their own ``measured_time``; a field
-    ``u`` ``(field_time, x)``. Each keeps its ``units`` attribute. The Dataset's attributes: the
-    model's ``status``, ``message``, ``wall_time_s``, ``settings`` (JSON), its ``scores`` (a
-    dict, empty for the reference), ``femref_version`` and ``case_yaml``.
+    Parameters
+    ----------
+    path : str or Path
+        A femref result file (read by dataset paths with h5py, with or without dimension scales).
+    model : str, optional
+        The model group; default ``fem`` when the file has it, else the file's first model.
 
-    ``model`` defaults to ``fem`` when the file has it, else the file's first model. Raises
-    ImportError naming the extra to install when xarray is missing, KeyError for an unknown model.
+    Returns
+    -------
+    xarray.Dataset
+        Per probe ``acceleration``, ``displacement``, … ``(time, probe)`` (NaN for a probe without that
+        quantity, e.g. the vertical ones on a car that does not bend); per coupler ``force`` ``(time, coupler)``
+        (a network estimator's ``peak_force`` has ``(coupler,)`` only); ``energy_<term>`` ``(time,)``; the
+        measurement chain's records ``measured_<quantity>`` on their own ``measured_time``; a field ``u``
+        ``(field_time, x)``. Each keeps its ``units``. Attributes: ``status``, ``message``, ``wall_time_s``,
+        ``settings`` (JSON), ``scores`` (a dict, empty for the reference), ``femref_version`` and ``case_yaml``.
+
+    Raises
+    ------
+    ImportError
+        xarray is missing (the message names the extra to install).
+    KeyError
+        No such model in the file.
     """
     try:
         import xarray as xr
@@ -184,13 +244,25 @@ def open_result(path: str | Path, model: str | None = None) -> "xarray.Dataset":
 def open_frames(path: str | Path) -> dict[str, "pandas.DataFrame"]:
     """Every model of a result file as a :class:`pandas.DataFrame` indexed by its time (or ω) axis.
 
-    Columns ``probes/<probe>/<quantity>``, ``couplers/<coupler>/force`` and ``energy/<term>``
-    (the file's own paths below the model); ``df.attrs`` holds the model's status, message,
-    wall time, settings and scores. A model's measured records come as a frame of their own,
-    ``"<model>/measured"``, on their own time axis. A network estimator (a peak force, no
-    history) is a one-row frame of ``couplers/<coupler>/peak_force`` without index. Fields
-    (2-D) are left out: read them with :func:`open_result`. Raises ImportError naming the extra
-    to install when pandas is missing.
+    Parameters
+    ----------
+    path : str or Path
+        A femref result file.
+
+    Returns
+    -------
+    dict of str to pandas.DataFrame
+        Model name → frame with columns ``probes/<probe>/<quantity>``, ``couplers/<coupler>/force`` and
+        ``energy/<term>`` (the file's own paths below the model); ``df.attrs`` holds the status, message, wall
+        time, settings and scores. A model's measured records are a frame of their own, ``"<model>/measured"``,
+        on their own time axis; a network estimator (a peak force, no history) is a one-row frame of
+        ``couplers/<coupler>/peak_force`` without index. Fields (2-D) are left out: read them with
+        :func:`open_result`.
+
+    Raises
+    ------
+    ImportError
+        pandas is missing (the message names the extra to install).
     """
     try:
         import pandas as pd
