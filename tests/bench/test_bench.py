@@ -20,7 +20,8 @@ from click.testing import CliRunner
 
 from support.paths import CASES
 from femref.cli.bench import IMPACT_ONLY, bench_command
-from femref.bench.configurations import Configuration, element_counts
+from femref.bench.configurations import Configuration
+from femref.models.fem import element_counts
 from femref.bench.output import COLUMNS, plot_pareto
 from femref.bench.pareto import pareto_mask
 from femref.bench.run import BenchOutcome, BenchRow
