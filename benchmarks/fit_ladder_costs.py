@@ -1,4 +1,4 @@
-"""Fit the car fidelities' cost model (:func:`femref.models.base.fitted_cost`: the ladder's and the budget's) on random two-car impacts.
+"""Fit the car fidelities' cost model (:meth:`femref.models.base.CarFidelity.cost`: the ladder's and the budget's) on random two-car impacts.
 
     python benchmarks/fit_ladder_costs.py [--scenes 30] [--seed 0] [--repeats 5] [--json PATH]
 

@@ -58,26 +58,6 @@ class CarCost:
     meshed: bool = False
 
 
-def fitted_cost(setup_us: tuple[float, ...], step_us: tuple[float, ...], x_setup: tuple[float, ...], x_step: tuple[float, ...],
-                **sizes: float) -> CarCost:
-    """``½ s·x_setup``, ``½ t·x_step``: a car's half of a two-car run's fitted cost (coefficients ``s``, ``t`` in µs,
-    regressors ``x``); ``sizes`` the rest of :class:`CarCost`.
-
-    Each fidelity's coefficients are fitted by ``benchmarks/fit_ladder_costs.py`` on every rung of 30 random two-car
-    rod impacts (draft-gear, Kelvin–Voigt and friction-table couplers, 16–64 P2 elements; a 2-core AMD EPYC, busy)
-    on the median of five cold runs per rung, by relative-error least squares with non-negative coefficients: the
-    set-up on the wall time outside the stepping (cars built, reduced, factorised and packed cold, the result
-    assembled), the step on the stepping time per step. Predicted over measured wall time per rung: −5 % to +5 %
-    (10th–90th percentile), at most 18 % off. Re-run the script when the build or the stepping changes.
-
-    No bending car was fitted: one costs as its rod. Measured on impact_bending_hoppers.yaml against the same run
-    without bending, a step costs 1.2× (rigid), 1.7× (modal, 4 modes), 2.3× (fem, 16–64 elements) and 5× (quasi-rigid).
-    """
-    setup = sum(s * x for s, x in zip(setup_us, x_setup, strict=True))
-    step = sum(t * x for t, x in zip(step_us, x_step, strict=True))
-    return CarCost(0.5 * setup, 0.5 * step, **sizes)
-
-
 @dataclass(frozen=True)
 class Resolution:
     """One resolution a fidelity runs at, a rung of the model choice's ladder or a row of the bench: ``label``,
@@ -95,23 +75,14 @@ class Resolution:
 
 
 class CarFidelity(Protocol):
-    """What a car modelled at one fidelity is, steps at, costs and is refined to (module docstring).
+    """What a car modelled at one fidelity is, steps at, costs and is refined to (module docstring); the defaults
+    are those of a car without a mesh (rigid, quasi-rigid): no step of its own, a constant cost, one resolution.
 
-    * ``car(car, scene, dt)`` the car as the system the impact solver steps;
-    * ``step_candidates(car, scene, elements, speed)`` the car's candidate steps, rule → s
-      (:func:`femref.run.timestep.impact_candidates`; ``elements`` per meshed car, ``speed(body)`` a body's
-      largest wave speed);
-    * ``cost(car, scene)`` its :class:`CarCost`, the one cost model of the work budget and the ladder;
-    * ``cost_regressors(car, scene)`` the ``(x_setup, x_step)`` its fitted coefficients ``setup_us``, ``step_us``
-      multiply (:func:`fitted_cost`);
-    * ``rungs(scene, mesh_dofs)`` its ladder rungs, coarsest first, each the Richardson partner of the one
-      before (``mesh_dofs``: the smallest car's mesh DOFs when known without a mesh, else None);
-    * ``bench(scene)`` its bench rows;
-    * ``expansion_order``: the term of the low-frequency expansion in ``ε = (T_wave/T_load)²`` it carries up to
-      (rigid 0, quasi-rigid 1): the two consecutive terms estimate each other's error
-      (:func:`femref.choice.estimates.asymptotic_errors`); None when it is no term of it;
-    * ``range_limit``: the local ``ε_loc`` of its end loads above which a car is outside its range
-      (:mod:`femref.run.validity`); None when it has none.
+    ``setup_us``, ``step_us`` are its fitted cost coefficients (:meth:`cost`); ``expansion_order`` the term of the
+    low-frequency expansion in ``ε = (T_wave/T_load)²`` it carries up to (rigid 0, quasi-rigid 1: the two consecutive
+    terms estimate each other's error, :func:`femref.choice.estimates.asymptotic_errors`), None when it is no term of
+    it; ``range_limit`` the local ``ε_loc`` of its end loads above which a car is outside its range
+    (:mod:`femref.run.validity`), None when it has none.
     """
 
     name: str
@@ -120,36 +91,48 @@ class CarFidelity(Protocol):
     expansion_order: ClassVar[int | None] = None
     range_limit: ClassVar[float | None] = None
 
-    def car(self, car: Car, scene: ImpactScene, dt: float) -> CarSystem: ...
-
-    def step_candidates(self, car: Car, scene: ImpactScene, elements: int, speed: Callable[[Body], float]) -> dict[str, float]: ...
-
-    def cost(self, car: Car, scene: ImpactScene) -> CarCost: ...
-
-    def cost_regressors(self, car: Car, scene: ImpactScene) -> tuple[tuple[float, ...], tuple[float, ...]]: ...
-
-    def rungs(self, scene: ImpactScene, mesh_dofs: int | None) -> list[Resolution]: ...
-
-    def bench(self, scene: ImpactScene) -> list[Resolution]: ...
-
-
-class MeshlessFidelity(CarFidelity):
-    """A fidelity whose car has no mesh (rigid, quasi-rigid): no step of its own, a constant fitted cost
-    (``setup_us``, ``step_us``: one coefficient each), one resolution."""
+    def car(self, car: Car, scene: ImpactScene, dt: float) -> CarSystem:
+        """The car as the system the impact solver steps."""
+        ...
 
     def step_candidates(self, car: Car, scene: ImpactScene, elements: int, speed: Callable[[Body], float]) -> dict[str, float]:
+        """The car's candidate steps, rule → s, on ``elements`` elements if it has a mesh, ``speed(body)`` a body's
+        largest wave speed (:func:`femref.run.timestep.impact_candidates`)."""
         return {}
 
     def cost_regressors(self, car: Car, scene: ImpactScene) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        """``(x_setup, x_step)``, what ``setup_us`` and ``step_us`` multiply (:meth:`cost`)."""
         return (1.0,), (1.0,)
 
+    def matrices(self, car: Car, scene: ImpactScene) -> tuple[float, int, bool]:
+        """``(memory, dofs, meshed)`` of :class:`CarCost`."""
+        return 0.0, 0, False
+
     def cost(self, car: Car, scene: ImpactScene) -> CarCost:
-        return fitted_cost(self.setup_us, self.step_us, *self.cost_regressors(car, scene))
+        """``½ s·x_setup``, ``½ t·x_step`` (``s, t = setup_us, step_us``, :meth:`cost_regressors`): a car's half of a
+        two-car run, the one cost model of the work budget and the model choice's ladder.
+
+        The coefficients are fitted by ``benchmarks/fit_ladder_costs.py`` on every rung of 30 random two-car rod
+        impacts (draft-gear, Kelvin–Voigt and friction-table couplers, 16–64 P2 elements; a 2-core AMD EPYC, busy) on
+        the median of five cold runs per rung, by relative-error least squares with non-negative coefficients: the
+        set-up on the wall time outside the stepping (cars built, reduced, factorised and packed cold, the result
+        assembled), the step on the stepping time per step. Predicted over measured wall time per rung: −5 % to +5 %
+        (10th–90th percentile), at most 18 % off. Re-run the script when the build or the stepping changes. No
+        bending car was fitted: one costs as its rod (measured on impact_bending_hoppers.yaml against the same run
+        without bending, a step costs 1.2× rigid, 1.7× modal at 4 modes, 2.3× fem and 5× quasi-rigid).
+        """
+        x_setup, x_step = self.cost_regressors(car, scene)
+        setup = sum(s * x for s, x in zip(self.setup_us, x_setup, strict=True))
+        step = sum(t * x for t, x in zip(self.step_us, x_step, strict=True))
+        return CarCost(0.5 * setup, 0.5 * step, *self.matrices(car, scene))
 
     def rungs(self, scene: ImpactScene, mesh_dofs: int | None) -> list[Resolution]:
+        """Its ladder rungs, coarsest first, each the Richardson partner of the one before (``mesh_dofs``: the
+        smallest car's mesh DOFs when known without a mesh, else None)."""
         return [Resolution(self.name, scene)]
 
     def bench(self, scene: ImpactScene) -> list[Resolution]:
+        """Its bench rows."""
         return [Resolution(self.name, scene)]
 
 

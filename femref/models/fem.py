@@ -25,7 +25,7 @@ from femref.fem import INTEGRATORS, Stepper, harmonic_response
 from femref.fem.build import FemSettings, build_operators
 from femref.fem.operators import Operators, assemble_beam
 from femref.impact.systems import SecondOrderSystem
-from femref.models.base import CarCost, CarFidelity, Progress, Resolution, built_once, fitted_cost
+from femref.models.base import CarFidelity, Progress, Resolution, built_once
 from femref.results import ModelResult
 from femref.scene import Car, ImpactScene, Scene
 
@@ -137,10 +137,10 @@ class FemModel(CarFidelity):
         """``x_setup = x_step = (1, n)``: banded cars of ``n`` elements (the case's ``fem.elements``)."""
         return (1.0, scene.fem.elements), (1.0, scene.fem.elements)
 
-    def cost(self, car: Car, scene: ImpactScene) -> CarCost:
-        """The fitted cost (:func:`femref.models.base.fitted_cost`); its mesh's matrices, :data:`MATRIX_BYTES_PER_DOF`."""
+    def matrices(self, car: Car, scene: ImpactScene) -> tuple[float, int, bool]:
+        """Its mesh's matrices (:data:`MATRIX_BYTES_PER_DOF`), every DOF stepped."""
         dofs = sum(car_dofs(car, scene.fem))
-        return fitted_cost(self.setup_us, self.step_us, *self.cost_regressors(car, scene), memory=MATRIX_BYTES_PER_DOF * dofs, dofs=dofs, meshed=True)
+        return MATRIX_BYTES_PER_DOF * dofs, dofs, True
 
     def rungs(self, scene: ImpactScene, mesh_dofs: int | None) -> list[Resolution]:
         """``fem_n<n>`` for ``n = N·2^j`` (:data:`FEM_LEVELS`, at least :data:`MIN_ELEMENTS`), refined **jointly in

@@ -47,7 +47,7 @@ from femref.fem.build import FemSettings
 from femref.fem.mesh import body_nodes
 from femref.fem.modes import free_free_modes, residual_flexibility
 from femref.impact.systems import SecondOrderSystem
-from femref.models.base import CarCost, CarFidelity, Resolution, built_once, fitted_cost
+from femref.models.base import CarFidelity, Resolution, built_once
 from femref.models.fem import MATRIX_BYTES_PER_DOF, car_beam_operators, car_dofs, car_operators, coupler_line
 from femref.scene import Car, ImpactScene
 
@@ -91,12 +91,11 @@ class ModalModel(CarFidelity):
         k = scene.modal_modes
         return (1.0, scene.fem.elements, k), (1.0, (k + 1) ** 2)
 
-    def cost(self, car: Car, scene: ImpactScene) -> CarCost:
-        """The fitted cost (:func:`femref.models.base.fitted_cost`); its mesh's matrices and, for a car that bends,
-        the four dense n × n matrices of its beam's ``n`` DOFs' eigenproblem."""
+    def matrices(self, car: Car, scene: ImpactScene) -> tuple[float, int, bool]:
+        """Its mesh's matrices and, for a car that bends, the four dense n × n matrices of its beam's ``n`` DOFs'
+        eigenproblem."""
         rod, beam = car_dofs(car, scene.fem)
-        return fitted_cost(self.setup_us, self.step_us, *self.cost_regressors(car, scene), memory=MATRIX_BYTES_PER_DOF * (rod + beam) + 32.0 * beam**2,
-                           meshed=True)
+        return MATRIX_BYTES_PER_DOF * (rod + beam) + 32.0 * beam**2, 0, True
 
     def rungs(self, scene: ImpactScene, mesh_dofs: int | None) -> list[Resolution]:
         """``modal_k<k>`` for ``k`` in :data:`MODE_COUNTS` that the case's mesh holds, each at its own step."""

@@ -20,7 +20,7 @@ from scipy.integrate import cumulative_trapezoid
 from femref.core.body import Body
 from femref.core.timegrid import output_steps, steps_to
 from femref.impact.systems import SecondOrderSystem
-from femref.models.base import MeshlessFidelity, Progress, built_once
+from femref.models.base import CarFidelity, Progress, built_once
 from femref.results import ModelResult
 from femref.scene import Car, ImpactScene, Scene
 
@@ -49,11 +49,11 @@ def inertia_balanced_force(body: Body, loads: NDArray, x: NDArray) -> NDArray:
     return loads[..., :1] + (loads[..., 1:2] - loads[..., :1]) * fraction
 
 
-class RigidModel(MeshlessFidelity):
+class RigidModel(CarFidelity):
     name = "rigid"
     expansion_order = 0
     setup_us = (1268.0,)
-    """Set-up of a two-car run, µs (:func:`femref.models.base.fitted_cost`)."""
+    """Set-up of a two-car run, µs (:meth:`femref.models.base.CarFidelity.cost`)."""
     step_us = (1.868,)
     """One step of a two-car run, µs."""
 

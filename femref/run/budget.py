@@ -1,25 +1,17 @@
 """The work budget: what a scene will cost, predicted before any work, and refused when too much.
 
-For every model run of a scene the prediction counts the work the run does — steps × degrees
-of freedom for a time-stepped model, frequencies × degrees of freedom for a harmonic one,
-output times × probes × de Hoog terms for the exact transient, load-record samples × transform
-values for a long CSV load under ``exact``, and a dense eigenproblem for the modal bending of a
-car — and the memory it holds: its histories (every output sample of every probe, coupler and
-energy), its fields, and its matrices. Nothing is assembled to predict: the degrees of freedom
-come from the element count and order, the automatic step from the profiles' wave speed sampled
-at a few hundred points (:func:`approximate_step`).
-
-Work is counted in *work units*, seconds on the reference machine (2 cores, a loaded one). An impact run's cars
-cost what their fidelities' one cost model says (:meth:`femref.models.base.CarFidelity.cost`: the fitted µs of the
-model choice's ladder, so the budget and the ladder price a run alike), its coupler line what
-:func:`coupler_line_cost` says; the rest are measured per-step and per-DOF costs, rounded up:
+For every model run the prediction counts its work and the memory it holds — its histories (every output sample
+of every probe, coupler and energy), its fields and its matrices — without assembling anything: the degrees of
+freedom from the element count and order, the automatic step from the profiles' wave speed sampled at a few
+hundred points (:func:`approximate_step`). Work is in *work units*, seconds on the reference machine (2 cores,
+loaded). An impact run's cars cost what their fidelities' one cost model says
+(:meth:`femref.models.base.CarFidelity.cost`, the ladder's too), its coupler line :func:`coupler_line_cost`;
+the rest are measured costs, rounded up:
 
     single-body fem step   5e-4 s + 5e-7 s per DOF
     harmonic fem           5e-3 s + 1.1e-5 s per DOF, per frequency
     exact transient        6e-5 s per output time and probe; a CSV record of n > 64 samples adds
                            n × 385 transform values × (log2 Nt + 1) windows × 5e-8 s
-    coupler line           6e-10 s × m³ a step (dense LU of the m = couplers + coupler states Newton
-                           unknowns) and two dense couplers × couplers gains per car (:func:`coupler_line_cost`)
 
 Everything a command will run is counted, before any of it runs:
 

@@ -16,7 +16,7 @@ from femref.choice.ladder import ladder_costs, model_ladder
 from femref.core import catalog
 from femref.impact.systems import SecondOrderSystem
 from femref.models import CAR_FIDELITIES, REGISTRY
-from femref.models.base import MeshlessFidelity
+from femref.models.base import CarFidelity
 from femref.run.budget import approximate_step, coupler_line_cost, predict
 from femref.run.runner import load_compiled_loop, run_model
 from femref.run.timestep import impact_candidates, impact_time_step
@@ -26,7 +26,7 @@ from femref.scene.build import scene_from_case
 RULE = "lumped mode period / 20"
 
 
-class LumpedModel(MeshlessFidelity):
+class LumpedModel(CarFidelity):
     """Two masses, half the car's at each end, joined by its static stiffness ``k = 1/∫ dx/EA``."""
 
     name = "lumped"
