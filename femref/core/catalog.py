@@ -47,13 +47,12 @@ MODELS: dict[str, ModelEntry] = {
         ModelEntry("quasi_rigid", SIMULATED_KINDS, "low-frequency perturbation of rigid-body motion (reduced.quasi_rigid)"),
         ModelEntry("rigid", SIMULATED_KINDS, "rigid bodies"),
         ModelEntry("modal", IMPACT_KINDS, "rigid mode, lowest elastic modes and a static correction of the fem car"),
-        ModelEntry("rigid_lumped", IMPACT_KINDS, "two lumped masses joined by the car's static stiffness"),
         ModelEntry("ann", (), "a saved network: an estimator on the fem records, listed under estimators:"),
     )
 }
 
 #: What a car can be modelled as within one impact run: the models that serve impacts, finest first.
-FIDELITIES: tuple[str, ...] = ("fem", "modal", "quasi_rigid", "rigid_lumped", "rigid")
+FIDELITIES: tuple[str, ...] = ("fem", "modal", "quasi_rigid", "rigid")
 assert set(FIDELITIES) == {name for name, entry in MODELS.items() if "impact" in entry.kinds}  # one list of names
 
 #: Inverse estimators: coupler forces from the fem run's acceleration records.
