@@ -6,10 +6,7 @@
   (:class:`femref.fem.Stepper`), energies and optional fields;
 * impact car: the rod's operators as a second-order system
   (:class:`femref.impact.systems.SecondOrderSystem`), built once per geometry; a car that
-  bends adds Hermite beam elements on the same nodes, driven through the coupler offsets;
-  it steps within its mesh's wave transit time (and its beam's, :func:`loaded_bending`), and
-  the model choice and the bench run it on finer and coarser meshes (:meth:`FemModel.rungs`,
-  :meth:`FemModel.bench`).
+  bends adds Hermite beam elements on the same nodes, driven through the coupler offsets.
 """
 
 from __future__ import annotations
@@ -76,12 +73,6 @@ def car_dofs(car: Car, settings: FemSettings) -> tuple[int, int]:
 def with_elements(scene: ImpactScene, elements: int) -> ImpactScene:
     """``scene`` with ``fem.elements`` per car replaced."""
     return dataclasses.replace(scene, fem=dataclasses.replace(scene.fem, elements=elements))
-
-
-def element_counts(elements: int) -> list[int]:
-    """``max(MIN_ELEMENTS, round(elements × f))`` for ``f`` in :data:`ELEMENT_FACTORS`, and ``elements`` itself
-    (the case's count, even below the minimum), ascending, unique."""
-    return sorted({elements, *(max(MIN_ELEMENTS, round(elements * f)) for f in ELEMENT_FACTORS)})
 
 
 class FemModel(CarFidelity):
@@ -154,10 +145,11 @@ class FemModel(CarFidelity):
                            "{rule}" if n == n0 else f"{{rule}} at {n0} elements, × {n0}/{n}") for n in elements]
 
     def bench(self, scene: ImpactScene) -> list[Resolution]:
-        """Every car fem at :func:`element_counts` of ``N``, each at its own step, and at ``N`` elements at
-        :data:`DT_FACTORS` × that step."""
+        """At ``N`` (the case's ``fem.elements``) and ``max(MIN_ELEMENTS, round(N f))`` elements for ``f`` in
+        :data:`ELEMENT_FACTORS`, each at its own step, and at ``N`` at :data:`DT_FACTORS` × that step."""
         n = scene.fem.elements
-        rows = [Resolution(f"fem_n{e}", with_elements(scene, e), "elements", e) for e in element_counts(n)]
+        counts = sorted({n, *(max(MIN_ELEMENTS, round(n * f)) for f in ELEMENT_FACTORS)})
+        rows = [Resolution(f"fem_n{e}", with_elements(scene, e), "elements", e) for e in counts]
         return rows + [Resolution(f"fem_dt{f:g}", with_elements(scene, n), "dt_factor", f, scale=(f, 1.0), rule=f"{f:g} × ({{rule}})")
                        for f in DT_FACTORS]
 

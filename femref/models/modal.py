@@ -52,21 +52,19 @@ from femref.models.fem import MATRIX_BYTES_PER_DOF, car_beam_operators, car_dofs
 from femref.scene import Car, ImpactScene
 
 MODE_COUNTS: tuple[int, ...] = (1, 2, 4, 8, 16)
-"""Elastic modes per car of the ladder rungs and bench rows (those the mesh holds: :func:`mode_counts`)."""
+"""Elastic modes per car of the ladder rungs and bench rows (those the mesh holds: :func:`at_mode_counts`)."""
 
 
-def mode_counts(scene: ImpactScene, candidates: tuple[int, ...] | None = None, ndof: int | None = None) -> list[int]:
-    """The mode counts every car's fem mesh holds (``≤ ndof − 2``, ``ndof`` the smallest car's DOFs: given, or
-    counted on the meshes) among ``candidates`` (default: :data:`MODE_COUNTS` and the case's ``modal_modes``),
-    ascending."""
+def at_mode_counts(scene: ImpactScene, candidates: tuple[int, ...], ndof: int | None = None) -> list[Resolution]:
+    """``modal_k<k>``, ``scene`` at ``k`` modes, for the ``k`` among ``candidates`` that every car's fem mesh holds
+    (``1 ≤ k ≤ ndof − 2``, ``ndof`` the smallest car's DOFs: given, or counted on the meshes), ascending."""
     if ndof is None:
         ndof = min(
             (body_nodes(car.body.half_length, scene.fem.elements, car.body.jumps, scene.fem.grading).size - 1) * scene.fem.order + 1
             for car in scene.cars
         )
-    if candidates is None:
-        candidates = (*MODE_COUNTS, scene.modal_modes)
-    return sorted(k for k in set(candidates) if 1 <= k <= ndof - 2)
+    modes = sorted(k for k in set(candidates) if 1 <= k <= ndof - 2)
+    return [Resolution(f"modal_k{k}", dataclasses.replace(scene, modal_modes=k), "modes", k) for k in modes]
 
 
 class ModalModel(CarFidelity):
@@ -98,13 +96,12 @@ class ModalModel(CarFidelity):
         return MATRIX_BYTES_PER_DOF * (rod + beam) + 32.0 * beam**2, 0, True
 
     def rungs(self, scene: ImpactScene, mesh_dofs: int | None) -> list[Resolution]:
-        """``modal_k<k>`` for ``k`` in :data:`MODE_COUNTS` that the case's mesh holds, each at its own step."""
-        return [Resolution(f"modal_k{k}", dataclasses.replace(scene, modal_modes=k), "modes", k) for k in mode_counts(scene, MODE_COUNTS, mesh_dofs)]
+        """At :data:`MODE_COUNTS` that the case's mesh holds, each at its own step."""
+        return at_mode_counts(scene, MODE_COUNTS, mesh_dofs)
 
     def bench(self, scene: ImpactScene) -> list[Resolution]:
-        """Every car modal (mode shapes from the case's fem mesh) at :func:`mode_counts` (with the case's
-        ``modal.modes``), each at its own step."""
-        return [Resolution(f"modal_k{k}", dataclasses.replace(scene, modal_modes=k), "modes", k) for k in mode_counts(scene)]
+        """At :data:`MODE_COUNTS` and the case's ``modal.modes`` that its mesh holds, each at its own step."""
+        return at_mode_counts(scene, (*MODE_COUNTS, scene.modal_modes))
 
 
 MODEL = ModalModel()
