@@ -1,4 +1,4 @@
-"""Fit the model-choice ladder's cost model (:mod:`femref.choice.ladder`) on random two-car impacts.
+"""Fit the car fidelities' cost model (:meth:`femref.models.base.CarFidelity.cost`: the ladder's and the budget's) on random two-car impacts.
 
     python benchmarks/fit_ladder_costs.py [--scenes 30] [--seed 0] [--repeats 5] [--json PATH]
 
@@ -6,7 +6,7 @@ The model, per rung of a ladder (µs on this machine; only ratios matter),
 
     cost = C/2 · (setup + steps · step),   setup = s · x_setup,   step = t · x_step,
 
-with the regressors ``x`` of :func:`femref.choice.ladder.cost_regressors`. Every rung of
+with the regressors ``x`` of each fidelity's ``cost_regressors`` (their mean over the cars). Every rung of
 every scene's ladder runs ``--repeats`` times **cold**: the built cars
 (:func:`femref.models.base.forget_built`) are dropped and the rung's scene copied before each
 run, so the cars are assembled, reduced and factorised afresh and everything cached per
@@ -36,8 +36,8 @@ Prints, per family and resolution, the median measured and predicted wall time, 
 spread of predicted over measured, the median build and packing (``setup_time_s``), time
 outside the stepping and time per step; per family the spreads of the wall-time, set-up
 and per-step predictions; how many pairs of rungs of one scene more than 10 % apart the
-fit and ``ladder.py``'s present constants order right; then the constants to paste into
-``femref/choice/ladder.py``. Rungs that fail are listed and left out of the fit.
+fit and the present constants order right; then the constants to paste into each
+``femref/models/<fidelity>.py`` (``setup_us``, ``step_us``). Rungs that fail are listed and left out of the fit.
 """
 
 from __future__ import annotations
@@ -57,14 +57,14 @@ from scipy.optimize import nnls
 
 from femref.case import parse_case
 from femref.case.defaults import default_scene_data
-from femref.choice.ladder import SETUP_COST_US, STEP_COST_US, cost_regressors, model_ladder
-from femref.models import base
+from femref.choice.ladder import model_ladder
+from femref.models import CAR_FIDELITIES, base
 from femref.run import load_compiled_loop
 from femref.run.runner import run_model
 from femref.scene import ImpactScene
 from femref.scene.build import scene_from_case
 
-FAMILIES = ("rigid", "quasi_rigid", "modal", "fem")
+FAMILIES = tuple(CAR_FIDELITIES)
 CASE_ELEMENTS = (16, 32, 48, 64)
 """``fem.elements`` of the random cases (the impact cases use 32–64, the choice tests 16)."""
 FRICTION_TABLE = {
@@ -179,12 +179,19 @@ def time_ladders(scenes: list[ImpactScene], repeats: int) -> tuple[list[RungTimi
             if (index, rung.label) in failed:
                 continue
             steps, setup, outside_stepping, stepping, wall = np.median(np.array(times[(index, rung.label)]), axis=0)
-            x_setup, x_step = cost_regressors(rung.family, rung.scene)
+            x_setup, x_step = regressors(rung.family, rung.scene)
             timings.append(
                 RungTiming(index, rung.label, rung.family, rung.resolution, scene.fem.elements, len(scene.cars), int(steps), x_setup, x_step,
                            float(setup), float(outside_stepping), float(stepping), float(wall))
             )
     return timings, [f"scene {index} {label}: {message}" for (index, label), message in failed.items()]
+
+
+def regressors(family: str, scene: ImpactScene) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """The mean over the cars of the fidelity's ``(x_setup, x_step)``: a two-car run costs ``s·x_setup``, ``t·x_step``."""
+    fidelity = CAR_FIDELITIES[family]
+    rows = [fidelity.cost_regressors(car, scene) for car in scene.cars]
+    return tuple(np.mean([r[0] for r in rows], axis=0).tolist()), tuple(np.mean([r[1] for r in rows], axis=0).tolist())
 
 
 def relative_nnls(x: np.ndarray, measured: np.ndarray) -> np.ndarray:
@@ -226,7 +233,7 @@ def report(timings: list[RungTiming], setup_us: dict, step_us: dict) -> dict[str
     print(f"{'rung':<12} {'runs':>4} {'wall ms':>9} {'pred ms':>9} {'wall error %':>38} {'set-up ms':>9} {'non-step ms':>11} {'step µs':>8}")
     for (family, resolution), rows in sorted(groups.items(), key=lambda item: (FAMILIES.index(item[0][0]), item[0][1])):
         predicted = [_predicted_wall_s(t, setup_us, step_us) for t in rows]
-        label = family if family in ("rigid", "quasi_rigid") else f"{family} {'k' if family == 'modal' else 'n'}={resolution}"
+        label = rows[0].label
         print(
             f"{label:<12} {len(rows):4d} {statistics.median(t.wall_time_s for t in rows) * 1e3:9.2f} {statistics.median(predicted) * 1e3:9.2f} "
             f"{spread([p / t.wall_time_s for p, t in zip(predicted, rows)]):>38} "
@@ -274,13 +281,12 @@ def order_agreement(timings: list[RungTiming], setup_us: dict, step_us: dict, ma
 
 
 def constants_text(setup_us: dict, step_us: dict) -> str:
-    """The two dictionaries as they read in ``femref/choice/ladder.py``."""
+    """The coefficients as they read in each ``femref/models/<fidelity>.py``."""
 
-    def literal(name: str, values: dict) -> str:
-        rows = "".join(f'    "{family}": {tuple(float(f"{v:.4g}") for v in values[family])},\n' for family in FAMILIES)
-        return f"{name}: dict[str, tuple[float, ...]] = {{\n{rows}}}"
+    def literal(values: tuple[float, ...]) -> tuple[float, ...]:
+        return tuple(float(f"{v:.4g}") for v in values)
 
-    return literal("SETUP_COST_US", setup_us) + "\n" + literal("STEP_COST_US", step_us)
+    return "\n".join(f"femref/models/{family}.py: setup_us = {literal(setup_us[family])}, step_us = {literal(step_us[family])}" for family in FAMILIES)
 
 
 def main() -> None:
@@ -303,8 +309,8 @@ def main() -> None:
     setup_us, step_us = fit_constants(timings)
     spreads = report(timings, setup_us, step_us)
     right, total = order_agreement(timings, setup_us, step_us)
-    current_right, _ = order_agreement(timings, SETUP_COST_US, STEP_COST_US)
-    print(f"\nrung pairs of one scene more than {ORDER_MARGIN}× apart: {right}/{total} ordered right by the fit, {current_right}/{total} by ladder.py's constants")
+    current_right, _ = order_agreement(timings, {f: CAR_FIDELITIES[f].setup_us for f in FAMILIES}, {f: CAR_FIDELITIES[f].step_us for f in FAMILIES})
+    print(f"\nrung pairs of one scene more than {ORDER_MARGIN}× apart: {right}/{total} ordered right by the fit, {current_right}/{total} by the present constants")
     elapsed = time.perf_counter() - started
     print(f"\n{len(timings)} rungs of {args.scenes} scenes × {args.repeats} cold runs in {elapsed:.0f} s. Constants (µs, two-car run):\n")
     print(constants_text(setup_us, step_us))

@@ -4,12 +4,13 @@
 first. For each it runs the rung and its Richardson partner (if not run yet), then
 estimates the error of every run so far (:mod:`femref.choice.estimates`):
 
-* ``rigid``, ``quasi_rigid``: ``SAFETY`` times the asymptotic estimates from their
-  difference and ``ε_load`` of the rigid run's coupler forces, plus (peak output) the
-  peak's sampling error at their step, when ``ε_load ≤ EPS_LOAD_VALID``;
-* ``modal_k<k>``, ``fem_n<n>``: Richardson against the partner (``2k`` modes, ``2n``
-  elements at half the step), ``SAFETY/(1 − 2^−p)·Δ``; the finest of a family against
-  the one below, ``SAFETY/(2^p − 1)·Δ``;
+* the two terms of the expansion in ε (:attr:`femref.choice.ladder.Ladder.expansion`: rigid,
+  quasi-rigid): ``SAFETY`` times the asymptotic estimates from their difference and
+  ``ε_load`` of the zeroth-order run's coupler forces, plus (peak output) the peak's
+  sampling error at their step, when ``ε_load ≤ EPS_LOAD_VALID``;
+* every other rung: Richardson against the partner (e.g. ``2k`` modes, ``2n`` elements at
+  half the step), ``SAFETY/(1 − 2^−p)·Δ``; the finest of a family against the one below,
+  ``SAFETY/(2^p − 1)·Δ``;
 * then every run through every run with a smaller estimate, ``d(i, j) + e_j``, until
   nothing changes.
 
@@ -168,9 +169,9 @@ class _Climb:
                         changed = True
 
     def _own(self, rung: Rung) -> tuple[float, str]:
-        """The rung's own estimate: asymptotic (rigid, quasi-rigid) or Richardson (modal, fem); inf when it has none."""
-        if rung.family in ("rigid", "quasi_rigid"):
-            return self._asymptotic(rung.family)
+        """The rung's own estimate: asymptotic (a term of the expansion in ε) or Richardson; inf when it has none."""
+        if rung.label in self.ladder.expansion:
+            return self._asymptotic(rung.label)
         partner = self.ladder.partner(rung.label)
         if partner is not None:
             if not self.by_label[partner].ran:
@@ -183,21 +184,21 @@ class _Climb:
             return SAFETY * richardson_error(difference, ASSUMED_ORDER, finer=True), f"Richardson (finest) against {coarser}"
         return math.inf, "no estimate: nothing to refine against"
 
-    def _asymptotic(self, family: str) -> tuple[float, str]:
-        rigid, quasi_rigid = self.by_label["rigid"], self.by_label["quasi_rigid"]
-        if not (rigid.ran and quasi_rigid.ran):
-            return math.inf, "no estimate: rigid and quasi_rigid must both run"
+    def _asymptotic(self, label: str) -> tuple[float, str]:
+        zeroth, first = self.ladder.expansion
+        if not (self.by_label[zeroth].ran and self.by_label[first].ran):
+            return math.inf, f"no estimate: {zeroth} and {first} must both run"
         wave_time = self.scene.wave_travel_time
-        time_axis = rigid.result.axes["time"]
-        self.epsilon_load = max(load_epsilon(time_axis, out["force"], wave_time) for out in rigid.result.couplers.values())
+        result = self.by_label[zeroth].result
+        self.epsilon_load = max(load_epsilon(result.axes["time"], out["force"], wave_time) for out in result.couplers.values())
         if not self.epsilon_load <= EPS_LOAD_VALID:
             return math.inf, f"asymptotics not valid: ε_load = {self.epsilon_load:.3g} > {EPS_LOAD_VALID:g}"
-        first_order = self.distance("rigid", "quasi_rigid")
-        estimates = dict(zip(("rigid", "quasi_rigid"), asymptotic_errors(first_order, self.epsilon_load)))
+        first_order = self.distance(zeroth, first)
+        estimates = dict(zip((zeroth, first), asymptotic_errors(first_order, self.epsilon_load)))
         step = 0.0
         if self.output == "peak_coupler_force":
-            step = max(peak_sampling_error(out["force"]) for out in self.by_label[family].result.couplers.values())
-        return SAFETY * estimates[family] + step, f"asymptotic in ε_load = {self.epsilon_load:.3g}"
+            step = max(peak_sampling_error(out["force"]) for out in self.by_label[label].result.couplers.values())
+        return SAFETY * estimates[label] + step, f"asymptotic in ε_load = {self.epsilon_load:.3g}"
 
     def outcome(self, tolerance: float, chosen: str, met: bool) -> ModelChoice:
         return ModelChoice(tolerance, self.output, self.ladder, self.rows, chosen, met, self.epsilon_load)

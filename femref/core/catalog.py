@@ -9,7 +9,8 @@ this catalog.
 A model serves a scene kind when its entry lists the kind; whether it can serve a
 particular case (e.g. ``exact`` needs piecewise-constant profiles) is decided at
 validation by :mod:`femref.case.capabilities`. A model that serves impacts is a car
-fidelity: each car of an impact run is modelled at one of them.
+fidelity (listed again in :data:`FIDELITIES`): each car of an impact run is modelled at one of
+them, and its module says how it steps, costs and is refined (:class:`femref.models.base.CarFidelity`).
 """
 
 from __future__ import annotations

@@ -1,21 +1,23 @@
 """Models that answer a scene, by name: the registry the runner reads.
 
-One module per model (:mod:`.fem`, :mod:`.exact`, :mod:`.quasi_rigid`, :mod:`.rigid`,
-:mod:`.modal`), each holding its single-body and car forms (:mod:`.base`), and the
-inverse estimators (:mod:`.inverse`). The names are those of
-:data:`femref.core.catalog.MODELS`; a model serves the scene kinds its catalog entry lists.
+One module per model, named as the model (:mod:`.fem`, :mod:`.exact`, :mod:`.quasi_rigid`,
+:mod:`.rigid`, :mod:`.modal`), each holding its single-body and car forms (:mod:`.base`) and its
+instance as ``MODEL``, and the inverse estimators (:mod:`.inverse`). The names are those of
+:data:`femref.core.catalog.MODELS`, each module found by its name; a model serves the scene kinds
+its catalog entry lists, and a car fidelity (:class:`~femref.models.base.CarFidelity`) is found in
+:data:`CAR_FIDELITIES`.
 """
 
+from importlib import import_module
+
+from femref.core.catalog import FIDELITIES
 from femref.core.catalog import MODELS as CATALOG
-from femref.models.base import FORMS, Model, Progress, ProgressFor
-from femref.models.exact import ExactModel
-from femref.models.fem import FemModel
-from femref.models.modal import ModalModel
-from femref.models.quasi_rigid import QuasiRigidModel
-from femref.models.rigid import RigidModel
+from femref.models.base import FORMS, CarFidelity, Model, Progress, ProgressFor
 
 #: Model name → model, for every catalog name a model implements (``ann`` is an estimator, not a model).
-REGISTRY: dict[str, Model] = {m.name: m for m in (FemModel(), ExactModel(), QuasiRigidModel(), RigidModel(), ModalModel())}
+REGISTRY: dict[str, Model] = {name: import_module(f"femref.models.{name}").MODEL for name, entry in CATALOG.items() if entry.kinds}
+#: Fidelity name → its model, finest first (:data:`femref.core.catalog.FIDELITIES`).
+CAR_FIDELITIES: dict[str, CarFidelity] = {name: REGISTRY[name] for name in FIDELITIES}  # type: ignore[misc]
 
 
 def model_form(name: str, kind: str):
@@ -28,4 +30,4 @@ def model_form(name: str, kind: str):
     return getattr(REGISTRY[name], FORMS[kind])
 
 
-__all__ = ["FORMS", "REGISTRY", "Model", "Progress", "ProgressFor", "model_form"]
+__all__ = ["CAR_FIDELITIES", "FORMS", "REGISTRY", "CarFidelity", "Model", "Progress", "ProgressFor", "model_form"]

@@ -50,3 +50,6 @@ class ExactModel:
             scene.probes, {"displacement": response.displacement, "acceleration": response.acceleration, "axial_force": response.axial_force}
         )
         return result
+
+
+MODEL = ExactModel()

@@ -34,27 +34,77 @@ error); momentum equals the impulse up to generalized-α's own lag term.
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from typing import Callable
 
 import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
+from femref.core.body import Body
 from femref.fem.build import FemSettings
+from femref.fem.mesh import body_nodes
 from femref.fem.modes import free_free_modes, residual_flexibility
 from femref.impact.systems import SecondOrderSystem
-from femref.models.base import built_once
-from femref.models.fem import car_beam_operators, car_operators, coupler_line
+from femref.models.base import CarFidelity, Resolution, built_once
+from femref.models.fem import MATRIX_BYTES_PER_DOF, car_beam_operators, car_dofs, car_operators, coupler_line
 from femref.scene import Car, ImpactScene
 
+MODE_COUNTS: tuple[int, ...] = (1, 2, 4, 8, 16)
+"""Elastic modes per car of the ladder rungs and bench rows (those the mesh holds: :func:`at_mode_counts`)."""
 
-class ModalModel:
+
+def at_mode_counts(scene: ImpactScene, candidates: tuple[int, ...], ndof: int | None = None) -> list[Resolution]:
+    """``modal_k<k>``, ``scene`` at ``k`` modes, for the ``k`` among ``candidates`` that every car's fem mesh holds
+    (``1 ≤ k ≤ ndof − 2``, ``ndof`` the smallest car's DOFs: given, or counted on the meshes), ascending."""
+    if ndof is None:
+        ndof = min(
+            (body_nodes(car.body.half_length, scene.fem.elements, car.body.jumps, scene.fem.grading).size - 1) * scene.fem.order + 1
+            for car in scene.cars
+        )
+    modes = sorted(k for k in set(candidates) if 1 <= k <= ndof - 2)
+    return [Resolution(f"modal_k{k}", dataclasses.replace(scene, modal_modes=k), "modes", k) for k in modes]
+
+
+class ModalModel(CarFidelity):
     """Impact cars only: each car its rigid mode, ``scene.modal_modes`` elastic modes and a static correction."""
 
     name = "modal"
+    setup_us = (8930.0, 23.5, 303.3)
+    """Set-up of a two-car run, µs: ``s₀ + s₁·N + s₂·k`` (:meth:`cost_regressors`)."""
+    step_us = (2.258, 0.03005)
+    """One step of a two-car run, µs: ``t₀ + t₁·(k+1)²``."""
 
     def car(self, car: Car, scene: ImpactScene, dt: float) -> SecondOrderSystem:
         return modal_car(car, scene.fem, scene.modal_modes)
+
+    def step_candidates(self, car: Car, scene: ImpactScene, elements: int, speed: Callable[[Body], float]) -> dict[str, float]:
+        """A twentieth of the period of the highest kept mode, ``4l/(k c_max)`` for a free rod of ``k`` modes."""
+        return {"highest modal period / 20": 4.0 * car.body.half_length / (scene.modal_modes * speed(car.body)) / 20.0}
+
+    def cost_regressors(self, car: Car, scene: ImpactScene) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        """``x_setup = (1, N, k)``: the case's mesh of ``N`` elements assembled, then the eigen-solve of ``k`` modes,
+        the static correction and packing; ``x_step = (1, (k+1)²)``: dense ``(k+1)``-DOF cars."""
+        k = scene.modal_modes
+        return (1.0, scene.fem.elements, k), (1.0, (k + 1) ** 2)
+
+    def matrices(self, car: Car, scene: ImpactScene) -> tuple[float, int, bool]:
+        """Its mesh's matrices and, for a car that bends, the four dense n × n matrices of its beam's ``n`` DOFs'
+        eigenproblem."""
+        rod, beam = car_dofs(car, scene.fem)
+        return MATRIX_BYTES_PER_DOF * (rod + beam) + 32.0 * beam**2, 0, True
+
+    def rungs(self, scene: ImpactScene, mesh_dofs: int | None) -> list[Resolution]:
+        """At :data:`MODE_COUNTS` that the case's mesh holds, each at its own step."""
+        return at_mode_counts(scene, MODE_COUNTS, mesh_dofs)
+
+    def bench(self, scene: ImpactScene) -> list[Resolution]:
+        """At :data:`MODE_COUNTS` and the case's ``modal.modes`` that its mesh holds, each at its own step."""
+        return at_mode_counts(scene, (*MODE_COUNTS, scene.modal_modes))
+
+
+MODEL = ModalModel()
 
 
 def modal_car(car: Car, settings: FemSettings, modes: int, *, static_correction: bool = True) -> SecondOrderSystem:

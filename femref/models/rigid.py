@@ -20,7 +20,7 @@ from scipy.integrate import cumulative_trapezoid
 from femref.core.body import Body
 from femref.core.timegrid import output_steps, steps_to
 from femref.impact.systems import SecondOrderSystem
-from femref.models.base import Progress, built_once
+from femref.models.base import CarFidelity, Progress, built_once
 from femref.results import ModelResult
 from femref.scene import Car, ImpactScene, Scene
 
@@ -49,8 +49,13 @@ def inertia_balanced_force(body: Body, loads: NDArray, x: NDArray) -> NDArray:
     return loads[..., :1] + (loads[..., 1:2] - loads[..., :1]) * fraction
 
 
-class RigidModel:
+class RigidModel(CarFidelity):
     name = "rigid"
+    expansion_order = 0
+    setup_us = (1268.0,)
+    """Set-up of a two-car run, µs (:meth:`femref.models.base.CarFidelity.cost`)."""
+    step_us = (1.868,)
+    """One step of a two-car run, µs."""
 
     def harmonic(self, scene: Scene) -> ModelResult:
         x = scene.probe_x
@@ -77,6 +82,9 @@ class RigidModel:
 
     def car(self, car: Car, scene: ImpactScene, dt: float) -> SecondOrderSystem:
         return rigid_car(car)
+
+
+MODEL = RigidModel()
 
 
 def rigid_car(car: Car) -> SecondOrderSystem:

@@ -5,8 +5,7 @@
 * :mod:`.measured` — a measured case, event by event: its estimators, closure, wear and alarm;
 * :mod:`.capture` — the never-raising call that times a model and records its failure;
 * :mod:`.timestep` — every automatic time-step rule;
-* :mod:`.scoring` — every score against the reference, one naming;
-* :mod:`.resolutions` — the element and mode ladders the bench and the model choice climb.
+* :mod:`.scoring` — every score against the reference, one naming.
 """
 
 from femref.run.runner import RunOutcome, load_compiled_loop, run_model, run_scene

@@ -1,25 +1,17 @@
 """The work budget: what a scene will cost, predicted before any work, and refused when too much.
 
-For every model run of a scene the prediction counts the work the run does — steps × degrees
-of freedom for a time-stepped model, frequencies × degrees of freedom for a harmonic one,
-output times × probes × de Hoog terms for the exact transient, load-record samples × transform
-values for a long CSV load under ``exact``, and a dense eigenproblem for the modal bending of a
-car — and the memory it holds: its histories (every output sample of every probe, coupler and
-energy), its fields, and its matrices. Nothing is assembled to predict: the degrees of freedom
-come from the element count and order, the automatic step from the profiles' wave speed sampled
-at a few hundred points (:func:`approximate_step`).
+For every model run the prediction counts its work and the memory it holds — its histories (every output sample
+of every probe, coupler and energy), its fields and its matrices — without assembling anything: the degrees of
+freedom from the element count and order, the automatic step from the profiles' wave speed sampled at a few
+hundred points (:func:`approximate_step`). Work is in *work units*, seconds on the reference machine (2 cores,
+loaded). An impact run's cars cost what their fidelities' one cost model says
+(:meth:`femref.models.base.CarFidelity.cost`, the ladder's too), its coupler line :func:`coupler_line_cost`;
+the rest are measured costs, rounded up:
 
-Work is counted in *work units*, calibrated to seconds on the reference machine (2 cores, a
-loaded one: the constants below are the measured per-step and per-DOF costs, rounded up):
-
-    impact car step        fem 3e-7 s per DOF + 5e-6 s; modal, quasi-rigid, rigid 5e-6 s (4e-5 s bending)
     single-body fem step   5e-4 s + 5e-7 s per DOF
     harmonic fem           5e-3 s + 1.1e-5 s per DOF, per frequency
     exact transient        6e-5 s per output time and probe; a CSV record of n > 64 samples adds
                            n × 385 transform values × (log2 Nt + 1) windows × 5e-8 s
-    modal bending car      3e-10 s × n³ (dense eigenproblem of the beam's n DOFs)
-    coupler line           6e-10 s × m³ a step (dense LU of the m = couplers + coupler states Newton
-                           unknowns) and two dense couplers × couplers gains per car (:func:`coupler_line_cost`)
 
 Everything a command will run is counted, before any of it runs:
 
@@ -57,8 +49,11 @@ import numpy as np
 from femref.case.errors import CaseError
 from femref.core.body import Body
 from femref.core.signals import Tabulated
+from femref.models import CAR_FIDELITIES
+from femref.models.base import CarCost
+from femref.models.fem import MATRIX_BYTES_PER_DOF, loaded_bending, mesh_nodes, rod_dofs, transit_time
 from femref.run.costs import BUDGET_VARIABLE, MEMORY_BUDGET, WORK_BUDGET, Cost, budget_factor, bytes_text, check_costs
-from femref.run.timestep import impact_candidates, loaded_bending, single_body_candidates, smallest_candidate, transit_time
+from femref.run.timestep import impact_candidates, single_body_candidates, smallest_candidate
 
 if TYPE_CHECKING:
     from femref.scene import ImpactScene, ModelRun, Scene
@@ -67,7 +62,6 @@ if TYPE_CHECKING:
 SELF_CHECK_VARIABLE = "FEMREF_SELF_CHECK"
 
 _BYTES = 8.0
-_MATRIX_BYTES_PER_DOF = 600.0  # sparse M, C, K, banded factors, dense load and output maps
 _DEFAULT_ELEMENTS = 64
 _TYPICAL_END = 1.0  # s: an impact or a load history
 _TYPICAL_FREQUENCIES = 200
@@ -118,14 +112,6 @@ def wave_speed(body: Body) -> float:
     return float(np.max(np.sqrt(body.stiffness(x) / body.mass_per_length(x))))
 
 
-def _nodes(body: Body, elements: int) -> int:
-    return int(elements) + 1 + len(body.jumps)
-
-
-def rod_dofs(body: Body, elements: int, order: int) -> int:
-    return order * (_nodes(body, elements) - 1) + 1
-
-
 def _steps(end: float, dt: float) -> float:
     return math.ceil(end / dt - 1e-9)
 
@@ -149,41 +135,43 @@ def approximate_step(scene, run, elements: int | None = None) -> float:
     return smallest_candidate(impact_candidates(scene, run, elements or scene.fem.elements, wave_speed))[0]
 
 
+def _car_costs(scene: ImpactScene, run: ModelRun) -> list[CarCost]:
+    return [CAR_FIDELITIES[fidelity].cost(car, scene) for car, fidelity in zip(scene.cars, run.fidelity)]
+
+
+def _cars_us(costs: list[CarCost], steps: float) -> float:
+    return sum(c.setup for c in costs) + steps * sum(c.step for c in costs)
+
+
+def run_cost_us(scene: ImpactScene, run: ModelRun, steps: int) -> float:
+    """``Σ_cars (setup + steps · step)``: the µs of the run's cars at their fidelities (one cost model,
+    :meth:`femref.models.base.CarFidelity.cost`; the model choice orders its ladder by it)."""
+    return _cars_us(_car_costs(scene, run), steps)
+
+
 def impact_run_cost(scene: ImpactScene, run: ModelRun, dt: float | None = None) -> Cost:
-    """One impact run of ``scene`` at ``dt`` (None: the step the runner would take, :func:`approximate_step`): its steps
-    × the per-step cost of its cars, their set-up, and its histories and matrices (module docstring)."""
+    """One impact run of ``scene`` at ``dt`` (None: the step the runner would take, :func:`approximate_step`): its cars'
+    cost (:func:`run_cost_us`, in seconds) and their matrices, its coupler line's (:func:`coupler_line_cost`) and
+    its histories (module docstring)."""
     dt = approximate_step(scene, run) if dt is None else dt
     steps = _steps(scene.end, dt)
     outputs = steps / scene.output_stride + 1
-    per_step, setup, matrices, dofs_total = 0.0, 0.0, 0.0, 0
-    for car, fidelity in zip(scene.cars, run.fidelity):
-        if fidelity in ("fem", "modal"):
-            dofs = rod_dofs(car.body, scene.fem.elements, scene.fem.order)
-            beam = 2 * _nodes(car.body, scene.fem.elements) if car.bending is not None else 0
-            setup += 1e-4 * scene.fem.elements * (2 if beam else 1)
-            matrices += _MATRIX_BYTES_PER_DOF * (dofs + beam)
-            if fidelity == "fem":
-                per_step += 3e-7 * (dofs + beam) + 5e-6
-                dofs_total += dofs + beam
-            else:
-                per_step += 4e-5 if beam else 5e-6
-                setup += 3e-6 * dofs * (scene.modal_modes + 1) + 3e-10 * float(beam) ** 3
-                matrices += 4 * _BYTES * float(beam) ** 2
-        else:
-            per_step += 4e-5 if car.bending is not None else 5e-6
+    cars = _car_costs(scene, run)
     line_step, line_setup, line_memory = coupler_line_cost(scene)
-    per_step, setup, matrices = per_step + line_step, setup + line_setup, matrices + line_memory
+    work = 1e-6 * _cars_us(cars, steps) + steps * line_step + line_setup
+    matrices = sum(c.memory for c in cars) + line_memory
+    dofs_total = sum(c.dofs for c in cars)
     channels = len(scene.channels)
     histories = outputs * (3 * channels + 2 * len(scene.couplers) + 6) * _BYTES
     factors = _time_factors(scene, dt, approximate_step(scene, run, _DEFAULT_ELEMENTS) if scene.dt is not None else dt)
-    if any(f in ("fem", "modal") for f in run.fidelity):
+    if any(c.meshed for c in cars):
         factors["fem.elements"] = (scene.fem.elements / _DEFAULT_ELEMENTS, scene.fem.elements)
     factors["cars"] = ((len(scene.cars) / _TYPICAL_CARS) ** 3, f"{len(scene.cars)} cars")
     size = f"{steps:.3g} steps × {dofs_total:.3g} DOFs = {steps * max(dofs_total, 1):.3g} DOF-steps" if dofs_total else f"{steps:.3g} steps"
     if line_memory > histories + matrices - line_memory:
         n_c = len(scene.couplers)
         size += f" on {len(scene.cars)} cars, each holding two dense {n_c} × {n_c} coupler gains ({bytes_text(line_memory)} of line matrices)"
-    return Cost(run.name, steps * per_step + setup, histories + matrices, size, factors)
+    return Cost(run.name, work, histories + matrices, size, factors)
 
 
 def coupler_line_cost(scene: ImpactScene) -> tuple[float, float, float]:
@@ -221,7 +209,7 @@ def _single_step(scene, elements: int | None = None) -> float:
 def _single_dofs(scene) -> int:
     if scene.body.kind == "rod":
         return rod_dofs(scene.body, scene.fem.elements, scene.fem.order)
-    return 2 * _nodes(scene.body, scene.fem.elements)
+    return 2 * mesh_nodes(scene.body, scene.fem.elements)
 
 
 def _records(scene) -> dict[str, int]:
@@ -242,7 +230,7 @@ def _transient(scene, model: str) -> Cost:
     if model == "fem":
         dofs = _single_dofs(scene)
         work = steps * (5e-4 + 5e-7 * dofs) + 1e-4 * scene.fem.elements
-        memory += _MATRIX_BYTES_PER_DOF * dofs + steps * 4 * _BYTES
+        memory += MATRIX_BYTES_PER_DOF * dofs + steps * 4 * _BYTES
         if scene.fem.fields:
             memory += outputs / scene.fem.field_stride * dofs * _BYTES
         factors["fem.elements"] = (scene.fem.elements / _DEFAULT_ELEMENTS, scene.fem.elements)
@@ -269,7 +257,7 @@ def _harmonic(scene, model: str) -> Cost:
     if model == "fem":
         dofs = _single_dofs(scene)
         factors["fem.elements"] = (scene.fem.elements / _DEFAULT_ELEMENTS, scene.fem.elements)
-        return Cost(model, num * (5e-3 + 1.1e-5 * dofs), memory + 3 * _MATRIX_BYTES_PER_DOF * dofs,
+        return Cost(model, num * (5e-3 + 1.1e-5 * dofs), memory + 3 * MATRIX_BYTES_PER_DOF * dofs,
                     f"{num:.3g} frequencies × {dofs:.3g} DOFs", factors)
     return Cost(model, 1e-5 * num, memory, f"{num:.3g} frequencies", factors)
 
@@ -425,5 +413,5 @@ def _self_check_costs(scene: Scene | ImpactScene) -> list[Cost]:
 
 
 __all__ = ["BUDGET_VARIABLE", "MEMORY_BUDGET", "SELF_CHECK_LEVELS", "SELF_CHECK_VARIABLE", "WORK_BUDGET", "Cost", "approximate_step", "budget_factor",
-           "check_budget", "check_costs", "impact_run_cost", "load_wavelength", "predict", "resolution_warnings", "self_check_asked", "self_check_levels",
+           "check_budget", "check_costs", "impact_run_cost", "load_wavelength", "predict", "run_cost_us", "resolution_warnings", "self_check_asked", "self_check_levels",
            "transient_resolution_warnings", "wave_speed"]

@@ -57,7 +57,6 @@ def budget_factor() -> float:
     return factor
 
 
-
 def check_costs(costs: list[Cost], source: str = "<case>", whole: str = "the scene") -> list[Cost]:
     """Refuse when ``Σ work > WORK_BUDGET × f`` or ``Σ memory > MEMORY_BUDGET × f`` over ``costs``, every run a command
     will make (``f`` = ``FEMREF_BUDGET``; module docstring): raise :class:`CaseError` at ``source`` naming the key that
@@ -78,7 +77,6 @@ def check_costs(costs: list[Cost], source: str = "<case>", whole: str = "the sce
             f"{bytes_text(MEMORY_BUDGET * factor)}: reduce {key}, or raise the budget on purpose with the environment variable "
             f"{BUDGET_VARIABLE}=<factor> (now {factor:g})")
     raise CaseError(Problem(tuple(key.split(".")), rule, value), source)
-
 
 
 def duration_text(seconds: float) -> str:

@@ -16,12 +16,13 @@ the same grid, so the step is the fem mesh's,
 
 Impact: each model run steps at what its own cars need,
 
-    dt = min(T_contact/100, T_h (fem cars), T_h,b (fem cars whose couplers bend them), 4l/(k c_max)/20 (modal cars with k modes),
-             end/20, 1/(4 f_c s) (a measurement low-pass)),
+    dt = min(T_contact/100, end/20, 1/(4 f_c s) (a measurement low-pass), the candidates of each car's fidelity),
 
 ``T_contact`` the shortest rigid-body contact time of the couplers
-(:meth:`femref.scene.ImpactScene.contact_time`): all a run of rigid and quasi-rigid cars
-needs. The scores interpolate the reference onto each run's axis.
+(:meth:`femref.scene.ImpactScene.contact_time`): all a run of cars without a step of their own needs.
+A fidelity's candidates are its module's (:meth:`femref.models.base.CarFidelity.step_candidates`): a fem car's
+``T_h`` and, when its couplers bend it, ``T_h,b`` (below); a modal car's ``4l/(k c_max)/20`` of ``k`` modes.
+The scores interpolate the reference onto each run's axis.
 
 A measurement chain's anti-alias low-pass (corner ``f_c``) runs on the model's stored samples, every
 ``s = time.output_stride``-th step (:func:`femref.sensing.measurement.measure`), and needs ``f_c``
@@ -31,8 +32,8 @@ impact, a Nyquist frequency of 20 Hz under a 100 Hz filter. A step the case give
 that Nyquist frequency (a case error otherwise: ``femref.case.impact``).
 
 A fem car that bends also steps within its Hermite mesh's bending transit time
-``T_h,b = h²/c_b,max`` (``c_b = √(EI/m)``: :data:`BENDING_MESH_RULE`) when its couplers load the
-beam (an offset or a slope: :func:`loaded_bending`). A coupler force that jumps
+``T_h,b = h²/c_b,max`` (``c_b = √(EI/m)``: :data:`femref.models.fem.BENDING_MESH_RULE`) when its couplers load the
+beam (an offset or a slope: :func:`femref.models.fem.loaded_bending`). A coupler force that jumps
 at contact (a damper met at the closing speed) puts a step end moment ``h ΔP`` on the beam, whose
 modal force ``h ΔP φ_n'(±l)`` grows with the mode number: every mode of the mesh is driven. The
 generalized-α error of that response grows with the mesh's highest bending frequency
@@ -54,11 +55,12 @@ import numpy as np
 from femref.core.body import Body
 from femref.fem.build import FemSettings
 from femref.fem.mesh import body_nodes
-from femref.scene import Car, ImpactScene, ModelRun, Scene
+from femref.models import CAR_FIDELITIES
+from femref.models.base import Resolution
+from femref.models.fem import MESH_RULE, transit_time
+from femref.scene import ImpactScene, ModelRun, Scene
 
 GIVEN = "given in the case"
-MESH_RULE = "mesh wave transit time"
-BENDING_MESH_RULE = "bending mesh transit time"
 LOWPASS_RULE = "measurement low-pass: 1/(4 corner × output_stride)"
 
 
@@ -72,12 +74,6 @@ def _wave_speed(body: Body, fem: FemSettings) -> float:
     """``c_max = max √(stiffness/m)`` over the mesh nodes (m/s for a rod; m²/s, √(EI/m), for a beam)."""
     nodes = body_nodes(body.half_length, fem.elements, body.jumps, fem.grading)
     return float(np.max(np.sqrt(body.stiffness(nodes) / body.mass_per_length(nodes))))
-
-
-def transit_time(body: Body, elements: int, speed: float) -> float:
-    """``T_h = h/c`` (rod) or ``h²/c`` (beam), ``h = 2l/elements``, for a wave speed ``c`` (s; module docstring)."""
-    h = 2.0 * body.half_length / elements
-    return (h if body.kind == "rod" else h * h) / speed
 
 
 def mesh_transit_time(body: Body, fem: FemSettings) -> float:
@@ -100,35 +96,16 @@ def single_body_time_step(scene: Scene) -> tuple[float, str]:
     return dt, f"automatic: {rule}"
 
 
-def loaded_bending(car: Car) -> Body | None:
-    """The car's bending (a beam body) when its couplers load it — a coupler offset or slope not zero — else None: an
-    unloaded beam is never excited, and the car steps as its rod alone."""
-    if car.bending is None or not (any(car.coupler_offset) or any(car.coupler_slope)):
-        return None
-    return car.bending
-
-
 def impact_candidates(scene: ImpactScene, run: ModelRun, elements: int, speed: Callable[[Body], float]) -> dict[str, float]:
-    """The automatic rule's candidate steps of one impact run (module docstring) on ``elements`` elements per fem or
-    modal car, the wave speed of a body given by ``speed``: a fem car adds its mesh transit time — and, when it bends,
-    its beam's, ``h²/c_b,max`` (``speed`` of the car's bending, a beam body) — a modal car a twentieth of the period
-    of its highest kept mode, ``4l/(k c_max)`` for a free rod; a measurement low-pass of corner ``f_c`` adds
-    ``1/(4 f_c output_stride)``."""
+    """The automatic rule's candidate steps of one impact run (module docstring) on ``elements`` elements per meshed
+    car, the wave speed of a body given by ``speed``: each car adds its fidelity's candidates, the smallest of a rule
+    kept; a measurement low-pass of corner ``f_c`` adds ``1/(4 f_c output_stride)``."""
     candidates = {"coupler contact time / 100": scene.contact_time() / 100.0, "end time / 20": scene.end / 20.0}
     if scene.measurement is not None and scene.measurement.lowpass is not None:
         candidates[LOWPASS_RULE] = 1.0 / (4.0 * scene.measurement.lowpass * scene.output_stride)
-
-    def add(rule: str, value: float) -> None:
-        candidates[rule] = min(candidates.get(rule, math.inf), value)
-
     for car, fidelity in zip(scene.cars, run.fidelity):
-        if fidelity == "fem":
-            add(MESH_RULE, transit_time(car.body, elements, speed(car.body)))
-            bending = loaded_bending(car)
-            if bending is not None:
-                add(BENDING_MESH_RULE, transit_time(bending, elements, speed(bending)))
-        elif fidelity == "modal":
-            add("highest modal period / 20", 4.0 * car.body.half_length / (scene.modal_modes * speed(car.body)) / 20.0)
+        for rule, value in CAR_FIDELITIES[fidelity].step_candidates(car, scene, elements, speed).items():
+            candidates[rule] = min(candidates.get(rule, math.inf), value)
     return candidates
 
 
@@ -141,5 +118,22 @@ def impact_time_step(scene: ImpactScene, run: ModelRun) -> tuple[float, str]:
     return dt, f"automatic: {rule}"
 
 
-__all__ = ["BENDING_MESH_RULE", "GIVEN", "LOWPASS_RULE", "MESH_RULE", "impact_candidates", "impact_time_step", "loaded_bending", "mesh_transit_time",
-           "single_body_candidates", "single_body_time_step", "smallest_candidate", "transit_time"]
+StepRule = Callable[[ImpactScene, ModelRun], tuple[float, str]]
+"""A run's step and its rule: :func:`impact_time_step` (on the mesh), or the budget's prediction."""
+
+
+def uniform_run(fidelity: str, scene: ImpactScene, name: str | None = None) -> ModelRun:
+    """The run of ``scene`` with every car at ``fidelity``, named ``name`` (default the fidelity)."""
+    return ModelRun(name or fidelity, (fidelity,) * len(scene.cars))
+
+
+def resolution_step(fidelity: str, resolution: Resolution, step: StepRule = impact_time_step) -> tuple[float, str]:
+    """The step of a fidelity's resolution (a ladder rung, a bench row) and its rule: ``step`` of its
+    ``step_scene`` (default its scene) × ``scale[0]/scale[1]``, the rule read through its ``rule``."""
+    base = resolution.step_scene or resolution.scene
+    dt, rule = step(base, uniform_run(fidelity, base))
+    return dt * resolution.scale[0] / resolution.scale[1], resolution.rule.format(rule=rule)
+
+
+__all__ = ["GIVEN", "LOWPASS_RULE", "StepRule", "impact_candidates", "impact_time_step", "mesh_transit_time", "resolution_step", "single_body_candidates",
+           "single_body_time_step", "smallest_candidate", "uniform_run"]

@@ -1,5 +1,6 @@
-"""Where the quasi-rigid cars of an impact run are inside their range: the end loads must change slope slowly
-against the car's wave travel time.
+"""Where the cars of an impact run whose fidelity has a range (``range_limit``,
+:class:`femref.models.base.CarFidelity`: the quasi-rigid cars) are inside it: the end loads must change slope
+slowly against the car's wave travel time.
 
 The quasi-rigid car is the rigid motion plus the first correction of an expansion in ``ε = (T/T_load)²``
 (docs/formulas.md §D, T the car's wave travel time). It carries no stress wave: its correction is the creep
@@ -19,8 +20,9 @@ derivative of the samples, so it does not grow as the step shrinks. For a smooth
 ``tests/run/test_validity.py``); a jump ΔP gives ``ΔP/max|P|`` within one wave travel time either side of it, a
 kink of slope change ΔṖ up to ``T ΔṖ/max|P|`` at the kink, falling to zero one wave travel time either side. A car
 answers a sharp change within about T, so samples within one wave travel time of any sample where
-``ε_loc > EPSILON_LIMIT`` on an end force of a quasi-rigid car are outside the model's range; the runner
-records their intervals with the result (``settings["quasi_rigid_range"]``) and the report shades them.
+``ε_loc`` above the fidelity's ``range_limit`` (0.1 for the quasi-rigid car) on an end force of
+such a car are outside the model's range; the runner records their intervals with the result
+(``settings["quasi_rigid_range"]``) and the report shades them.
 """
 
 from __future__ import annotations
@@ -30,10 +32,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from femref.models import CAR_FIDELITIES
 from femref.scene import ImpactScene, ModelRun
-
-EPSILON_LIMIT = 0.1
-"""ε_loc above which a quasi-rigid car is outside its range (its error against the fem grows like ε²: ~1 % at 0.1)."""
 
 
 def local_epsilon(time: NDArray[np.float64], force: NDArray[np.float64], wave_time: float) -> NDArray[np.float64]:
@@ -69,24 +69,26 @@ def outside_intervals(time: NDArray[np.float64], flags: NDArray[np.bool_]) -> li
 
 
 def quasi_rigid_range(scene: ImpactScene, run: ModelRun, time: NDArray[np.float64], forces: dict[str, NDArray[np.float64]]) -> dict[str, Any] | None:
-    """Where the run's quasi-rigid cars are outside their range: ``{"limit", "epsilon_max", "outside": [[t0, t1], …],
+    """Where the run's cars with a range are outside it: ``{"limit", "epsilon_max", "outside": [[t0, t1], …],
     "cars": {car: wave time}}`` from the coupler forces at their ends (N, on ``time``), or None when the run has no
-    quasi-rigid car. A car's wave time is the longer of its axial ``l√(m/EA)`` and, when it bends, ``l²√(m/EI)``."""
-    cars = [c for c, fidelity in enumerate(run.fidelity) if fidelity == "quasi_rigid"]
+    such car; ``limit`` the smallest of their fidelities'. A car's wave time is the longer of its axial ``l√(m/EA)``
+    and, when it bends, ``l²√(m/EI)``."""
+    limits = {c: CAR_FIDELITIES[fidelity].range_limit for c, fidelity in enumerate(run.fidelity)}
+    cars = {c: limit for c, limit in limits.items() if limit is not None}
     if not cars:
         return None
     flags = np.zeros(np.asarray(time).size, dtype=bool)
     epsilon_max, wave_times = 0.0, {}
-    for c in cars:
+    for c, limit in cars.items():
         car = scene.cars[c]
         wave_time = max(car.body.wave_travel_time, car.bending.wave_travel_time if car.bending is not None else 0.0)
         wave_times[car.name] = wave_time
         for coupler in scene.couplers:
             if c in (coupler.rear, coupler.front) and coupler.name in forces:
                 epsilon = local_epsilon(time, forces[coupler.name], wave_time)
-                flags |= within(time, epsilon > EPSILON_LIMIT, wave_time)
+                flags |= within(time, epsilon > limit, wave_time)
                 epsilon_max = max(epsilon_max, float(np.max(epsilon)))
-    return {"limit": EPSILON_LIMIT, "epsilon_max": epsilon_max, "outside": outside_intervals(time, flags), "cars": wave_times}
+    return {"limit": min(cars.values()), "epsilon_max": epsilon_max, "outside": outside_intervals(time, flags), "cars": wave_times}
 
 
-__all__ = ["EPSILON_LIMIT", "local_epsilon", "outside_intervals", "quasi_rigid_range", "within"]
+__all__ = ["local_epsilon", "outside_intervals", "quasi_rigid_range", "within"]

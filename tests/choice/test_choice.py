@@ -25,7 +25,7 @@ from femref.choice.estimates import (
 from femref.choice.ladder import Rung, predicted_cost
 from femref.cli import main
 from femref.case.defaults import default_scene_data
-from femref.run.resolutions import with_elements
+from femref.models.fem import with_elements
 from femref.run.scoring import score_impact
 from femref.scene.build import scene_from_case
 

@@ -39,7 +39,7 @@ from scipy.optimize import brentq
 from femref.case import parse_case
 from femref.case.defaults import default_scene_data
 from femref.run.runner import load_compiled_loop, run_model
-from femref.run.timestep import BENDING_MESH_RULE
+from femref.models.fem import BENDING_MESH_RULE
 from femref.scene.build import scene_from_case
 
 LENGTH, MASS_PER_LENGTH, OFFSET, SPEED = 17.0, 7000.0, 0.6, 2.2  # m, kg/m, m, m/s
