@@ -52,6 +52,7 @@ from ann.networks import TRAIN_EXTRA
 from femref.case.errors import CaseError, Problem, did_you_mean, problems_error, problems_from
 from femref.case.loader import read_yaml_file
 from femref.case.fields import CaseModel, Count, TaggedSpec, reject_bool, tagged_union
+from femref.core.catalog import FIDELITIES
 
 #: The training set's name; every other set is an evaluation set.
 TRAIN = "train"
@@ -62,7 +63,7 @@ class SetSpec(CaseModel):
 
     samples: Count = Field(description="Samples (random draws) of this set, >= 1. Required.")
     seed: Annotated[int, BeforeValidator(reject_bool), Field(ge=0)] = Field(description="Seed of this set's draws. Required.")
-    models: tuple[Literal["fem", "modal", "quasi_rigid", "rigid"], ...] = Field(
+    models: tuple[Literal[FIDELITIES], ...] = Field(  # the car fidelities of the catalog
         default=("fem",), min_length=1, description="Uniform model runs of every sample. Default [fem]."
     )
     parameters: dict[str, Any] = Field(default_factory=dict, description="Key path → distribution, replacing or adding to the shared ones.")
