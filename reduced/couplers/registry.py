@@ -42,8 +42,8 @@ def law_module(law_class: type) -> types.ModuleType:
 
 
 def compiled_form_rule(law_class: type) -> str | None:
-    """Why ``law_class`` cannot be compiled, or None: its module must define every function of
-    :data:`~reduced.couplers.base.OPERATIONS` as a plain function, and the law carries at most one state variable."""
+    """Why ``law_class`` cannot be compiled, or None: it carries at most one state variable, its module defines
+    every function of :data:`~reduced.couplers.base.OPERATIONS` as a plain function, and it is registered."""
     size = getattr(law_class, "state_size", 0)
     if not isinstance(size, int) or size > 1:
         return f"law {law_class.__name__} carries {size} state variables; the compiled coupler iteration handles at most one"
@@ -54,6 +54,8 @@ def compiled_form_rule(law_class: type) -> str | None:
             f"law {law_class.__name__} has no compiled form: its module {module.__name__} lacks the plain "
             f"function{'s' if len(missing) > 1 else ''} {', '.join(missing)} (a law module defines {', '.join(OPERATIONS)})"
         )
+    if law_class not in COUPLER_LAWS.values():
+        return f"law {law_class.__name__} is not registered: its module {module.__name__} names no LAW and NAMES (reduced.couplers.registry)"
     return None
 
 

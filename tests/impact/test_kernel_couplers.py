@@ -5,7 +5,7 @@
   and the laws' methods at a few hundred points per law and contact, guard boundaries
   included (closure at the slack, gear at its stroke, zero closure and rate, rate at the
   switch velocity);
-* iteration level: :class:`femref.impact.couplers.CouplerSolve` and the compiled
+* iteration level: the reference :class:`support.reference_engine.CouplerSolve` and the compiled
   :func:`start`/:func:`solve` step the same coupler-and-point-mass scenes (Newmark
   average-acceleration cars stepped here, fed by the Python side's forces), and forces,
   states, closures, rates, modes, energies and iteration counts agree over the whole run —
@@ -22,11 +22,11 @@ import numpy as np
 import pytest
 import scipy.optimize
 
-from femref.impact.cars import EndPrediction
-from femref.impact.couplers import NEWTON_ITERATIONS, CouplerConvergenceError, CouplerSolve, force_tolerance
+from femref.impact.couplers import NEWTON_ITERATIONS, CouplerConvergenceError, force_tolerance
 from femref.impact.kernels import couplers as K
 from femref.impact.kernels import coupling as C
 from femref.impact.kernels import laws as L
+from support.reference_engine import CouplerSolve, EndPrediction
 from reduced.couplers import Coupling, HystereticTable, KelvinVoigt, PowerLawGear, StandardLinearDraftGear, draft_gear, power_law, table
 
 RELATIVE = 1e-12  # law level

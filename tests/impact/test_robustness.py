@@ -36,10 +36,8 @@ from femref.cli import main
 from femref.core.body import Body
 from femref.core.profiles import Piecewise, Uniform
 from femref.fem.build import FemSettings
-from femref.impact import couplers as reference
 from femref.impact import solve_impact
-from femref.impact.cars import EndPrediction
-from femref.impact.couplers import CouplerConvergenceError, CouplerSolve, bracket_detail, coupler_newton_detail, force_tolerance
+from femref.impact.couplers import CouplerConvergenceError, bracket_detail, coupler_newton_detail, force_tolerance
 from femref.impact.kernels import couplers as K
 from femref.impact.kernels import coupling as C
 from femref.impact.kernels import laws as L
@@ -49,6 +47,8 @@ from femref.scene.impact import Car, Coupler, ImpactScene, ModelRun
 from reduced.couplers import Coupling, HystereticTable, KelvinVoigt, StandardLinearDraftGear
 from reduced.nonlinear import simulate_impact
 from reduced.rigid import ImpactPair, kelvin_voigt_impact
+from support.reference_engine import couplers as reference
+from support.reference_engine import CouplerSolve, EndPrediction, solve_reference
 
 RTOL = 1e-9  # compiled against reference, of each history's peak (as tests/impact/test_compiled.py)
 
@@ -84,7 +84,7 @@ def two_cars(coupling: Coupling, masses: tuple[float, float], speed: float, fide
 def both(scene: ImpactScene, dt: float):
     """(compiled, reference) runs of the scene's first run from the same car systems."""
     systems = [model_form(f, "impact")(car, scene, dt) for car, f in zip(scene.cars, scene.runs[0].fidelity)]
-    return solve_impact(scene, systems, dt), solve_impact(scene, systems, dt, compiled=False)
+    return solve_impact(scene, systems, dt), solve_reference(scene, systems, dt)
 
 
 def assert_same_run(compiled, reference_run) -> None:

@@ -158,7 +158,7 @@ def pack_laws(couplings: Sequence[Coupling]) -> CouplerLaws:
     for j, law in enumerate(laws):
         rule = compiled_form_rule(type(law))
         if rule is None and law_module(type(law)) not in LAW_MODULES:
-            rule = f"law {type(law).__name__} is not in the registry reduced.couplers.COUPLER_LAWS"
+            rule = f"law {type(law).__name__} was registered after the compiled engine was built"
         if rule is not None:
             raise ValueError(f"coupler {j}: {rule}")
     packed = [law.packed for law in laws]

@@ -3,7 +3,7 @@
 :func:`solve_compiled` packs the run — the cars into one pool
 (:func:`femref.impact.kernels.packing.pack_cars`), the couplers, the line's coupler maps and
 the Schur gains — and calls :func:`run_steps`, which does per step what the readable loop
-of :func:`femref.impact.solver.solve_impact` does (the tests hold them together):
+of the reference engine (``tests/support/reference_engine``) does (the tests hold them together):
 
     every car predicts its free end outputs y_free and rates ẏ_free (no new loads);
     δ_free = Σ_cars Cc y_free,  δ̇_free = Σ_cars Cc ẏ_free;
@@ -44,7 +44,6 @@ from numpy.typing import NDArray
 
 from femref.core.timegrid import output_steps, steps_to
 from femref.fem.transient import Integrator
-from femref.impact.cars import car_settings_after
 from femref.impact.couplers import force_tolerance
 from femref.impact.kernels import cars as car_kernels
 from femref.impact.kernels import couplers as coupler_kernels
@@ -55,7 +54,7 @@ from femref.impact.kernels.pool import (
     SUM_LOAD2, SUM_RATE2,
 )
 from femref.impact.response import ImpactResponse, failure_message, sensor_histories
-from femref.impact.systems import CarSystem
+from femref.impact.systems import CarSystem, car_settings_after
 from femref.scene import ImpactScene
 
 #: Seconds of stepping between two returns to Python (signals, progress): :func:`chunk_after`.
