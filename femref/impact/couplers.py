@@ -1,7 +1,7 @@
 """The coupler unknowns of one impact step: Newton on the coupler forces through the cars' Schur complement.
 
 Each step, every car predicts its end motion at ``t_{n+1}`` as an affine function of its
-end loads (:meth:`femref.impact.cars.CarModel.predict`). The coupler closures and rates
+end loads (its free end motion and 2 × 2 end gains). The coupler closures and rates
 are then affine in the coupler forces ``P``,
 
     δ = δ_free + D_u P,     δ̇ = δ̇_free + D_v P,
