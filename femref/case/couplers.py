@@ -3,7 +3,9 @@
 Coupler laws (registry :data:`COUPLER_LAW_SPECS`): ``kelvin_voigt``, ``power_law``,
 ``draft_gear``, ``table`` and ``friction_gear`` (its ``loading`` curve from the registry
 :data:`LOADING_CURVE_SPECS`: ``cubic`` or ``exponential``), each built into a
-:mod:`reduced.couplers` law. Whether a coupler's cars exist
+:mod:`reduced.couplers` law, its class ``law``; a law without a compiled form
+(:func:`reduced.couplers.compiled_form_rule`) is refused. A new law is its module in
+:mod:`reduced.couplers` and its class here. Whether a coupler's cars exist
 and are neighbours in line order is checked on the case (:func:`coupler_pair_problems`),
 once the cars are valid.
 """
@@ -19,7 +21,6 @@ from pydantic_core import PydanticCustomError
 from femref.case.errors import Problem, did_you_mean, problems_error
 from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, Real, TaggedSpec, name_rule, tagged_union
 from femref.case.plausibility import BOUNDS, format_number, plausible, sequence_check
-from reduced import couplers as reduced_couplers
 from reduced.couplers import (
     CONTACT_KINDS,
     CubicLoading,
@@ -28,6 +29,7 @@ from reduced.couplers import (
     KelvinVoigt,
     PowerLawGear,
     StandardLinearDraftGear,
+    compiled_form_rule,
     friction_gear,
     rated_closure_force,
 )
@@ -71,7 +73,16 @@ CouplerName = Annotated[str, AfterValidator(name_rule("coupler"))]
 
 
 class CouplerLawSpec(TaggedSpec):
-    """A coupler force law ``P(δ, δ̇, state)`` (N, compression positive), built into a ``reduced.couplers`` law."""
+    """A coupler force law ``P(δ, δ̇, state)`` (N, compression positive), built into a ``reduced.couplers`` law
+    of the class ``law``, which must have a compiled form (femref steps impacts compiled)."""
+
+    law: ClassVar[type]
+
+    @model_validator(mode="after")
+    def _compiled_form(self) -> "CouplerLawSpec":
+        if (rule := compiled_form_rule(self.law)) is not None:
+            raise problems_error([Problem((), f"{rule}; every coupler law needs one: impacts are stepped compiled")])
+        return self
 
     def build(self) -> Any:
         """The ``reduced.couplers`` law object."""
@@ -82,6 +93,7 @@ class KelvinVoigtLaw(CouplerLawSpec):
     """Linear spring and dashpot in parallel, ``P = c δ + μ δ̇`` (reduced.couplers.KelvinVoigt)."""
 
     tag: ClassVar[str] = "kelvin_voigt"
+    law: ClassVar[type] = KelvinVoigt
     stiffness: Stiffness = Field(description="Spring stiffness c (N/m), > 0. Required.")
     damping: Damping = Field(default=0.0, description="Dashpot μ (N·s/m), >= 0. Default 0.")
 
@@ -95,6 +107,7 @@ class DraftGearLaw(CouplerLawSpec):
     ``solid_stiffness`` beyond the stroke."""
 
     tag: ClassVar[str] = "draft_gear"
+    law: ClassVar[type] = StandardLinearDraftGear
     gear_stiffness: Stiffness = Field(description="Gear spring c (N/m) while the gear is open, > 0. Required.")
     gear_damping: Annotated[PositiveReal, plausible("coupler_damping")] = Field(description="Gear dashpot μ (N·s/m), > 0. Required.")
     stroke: Annotated[PositiveReal, plausible("coupler_travel")] = Field(description="Gear travel before it closes solid (m), > 0. Required.")
@@ -119,6 +132,7 @@ class TableLaw(CouplerLawSpec):
     (the closure rate past ``switch_velocity`` picks the curve), plus ``damping · δ̇``."""
 
     tag: ClassVar[str] = "table"
+    law: ClassVar[type] = HystereticTable
     closure: Annotated[tuple[Real, ...], AfterValidator(sequence_check("coupler_travel"))] = Field(min_length=2, description="Closures δ (m), strictly increasing from 0; two or more. Required.")
     loading: Annotated[tuple[Real, ...], AfterValidator(sequence_check("coupler_force"))] = Field(min_length=2, description="Force on the loading curve (N) at each closure: starts at 0, never decreases. Required.")
     unloading: tuple[Real, ...] = Field(
@@ -180,12 +194,8 @@ class TableLaw(CouplerLawSpec):
         )
         return [Problem(("unloading",), rule, list(self.unloading))]
 
-    def build(self) -> Any:
-        """The table law of :mod:`reduced.couplers`, looked up when needed (it is the newest law there)."""
-        law = reduced_couplers.COUPLER_LAWS.get(self.tag) or getattr(reduced_couplers, "HystereticTable", None)
-        if law is None:
-            raise LookupError("reduced.couplers has no table law (HystereticTable) in this installation")
-        return law(
+    def build(self) -> HystereticTable:
+        return HystereticTable(
             closure=self.closure,
             loading=self.loading,
             unloading=self.unloading,
@@ -199,6 +209,7 @@ class PowerLawGearLaw(CouplerLawSpec):
     ``P = sgn(δ) (c |δ|ⁿ + N0) + γ(δ) δ̇``, ``γ(δ) = Σ_k γ_k |δ|^k``."""
 
     tag: ClassVar[str] = "power_law"
+    law: ClassVar[type] = PowerLawGear
     stiffness: PositiveReal = Field(
         description=f"Spring coefficient c (N/mⁿ), > 0; its secant c·({REFERENCE_CLOSURE * 1e3:g} mm)^(n−1) must be a plausible coupler stiffness. Required."
     )
@@ -282,6 +293,7 @@ class FrictionGearLaw(CouplerLawSpec):
     Its rated closure force ``L(δ_c)`` is filled in as ``rated_closure_force``."""
 
     tag: ClassVar[str] = "friction_gear"
+    law: ClassVar[type] = HystereticTable
     loading: AnyLoadingCurve = Field(description="Loading curve L(δ) up to the solid closure: exactly one of cubic {linear_stiffness k1 N/m, "
                                      "cubic_stiffness k3 N/m³} (L = k1 δ + k3 δ³) or exponential {amplitude a N, rate b 1/m} (L = a (e^{bδ} − 1)). Required.")
     unloading_ratio: Real = Field(description="r = U/L on the gear travel, in [0, 1]: friction gears 0.3–0.5, polymer-like gears near 1. Required.")

@@ -154,7 +154,7 @@ class StepOperators:
 
         ``S a_{n+1} = load + history_terms``, ``u_{n+1} = u_n + dt v_n + dt²((½−β) a_n + β a_{n+1})``,
         ``v_{n+1} = v_n + dt((1−γ) a_n + γ a_{n+1})``. The single-body stepper (:class:`Stepper`) and
-        the impact cars (``femref.impact.cars.LinearCar``, whose step is affine in its end loads)
+        the readable impact cars (``LinearCar`` of ``tests/support/reference_engine``, affine in their end loads)
         both step through here.
         """
         rhs = self.history_terms(u, v, a)

@@ -2,7 +2,7 @@
 
 A model builds a car (:mod:`femref.models`) as one of two descriptions, plain arrays with
 no factorisation and no state, so that building is cheap and both steppers — the
-readable reference (:mod:`femref.impact.cars`) and the compiled loop
+readable reference (``tests/support/reference_engine``) and the compiled loop
 (:mod:`femref.impact.kernels`) — start from the same numbers:
 
 * :class:`SecondOrderSystem` — ``M ü + C u̇ + K u = B L`` with displacement outputs
@@ -17,11 +17,13 @@ readable reference (:mod:`femref.impact.cars`) and the compiled loop
 ``+l``, tension positive); the end outputs are what the couplers read (rod: the
 displacements at ``−l`` and ``+l``). Sensor outputs are displacements (and, for the
 state-space car, velocities and accelerations) at the sensor positions: a second-order car's
-sensor velocities are ``O u̇`` (plus ``R_s L̇``).
+sensor velocities are ``O u̇`` (plus ``R_s L̇``). :func:`car_settings_after` reports a car's
+settings after a run.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
@@ -106,4 +108,16 @@ class StateSpaceSystem:
 
 CarSystem = SecondOrderSystem | StateSpaceSystem
 
-__all__ = ["CarSystem", "SecondOrderSystem", "StateSpaceSystem"]
+
+def car_settings_after(system: CarSystem, sum_load2: float, sum_rate2: float) -> dict[str, Any]:
+    """The system's settings plus what its ``settings_of_time_scale`` makes of the run's load time
+    scale ``π √(∫ΣL²/∫ΣL̇²)`` (∞ while the loads have not changed)."""
+    settings = dict(system.settings)
+    hook = getattr(system, "settings_of_time_scale", None)
+    if hook is not None:
+        scale = math.inf if sum_rate2 == 0.0 else math.pi * math.sqrt(sum_load2 / sum_rate2)
+        settings.update(hook(scale))
+    return settings
+
+
+__all__ = ["CarSystem", "SecondOrderSystem", "StateSpaceSystem", "car_settings_after"]

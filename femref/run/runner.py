@@ -234,15 +234,15 @@ def run_model(scene: ImpactScene, run: ModelRun, dt: float | None = None, dt_rul
     return capture(run.name, work)
 
 
-def step_cars(scene: ImpactScene, run: ModelRun, dt: float, progress: Progress | None = None, *, compiled: bool = True) -> ImpactResponse:
+def step_cars(scene: ImpactScene, run: ModelRun, dt: float, progress: Progress | None = None) -> ImpactResponse:
     """Build every car at its fidelity in ``run`` (its model's car form, reused across runs of the same
     geometry) and step them together, on one BLAS thread; the response carries both times, building
-    (``setup_time``) and stepping (``wall_time``). ``compiled=False`` steps them with the readable reference loop."""
+    (``setup_time``) and stepping (``wall_time``)."""
     with one_blas_thread():  # the builds too: their small BLAS calls pay a thread hand-off with two
         started = time.perf_counter()
         systems = [model_form(fidelity, "impact")(car, scene, dt) for car, fidelity in zip(scene.cars, run.fidelity)]
         setup_time = time.perf_counter() - started
-        response = solve_impact(scene, systems, dt, progress, compiled=compiled)
+        response = solve_impact(scene, systems, dt, progress)
     response.setup_time += setup_time
     return response
 

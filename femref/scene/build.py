@@ -79,8 +79,8 @@ def impact_scene_from_case(case: ImpactCase) -> ImpactScene:
     """Resolve the cars, couplers, model runs and settings of an impact case.
 
     The network files of ``estimators`` were resolved (absolute) when the case was loaded.
-    Raises :class:`CaseError` when :mod:`reduced.couplers` lacks a law the case names or
-    refuses its parameters by a rule the schema does not check, or when a network file
+    Raises :class:`CaseError` when :mod:`reduced.couplers` refuses a law's parameters by a
+    rule the schema does not check, or when a network file
     can no longer be read as it was at validation.
     """
     index = {name: i for i, name in enumerate(case.car_names)}
@@ -149,8 +149,6 @@ def _coupler_of(k: int, spec: CouplerSpec, index: dict[str, int]) -> Coupler:
     where = f"couplers[{k}].law.{spec.law.tag}"
     try:
         law = spec.law.build()
-    except LookupError as error:
-        raise CaseError.at(where, f"this coupler law is not available: {error}") from None
     except ValueError as error:  # a rule of reduced.couplers the schema does not know (yet)
         raise CaseError.at(where, str(error)) from None
     coupling = Coupling(law, contact=spec.contact, slack=spec.slack, tension_slack=spec.tension_slack)

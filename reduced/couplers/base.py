@@ -10,44 +10,61 @@ compression** (buff); the force on the hammer is ``−P``, on the anvil ``+P``.
 
 Interface of a law (:class:`CouplerLaw`)
 ----------------------------------------
-A law is a frozen dataclass with
+A law is a module ``reduced/couplers/<law>.py`` with its arithmetic written once, as plain
+functions (no numba: the compiled engine, :mod:`femref.impact.kernels.laws`, jits the same
+functions) on the law's packed parameter vector ``p`` and table ``table`` (a 2-D array; empty
+for laws without one), the closure ``δ``, rate ``δ̇`` and state ``s`` as floats (at most one
+state variable), the transmitted force ``P`` and the law's ``piece`` (an int: which smooth
+piece of a piecewise law), one signature per operation (:data:`OPERATIONS`)::
 
-* ``state_size`` internal state variables (0 for memoryless laws; the draft gear
-  carries its gear compression ``x_g``), ``initial_state()``;
-* ``force(δ, δ̇, s)`` — the engaged law force ``P`` (may be negative = tension);
-* ``state_rate(δ, δ̇, s, P)`` — ``ṡ`` given the force ``P`` actually transmitted
-  (so an open contact, ``P = 0``, lets the gear relax);
-* ``tangent(δ, δ̇, s, P)`` — the partial derivatives a Newton iteration on the
-  coupler force needs: ``∂P/∂δ``, ``∂P/∂δ̇``, ``∂P/∂s``, ``∂ṡ/∂P``, ``∂ṡ/∂s``,
-  ``∂ṡ/∂δ``, ``∂ṡ/∂δ̇`` (:class:`CouplerTangent`);
-* ``guards(δ, δ̇, s)`` — functions whose sign selects the piece of a piecewise law
-  (gear open/closed, sign of ``δ`` for a preloaded gear). Each method takes an
-  optional ``branch`` (one sign per guard) that freezes the piece: the ODE driver
-  (:mod:`reduced.nonlinear`) freezes it between events so each segment is smooth,
-  and restarts at each guard's zero; ``branch=None`` picks it from the signs;
-* ``stored_energy`` and ``dissipation_rate`` for energy balances;
-* ``guard_events`` — names of the events when each guard turns positive/negative;
-* optionally ``signed_state = True`` and ``mirror_state(s)`` (the draft gear): the state is
-  one signed compression (``s > 0`` buff, ``s < 0`` draft) of an odd law, so that
-  mirroring it, ``s → −s``, keeps its stored energy and commutes with its relaxation
-  while the contact is open. A bilateral contact with slack mirrors it when the open
-  contact passes into the other side (:meth:`reduced.couplers.Coupling.state_mirrored`);
-  laws without the attribute are never mirrored.
+    piece(p, table, δ, s, strict) -> int            from the guards' signs (strict: > 0, else >= 0)
+    force(p, table, δ, δ̇, s, piece) -> P            the engaged law force (may be < 0 = tension)
+    state_rate(p, table, δ, δ̇, s, P, piece) -> ṡ    given the transmitted P (0 for memoryless laws)
+    tangent(p, table, δ, δ̇, s, P, piece) -> (∂P/∂δ, ∂P/∂δ̇, ∂P/∂s, ∂ṡ/∂δ, ∂ṡ/∂δ̇, ∂ṡ/∂s, ∂ṡ/∂P)
+    stored_energy(p, table, δ, s, engaged, piece) -> J
+    dissipation_rate(p, table, δ, δ̇, s, P, engaged, piece) -> W
 
-Here: :class:`CouplerTangent`, the :class:`CouplerLaw` protocol, the ``Branch`` type
-and ``select_branch``, the branch helper of the piecewise laws.
+plus, for a law with guards (functions whose sign selects the piece: gear open/closed, the
+sign of ``δ`` for a preloaded gear), ``guards(p, table, δ, s) -> tuple`` and
+``piece_of_signs(signs) -> int``. The functions may call other plain module-level
+functions (of any module) and ``math``; they must not allocate. The law's class is a frozen
+dataclass deriving from :class:`PackedLaw`, which gives it the methods the ODE driver
+(:mod:`reduced.nonlinear`) calls — ``force(δ, δ̇, s, branch)``, ``state_rate``,
+``tangent`` (a :class:`CouplerTangent`), ``guards``, ``stored_energy``,
+``dissipation_rate``, ``initial_state`` — from its ``pack()``: ``(p, table)`` as lists.
+Each method takes an optional ``branch`` (one sign per guard) that freezes the piece: the
+ODE driver freezes it between events so each segment is smooth, and restarts at each
+guard's zero; ``branch=None`` picks it by the ``>= 0`` rule. The module also names the
+law, ``LAW = <class>`` and ``NAMES = (<case-file names>,)``, for the registry
+(:mod:`reduced.couplers.registry`).
+
+Optionally ``signed_state = True`` and ``mirror_state(s)`` (the draft gear): the state is
+one signed compression (``s > 0`` buff, ``s < 0`` draft) of an odd law, so that
+mirroring it, ``s → −s``, keeps its stored energy and commutes with its relaxation
+while the contact is open. A bilateral contact with slack mirrors it when the open
+contact passes into the other side (:meth:`reduced.couplers.Coupling.state_mirrored`);
+laws without the attribute are never mirrored.
+
+Here: :data:`OPERATIONS`, :class:`PackedLaw`, :class:`CouplerTangent`, the :class:`CouplerLaw`
+protocol, the ``Branch`` type and ``guard_sign``, the guards' sign rule.
 """
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass, field
-from typing import ClassVar, Protocol
+from functools import cached_property
+from types import ModuleType
+from typing import Any, ClassVar, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
 Branch = tuple[int, ...]
 """One sign (+1/−1) per guard of a law: freezes the piece of a piecewise law."""
+
+OPERATIONS: tuple[str, ...] = ("piece", "force", "state_rate", "tangent", "stored_energy", "dissipation_rate")
+"""The functions every law module defines, one signature each (module docstring): its compiled form."""
 
 _EMPTY = np.zeros(0)
 _EMPTY2 = np.zeros((0, 0))
@@ -71,9 +88,17 @@ class CouplerTangent:
     rate_state: NDArray[np.float64] = field(default_factory=lambda: _EMPTY2)
     rate_force: NDArray[np.float64] = field(default_factory=lambda: _EMPTY)
 
+    @classmethod
+    def of(cls, values: tuple[float, ...], state_size: int) -> CouplerTangent:
+        """From a law's ``tangent`` 7-tuple ``(∂P/∂δ, ∂P/∂δ̇, ∂P/∂s, ∂ṡ/∂δ, ∂ṡ/∂δ̇, ∂ṡ/∂s, ∂ṡ/∂P)``."""
+        fcl, frt, fst, rcl, rrt, rst, rfo = (float(v) for v in values)
+        if not state_size:
+            return cls(fcl, frt)
+        return cls(fcl, frt, np.array([fst]), np.array([rcl]), np.array([rrt]), np.array([[rst]]), np.array([rfo]))
+
 
 class CouplerLaw(Protocol):
-    """What the rigid-body ODE driver and, later, the FE coupler Newton iteration need."""
+    """What the rigid-body ODE driver and the coupler iterations need of a law object."""
 
     state_size: ClassVar[int]
     guard_events: ClassVar[tuple[tuple[str, str], ...]]
@@ -95,24 +120,91 @@ class CouplerLaw(Protocol):
     def stored_energy(self, closure: float, state: NDArray[np.float64], engaged: bool, branch: Branch | None = None) -> float: ...
 
     def dissipation_rate(
-        self,
-        closure: float,
-        closure_rate: float,
-        state: NDArray[np.float64],
-        force: float,
-        engaged: bool,
-        branch: Branch | None = None,
+        self, closure: float, closure_rate: float, state: NDArray[np.float64], force: float, engaged: bool, branch: Branch | None = None
     ) -> float: ...
 
     @property
     def reference_stiffness(self) -> float: ...
 
 
-def select_branch(guards: NDArray[np.float64], branch: Branch | None) -> Branch:
-    """The frozen branch, or the signs of the guards (a zero counts as positive)."""
-    if branch is not None:
-        return branch
-    return tuple(1 if g >= 0.0 else -1 for g in guards)
+def guard_sign(value: float, strict: bool) -> int:
+    """+1 where the guard ``value`` is positive (``> 0`` if ``strict``, else ``>= 0``), else −1."""
+    positive = value > 0.0 if strict else value >= 0.0
+    return 1 if positive else -1
 
 
-__all__ = ["Branch", "CouplerLaw", "CouplerTangent"]
+class PackedLaw:
+    """The methods of :class:`CouplerLaw` from the law module's functions (module docstring) on the
+    law's packed parameters. A law class derives from it and defines ``pack()``."""
+
+    state_size: ClassVar[int] = 0
+    guard_events: ClassVar[tuple[tuple[str, str], ...]] = ()
+
+    def pack(self) -> tuple[list[float], list[list[float]]]:
+        """The parameter vector ``p`` and the table (rows of equal length; ``[]`` for none)."""
+        raise NotImplementedError
+
+    @property
+    def functions(self) -> ModuleType:
+        """The module holding the law's arithmetic (the class's own module)."""
+        return sys.modules[type(self).__module__]
+
+    @cached_property
+    def packed(self) -> tuple[tuple[float, ...], tuple[tuple[float, ...], ...]]:
+        """``pack()`` as tuples of floats (what the methods pass to the functions)."""
+        params, table = self.pack()
+        return tuple(float(v) for v in params), tuple(tuple(float(v) for v in row) for row in table)
+
+    def _args(self, state: Any) -> tuple[Any, Any, float]:
+        p, table = self.packed
+        return p, table, float(state[0]) if self.state_size else 0.0
+
+    def _piece(self, closure: float, state: Any, branch: Branch | None) -> int:
+        p, table, s = self._args(state)
+        if branch is None:
+            return int(self.functions.piece(p, table, closure, s, False))
+        signs = getattr(self.functions, "piece_of_signs", None)
+        return 0 if signs is None else int(signs(tuple(branch)))
+
+    def initial_state(self) -> NDArray[np.float64]:
+        return np.zeros(self.state_size)
+
+    def guards(self, closure: float, closure_rate: float, state: NDArray[np.float64]) -> NDArray[np.float64]:
+        values = getattr(self.functions, "guards", None)
+        if values is None:
+            return np.zeros(0)
+        p, table, s = self._args(state)
+        return np.array(values(p, table, closure, s), dtype=float)
+
+    def force(self, closure: float, closure_rate: float, state: NDArray[np.float64], branch: Branch | None = None) -> float:
+        p, table, s = self._args(state)
+        return float(self.functions.force(p, table, closure, closure_rate, s, self._piece(closure, state, branch)))
+
+    def state_rate(
+        self, closure: float, closure_rate: float, state: NDArray[np.float64], force: float, branch: Branch | None = None
+    ) -> NDArray[np.float64]:
+        if not self.state_size:
+            return np.zeros(0)
+        p, table, s = self._args(state)
+        return np.array([self.functions.state_rate(p, table, closure, closure_rate, s, force, self._piece(closure, state, branch))])
+
+    def tangent(
+        self, closure: float, closure_rate: float, state: NDArray[np.float64], force: float, branch: Branch | None = None
+    ) -> CouplerTangent:
+        p, table, s = self._args(state)
+        values = self.functions.tangent(p, table, closure, closure_rate, s, force, self._piece(closure, state, branch))
+        return CouplerTangent.of(values, self.state_size)
+
+    def stored_energy(self, closure: float, state: NDArray[np.float64], engaged: bool, branch: Branch | None = None) -> float:
+        p, table, s = self._args(state)
+        return float(self.functions.stored_energy(p, table, closure, s, engaged, self._piece(closure, state, branch)))
+
+    def dissipation_rate(
+        self, closure: float, closure_rate: float, state: NDArray[np.float64], force: float, engaged: bool, branch: Branch | None = None
+    ) -> float:
+        p, table, s = self._args(state)
+        piece = self._piece(closure, state, branch)
+        return float(self.functions.dissipation_rate(p, table, closure, closure_rate, s, force, engaged, piece))
+
+
+__all__ = ["OPERATIONS", "Branch", "CouplerLaw", "CouplerTangent", "PackedLaw"]

@@ -27,9 +27,6 @@ free play and the force rises from zero (without the mirror it jumped from 0 to
 ``−x_g/D`` and the stored ``x_g²/(2D)`` appeared from nothing). The rule is void when the
 state has the side's sign or is zero, for compression-only contacts, without slack, and
 for laws without a signed state.
-
-Registry: :data:`COUPLER_LAWS` maps the case-file names to the classes;
-:func:`coupling_from_name` builds a :class:`Coupling` from them.
 """
 
 from __future__ import annotations
@@ -42,25 +39,9 @@ from numpy.typing import NDArray
 from reduced import _checks
 
 from .base import Branch, CouplerLaw, CouplerTangent
-from .draft_gear import StandardLinearDraftGear
-from .kelvin_voigt import KelvinVoigt
-from .power_law import PowerLawGear
-from .table import HystereticTable
 
 CONTACT_KINDS: tuple[str, ...] = ("compression_only", "bilateral")
 """Contact kinds: ``compression_only`` (free to roll) and ``bilateral`` (coupled)."""
-
-
-COUPLER_LAWS: dict[str, type] = {
-    "kelvin_voigt": KelvinVoigt,
-    "power_law": PowerLawGear,
-    "standard_linear": StandardLinearDraftGear,
-    "draft_gear": StandardLinearDraftGear,
-    "table": HystereticTable,
-}
-"""Case-file name → law class (the schema and its error messages share this map).
-``draft_gear`` is the case-file name of :class:`StandardLinearDraftGear` (an alias of
-``standard_linear``)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -229,11 +210,4 @@ class Coupling:
         return CouplerResponse(force=p, mode=mode, state_rate=rate, tangent=tangent)
 
 
-def coupling_from_name(name: str, parameters: dict[str, float], **contact: float | str) -> Coupling:
-    """Build a :class:`Coupling` from a registry name and law parameters (case-file form)."""
-    _checks.choice("coupler law", name, tuple(COUPLER_LAWS))
-    law = COUPLER_LAWS[name](**parameters)
-    return Coupling(law, **contact)  # type: ignore[arg-type]
-
-
-__all__ = ["CONTACT_KINDS", "COUPLER_LAWS", "CouplerResponse", "Coupling", "coupling_from_name"]
+__all__ = ["CONTACT_KINDS", "CouplerResponse", "Coupling"]

@@ -10,6 +10,8 @@ compression ``x_g`` (m) its state, guards ``x_g ∓ stroke`` at gear closure. Th
 is signed (``x_g > 0`` buff, ``x_g < 0`` draft) and ``F_g`` is odd, so the law is
 ``signed_state``: a bilateral contact with slack mirrors it, ``x_g → −x_g``, when the
 open contact passes into the other side (:meth:`reduced.couplers.Coupling.state_mirrored`).
+Packed ``p = [D, c, μ, stroke, c*]``; the functions are its arithmetic, once
+(:mod:`reduced.couplers.base`); the piece is +1 closed in compression, −1 closed in tension, 0 open.
 """
 
 from __future__ import annotations
@@ -22,11 +24,75 @@ from numpy.typing import NDArray
 
 from reduced import _checks
 
-from .base import Branch, CouplerTangent, select_branch
+from .base import Branch, PackedLaw, guard_sign
+
+
+def guards(p, table, closure, state):
+    """``x_g − stroke`` and ``x_g + stroke``: gear closure in compression and in tension."""
+    return state - p[3], state + p[3]
+
+
+def piece_of_signs(signs):
+    """+1 closed in compression, −1 closed in tension, 0 open."""
+    if signs[0] > 0:
+        return 1
+    if signs[1] < 0:
+        return -1
+    return 0
+
+
+def piece(p, table, closure, state, strict):
+    """The piece from the guards' signs at the state."""
+    above, below = guards(p, table, closure, state)
+    return piece_of_signs((guard_sign(above, strict), guard_sign(below, strict)))
+
+
+def gear_spring(p, gear_compression, piece):
+    """``F_g(x_g)`` and ``F_g'``: ``c x_g`` open (piece 0), ``c* x_g + (c − c*) stroke piece`` closed."""
+    c, s, cs = p[1], p[3], p[4]
+    if piece == 0:
+        return c * gear_compression, c
+    return cs * gear_compression + (c - cs) * s * piece, cs
+
+
+def force(p, table, closure, rate, state, piece):
+    """``P = (δ − x_g)/D``."""
+    return (closure - state) / p[0]
+
+
+def state_rate(p, table, closure, rate, state, transmitted, piece):
+    """``ẋ_g = (P − F_g(x_g))/μ``."""
+    fg, _ = gear_spring(p, state, piece)
+    return (transmitted - fg) / p[2]
+
+
+def tangent(p, table, closure, rate, state, transmitted, piece):
+    """``∂P/∂δ = 1/D``, ``∂P/∂x_g = −1/D``, ``∂ẋ_g/∂x_g = −F_g'/μ``, ``∂ẋ_g/∂P = 1/μ``."""
+    _, kg = gear_spring(p, state, piece)
+    d, mu = p[0], p[2]
+    return 1.0 / d, 0.0, -1.0 / d, 0.0, 0.0, -kg / mu, 1.0 / mu
+
+
+def stored_energy(p, table, closure, state, engaged, piece):
+    """``D P²/2`` (engaged) ``+ ∫₀^{x_g} F_g``."""
+    d, c, s, cs = p[0], p[1], p[3], p[4]
+    series = 0.5 * d * force(p, table, closure, 0.0, state, piece) ** 2 if engaged else 0.0
+    if piece == 0:
+        gear = 0.5 * c * state**2
+    else:
+        a = abs(state)
+        gear = 0.5 * c * s**2 + 0.5 * cs * (a**2 - s**2) + (c - cs) * s * (a - s)
+    return series + gear
+
+
+def dissipation_rate(p, table, closure, rate, state, transmitted, engaged, piece):
+    """``(P − F_g(x_g))²/μ``."""
+    fg, _ = gear_spring(p, state, piece)
+    return (transmitted - fg) ** 2 / p[2]
 
 
 @dataclass(frozen=True)
-class StandardLinearDraftGear:
+class StandardLinearDraftGear(PackedLaw):
     """Standard-linear draft gear with a stroke (docs/formulas.md §A4).
 
     Two linear springs ``c1``, ``c2`` (car body and coupler compliance, in series:
@@ -124,81 +190,19 @@ class StandardLinearDraftGear:
         """Static stiffness of the open gear with the series springs (N/m)."""
         return 1.0 / (self.series_compliance + 1.0 / self.gear_stiffness)
 
-    def initial_state(self) -> NDArray[np.float64]:
-        return np.zeros(1)
+    def pack(self) -> tuple[list[float], list[list[float]]]:
+        return [self.series_compliance, self.gear_stiffness, self.gear_damping, self.stroke, self.solid_stiffness], []
 
     def mirror_state(self, state: NDArray[np.float64]) -> NDArray[np.float64]:
         """The same pack compression on the other side: ``x_g → −x_g`` (``|x_g|`` and ``∫₀^{x_g} F_g`` kept)."""
         return -np.asarray(state, dtype=float)
 
-    def guards(self, closure: float, closure_rate: float, state: NDArray[np.float64]) -> NDArray[np.float64]:
-        xg = float(state[0])
-        return np.array([xg - self.stroke, xg + self.stroke])
-
-    def _piece(self, state: NDArray[np.float64], branch: Branch | None) -> int:
-        """+1 closed in compression, −1 closed in tension, 0 open."""
-        above, below = select_branch(self.guards(0.0, 0.0, state), branch)
-        if above > 0:
-            return 1
-        if below < 0:
-            return -1
-        return 0
-
     def gear_spring(self, gear_compression: float, branch: Branch | None = None) -> tuple[float, float]:
         """``F_g(x_g)`` (N) and ``F_g'(x_g)`` (N/m) on the (frozen) piece."""
-        piece = self._piece(np.array([gear_compression]), branch)
-        c, cs, s = self.gear_stiffness, self.solid_stiffness, self.stroke
-        if piece == 0:
-            return c * gear_compression, c
-        return cs * gear_compression + (c - cs) * s * piece, cs
+        return gear_spring(self.packed[0], gear_compression, self._piece(0.0, [gear_compression], branch))
 
-    def _gear_energy(self, xg: float, piece: int) -> float:
-        c, cs, s = self.gear_stiffness, self.solid_stiffness, self.stroke
-        if piece == 0:
-            return 0.5 * c * xg**2
-        a = abs(xg)
-        return 0.5 * c * s**2 + 0.5 * cs * (a**2 - s**2) + (c - cs) * s * (a - s)
 
-    def force(self, closure: float, closure_rate: float, state: NDArray[np.float64], branch: Branch | None = None) -> float:
-        return (closure - float(state[0])) / self.series_compliance
-
-    def state_rate(
-        self, closure: float, closure_rate: float, state: NDArray[np.float64], force: float, branch: Branch | None = None
-    ) -> NDArray[np.float64]:
-        fg, _ = self.gear_spring(float(state[0]), branch)
-        return np.array([(force - fg) / self.gear_damping])
-
-    def tangent(
-        self, closure: float, closure_rate: float, state: NDArray[np.float64], force: float, branch: Branch | None = None
-    ) -> CouplerTangent:
-        _, kg = self.gear_spring(float(state[0]), branch)
-        d = self.series_compliance
-        return CouplerTangent(
-            force_closure=1.0 / d,
-            force_rate=0.0,
-            force_state=np.array([-1.0 / d]),
-            rate_closure=np.zeros(1),
-            rate_rate=np.zeros(1),
-            rate_state=np.array([[-kg / self.gear_damping]]),
-            rate_force=np.array([1.0 / self.gear_damping]),
-        )
-
-    def stored_energy(self, closure: float, state: NDArray[np.float64], engaged: bool, branch: Branch | None = None) -> float:
-        xg = float(state[0])
-        series = 0.5 * self.series_compliance * self.force(closure, 0.0, state) ** 2 if engaged else 0.0
-        return series + self._gear_energy(xg, self._piece(state, branch))
-
-    def dissipation_rate(
-        self,
-        closure: float,
-        closure_rate: float,
-        state: NDArray[np.float64],
-        force: float,
-        engaged: bool,
-        branch: Branch | None = None,
-    ) -> float:
-        fg, _ = self.gear_spring(float(state[0]), branch)
-        return (force - fg) ** 2 / self.gear_damping
-
+LAW = StandardLinearDraftGear
+NAMES = ("standard_linear", "draft_gear")
 
 __all__ = ["StandardLinearDraftGear"]

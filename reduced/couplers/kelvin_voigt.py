@@ -1,36 +1,60 @@
 """Kelvin-Voigt coupler: ``P = c δ + μ δ̇`` (N), a linear spring and dashpot in parallel.
 
-:class:`KelvinVoigt`; its two-mass closed form is :func:`reduced.rigid.kelvin_voigt_impact`.
+:class:`KelvinVoigt` on ``p = [c, μ]``; its two-mass closed form is
+:func:`reduced.rigid.kelvin_voigt_impact`. The functions are the law's arithmetic, once
+(:mod:`reduced.couplers.base`).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar
-
-import numpy as np
-from numpy.typing import NDArray
 
 from reduced import _checks
 
-from .base import Branch, CouplerTangent
+from .base import PackedLaw
+
+
+def piece(p, table, closure, state, strict):
+    """No guards: one piece (0)."""
+    return 0
+
+
+def force(p, table, closure, rate, state, piece):
+    """``P = c δ + μ δ̇``."""
+    return p[0] * closure + p[1] * rate
+
+
+def state_rate(p, table, closure, rate, state, transmitted, piece):
+    """Memoryless: 0."""
+    return 0.0
+
+
+def tangent(p, table, closure, rate, state, transmitted, piece):
+    """``∂P/∂δ = c``, ``∂P/∂δ̇ = μ``."""
+    return p[0], p[1], 0.0, 0.0, 0.0, 0.0, 0.0
+
+
+def stored_energy(p, table, closure, state, engaged, piece):
+    """``c δ²/2`` while engaged."""
+    return 0.5 * p[0] * closure**2 if engaged else 0.0
+
+
+def dissipation_rate(p, table, closure, rate, state, transmitted, engaged, piece):
+    """``μ δ̇²`` while engaged."""
+    return p[1] * rate**2 if engaged else 0.0
 
 
 @dataclass(frozen=True)
-class KelvinVoigt:
+class KelvinVoigt(PackedLaw):
     """Linear spring and dashpot in parallel: ``P = c δ + μ δ̇`` (N).
 
     ``stiffness`` c (N/m), ``damping`` μ (N·s/m). Stored energy ``c δ²/2``, dissipation
-    ``μ δ̇²``. Tangent: ``∂P/∂δ = c``, ``∂P/∂δ̇ = μ``. Its two-mass closed form is
-    :func:`reduced.rigid.kelvin_voigt_impact`; the ODE driver reproduces it to 3e-11
-    of the peaks (``tests/reduced/test_nonlinear.py``).
+    ``μ δ̇²``. Its two-mass closed form is :func:`reduced.rigid.kelvin_voigt_impact`; the
+    ODE driver reproduces it to 3e-11 of the peaks (``tests/reduced/test_nonlinear.py``).
     """
 
     stiffness: float
     damping: float = 0.0
-
-    state_size: ClassVar[int] = 0
-    guard_events: ClassVar[tuple[tuple[str, str], ...]] = ()
 
     def __post_init__(self) -> None:
         _checks.positive("stiffness", self.stiffness)
@@ -45,38 +69,11 @@ class KelvinVoigt:
     def reference_stiffness(self) -> float:
         return float(self.stiffness)
 
-    def initial_state(self) -> NDArray[np.float64]:
-        return np.zeros(0)
+    def pack(self) -> tuple[list[float], list[list[float]]]:
+        return [self.stiffness, self.damping], []
 
-    def guards(self, closure: float, closure_rate: float, state: NDArray[np.float64]) -> NDArray[np.float64]:
-        return np.zeros(0)
 
-    def force(self, closure: float, closure_rate: float, state: NDArray[np.float64], branch: Branch | None = None) -> float:
-        return self.stiffness * closure + self.damping * closure_rate
-
-    def state_rate(
-        self, closure: float, closure_rate: float, state: NDArray[np.float64], force: float, branch: Branch | None = None
-    ) -> NDArray[np.float64]:
-        return np.zeros(0)
-
-    def tangent(
-        self, closure: float, closure_rate: float, state: NDArray[np.float64], force: float, branch: Branch | None = None
-    ) -> CouplerTangent:
-        return CouplerTangent(float(self.stiffness), float(self.damping))
-
-    def stored_energy(self, closure: float, state: NDArray[np.float64], engaged: bool, branch: Branch | None = None) -> float:
-        return 0.5 * self.stiffness * closure**2 if engaged else 0.0
-
-    def dissipation_rate(
-        self,
-        closure: float,
-        closure_rate: float,
-        state: NDArray[np.float64],
-        force: float,
-        engaged: bool,
-        branch: Branch | None = None,
-    ) -> float:
-        return self.damping * closure_rate**2 if engaged else 0.0
-
+LAW = KelvinVoigt
+NAMES = ("kelvin_voigt",)
 
 __all__ = ["KelvinVoigt"]

@@ -1,8 +1,10 @@
 """Power-law gear: ``P = sgn(δ) (c |δ|ⁿ + N0) + γ(δ) δ̇``, ``γ(δ) = Σ_k γ_k |δ|^k`` (N).
 
-:class:`PowerLawGear`: preload ``N0`` and closure-dependent damping ``γ``
-(docs/formulas.md §A3); :func:`reduced.power_law_peak.power_law_peak_series` estimates its peak
-closure and force in a free impact to second order in the damping.
+:class:`PowerLawGear` on ``p = [c, n, N0, K, γ_0, …, γ_{K−1}]``: preload ``N0`` and
+closure-dependent damping ``γ`` (docs/formulas.md §A3); the functions are its arithmetic,
+once (:mod:`reduced.couplers.base`). One guard, ``δ`` itself: the piece is the side
+``σ = ±1``. :func:`reduced.power_law_peak.power_law_peak_series` estimates its peak closure
+and force in a free impact to second order in the damping.
 """
 
 from __future__ import annotations
@@ -10,16 +12,73 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
-import numpy as np
-from numpy.typing import NDArray
-
 from reduced import _checks
 
-from .base import Branch, CouplerTangent, select_branch
+from .base import PackedLaw, guard_sign
+
+
+def guards(p, table, closure, state):
+    """The closure: the preload's jump."""
+    return (closure,)
+
+
+def piece_of_signs(signs):
+    """The side ``σ``: the guard's sign."""
+    return signs[0]
+
+
+def piece(p, table, closure, state, strict):
+    """The side ``σ = ±1`` of ``δ``."""
+    return piece_of_signs((guard_sign(closure, strict),))
+
+
+def gamma(p, closure):
+    """``γ(δ) = Σ_k γ_k |δ|^k`` and ``dγ/dδ``."""
+    a = abs(closure)
+    g = 0.0
+    dg = 0.0
+    for k in range(int(p[3])):
+        gk = p[4 + k]
+        g += gk * a ** float(k)
+        if k >= 1:
+            dg += float(k) * gk * a ** float(k - 1)
+    return g, dg * (1.0 if closure >= 0.0 else -1.0)
+
+
+def force(p, table, closure, rate, state, piece):
+    """``P = σ (c |δ|ⁿ + N0) + γ(δ) δ̇`` on the side ``σ = piece``."""
+    g, _ = gamma(p, closure)
+    return piece * (p[0] * abs(closure) ** p[1] + p[2]) + g * rate
+
+
+def state_rate(p, table, closure, rate, state, transmitted, piece):
+    """Memoryless: 0."""
+    return 0.0
+
+
+def tangent(p, table, closure, rate, state, transmitted, piece):
+    """``∂P/∂δ = n c |δ|^{n−1} + γ'(δ) δ̇``, ``∂P/∂δ̇ = γ(δ)``."""
+    g, dg = gamma(p, closure)
+    a = abs(closure)
+    spring = p[1] * p[0] * a ** (p[1] - 1.0)
+    return spring + dg * rate, g, 0.0, 0.0, 0.0, 0.0, 0.0
+
+
+def stored_energy(p, table, closure, state, engaged, piece):
+    """``c |δ|^{n+1}/(n+1) + N0 |δ|`` while engaged."""
+    if not engaged:
+        return 0.0
+    a = abs(closure)
+    return p[0] * a ** (p[1] + 1.0) / (p[1] + 1.0) + p[2] * a
+
+
+def dissipation_rate(p, table, closure, rate, state, transmitted, engaged, piece):
+    """``γ(δ) δ̇²`` while engaged."""
+    return gamma(p, closure)[0] * rate**2 if engaged else 0.0
 
 
 @dataclass(frozen=True)
-class PowerLawGear:
+class PowerLawGear(PackedLaw):
     """Power-law gear with preload and closure-dependent damping (docs/formulas.md §A3).
 
     ``P = sgn(δ) (c |δ|ⁿ + N0) + γ(δ) δ̇``, ``γ(δ) = Σ_k γ_k |δ|^k`` (N).
@@ -40,7 +99,6 @@ class PowerLawGear:
     preload: float = 0.0
     damping: tuple[float, ...] = (0.0,)
 
-    state_size: ClassVar[int] = 0
     guard_events: ClassVar[tuple[tuple[str, str], ...]] = (("closure_turns_compressive", "closure_turns_tensile"),)
 
     def __post_init__(self) -> None:
@@ -72,55 +130,13 @@ class PowerLawGear:
 
     def damping_at(self, closure: float) -> tuple[float, float]:
         """``γ(δ)`` and ``dγ/dδ``."""
-        a = abs(closure)
-        g = 0.0
-        dg = 0.0
-        for k, gk in enumerate(self.damping):
-            g += gk * a**k
-            if k >= 1:
-                dg += k * gk * a ** (k - 1)
-        return g, dg * (1.0 if closure >= 0.0 else -1.0)
+        return gamma(self.packed[0], closure)
 
-    def initial_state(self) -> NDArray[np.float64]:
-        return np.zeros(0)
+    def pack(self) -> tuple[list[float], list[list[float]]]:
+        return [self.stiffness, self.exponent, self.preload, float(len(self.damping)), *self.damping], []
 
-    def guards(self, closure: float, closure_rate: float, state: NDArray[np.float64]) -> NDArray[np.float64]:
-        return np.array([closure])
 
-    def force(self, closure: float, closure_rate: float, state: NDArray[np.float64], branch: Branch | None = None) -> float:
-        (side,) = select_branch(self.guards(closure, closure_rate, state), branch)
-        g, _ = self.damping_at(closure)
-        return side * (self.stiffness * abs(closure) ** self.exponent + self.preload) + g * closure_rate
-
-    def state_rate(
-        self, closure: float, closure_rate: float, state: NDArray[np.float64], force: float, branch: Branch | None = None
-    ) -> NDArray[np.float64]:
-        return np.zeros(0)
-
-    def tangent(
-        self, closure: float, closure_rate: float, state: NDArray[np.float64], force: float, branch: Branch | None = None
-    ) -> CouplerTangent:
-        g, dg = self.damping_at(closure)
-        a = abs(closure)
-        spring = self.exponent * self.stiffness * a ** (self.exponent - 1.0)
-        return CouplerTangent(float(spring + dg * closure_rate), float(g))
-
-    def stored_energy(self, closure: float, state: NDArray[np.float64], engaged: bool, branch: Branch | None = None) -> float:
-        if not engaged:
-            return 0.0
-        a = abs(closure)
-        return self.stiffness * a ** (self.exponent + 1.0) / (self.exponent + 1.0) + self.preload * a
-
-    def dissipation_rate(
-        self,
-        closure: float,
-        closure_rate: float,
-        state: NDArray[np.float64],
-        force: float,
-        engaged: bool,
-        branch: Branch | None = None,
-    ) -> float:
-        return self.damping_at(closure)[0] * closure_rate**2 if engaged else 0.0
-
+LAW = PowerLawGear
+NAMES = ("power_law",)
 
 __all__ = ["PowerLawGear"]

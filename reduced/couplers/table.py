@@ -7,13 +7,14 @@ curves with hysteresis) fits the interface of :class:`reduced.couplers.base.Coup
 memorylessly: the closure rate selects the curve (loading while the closure magnitude
 grows, unloading while it shrinks).
 
-Here: :class:`HystereticTable`, its table checks (``_check_table``) and the
-piecewise-linear helpers.
+Packed ``p = [c_v, v_s, m]`` and the table's rows closure, L, U, ``∫₀L``, ``∫₀U`` at its
+``m`` points; the functions are its arithmetic, once (:mod:`reduced.couplers.base`). Here
+also the table checks (``_check_table``).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
@@ -21,7 +22,84 @@ from numpy.typing import NDArray
 
 from reduced import _checks
 
-from .base import Branch, CouplerTangent
+from .base import PackedLaw
+
+
+def curve(p, table, row, a):
+    """Value, slope and ``∫₀^a`` of table row 1 (L) or 2 (U) at ``a ≥ 0`` (linear extrapolation with the last
+    segment beyond the table; the slope at a table point is the right one)."""
+    m = int(p[2])
+    x = table[0]
+    y = table[row]
+    integral = table[row + 2]
+    low, high = 0, m  # the points x <= a: np.searchsorted(x, a, side="right")
+    while low < high:
+        middle = (low + high) // 2
+        if x[middle] <= a:
+            low = middle + 1
+        else:
+            high = middle
+    i = min(max(low - 1, 0), m - 2)
+    slope = (y[i + 1] - y[i]) / (x[i + 1] - x[i])
+    h = a - x[i]
+    return y[i] + slope * h, slope, integral[i] + y[i] * h + 0.5 * slope * h * h
+
+
+def switch(p, closure, rate):
+    """``σ = sgn δ`` (at δ = 0: ``sgn δ̇``, +1 at rest), ``s(σδ̇) = clip(σδ̇/v_s, 0, 1)`` and its right derivative."""
+    if closure != 0.0:
+        sigma = 1.0 if closure > 0.0 else -1.0
+    else:
+        sigma = 1.0 if rate >= 0.0 else -1.0
+    r = sigma * rate
+    vs = p[1]
+    s = min(max(r / vs, 0.0), 1.0)
+    ds = 1.0 / vs if 0.0 <= r < vs else 0.0
+    return sigma, s, ds
+
+
+def piece(p, table, closure, state, strict):
+    """No guards: one piece (0)."""
+    return 0
+
+
+def force(p, table, closure, rate, state, piece):
+    """``P = σ [U + (L − U) s(σδ̇)](|δ|) + c_v δ̇``."""
+    a = abs(closure)
+    lo = curve(p, table, 1, a)[0]
+    un = curve(p, table, 2, a)[0]
+    sigma, s, _ = switch(p, closure, rate)
+    return sigma * (un + (lo - un) * s) + p[0] * rate
+
+
+def state_rate(p, table, closure, rate, state, transmitted, piece):
+    """Memoryless: 0."""
+    return 0.0
+
+
+def tangent(p, table, closure, rate, state, transmitted, piece):
+    """``∂P/∂δ = U' + (L' − U') s``, ``∂P/∂δ̇ = (L − U) s' + c_v``."""
+    a = abs(closure)
+    lo, dlo, _ = curve(p, table, 1, a)
+    un, dun, _ = curve(p, table, 2, a)
+    _, s, ds = switch(p, closure, rate)
+    return dun + (dlo - dun) * s, (lo - un) * ds + p[0], 0.0, 0.0, 0.0, 0.0, 0.0
+
+
+def stored_energy(p, table, closure, state, engaged, piece):
+    """``∫₀^{|δ|} U`` while engaged."""
+    return curve(p, table, 2, abs(closure))[2] if engaged else 0.0
+
+
+def dissipation_rate(p, table, closure, rate, state, transmitted, engaged, piece):
+    """``(L − U)(|δ|) s(σδ̇) σ δ̇ + c_v δ̇²`` while engaged."""
+    if not engaged:
+        return 0.0
+    a = abs(closure)
+    lo = curve(p, table, 1, a)[0]
+    un = curve(p, table, 2, a)[0]
+    sigma, s, _ = switch(p, closure, rate)
+    return (lo - un) * s * sigma * rate + p[0] * rate**2
 
 
 def _float_tuple(name: str, values: object) -> tuple[float, ...]:
@@ -35,23 +113,12 @@ def _float_tuple(name: str, values: object) -> tuple[float, ...]:
     return tuple(_checks.finite(f"{name}[{k}]", v) for k, v in enumerate(items))
 
 
-def _piecewise_linear(
-    x: NDArray[np.float64], y: NDArray[np.float64], integral: NDArray[np.float64], a: float
-) -> tuple[float, float, float]:
-    """Value, slope and ``∫₀^a`` of the table ``(x, y)`` at ``a ≥ 0`` (linear extrapolation
-    with the last segment beyond ``x[-1]``; the slope at a table point is the right one)."""
-    i = min(max(int(np.searchsorted(x, a, side="right")) - 1, 0), x.size - 2)
-    slope = (y[i + 1] - y[i]) / (x[i + 1] - x[i])
-    h = a - x[i]
-    return float(y[i] + slope * h), float(slope), float(integral[i] + y[i] * h + 0.5 * slope * h * h)
-
-
 def _cumulative_trapezoid(x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.concatenate([[0.0], np.cumsum(0.5 * (y[1:] + y[:-1]) * np.diff(x))])
 
 
 @dataclass(frozen=True)
-class HystereticTable:
+class HystereticTable(PackedLaw):
     """Tabulated friction gear: loading curve ``L(δ)``, unloading curve ``U(δ)`` and a rate switch.
 
     For ``δ ≥ 0`` (N; closure δ in m, rate δ̇ in m/s)::
@@ -101,16 +168,8 @@ class HystereticTable:
     damping: float = 0.0
     switch_velocity: float = 0.01
 
-    state_size: ClassVar[int] = 0
-    guard_events: ClassVar[tuple[tuple[str, str], ...]] = ()
     FRICTION_GEAR_SLACK: ClassVar[float] = 0.0119
     """Slack (m) of :meth:`friction_gear_envelope`, for ``Coupling(slack=…)``."""
-
-    _x: NDArray[np.float64] = field(init=False, repr=False, compare=False)
-    _l: NDArray[np.float64] = field(init=False, repr=False, compare=False)
-    _u: NDArray[np.float64] = field(init=False, repr=False, compare=False)
-    _l_int: NDArray[np.float64] = field(init=False, repr=False, compare=False)
-    _u_int: NDArray[np.float64] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         x = _float_tuple("closure", self.closure)
@@ -125,11 +184,11 @@ class HystereticTable:
         _checks.positive("switch_velocity", self.switch_velocity)
         for name, value in (("closure", x), ("loading", lo), ("unloading", un)):
             object.__setattr__(self, name, value)
-        xa, la, ua = np.array(x), np.array(lo), np.array(un)
-        for name, value in (("_x", xa), ("_l", la), ("_u", ua)):
-            object.__setattr__(self, name, value)
-        object.__setattr__(self, "_l_int", _cumulative_trapezoid(xa, la))
-        object.__setattr__(self, "_u_int", _cumulative_trapezoid(xa, ua))
+
+    def pack(self) -> tuple[list[float], list[list[float]]]:
+        x, lo, un = np.array(self.closure), np.array(self.loading), np.array(self.unloading)
+        rows = [x, lo, un, _cumulative_trapezoid(x, lo), _cumulative_trapezoid(x, un)]
+        return [self.damping, self.switch_velocity, float(x.size)], [row.tolist() for row in rows]
 
     @classmethod
     def friction_gear_envelope(
@@ -184,69 +243,14 @@ class HystereticTable:
     @property
     def reference_stiffness(self) -> float:
         """Secant of the loading curve at the last table point, ``L(δ_n)/δ_n`` (N/m)."""
-        return float(self._l[-1] / self._x[-1])
+        return float(self.loading[-1] / self.closure[-1])
 
     def curves(self, closure: float) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
         """``(L, L', ∫₀L)`` and ``(U, U', ∫₀U)`` at ``|δ|`` (N, N/m, J; the curves of the
         buff side, extrapolated beyond the table)."""
+        p, table = self.packed
         a = abs(float(closure))
-        return (
-            _piecewise_linear(self._x, self._l, self._l_int, a),
-            _piecewise_linear(self._x, self._u, self._u_int, a),
-        )
-
-    def _switch(self, closure: float, closure_rate: float) -> tuple[float, float, float]:
-        """``σ``, ``s(σδ̇)`` and ``s'(σδ̇)``."""
-        if closure != 0.0:
-            sigma = 1.0 if closure > 0.0 else -1.0
-        else:
-            sigma = 1.0 if closure_rate >= 0.0 else -1.0
-        r = sigma * closure_rate
-        vs = self.switch_velocity
-        s = min(max(r / vs, 0.0), 1.0)
-        ds = 1.0 / vs if 0.0 <= r < vs else 0.0
-        return sigma, s, ds
-
-    def initial_state(self) -> NDArray[np.float64]:
-        return np.zeros(0)
-
-    def guards(self, closure: float, closure_rate: float, state: NDArray[np.float64]) -> NDArray[np.float64]:
-        return np.zeros(0)
-
-    def force(self, closure: float, closure_rate: float, state: NDArray[np.float64], branch: Branch | None = None) -> float:
-        (lo, _, _), (un, _, _) = self.curves(closure)
-        sigma, s, _ = self._switch(closure, closure_rate)
-        return sigma * (un + (lo - un) * s) + self.damping * closure_rate
-
-    def state_rate(
-        self, closure: float, closure_rate: float, state: NDArray[np.float64], force: float, branch: Branch | None = None
-    ) -> NDArray[np.float64]:
-        return np.zeros(0)
-
-    def tangent(
-        self, closure: float, closure_rate: float, state: NDArray[np.float64], force: float, branch: Branch | None = None
-    ) -> CouplerTangent:
-        (lo, dlo, _), (un, dun, _) = self.curves(closure)
-        _, s, ds = self._switch(closure, closure_rate)
-        return CouplerTangent(float(dun + (dlo - dun) * s), float((lo - un) * ds + self.damping))
-
-    def stored_energy(self, closure: float, state: NDArray[np.float64], engaged: bool, branch: Branch | None = None) -> float:
-        return self.curves(closure)[1][2] if engaged else 0.0
-
-    def dissipation_rate(
-        self,
-        closure: float,
-        closure_rate: float,
-        state: NDArray[np.float64],
-        force: float,
-        engaged: bool,
-        branch: Branch | None = None,
-    ) -> float:
-        if not engaged:
-            return 0.0
-        (lo, _, _), (un, _, _) = self.curves(closure)
-        sigma, s, _ = self._switch(closure, closure_rate)
-        return (lo - un) * s * sigma * closure_rate + self.damping * closure_rate**2
+        return curve(p, table, 1, a), curve(p, table, 2, a)
 
 
 def _check_table(x: tuple[float, ...], lo: tuple[float, ...], un: tuple[float, ...]) -> None:
@@ -275,5 +279,8 @@ def _check_table(x: tuple[float, ...], lo: tuple[float, ...], un: tuple[float, .
             f"got unloading slope {slope_u:.6g} N/m, loading slope {slope_l:.6g} N/m"
         )
 
+
+LAW = HystereticTable
+NAMES = ("table",)
 
 __all__ = ["HystereticTable"]

@@ -206,13 +206,14 @@ def test_both_engines_step_a_bending_car_alike(model):
     (1e-7 of each quantity's largest value: round-off of a different summation order, carried over 1000 steps of
     a coupler iteration converged to 1e-10 of the force; measured up to 1.1e-8): no kernel of its own — only more sensor rows."""
     from femref.impact.solver import solve_impact
+    from support.reference_engine import solve_reference
     from femref.models import REGISTRY
 
     data = bending_case(OFFSET, models=(model,), end=0.2)
     data["couplers"][0].update(vertical_offset=0.03, pivot_distance=1.8)  # an inclined coupler too
     scene = scene_from_case(parse_case(data, source="<bending>"))
     systems = [REGISTRY[model].car(car, scene, 2e-4) for car in scene.cars]
-    fast, slow = solve_impact(scene, systems, 2e-4), solve_impact(scene, systems, 2e-4, compiled=False)
+    fast, slow = solve_impact(scene, systems, 2e-4), solve_reference(scene, systems, 2e-4)
     assert fast.ok and slow.ok
     for probe, outputs in slow.sensors.items():
         for quantity, values in outputs.items():
@@ -280,7 +281,7 @@ def test_quasi_rigid_bending_car_matches_the_fem_car_to_order_epsilon_squared():
     from femref.core.profiles import Uniform
     from femref.fem.build import FemSettings
     from femref.fem.transient import Integrator
-    from femref.impact.cars import LinearCar, StateSpaceCar
+    from support.reference_engine import LinearCar, StateSpaceCar
     from femref.models.fem import fem_car
     from femref.models.quasi_rigid import quasi_rigid_car
     from femref.scene.impact import Car

@@ -5,7 +5,7 @@
   and the laws' methods at a few hundred points per law and contact, guard boundaries
   included (closure at the slack, gear at its stroke, zero closure and rate, rate at the
   switch velocity);
-* iteration level: :class:`femref.impact.couplers.CouplerSolve` and the compiled
+* iteration level: the reference :class:`support.reference_engine.CouplerSolve` and the compiled
   :func:`start`/:func:`solve` step the same coupler-and-point-mass scenes (Newmark
   average-acceleration cars stepped here, fed by the Python side's forces), and forces,
   states, closures, rates, modes, energies and iteration counts agree over the whole run —
@@ -22,10 +22,12 @@ import numpy as np
 import pytest
 import scipy.optimize
 
-from femref.impact.cars import EndPrediction
-from femref.impact.couplers import NEWTON_ITERATIONS, CouplerConvergenceError, CouplerSolve, force_tolerance
+from femref.impact.couplers import NEWTON_ITERATIONS, CouplerConvergenceError, force_tolerance
 from femref.impact.kernels import couplers as K
-from reduced.couplers import Coupling, HystereticTable, KelvinVoigt, PowerLawGear, StandardLinearDraftGear
+from femref.impact.kernels import coupling as C
+from femref.impact.kernels import laws as L
+from support.reference_engine import CouplerSolve, EndPrediction
+from reduced.couplers import Coupling, HystereticTable, KelvinVoigt, PowerLawGear, StandardLinearDraftGear, draft_gear, power_law, table
 
 RELATIVE = 1e-12  # law level
 RUN_RELATIVE = 1e-9  # iteration level, of each quantity's largest magnitude over the run
@@ -45,7 +47,7 @@ CONTACTS = {
     "bilateral_slack": ("bilateral", 0.01, 0.02),
 }
 COUPLINGS = {f"{law}-{contact}": Coupling(LAWS[law], *CONTACTS[contact]) for law in LAWS for contact in CONTACTS}
-PACKED = K.pack_laws(list(COUPLINGS.values()))
+PACKED = L.pack_laws(list(COUPLINGS.values()))
 
 
 def close(a: float, b: float, relative: float = RELATIVE) -> bool:
@@ -96,7 +98,7 @@ def test_law_response_matches_coupling_evaluate(name: str):
     modes = set()
     for closure, rate, state in points(coupling, seed=j):
         expected = python_response(coupling, closure, rate, state)
-        got = K.evaluate(PACKED, j, closure, rate, state)
+        got = C.evaluate(PACKED, j, closure, rate, state)
         assert got[1] == expected[1], (closure, rate, state)
         modes.add(got[1])
         for k in (0, 2, 3, 4, 5, 6, 7, 8, 9):
@@ -115,9 +117,9 @@ def test_law_energies_match(name: str):
         s = np.full(law.state_size, state)
         force = rng.uniform(-3e6, 3e6)
         for engaged in (True, False):
-            assert close(K.law_stored_energy(PACKED, j, closure, state, engaged), law.stored_energy(closure, s, engaged))
+            assert close(C.stored_energy_of(PACKED, j, closure, state, engaged), law.stored_energy(closure, s, engaged))
             assert close(
-                K.law_dissipation_rate(PACKED, j, closure, rate, state, force, engaged),
+                C.dissipation_rate_of(PACKED, j, closure, rate, state, force, engaged),
                 law.dissipation_rate(closure, rate, s, force, engaged),
             )
 
@@ -127,16 +129,16 @@ def test_strict_and_branch_none_sign_rules_differ_where_they_should():
     its tensile side in Coupling.evaluate (strict), on its compressive side for branch=None."""
     j = list(COUPLINGS).index("power_law_preload-bilateral")
     coupling = COUPLINGS["power_law_preload-bilateral"]
-    force = K.evaluate(PACKED, j, 0.0, 0.0, 0.0)[0]
+    force = C.evaluate(PACKED, j, 0.0, 0.0, 0.0)[0]
     assert force == coupling.evaluate(0.0, 0.0).force == -coupling.law.preload
-    assert K.law_force(PACKED, j, 0.0, 0.0, 0.0, K.law_branch(PACKED, j, 0.0, 0.0, False)) == coupling.law.force(0.0, 0.0, np.zeros(0))
-    assert K.law_branch(PACKED, j, 0.0, 0.0, False) == 1
+    assert C.force_of(PACKED, j, 0.0, 0.0, 0.0, C.piece_of(PACKED, j, 0.0, 0.0, False)) == coupling.law.force(0.0, 0.0, np.zeros(0))
+    assert C.piece_of(PACKED, j, 0.0, 0.0, False) == 1
     gear = list(COUPLINGS).index("draft_gear-bilateral")
     stroke = LAWS["draft_gear"].stroke
-    assert K.law_branch(PACKED, gear, 0.0, stroke, True) == 0  # open by the strict rule
-    assert K.law_branch(PACKED, gear, 0.0, stroke, False) == 1  # closed by >= 0
-    assert K.law_branch(PACKED, gear, 0.0, -stroke, True) == -1
-    assert K.law_branch(PACKED, gear, 0.0, -stroke, False) == 0
+    assert C.piece_of(PACKED, gear, 0.0, stroke, True) == 0  # open by the strict rule
+    assert C.piece_of(PACKED, gear, 0.0, stroke, False) == 1  # closed by >= 0
+    assert C.piece_of(PACKED, gear, 0.0, -stroke, True) == -1
+    assert C.piece_of(PACKED, gear, 0.0, -stroke, False) == 0
 
 
 # --- the iteration -------------------------------------------------------------------------
@@ -200,7 +202,7 @@ def run_both(couplings, masses, velocities, dt: float, steps: int, tolerance: fl
     if tolerance is not None:
         py.force_tolerance = tolerance
     tol = py.force_tolerance
-    laws = K.pack_laws(couplings)
+    laws = L.pack_laws(couplings)
     st = K.new_state(laws)
     velocity = np.asarray(velocities, dtype=float)
     rates = velocity[py.rear] - velocity[py.front]
@@ -305,7 +307,7 @@ def test_brent_root_is_scipy_brentq():
     """The transcription of Brent's method returns scipy's root (same evaluations) to a few ulps: the compiled
     table law may round its last bit differently from the Python one on another CPU (1 ulp seen), and Brent's
     iterates then part by that much."""
-    laws = K.pack_laws([Coupling(TABLE), Coupling(TABLE)])
+    laws = L.pack_laws([Coupling(TABLE), Coupling(TABLE)])
     gain_u = np.array([[-2e-9, 1e-9], [1e-9, -2e-9]])
     gain_v = 2e3 * gain_u
     rng = np.random.default_rng(7)
@@ -361,7 +363,7 @@ def test_failure_detail_rejects_an_unknown_kind():
 
 
 class Bilinear:
-    """A law with the CouplerLaw interface that has no compiled twin."""
+    """A law with the CouplerLaw interface whose module (this one) has no law functions: no compiled form."""
 
     state_size = 0
     guard_events = ()
@@ -375,20 +377,20 @@ class TwoStates(Bilinear):
     state_size = 2
 
 
-def test_pack_laws_rejects_laws_without_a_compiled_twin():
-    with pytest.raises(ValueError, match=r"coupler 1: law Bilinear has no compiled twin \(known laws: KelvinVoigt"):
-        K.pack_laws([Coupling(TABLE), Coupling(Bilinear())])
+def test_pack_laws_rejects_laws_without_a_compiled_form():
+    with pytest.raises(ValueError, match=r"coupler 1: law Bilinear has no compiled form: its module \S+ lacks the plain functions piece, force"):
+        L.pack_laws([Coupling(TABLE), Coupling(Bilinear())])
     with pytest.raises(ValueError, match="coupler 0: law TwoStates carries 2 state variables"):
-        K.pack_laws([Coupling(TwoStates())])
+        L.pack_laws([Coupling(TwoStates())])
 
 
 def test_pack_laws_layout():
-    laws = K.pack_laws([Coupling(GEAR, "bilateral", 0.01, 0.02), Coupling(LAWS["power_law_preload"]), Coupling(TABLE)])
-    np.testing.assert_array_equal(laws.kind, [K.STANDARD_LINEAR, K.POWER_LAW, K.TABLE])
-    np.testing.assert_array_equal(laws.contact, [K.BILATERAL, K.COMPRESSION_ONLY, K.COMPRESSION_ONLY])
+    laws = L.pack_laws([Coupling(GEAR, "bilateral", 0.01, 0.02), Coupling(LAWS["power_law_preload"]), Coupling(TABLE)])
+    np.testing.assert_array_equal(laws.kind, [L.LAW_MODULES.index(m) for m in (draft_gear, power_law, table)])
+    np.testing.assert_array_equal(laws.contact, [L.BILATERAL, L.COMPRESSION_ONLY, L.COMPRESSION_ONLY])
     np.testing.assert_array_equal(laws.stateful, [1, 0, 0])
     np.testing.assert_array_equal(laws.params[0, :5], [GEAR.series_compliance, GEAR.gear_stiffness, GEAR.gear_damping, GEAR.stroke, GEAR.solid_stiffness])
     np.testing.assert_array_equal(laws.params[1, :6], [2.52e6 / 0.074**2, 1.5, 1.5e5, 2.0, 1e5, 2e6])
-    np.testing.assert_array_equal(laws.table[2, 0, : laws.table_size[2]], TABLE.closure)
+    np.testing.assert_array_equal(laws.table[2, 0, : int(laws.params[2, 2])], TABLE.closure)
     st = K.new_state(laws)
     assert st.mode.dtype == np.int64 and not np.any(st.force) and not np.any(st.state)

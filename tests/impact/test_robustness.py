@@ -36,17 +36,19 @@ from femref.cli import main
 from femref.core.body import Body
 from femref.core.profiles import Piecewise, Uniform
 from femref.fem.build import FemSettings
-from femref.impact import couplers as reference
 from femref.impact import solve_impact
-from femref.impact.cars import EndPrediction
-from femref.impact.couplers import CouplerConvergenceError, CouplerSolve, bracket_detail, coupler_newton_detail, force_tolerance
+from femref.impact.couplers import CouplerConvergenceError, bracket_detail, coupler_newton_detail, force_tolerance
 from femref.impact.kernels import couplers as K
+from femref.impact.kernels import coupling as C
+from femref.impact.kernels import laws as L
 from femref.core.energy import energy_balance_error
 from femref.models import model_form
 from femref.scene.impact import Car, Coupler, ImpactScene, ModelRun
 from reduced.couplers import Coupling, HystereticTable, KelvinVoigt, StandardLinearDraftGear
 from reduced.nonlinear import simulate_impact
 from reduced.rigid import ImpactPair, kelvin_voigt_impact
+from support.reference_engine import couplers as reference
+from support.reference_engine import CouplerSolve, EndPrediction, solve_reference
 
 RTOL = 1e-9  # compiled against reference, of each history's peak (as tests/impact/test_compiled.py)
 
@@ -82,7 +84,7 @@ def two_cars(coupling: Coupling, masses: tuple[float, float], speed: float, fide
 def both(scene: ImpactScene, dt: float):
     """(compiled, reference) runs of the scene's first run from the same car systems."""
     systems = [model_form(f, "impact")(car, scene, dt) for car, f in zip(scene.cars, scene.runs[0].fidelity)]
-    return solve_impact(scene, systems, dt), solve_impact(scene, systems, dt, compiled=False)
+    return solve_impact(scene, systems, dt), solve_reference(scene, systems, dt)
 
 
 def assert_same_run(compiled, reference_run) -> None:
@@ -133,7 +135,7 @@ def test_a_steep_unloading_drop_leaves_the_first_bracket_without_sign_change_and
     tolerance = solve.force_tolerance
     assert f(root) == 0.0 or not reference.same_sign(f(root - 2 * tolerance), f(root + 2 * tolerance))  # a root (or the jump)
 
-    laws = K.pack_laws([coupling])
+    laws = L.pack_laws([coupling])
     compiled, kind = K._scalar_root(laws, K.new_state(laws), 1e-3, 0, tolerance, closure_free, rate_free,
                                     solve.gain_u, solve.gain_v, np.array([1.0e6]), np.zeros(1))
     assert kind == 0 and compiled == root
@@ -179,7 +181,7 @@ def test_a_bracket_that_never_changes_sign_fails_alike_in_both_engines():
     with pytest.raises(CouplerConvergenceError) as raised:
         solve._scalar_root(0, np.array([0.011]), np.array([-1.0]), np.array([1.0e6]), np.zeros(0))
     assert raised.value.coupler == 0 and raised.value.detail == bracket_detail()
-    laws = K.pack_laws([coupling])
+    laws = L.pack_laws([coupling])
     laws = laws._replace(limits=np.array([*laws.limits[:3], 0], dtype=np.int64))
     _, kind = K._scalar_root(laws, K.new_state(laws), 1e-3, 0, solve.force_tolerance, np.array([0.011]), np.array([-1.0]),
                              solve.gain_u, solve.gain_v, np.array([1.0e6]), np.zeros(1))
@@ -202,19 +204,19 @@ JUMP_STEP = dict(
 STALE_STEP = {**JUMP_STEP, **{k: -JUMP_STEP[k] for k in ("closure_free", "rate_free", "state", "closure", "rate", "state_rate")}}
 
 
-def gear_step_solves(coupling: Coupling, d: dict) -> tuple[CouplerSolve, K.CouplerLaws, K.CouplerState]:
+def gear_step_solves(coupling: Coupling, d: dict) -> tuple[CouplerSolve, L.CouplerLaws, K.CouplerState]:
     """The reference and the compiled couplers at the start of step ``d`` (same scene tolerance)."""
     solve = one_coupler_solve(coupling, (119.0e3, 100.0e3), (3.0, 0.0), d["dt"])
     solve.gain_u, solve.gain_v = np.array([[d["gain_u"]]]), np.array([[d["gain_v"]]])
     solve.state, solve.closure, solve.rate = np.array([d["state"]]), np.array([d["closure"]]), np.array([d["rate"]])
     solve.state_rate, solve.stored = np.array([d["state_rate"]]), np.array([d["stored"]])
-    laws = K.pack_laws([coupling])
+    laws = L.pack_laws([coupling])
     st = K.new_state(laws)
     st.state[0], st.closure[0], st.rate[0], st.state_rate[0], st.stored[0] = d["state"], d["closure"], d["rate"], d["state_rate"], d["stored"]
     return solve, laws, st
 
 
-def step_both(solve: CouplerSolve, laws: K.CouplerLaws, st: K.CouplerState, d: dict) -> int:
+def step_both(solve: CouplerSolve, laws: L.CouplerLaws, st: K.CouplerState, d: dict) -> int:
     """One step of step ``d`` in both engines; they agree (values to 1e-12, iterations, mode, held flag)."""
     prediction = lambda u, v: EndPrediction(np.array([0.0, u]), np.zeros((2, 2)), np.array([0.0, v]), np.zeros((2, 2)))  # noqa: E731
     iterations = solve.solve([prediction(d["closure_free"], d["rate_free"]), prediction(0.0, 0.0)])
@@ -294,7 +296,7 @@ def test_the_compiled_mirror_is_the_couplings_rule():
     at the slack boundaries, their neighbours and zero states."""
     couplings = [Coupling(GEAR, "bilateral", 0.005, 0.005), Coupling(GEAR, "bilateral", 0.0, 0.01), Coupling(GEAR, "bilateral"),
                  Coupling(GEAR), Coupling(GEAR, slack=0.005), Coupling(KelvinVoigt(4e7, 3e5), "bilateral", 0.005, 0.005)]
-    laws = K.pack_laws(couplings)
+    laws = L.pack_laws(couplings)
     closures = [0.0, 0.005, -0.005, 0.01, -0.01, 1e-6, -1e-6, 0.2, -0.2]
     closures += [np.nextafter(c, s) for c in (0.005, -0.005, 0.0, -0.01) for s in (-1.0, 1.0)]
     states = [0.0, -0.0, 1e-9, -1e-9, 0.01, -0.01, 0.07, -0.07]
@@ -303,7 +305,7 @@ def test_the_compiled_mirror_is_the_couplings_rule():
         for closure in closures:
             for state in states:
                 expected = coupling.state_mirrored(closure, np.full(coupling.law.state_size, state)) if coupling.law.state_size else False
-                assert K.state_mirror(laws, j, closure, state) == (-1.0 if expected else 1.0), (j, closure, state)
+                assert C.state_mirror(laws, j, closure, state) == (-1.0 if expected else 1.0), (j, closure, state)
                 mirrored += expected
     assert mirrored > 0
 

@@ -16,7 +16,7 @@ import scipy.linalg
 
 from femref.fem.transient import Integrator
 from femref.fem.modes import free_free_modes, inertia_relief_flexibility, residual_flexibility
-from femref.impact.cars import LinearCar, StateSpaceCar
+from support.reference_engine import LinearCar, StateSpaceCar
 from femref.models.fem import fem_car
 from femref.models.modal import modal_car
 from femref.models.quasi_rigid import quasi_rigid_car, quasi_rigid_rod

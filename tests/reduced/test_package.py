@@ -19,13 +19,14 @@ from reduced.rigid import ImpactPair, kelvin_voigt_impact, kelvin_voigt_perturba
 
 HOMES = {
     "reduced.couplers": {
-        "base": ["Branch", "CouplerLaw", "CouplerTangent"],
+        "base": ["OPERATIONS", "Branch", "CouplerLaw", "CouplerTangent", "PackedLaw"],
         "kelvin_voigt": ["KelvinVoigt"],
         "power_law": ["PowerLawGear"],
         "draft_gear": ["StandardLinearDraftGear"],
         "table": ["HystereticTable"],
         "friction_gear": ["TABULATION_TOLERANCE", "CubicLoading", "ExponentialLoading", "LoadingCurve", "friction_gear", "rated_closure_force", "tabulation_nodes"],
-        "coupling": ["CONTACT_KINDS", "COUPLER_LAWS", "CouplerResponse", "Coupling", "coupling_from_name"],
+        "coupling": ["CONTACT_KINDS", "CouplerResponse", "Coupling"],
+        "registry": ["COUPLER_LAWS", "compiled_form_rule", "coupling_from_name", "law_module"],
     },
     "reduced.signal_tools": {
         "smoothing": [

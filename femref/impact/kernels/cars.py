@@ -6,7 +6,7 @@ Every kernel takes ``(layout, values, c)``, the pool of :mod:`femref.impact.kern
 initial acceleration when a run's pool is packed. Each step the loop calls
 :func:`predict` (the free step, read at the end outputs) and :func:`advance` (add the
 response to the new end loads); :func:`observe` reads sensors and energies at the output
-steps only. The arithmetic is that of the readable steppers of :mod:`femref.impact.cars`
+steps only. The arithmetic is that of the readable steppers of ``tests/support/reference_engine``
 (tests hold the two together to 1e-9):
 
 * **second order** (kind 0), generalized-α on ``M ü + C u̇ + K u = B L`` with

@@ -1,36 +1,21 @@
-"""Compiled twin of the coupler iteration of one impact step (:class:`femref.impact.couplers.CouplerSolve`).
+"""The compiled coupler iteration of one impact step (its readable twin is the oracle the tests hold it to).
 
-The laws of :mod:`reduced.couplers` are packed once per scene into arrays
-(:func:`pack_laws` → :class:`CouplerLaws`); the couplers' forces, states and energy accounts
-live in :class:`CouplerState` (:func:`new_state`), updated in place by :func:`start` (the
-forces at t = 0) and :func:`solve` (one step), both ``@njit``. The arithmetic is the Python
-reference's, operation by operation, so the two agree to round-off:
+The scene's laws are packed once into arrays (:func:`femref.impact.kernels.laws.pack_laws`);
+the couplers' forces, states and energy accounts live in :class:`CouplerState`
+(:func:`new_state`), updated in place by :func:`start` (the forces at t = 0) and :func:`solve`
+(one step), both ``@njit``. The laws are the law modules' own functions, compiled
+(:mod:`femref.impact.kernels.laws`), the contact around them :mod:`femref.impact.kernels.coupling`.
+The arithmetic is the readable reference's (``tests/support/reference_engine``), operation by
+operation, so the two agree to round-off:
 
-* the law helpers (``kelvin_voigt_*``, ``power_law_*``, ``draft_gear_*``, ``table_*``; the
-  dispatchers ``law_*``) mirror the laws' methods; :func:`evaluate` mirrors
-  :meth:`reduced.couplers.Coupling.evaluate`, with its branch and mode rule: the guards'
-  signs are strict (``> 0`` is +1, so a guard at exactly zero counts as negative), while a
-  law method called with ``branch=None`` (the contact guards' law force, the stored energy,
-  the dissipation rate, :func:`start`'s engaged force) picks its piece with the ``>= 0``
-  rule of :func:`reduced.couplers.base.select_branch` — :func:`law_branch` takes the rule. The
-  kernels work on one coupler's :class:`CouplerLaw` (its scalars and its rows of the
-  arrays); the entry points the tests compare with the laws' methods — :func:`law_branch`,
-  :func:`law_force`, :func:`law_stored_energy`, :func:`law_dissipation_rate`,
-  :func:`evaluate` — take ``(laws, j)`` and call their twins ``_law_*``, :func:`_evaluate`
-  on ``_law_of(laws, j)``;
-* :func:`_mirror` mirrors :meth:`reduced.couplers.Coupling.state_mirrored` (the sided gear
-  state of a bilateral draft gear with slack): every use of the committed state ``s_n``,
-  ``ṡ_n`` — the state residual, the state under a held force, the dissipation's midpoint —
-  takes ``σ s_n``, ``σ ṡ_n`` with ``σ = −1.0`` where the step's closure is beyond the other
-  side's slack boundary and the gear is still compressed from the first side, as
-  :meth:`CouplerSolve._step_start` (``σ x`` is exact, so the engines still agree to the bit);
-  :func:`state_mirror` is its twin on ``(laws, j)``;
-* :func:`solve` is :meth:`CouplerSolve.solve` given the free closures and rates and the
-  Schur gains ``D_u``, ``D_v``: Newton on ``(P, s)``, then the Gauss–Seidel fallback with
-  Brent's method (:func:`brent_root`, scipy's ``brentq`` transcribed) in a bracket widened
-  until ``P − T`` changes sign for a memoryless coupler, and a 2 × 2 Newton for a stateful
-  one — where that cycles, Brent's method on its force with the state following it
-  (:func:`_state_under`) — then the energy bookkeeping of ``_commit``.
+* :func:`solve` is the reference's step given the free closures and rates and the Schur gains
+  ``D_u``, ``D_v``: Newton on ``(P, s)``, then the Gauss–Seidel fallback with Brent's method
+  (:func:`brent_root`, scipy's ``brentq`` transcribed) in a bracket widened until ``P − T``
+  changes sign for a memoryless coupler, and a 2 × 2 Newton for a stateful one — where that
+  cycles, Brent's method on its force with the state following it (:func:`_state_under`) —
+  then the energy bookkeeping of ``_commit``. Every use of the committed state ``s_n``,
+  ``ṡ_n`` takes ``σ s_n``, ``σ ṡ_n`` with ``σ`` of :func:`~femref.impact.kernels.coupling.mirror`
+  (the sided state, :mod:`femref.impact.couplers`; ``σ x`` is exact, so the engines agree to the bit).
   The Newton systems are :func:`linear_solve` (LAPACK ``dgesv``'s order of operations); the
   products with the gains are loops over a row, summed in index order without fused
   multiply-adds, where numpy's ``@`` calls BLAS (OpenBLAS fuses them). So the iterations
@@ -45,24 +30,9 @@ reference raises here too, with a fixed message: a non-finite closure or rate (V
 a non-positive ``force_tolerance`` (ValueError), 100 Brent iterations (RuntimeError), an
 exactly singular Newton matrix (``np.linalg.LinAlgError``).
 
-Layout of :attr:`CouplerLaws.params` (row j, zero-padded to the widest law):
-
-* kind 0, :class:`~reduced.couplers.KelvinVoigt`: ``[c, μ]``;
-* kind 1, :class:`~reduced.couplers.PowerLawGear`: ``[c, n, N0, K, γ_0, …, γ_{K−1}]``
-  (K damping coefficients);
-* kind 2, :class:`~reduced.couplers.StandardLinearDraftGear`: ``[D, c, μ, stroke, c*]``
-  with ``D = 1/c1 + 1/c2`` (the law's ``series_compliance``);
-* kind 3, :class:`~reduced.couplers.HystereticTable`: ``[c_v, v_s]``; its table is
-  ``table[j, :, :m]`` with ``m = table_size[j]``, rows closure, loading L, unloading U,
-  ``∫₀L``, ``∫₀U`` at the table points (the law's own arrays).
-
 Pass C-contiguous float64 arrays to :func:`solve` (others work, but compile again and run
-slower). The iteration limits and the state tolerance travel in :class:`CouplerLaws`
-(taken from :mod:`femref.impact.couplers` when packing): a cached compilation would keep
-stale compile-time constants, since numba's cache only watches this file.
-
-A step of a few couplers is some hundred floating-point operations, so what a call costs
-beyond them is the calls themselves. Hence:
+slower). A step of a few couplers is some hundred floating-point operations, so what a call
+costs beyond them is the calls themselves. Hence:
 
 * nothing allocates: :func:`solve`'s scratch (its iterate, the residual, the Jacobian and
   its LU factors …) is the ``work_*`` arrays of :class:`CouplerState`, made once by
@@ -71,74 +41,35 @@ beyond them is the calls themselves. Hence:
   numba option): with it, every call increfs and decrefs each array it is passed (numba's
   pruning of those pairs fails across branches and raise paths), an atomic operation
   each: ~4 µs of a single coupler's step, ~0.4 µs without. Without it a kernel can
-  neither allocate nor hand an array to reference-counted code (hence :func:`_law_of` is
-  private); callers with reference counting (:mod:`femref.impact.kernels.loop`) keep theirs;
+  neither allocate nor hand an array to reference-counted code (hence ``law_of`` is for
+  kernels only); callers with reference counting (:mod:`femref.impact.kernels.loop`) keep theirs;
 * a call copies every array of its arguments into its argument list (an array is 7 to 11
-  words), so the kernels below :func:`solve` take a :class:`CouplerLaw`, not ``laws``, and
-  the dispatchers inside :func:`_evaluate` are inlined (``inline="always"``).
+  words), so the kernels below :func:`solve` take a ``CouplerLaw``, not ``laws``, and
+  the law dispatchers are inlined (``inline="always"``).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from femref.impact.couplers import (
-    BRACKET_EXPANSIONS,
-    JUMP_FRACTION,
-    MAX_NEWTON_ITERATIONS,
-    MAX_SWEEPS,
-    NEWTON_ITERATIONS,
-    STATE_TOLERANCE,
-    bracket_detail,
-    coupler_newton_detail,
-    sweeps_detail,
-)
-from reduced.couplers import CONTACT_KINDS, Coupling, HystereticTable, KelvinVoigt, PowerLawGear, StandardLinearDraftGear
+from femref.impact.couplers import bracket_detail, coupler_newton_detail, sweeps_detail
+from femref.impact.kernels.coupling import effective_closure, evaluate_law, mirror, stored_energy
+from femref.impact.kernels.laws import CouplerLaws, law_dissipation_rate_at, law_force, law_of, law_piece, law_state_rate, law_tangent
+from femref.impact.kernels.pool import linear_solve
 
 _JIT = dict(cache=True, _nrt=False)  # every kernel's options (module docstring: no reference counting)
 
-KELVIN_VOIGT, POWER_LAW, STANDARD_LINEAR, TABLE = 0, 1, 2, 3
-"""Values of :attr:`CouplerLaws.kind`."""
-COMPRESSION_ONLY, BILATERAL = 0, 1
-"""Values of :attr:`CouplerLaws.contact` (the order of :data:`reduced.couplers.CONTACT_KINDS`)."""
 SWEEPS_EXHAUSTED, COUPLER_NEWTON_FAILED, BRACKET_NOT_FOUND = 1, 2, 3
 """Failure kinds :func:`solve` returns: Gauss–Seidel sweeps exhausted; a stateful coupler's Newton failed and
 its state under the held force did not settle; the scalar root's bracket found no sign change."""
 
-_LAW_KINDS: dict[type, int] = {
-    KelvinVoigt: KELVIN_VOIGT,
-    PowerLawGear: POWER_LAW,
-    StandardLinearDraftGear: STANDARD_LINEAR,
-    HystereticTable: TABLE,
-}
-
 BRENT_RTOL = 4.0 * float(np.finfo(float).eps)  # scipy.optimize.brentq's default (and smallest) rtol
 BRENT_MAXITER = 100  # scipy.optimize.brentq's default maxiter
-LinAlgError = np.linalg.LinAlgError
-
-
-class CouplerLaws(NamedTuple):
-    """The scene's coupler laws and contacts as arrays (constant; layout of ``params`` in the module docstring)."""
-
-    kind: NDArray[np.int64]  # (n,) 0 kelvin_voigt, 1 power_law, 2 standard_linear draft gear, 3 hysteretic table
-    contact: NDArray[np.int64]  # (n,) 0 compression_only, 1 bilateral
-    slack: NDArray[np.float64]  # (n,) m
-    tension_slack: NDArray[np.float64]  # (n,) m
-    stateful: NDArray[np.int64]  # (n,) 1 if the law carries one state variable (the draft gear's x_g), else 0
-    params: NDArray[np.float64]  # (n, P) law parameters, zero-padded
-    initial_state: NDArray[np.float64]  # (n,) the law's initial state (0 for stateless laws)
-    table: NDArray[np.float64]  # (n, 5, M) closure, L, U, ∫L, ∫U of a table law (zeros otherwise)
-    table_size: NDArray[np.int64]  # (n,) table points of a table law (0 otherwise)
-    limits: NDArray[np.int64]  # (4,) NEWTON_ITERATIONS, MAX_NEWTON_ITERATIONS, MAX_SWEEPS, BRACKET_EXPANSIONS
-    state_tolerance: NDArray[np.float64]  # (1,) STATE_TOLERANCE (m)
-    jump_fraction: NDArray[np.float64]  # (1,) JUMP_FRACTION (femref.impact.couplers.held_at_jump)
-    state_row: NDArray[np.int64]  # (n,) row of the coupler's state among the Newton unknowns (P, s); −1 stateless
 
 
 class CouplerState(NamedTuple):
@@ -170,64 +101,6 @@ class CouplerState(NamedTuple):
     work_pivots: NDArray[np.int64]  # (max(m, 2),)
     work_block: NDArray[np.float64]  # (2, 2) a stateful coupler's own Newton matrix, then its LU factors
     work_local: NDArray[np.float64]  # (2,) its −residual, then its step
-
-
-def pack_laws(couplings: Sequence[Coupling]) -> CouplerLaws:
-    """The laws and contacts of ``couplings`` as :class:`CouplerLaws` (ValueError for a law without a compiled twin)."""
-    n = len(couplings)
-    laws = [c.law for c in couplings]
-    for j, law in enumerate(laws):
-        size = getattr(law, "state_size", None)
-        if isinstance(size, int) and size > 1:
-            raise ValueError(
-                f"coupler {j}: law {type(law).__name__} carries {size} state variables; "
-                "the compiled coupler iteration handles at most one"
-            )
-        if type(law) not in _LAW_KINDS:
-            known = ", ".join(cls.__name__ for cls in _LAW_KINDS)
-            raise ValueError(f"coupler {j}: law {type(law).__name__} has no compiled twin (known laws: {known})")
-    rows: list[list[float]] = []
-    tables: dict[int, list[NDArray[np.float64]]] = {}
-    for j, law in enumerate(laws):
-        if isinstance(law, KelvinVoigt):
-            rows.append([law.stiffness, law.damping])
-        elif isinstance(law, PowerLawGear):
-            rows.append([law.stiffness, law.exponent, law.preload, float(len(law.damping)), *law.damping])
-        elif isinstance(law, StandardLinearDraftGear):
-            rows.append([law.series_compliance, law.gear_stiffness, law.gear_damping, law.stroke, law.solid_stiffness])
-        else:  # the law's own arrays, integrals included, so that the compiled curves are the same numbers
-            rows.append([law.damping, law.switch_velocity])
-            tables[j] = [law._x, law._l, law._u, law._l_int, law._u_int]
-    params = np.zeros((n, max((len(r) for r in rows), default=1)))
-    for j, row in enumerate(rows):
-        params[j, : len(row)] = row
-    table = np.zeros((n, 5, max((t[0].size for t in tables.values()), default=2)))
-    table_size = np.zeros(n, dtype=np.int64)
-    for j, arrays in tables.items():
-        for r, values in enumerate(arrays):
-            table[j, r, : values.size] = values
-        table_size[j] = arrays[0].size
-    state_row = np.full(n, -1, dtype=np.int64)
-    m = n
-    for j, law in enumerate(laws):
-        if law.state_size:
-            state_row[j] = m
-            m += 1
-    return CouplerLaws(
-        kind=np.array([_LAW_KINDS[type(law)] for law in laws], dtype=np.int64),
-        contact=np.array([CONTACT_KINDS.index(c.contact) for c in couplings], dtype=np.int64),
-        slack=np.array([c.slack for c in couplings], dtype=float),
-        tension_slack=np.array([c.tension_slack for c in couplings], dtype=float),
-        stateful=np.array([law.state_size for law in laws], dtype=np.int64),
-        params=params,
-        initial_state=np.array([float(law.initial_state()[0]) if law.state_size else 0.0 for law in laws]),
-        table=table,
-        table_size=table_size,
-        limits=np.array([NEWTON_ITERATIONS, MAX_NEWTON_ITERATIONS, MAX_SWEEPS, BRACKET_EXPANSIONS], dtype=np.int64),
-        state_tolerance=np.array([STATE_TOLERANCE]),
-        jump_fraction=np.array([JUMP_FRACTION]),
-        state_row=state_row,
-    )
 
 
 def new_state(laws: CouplerLaws) -> CouplerState:
@@ -274,438 +147,6 @@ def failure_detail(failure_kind: int, change: float) -> str:
     raise ValueError(f"failure_kind must be {kinds}, got {failure_kind!r}")
 
 
-# --- coupler j's law, as the kernels read it ----------------------------------------------
-
-
-class CouplerLaw(NamedTuple):
-    """Coupler j's law and contact (:func:`_law_of`): scalars and views of :class:`CouplerLaws`' rows."""
-
-    kind: int
-    contact: int
-    slack: float
-    tension_slack: float
-    params: NDArray[np.float64]  # (P,) row j of CouplerLaws.params
-    table: NDArray[np.float64]  # (5, M) table j
-    size: int  # table points (a table law)
-
-
-@njit(**_JIT)
-def _law_of(laws, j):
-    """Coupler j's :class:`CouplerLaw` (the kernels pass it rather than ``laws`` and ``j``: a few words, not all
-    the arrays). Its arrays are views without a reference of their own: for kernels only (module docstring)."""
-    return CouplerLaw(laws.kind[j], laws.contact[j], laws.slack[j], laws.tension_slack[j], laws.params[j], laws.table[j], laws.table_size[j])
-
-
-# --- Kelvin-Voigt -------------------------------------------------------------------------
-
-
-@njit(**_JIT)
-def kelvin_voigt_force(law, closure, rate):
-    """``P = c δ + μ δ̇`` (mirrors reduced.couplers.KelvinVoigt.force)."""
-    return law.params[0] * closure + law.params[1] * rate
-
-
-@njit(**_JIT)
-def kelvin_voigt_tangent(law):
-    """``∂P/∂δ = c``, ``∂P/∂δ̇ = μ`` (mirrors reduced.couplers.KelvinVoigt.tangent)."""
-    return law.params[0], law.params[1], 0.0, 0.0, 0.0, 0.0, 0.0
-
-
-@njit(**_JIT)
-def kelvin_voigt_stored_energy(law, closure, engaged):
-    """``c δ²/2`` while engaged, else 0 (mirrors reduced.couplers.KelvinVoigt.stored_energy)."""
-    return 0.5 * law.params[0] * closure**2 if engaged else 0.0
-
-
-@njit(**_JIT)
-def kelvin_voigt_dissipation_rate(law, rate, engaged):
-    """``μ δ̇²`` while engaged, else 0 (mirrors reduced.couplers.KelvinVoigt.dissipation_rate)."""
-    return law.params[1] * rate**2 if engaged else 0.0
-
-
-# --- power law ----------------------------------------------------------------------------
-
-
-@njit(**_JIT)
-def power_law_damping(law, closure):
-    """``γ(δ) = Σ_k γ_k |δ|^k`` and ``dγ/dδ`` (mirrors reduced.couplers.PowerLawGear.damping_at)."""
-    a = abs(closure)
-    g = 0.0
-    dg = 0.0
-    for k in range(int(law.params[3])):
-        gk = law.params[4 + k]
-        g += gk * a ** float(k)
-        if k >= 1:
-            dg += float(k) * gk * a ** float(k - 1)
-    return g, dg * (1.0 if closure >= 0.0 else -1.0)
-
-
-@njit(**_JIT)
-def power_law_force(law, closure, rate, side):
-    """``P = σ (c |δ|ⁿ + N0) + γ(δ) δ̇`` on the side ``σ = ±1`` (mirrors reduced.couplers.PowerLawGear.force)."""
-    g, _ = power_law_damping(law, closure)
-    return side * (law.params[0] * abs(closure) ** law.params[1] + law.params[2]) + g * rate
-
-
-@njit(**_JIT)
-def power_law_tangent(law, closure, rate):
-    """``∂P/∂δ = n c |δ|^{n−1} + γ'(δ) δ̇``, ``∂P/∂δ̇ = γ(δ)`` (mirrors reduced.couplers.PowerLawGear.tangent)."""
-    g, dg = power_law_damping(law, closure)
-    a = abs(closure)
-    spring = law.params[1] * law.params[0] * a ** (law.params[1] - 1.0)
-    return spring + dg * rate, g, 0.0, 0.0, 0.0, 0.0, 0.0
-
-
-@njit(**_JIT)
-def power_law_stored_energy(law, closure, engaged):
-    """``c |δ|^{n+1}/(n+1) + N0 |δ|`` while engaged (mirrors reduced.couplers.PowerLawGear.stored_energy)."""
-    if not engaged:
-        return 0.0
-    a = abs(closure)
-    c, n, preload = law.params[0], law.params[1], law.params[2]
-    return c * a ** (n + 1.0) / (n + 1.0) + preload * a
-
-
-@njit(**_JIT)
-def power_law_dissipation_rate(law, closure, rate, engaged):
-    """``γ(δ) δ̇²`` while engaged (mirrors reduced.couplers.PowerLawGear.dissipation_rate)."""
-    return power_law_damping(law, closure)[0] * rate**2 if engaged else 0.0
-
-
-# --- standard-linear draft gear -----------------------------------------------------------
-
-
-@njit(**_JIT)
-def draft_gear_spring(law, gear_compression, piece):
-    """``F_g(x_g)`` and ``F_g'``: ``c x_g`` open (piece 0), ``c* x_g + (c − c*) stroke piece`` closed
-    (piece ±1) (mirrors reduced.couplers.StandardLinearDraftGear.gear_spring)."""
-    c, s, cs = law.params[1], law.params[3], law.params[4]
-    if piece == 0:
-        return c * gear_compression, c
-    return cs * gear_compression + (c - cs) * s * piece, cs
-
-
-@njit(**_JIT)
-def draft_gear_force(law, closure, state):
-    """``P = (δ − x_g)/D`` (mirrors reduced.couplers.StandardLinearDraftGear.force)."""
-    return (closure - state) / law.params[0]
-
-
-@njit(**_JIT)
-def draft_gear_state_rate(law, state, force, piece):
-    """``ẋ_g = (P − F_g(x_g))/μ`` (mirrors reduced.couplers.StandardLinearDraftGear.state_rate)."""
-    fg, _ = draft_gear_spring(law, state, piece)
-    return (force - fg) / law.params[2]
-
-
-@njit(**_JIT)
-def draft_gear_tangent(law, state, piece):
-    """``∂P/∂δ = 1/D``, ``∂P/∂x_g = −1/D``, ``∂ẋ_g/∂x_g = −F_g'/μ``, ``∂ẋ_g/∂P = 1/μ``
-    (mirrors reduced.couplers.StandardLinearDraftGear.tangent)."""
-    _, kg = draft_gear_spring(law, state, piece)
-    d, mu = law.params[0], law.params[2]
-    return 1.0 / d, 0.0, -1.0 / d, 0.0, 0.0, -kg / mu, 1.0 / mu
-
-
-@njit(**_JIT)
-def draft_gear_stored_energy(law, closure, state, engaged, piece):
-    """``D P²/2`` (engaged) ``+ ∫₀^{x_g} F_g`` (mirrors reduced.couplers.StandardLinearDraftGear.stored_energy)."""
-    d, c, s, cs = law.params[0], law.params[1], law.params[3], law.params[4]
-    series = 0.5 * d * draft_gear_force(law, closure, state) ** 2 if engaged else 0.0
-    if piece == 0:
-        gear = 0.5 * c * state**2
-    else:
-        a = abs(state)
-        gear = 0.5 * c * s**2 + 0.5 * cs * (a**2 - s**2) + (c - cs) * s * (a - s)
-    return series + gear
-
-
-@njit(**_JIT)
-def draft_gear_dissipation_rate(law, state, force, piece):
-    """``(P − F_g(x_g))²/μ`` (mirrors reduced.couplers.StandardLinearDraftGear.dissipation_rate)."""
-    fg, _ = draft_gear_spring(law, state, piece)
-    return (force - fg) ** 2 / law.params[2]
-
-
-# --- hysteretic table ---------------------------------------------------------------------
-
-
-@njit(**_JIT)
-def table_curve(law, row, a):
-    """Value, slope and ``∫₀^a`` of table row 1 (L) or 2 (U) at ``a ≥ 0``, extrapolating the last
-    segment (mirrors reduced.couplers.table._piecewise_linear)."""
-    m = law.size
-    x = law.table[0]
-    y = law.table[row]
-    integral = law.table[row + 2]
-    right = 0  # np.searchsorted(x, a, side="right")
-    while right < m and x[right] <= a:
-        right += 1
-    i = min(max(right - 1, 0), m - 2)
-    slope = (y[i + 1] - y[i]) / (x[i + 1] - x[i])
-    h = a - x[i]
-    return y[i] + slope * h, slope, integral[i] + y[i] * h + 0.5 * slope * h * h
-
-
-@njit(**_JIT)
-def table_switch(law, closure, rate):
-    """``σ = sgn δ`` (at δ = 0: ``sgn δ̇``, +1 at rest), ``s(σδ̇) = clip(σδ̇/v_s, 0, 1)`` and its right
-    derivative (mirrors reduced.couplers.HystereticTable._switch)."""
-    if closure != 0.0:
-        sigma = 1.0 if closure > 0.0 else -1.0
-    else:
-        sigma = 1.0 if rate >= 0.0 else -1.0
-    r = sigma * rate
-    vs = law.params[1]
-    s = min(max(r / vs, 0.0), 1.0)
-    ds = 1.0 / vs if 0.0 <= r < vs else 0.0
-    return sigma, s, ds
-
-
-@njit(**_JIT)
-def table_force(law, closure, rate):
-    """``P = σ [U + (L − U) s(σδ̇)](|δ|) + c_v δ̇`` (mirrors reduced.couplers.HystereticTable.force)."""
-    a = abs(closure)
-    lo = table_curve(law, 1, a)[0]
-    un = table_curve(law, 2, a)[0]
-    sigma, s, _ = table_switch(law, closure, rate)
-    return sigma * (un + (lo - un) * s) + law.params[0] * rate
-
-
-@njit(**_JIT)
-def table_tangent(law, closure, rate):
-    """``∂P/∂δ = U' + (L' − U') s``, ``∂P/∂δ̇ = (L − U) s' + c_v`` (mirrors reduced.couplers.HystereticTable.tangent)."""
-    a = abs(closure)
-    lo, dlo, _ = table_curve(law, 1, a)
-    un, dun, _ = table_curve(law, 2, a)
-    _, s, ds = table_switch(law, closure, rate)
-    return dun + (dlo - dun) * s, (lo - un) * ds + law.params[0], 0.0, 0.0, 0.0, 0.0, 0.0
-
-
-@njit(**_JIT)
-def table_stored_energy(law, closure, engaged):
-    """``∫₀^{|δ|} U`` while engaged (mirrors reduced.couplers.HystereticTable.stored_energy)."""
-    return table_curve(law, 2, abs(closure))[2] if engaged else 0.0
-
-
-@njit(**_JIT)
-def table_dissipation_rate(law, closure, rate, engaged):
-    """``(L − U)(|δ|) s(σδ̇) σ δ̇ + c_v δ̇²`` while engaged (mirrors reduced.couplers.HystereticTable.dissipation_rate)."""
-    if not engaged:
-        return 0.0
-    a = abs(closure)
-    lo = table_curve(law, 1, a)[0]
-    un = table_curve(law, 2, a)[0]
-    sigma, s, _ = table_switch(law, closure, rate)
-    return (lo - un) * s * sigma * rate + law.params[0] * rate**2
-
-
-# --- the law of a coupler, whatever its kind ----------------------------------------------
-# (each on a CouplerLaw, with its twin on (laws, j) for the tests and for Python callers)
-
-
-@njit(inline="always", **_JIT)
-def _law_branch(law, closure, state, strict):
-    """The law's piece from the signs of its guards at the law closure ``closure``.
-
-    Power law: the side ``σ = ±1`` of ``δ``; draft gear: +1 closed in compression
-    (``x_g − stroke`` positive), −1 closed in tension (``x_g + stroke`` negative), 0 open;
-    the other laws have no guards (0). ``strict``: a guard is positive iff ``> 0``, the rule of
-    :meth:`Coupling.evaluate`; else iff ``>= 0``, the rule of ``reduced.couplers.base.select_branch``
-    (a law method called with ``branch=None``).
-    """
-    kind = law.kind
-    if kind == POWER_LAW:
-        positive = closure > 0.0 if strict else closure >= 0.0
-        return 1 if positive else -1
-    if kind == STANDARD_LINEAR:
-        stroke = law.params[3]
-        above, below = state - stroke, state + stroke
-        above_positive = above > 0.0 if strict else above >= 0.0
-        below_positive = below > 0.0 if strict else below >= 0.0
-        if above_positive:
-            return 1
-        if not below_positive:
-            return -1
-        return 0
-    return 0
-
-
-@njit(inline="always", **_JIT)
-def _law_force(law, closure, rate, state, branch):
-    """The engaged law force ``F(δ, δ̇, s)`` on the piece ``branch`` (:func:`_law_branch`)."""
-    kind = law.kind
-    if kind == KELVIN_VOIGT:
-        return kelvin_voigt_force(law, closure, rate)
-    if kind == POWER_LAW:
-        return power_law_force(law, closure, rate, branch)
-    if kind == STANDARD_LINEAR:
-        return draft_gear_force(law, closure, state)
-    return table_force(law, closure, rate)
-
-
-@njit(inline="always", **_JIT)
-def _law_state_rate(law, closure, rate, state, force, branch):
-    """``ṡ = q(δ, δ̇, s, P)`` given the transmitted force (0 for a stateless law)."""
-    if law.kind == STANDARD_LINEAR:
-        return draft_gear_state_rate(law, state, force, branch)
-    return 0.0
-
-
-@njit(inline="always", **_JIT)
-def _law_tangent(law, closure, rate, state, force, branch):
-    """``(∂P/∂δ, ∂P/∂δ̇, ∂P/∂s, ∂ṡ/∂δ, ∂ṡ/∂δ̇, ∂ṡ/∂s, ∂ṡ/∂P)`` — the fields of CouplerTangent in order."""
-    kind = law.kind
-    if kind == KELVIN_VOIGT:
-        return kelvin_voigt_tangent(law)
-    if kind == POWER_LAW:
-        return power_law_tangent(law, closure, rate)
-    if kind == STANDARD_LINEAR:
-        return draft_gear_tangent(law, state, branch)
-    return table_tangent(law, closure, rate)
-
-
-@njit(**_JIT)
-def _law_stored_energy(law, closure, state, engaged):
-    """The law's stored energy at the law closure (its piece by the ``>= 0`` rule, as ``branch=None``)."""
-    kind = law.kind
-    if kind == KELVIN_VOIGT:
-        return kelvin_voigt_stored_energy(law, closure, engaged)
-    if kind == POWER_LAW:
-        return power_law_stored_energy(law, closure, engaged)
-    if kind == STANDARD_LINEAR:
-        return draft_gear_stored_energy(law, closure, state, engaged, _law_branch(law, closure, state, False))
-    return table_stored_energy(law, closure, engaged)
-
-
-@njit(**_JIT)
-def _law_dissipation_rate(law, closure, rate, state, force, engaged):
-    """The law's dissipation rate (its piece by the ``>= 0`` rule, as ``branch=None``)."""
-    kind = law.kind
-    if kind == KELVIN_VOIGT:
-        return kelvin_voigt_dissipation_rate(law, rate, engaged)
-    if kind == POWER_LAW:
-        return power_law_dissipation_rate(law, closure, rate, engaged)
-    if kind == STANDARD_LINEAR:
-        return draft_gear_dissipation_rate(law, state, force, _law_branch(law, closure, state, False))
-    return table_dissipation_rate(law, closure, rate, engaged)
-
-
-@njit(**_JIT)
-def law_branch(laws, j, closure, state, strict):
-    """:func:`_law_branch` of coupler j's law (:func:`_law_of`)."""
-    return _law_branch(_law_of(laws, j), closure, state, strict)
-
-
-@njit(**_JIT)
-def law_force(laws, j, closure, rate, state, branch):
-    """:func:`_law_force` of coupler j's law (:func:`_law_of`)."""
-    return _law_force(_law_of(laws, j), closure, rate, state, branch)
-
-
-@njit(**_JIT)
-def law_stored_energy(laws, j, closure, state, engaged):
-    """:func:`_law_stored_energy` of coupler j's law (:func:`_law_of`)."""
-    return _law_stored_energy(_law_of(laws, j), closure, state, engaged)
-
-
-@njit(**_JIT)
-def law_dissipation_rate(laws, j, closure, rate, state, force, engaged):
-    """:func:`_law_dissipation_rate` of coupler j's law (:func:`_law_of`)."""
-    return _law_dissipation_rate(_law_of(laws, j), closure, rate, state, force, engaged)
-
-
-# --- the coupling (contact and slack around the law) --------------------------------------
-
-
-@njit(inline="always", **_JIT)
-def _effective_closure(law, closure, mode):
-    """``δ − slack`` in compression or open, ``δ + tension_slack`` in tension (mirrors Coupling.effective_closure)."""
-    if mode < 0:
-        return closure + law.tension_slack
-    return closure - law.slack
-
-
-@njit(inline="always", **_JIT)
-def _mirror(law, closure, state):
-    """``σ = −1.0`` where the gear state is to be mirrored at ``closure``, else ``+1.0`` (mirrors
-    Coupling.state_mirrored): a draft gear, bilateral with slack, with ``x_g > 0`` and
-    ``δ + tension_slack < 0`` or ``x_g < 0`` and ``δ − slack > 0``. A step to ``closure``
-    starts from ``σ (s_n, ṡ_n)`` (femref.impact.couplers, module docstring)."""
-    if law.kind != STANDARD_LINEAR or law.contact != BILATERAL or (law.slack == 0.0 and law.tension_slack == 0.0):
-        return 1.0
-    if (state > 0.0 and closure + law.tension_slack < 0.0) or (state < 0.0 and closure - law.slack > 0.0):
-        return -1.0
-    return 1.0
-
-
-@njit(inline="always", **_JIT)
-def _transmitted_force(law, closure, rate, state, mode, branch):
-    """``P`` in the contact mode: 0 open, else the law force at the effective closure (mirrors Coupling.transmitted_force)."""
-    if mode == 0:
-        return 0.0
-    return _law_force(law, _effective_closure(law, closure, mode), rate, state, branch)
-
-
-@njit(**_JIT)
-def _evaluate(law, closure, rate, state):
-    """The coupler of ``law`` at ``(δ, δ̇, s)``, mode and branch from the guards' strict signs (mirrors Coupling.evaluate).
-
-    Compression (+1) iff ``min(δ − slack, F(δ − slack)) > 0``; tension (−1, bilateral with
-    slack) iff not, and ``max(δ + tension_slack, F(δ + tension_slack))`` is not ``> 0``;
-    bilateral without slack: always +1; else open (0). The contact guards' ``F`` take the
-    ``>= 0`` piece rule, the transmitted force the strict one of the law guards at ``δ − slack``.
-    Returns ``(P, mode, ṡ, ∂P/∂δ, ∂P/∂δ̇, ∂P/∂s, ∂ṡ/∂δ, ∂ṡ/∂δ̇, ∂ṡ/∂s, ∂ṡ/∂P)``, the force
-    derivatives zero while open.
-    """
-    if not math.isfinite(closure):
-        raise ValueError("closure must be finite")
-    if not math.isfinite(rate):
-        raise ValueError("closure_rate must be finite")
-    slack, tension_slack = law.slack, law.tension_slack
-    bilateral = law.contact == BILATERAL
-    branch = _law_branch(law, closure - slack, state, True)
-    if bilateral and slack == 0.0 and tension_slack == 0.0:
-        mode = 1
-    else:
-        dc = closure - slack
-        fc = _law_force(law, dc, rate, state, _law_branch(law, dc, state, False))
-        guard = fc if fc < dc else dc  # Python's min(dc, F)
-        if guard > 0.0:
-            mode = 1
-        elif bilateral:
-            dt = closure + tension_slack
-            ft = _law_force(law, dt, rate, state, _law_branch(law, dt, state, False))
-            guard = ft if ft > dt else dt  # Python's max(dt, F)
-            mode = 0 if guard > 0.0 else -1
-        else:
-            mode = 0
-    p = _transmitted_force(law, closure, rate, state, mode, branch)
-    de = _effective_closure(law, closure, mode)
-    state_rate = _law_state_rate(law, de, rate, state, p, branch)
-    fcl, frt, fst, rcl, rrt, rst, rfo = _law_tangent(law, de, rate, state, p, branch)
-    if mode == 0:
-        fcl, frt, fst = 0.0, 0.0, 0.0
-    return p, mode, state_rate, fcl, frt, fst, rcl, rrt, rst, rfo
-
-
-@njit(**_JIT)
-def _stored_energy(law, closure, state, mode):
-    """The stored energy of the coupler of ``law`` in the contact mode (mirrors CouplerSolve._stored)."""
-    return _law_stored_energy(law, _effective_closure(law, closure, mode), state, mode != 0)
-
-
-@njit(**_JIT)
-def state_mirror(laws, j, closure, state):
-    """:func:`_mirror` of coupler j's law (:func:`_law_of`): −1.0 where Coupling.state_mirrored, else 1.0."""
-    return _mirror(_law_of(laws, j), closure, state)
-
-
-@njit(**_JIT)
-def evaluate(laws, j, closure, rate, state):
-    """Coupler j at ``(δ, δ̇, s)`` (mirrors Coupling.evaluate): :func:`_evaluate` of its law (:func:`_law_of`)."""
-    return _evaluate(_law_of(laws, j), closure, rate, state)
-
 
 # --- the iteration ------------------------------------------------------------------------
 
@@ -718,19 +159,19 @@ def start(laws, st, closure_rate):
     force jump) is engaged from t = 0 when its engaged force is compressive.
     """
     for j in range(laws.kind.size):
-        law = _law_of(laws, j)
+        law = law_of(laws, j)
         st.rate[j] = closure_rate[j]
         state = st.state[j]
-        force, mode, state_rate, _, _, _, _, _, _, _ = _evaluate(law, 0.0, closure_rate[j], state)
+        force, mode, state_rate, _, _, _, _, _, _, _ = evaluate_law(law, 0.0, closure_rate[j], state)
         if law.slack == 0.0 and closure_rate[j] > 0.0 and mode == 0:
-            de = _effective_closure(law, 0.0, 1)
-            engaged = _law_force(law, de, closure_rate[j], state, _law_branch(law, de, state, False))
+            de = effective_closure(law, 0.0, 1)
+            engaged = law_force(law, de, closure_rate[j], state, law_piece(law, de, state, False))
             if engaged > 0.0:
                 force, mode = engaged, 1
         st.force[j] = force
         st.mode[j] = mode
         st.state_rate[j] = state_rate
-        st.stored[j] = _stored_energy(law, 0.0, state, mode)
+        st.stored[j] = stored_energy(law, 0.0, state, mode)
 
 
 @njit(**_JIT)
@@ -747,13 +188,13 @@ def _residual(laws, st, dt, closure_free, rate_free, gain_u, gain_v, P, s, closu
             rate_gain += gain_v[j, k] * P[k]
         closure[j] = closure_free[j] + closure_gain
         rate[j] = rate_free[j] + rate_gain
-        law = _law_of(laws, j)
-        force, modes[j], state_rate[j], fcl, frt, fst, rcl, rrt, rst, rfo = _evaluate(law, closure[j], rate[j], s[j])
+        law = law_of(laws, j)
+        force, modes[j], state_rate[j], fcl, frt, fst, rcl, rrt, rst, rfo = evaluate_law(law, closure[j], rate[j], s[j])
         tangent[j, 0], tangent[j, 1], tangent[j, 2], tangent[j, 3] = fcl, frt, fst, rcl
         tangent[j, 4], tangent[j, 5], tangent[j, 6] = rrt, rst, rfo
         residual[j] = P[j] - force
         if rows[j] >= 0:
-            sigma = _mirror(law, closure[j], st.state[j])  # the step starts from σ (s_n, ṡ_n)
+            sigma = mirror(law, closure[j], st.state[j])  # the step starts from σ (s_n, ṡ_n)
             residual[rows[j]] = s[j] - sigma * st.state[j] - 0.5 * dt * (sigma * st.state_rate[j] + state_rate[j])
 
 
@@ -784,56 +225,6 @@ def _jacobian(dt, gain_u, gain_v, rows, tangent, jacobian):
 
 
 @njit(**_JIT)
-def linear_solve(a, x, pivots):
-    """``x ← a⁻¹ x`` in place, ``a`` overwritten by its LU factors, ``pivots`` (at least ``x.size`` long) by
-    the row swaps: LU with partial pivoting in the order of OpenBLAS's ``dgesv`` (left-looking ``getf2``,
-    then the two triangular solves), equal to ``np.linalg.solve`` bit for bit up to 5 unknowns (measured;
-    round-off beyond), and cheaper to compile than numba's ``np.linalg.solve``."""
-    n = x.size
-    for j in range(n):
-        for i in range(j):  # the earlier row swaps, on column j
-            p = pivots[i]
-            if p != i:
-                a[i, j], a[p, j] = a[p, j], a[i, j]
-        for i in range(1, j):  # U above the diagonal
-            t = 0.0
-            for k in range(i):
-                t += a[i, k] * a[k, j]
-            a[i, j] -= t
-        for r in range(j, n):  # the rest of the column
-            t = 0.0
-            for k in range(j):
-                t += a[r, k] * a[k, j]
-            a[r, j] -= t
-        p = j
-        big = abs(a[j, j])
-        for r in range(j + 1, n):
-            if abs(a[r, j]) > big:
-                p = r
-                big = abs(a[r, j])
-        pivots[j] = p
-        if a[p, j] == 0.0:
-            raise LinAlgError("Singular matrix")
-        if p != j:
-            for c in range(j + 1):
-                a[j, c], a[p, c] = a[p, c], a[j, c]
-        reciprocal = 1.0 / a[j, j]
-        for r in range(j + 1, n):
-            a[r, j] *= reciprocal
-    for k in range(n):
-        p = pivots[k]
-        if p != k:
-            x[k], x[p] = x[p], x[k]
-    for k in range(n):
-        for i in range(k + 1, n):
-            x[i] -= a[i, k] * x[k]
-    for k in range(n - 1, -1, -1):
-        x[k] /= a[k, k]
-        for i in range(k):
-            x[i] -= a[i, k] * x[k]
-
-
-@njit(**_JIT)
 def _converged(residual, n, force_tolerance, state_tolerance):
     for k in range(residual.size):
         if not abs(residual[k]) <= (force_tolerance if k < n else state_tolerance):
@@ -845,10 +236,10 @@ def _converged(residual, n, force_tolerance, state_tolerance):
 def _driven_rate(law, closure, rate, state, force):
     """``ṡ = q(δ_e, δ̇, s, P)`` driven by the transmitted force ``P = force`` and ``∂q/∂s``, mode and branch
     from the guards' strict signs at ``(δ, δ̇, s)`` (mirrors CouplerSolve._driven_rate)."""
-    mode = _evaluate(law, closure, rate, state)[1]
-    branch = _law_branch(law, closure - law.slack, state, True)
-    de = _effective_closure(law, closure, mode)
-    return _law_state_rate(law, de, rate, state, force, branch), _law_tangent(law, de, rate, state, force, branch)[5]
+    mode = evaluate_law(law, closure, rate, state)[1]
+    branch = law_piece(law, closure - law.slack, state, True)
+    de = effective_closure(law, closure, mode)
+    return law_state_rate(law, de, rate, state, force, branch), law_tangent(law, de, rate, state, force, branch)[5]
 
 
 @njit(**_JIT)
@@ -893,11 +284,11 @@ def _excess(law, j, laws, st, dt, closure_free, rate_free, gain_u, gain_v, P, s,
     rate = rate_free[j] + rate_gain
     settled = True
     if laws.stateful[j] != 0:
-        sigma = _mirror(law, closure, st.state[j])  # the step starts from σ (s_n, ṡ_n)
+        sigma = mirror(law, closure, st.state[j])  # the step starts from σ (s_n, ṡ_n)
         s[j], settled = _state_under(
             law, laws.state_tolerance[0], laws.limits[1], sigma * st.state[j], sigma * st.state_rate[j], dt, closure, rate, force, s[j]
         )
-    value = force - _evaluate(law, closure, rate, s[j])[0]
+    value = force - evaluate_law(law, closure, rate, s[j])[0]
     if math.isnan(value):
         raise ValueError("The function value is NaN; solver cannot continue.")
     return value, settled
@@ -909,7 +300,7 @@ def brent_root(laws, st, dt, j, closure_free, rate_free, gain_u, gain_v, P, s, x
     (scipy/optimize/Zeros/brentq.c; ``rtol = 4 eps``, 100 iterations), same evaluations, same result."""
     if xtol <= 0.0:
         raise ValueError("xtol too small (xtol <= 0)")
-    law = _law_of(laws, j)
+    law = law_of(laws, j)
     rtol = BRENT_RTOL
     xpre, xcur = xa, xb
     xblk, fblk, spre, scur = 0.0, 0.0, 0.0, 0.0
@@ -976,7 +367,7 @@ def _scalar_root(laws, st, dt, j, force_tolerance, closure_free, rate_free, gain
     step, while ``f`` keeps its sign (mirrors CouplerSolve._scalar_root); a stateful coupler's state left at
     the root's. Returns ``(root, failure kind)``: 0, BRACKET_NOT_FOUND or COUPLER_NEWTON_FAILED (its state
     at the root did not settle)."""
-    law = _law_of(laws, j)
+    law = law_of(laws, j)
     start = P[j]
     f0 = _excess(law, j, laws, st, dt, closure_free, rate_free, gain_u, gain_v, P, s, start)[0]
     if f0 == 0.0:
@@ -1015,7 +406,7 @@ def _coupler_newton(laws, st, dt, force_tolerance, closure_free, rate_free, gain
     Returns ``(converged, |force residual|)`` of the last evaluation.
     """
     state_tolerance = laws.state_tolerance[0]
-    law = _law_of(laws, j)
+    law = law_of(laws, j)
     last = 0.0
     for _ in range(laws.limits[1]):
         closure_gain = 0.0  # row j of D_u P, D_v P
@@ -1025,9 +416,9 @@ def _coupler_newton(laws, st, dt, force_tolerance, closure_free, rate_free, gain
             rate_gain += gain_v[j, k] * P[k]
         closure = closure_free[j] + closure_gain
         rate = rate_free[j] + rate_gain
-        p, _, state_rate, fcl, frt, fst, rcl, rrt, rst, rfo = _evaluate(law, closure, rate, s[j])
+        p, _, state_rate, fcl, frt, fst, rcl, rrt, rst, rfo = evaluate_law(law, closure, rate, s[j])
         local[0] = P[j] - p
-        sigma = _mirror(law, closure, st.state[j])  # the step starts from σ (s_n, ṡ_n)
+        sigma = mirror(law, closure, st.state[j])  # the step starts from σ (s_n, ṡ_n)
         local[1] = s[j] - sigma * st.state[j] - 0.5 * dt * (sigma * st.state_rate[j] + state_rate)
         last = abs(local[0])
         if abs(local[0]) <= force_tolerance and abs(local[1]) <= state_tolerance:
@@ -1082,8 +473,8 @@ def _gauss_seidel(laws, st, dt, force_tolerance, closure_free, rate_free, gain_u
 def _held_at_jump(force, force_residual, tolerance, jump_fraction):
     """``|P − T| > max(tolerance, jump_fraction · max(|P|, |T|))``: the step ended held at a jump of the law
     (mirrors femref.impact.couplers.held_at_jump)."""
-    law_force = force - force_residual
-    return abs(force_residual) > max(tolerance, jump_fraction * max(abs(force), abs(law_force)))
+    law_value = force - force_residual
+    return abs(force_residual) > max(tolerance, jump_fraction * max(abs(force), abs(law_value)))
 
 
 @njit(**_JIT)
@@ -1091,18 +482,18 @@ def _commit(laws, st, dt, force_tolerance, P, s, closure, rate, state_rate, mode
     """Book the step's coupler energy and take the new values (mirrors CouplerSolve._commit; ``residual[j]``
     is ``P − T`` of coupler j)."""
     for j in range(P.size):
-        law = _law_of(laws, j)
+        law = law_of(laws, j)
         mode = modes[j]
-        stored = _stored_energy(law, closure[j], s[j], mode)
+        stored = stored_energy(law, closure[j], s[j], mode)
         work = 0.5 * (P[j] + st.force[j]) * (closure[j] - st.closure[j])
         st.work[j] += work
         held = _held_at_jump(P[j], residual[j], force_tolerance, laws.jump_fraction[0])
         if mode == st.mode[j] and not held and st.held[j] == 0:  # on the law from end to end
             mid_closure = 0.5 * (closure[j] + st.closure[j])
-            mid = _effective_closure(law, mid_closure, mode)
+            mid = effective_closure(law, mid_closure, mode)
             rate_mid = 0.5 * (rate[j] + st.rate[j])
-            start = _mirror(law, closure[j], st.state[j]) * st.state[j]  # the committed state, mirrored where the step crossed
-            st.dissipated[j] += dt * _law_dissipation_rate(
+            start = mirror(law, closure[j], st.state[j]) * st.state[j]  # the committed state, mirrored where the step crossed
+            st.dissipated[j] += dt * law_dissipation_rate_at(
                 law, mid, rate_mid, 0.5 * (s[j] + start), 0.5 * (P[j] + st.force[j]), mode != 0
             )
         else:  # the contact changed within the step, or held at a jump: absorbed work less the change of stored energy
@@ -1175,7 +566,7 @@ def solve(laws, st, dt, force_tolerance, closure_free, rate_free, gain_u, gain_v
         _residual(laws, st, dt, closure_free, rate_free, gain_u, gain_v, P, s, closure, rate, new_modes, state_rate, tangent, residual)
         for j in range(n):  # the sweeps drove each state by the force P (not T)
             if laws.stateful[j] != 0:
-                state_rate[j] = _driven_rate(_law_of(laws, j), closure[j], rate[j], s[j], P[j])[0]
+                state_rate[j] = _driven_rate(law_of(laws, j), closure[j], rate[j], s[j], P[j])[0]
         iteration += sweeps
     _commit(laws, st, dt, force_tolerance, P, s, closure, rate, state_rate, new_modes, residual)
     return iteration, -1, 0, 0.0

@@ -3,7 +3,7 @@
 :func:`solve_compiled` packs the run — the cars into one pool
 (:func:`femref.impact.kernels.packing.pack_cars`), the couplers, the line's coupler maps and
 the Schur gains — and calls :func:`run_steps`, which does per step what the readable loop
-of :func:`femref.impact.solver.solve_impact` does (the tests hold them together):
+of the reference engine (``tests/support/reference_engine``) does (the tests hold them together):
 
     every car predicts its free end outputs y_free and rates ẏ_free (no new loads);
     δ_free = Σ_cars Cc y_free,  δ̇_free = Σ_cars Cc ẏ_free;
@@ -44,17 +44,17 @@ from numpy.typing import NDArray
 
 from femref.core.timegrid import output_steps, steps_to
 from femref.fem.transient import Integrator
-from femref.impact.cars import car_settings_after
 from femref.impact.couplers import force_tolerance
 from femref.impact.kernels import cars as car_kernels
 from femref.impact.kernels import couplers as coupler_kernels
+from femref.impact.kernels.laws import CouplerLaws, pack_laws
 from femref.impact.kernels.packing import pack_cars, prepared_car
 from femref.impact.kernels.pool import (
     COUPLER_LOADS, COUPLER_OUTPUTS, END_COUNT, END_FREE, END_RATE_FREE, LOAD_COUNT, NEW_LOADS, SCALARS,
     SUM_LOAD2, SUM_RATE2,
 )
 from femref.impact.response import ImpactResponse, failure_message, sensor_histories
-from femref.impact.systems import CarSystem
+from femref.impact.systems import CarSystem, car_settings_after
 from femref.scene import ImpactScene
 
 #: Seconds of stepping between two returns to Python (signals, progress): :func:`chunk_after`.
@@ -87,7 +87,7 @@ class LinePlan:
     coupler maps, the couplers at contact (forces from the initial closure rates) and the end loads
     they put on each car, the sensor columns, the coupler iteration's force tolerance. Read only."""
 
-    laws: coupler_kernels.CouplerLaws
+    laws: CouplerLaws
     maps: list[tuple[NDArray[np.float64], NDArray[np.float64]]]
     couplers_at_contact: coupler_kernels.CouplerState  # copied by each run
     loads_at_contact: list[NDArray[np.float64]]  # L₀ = Bc P₀ of each car
@@ -104,7 +104,7 @@ def line_plan(scene: ImpactScene) -> LinePlan:
     """The scene's :class:`LinePlan`, made on its first run (a scene is immutable)."""
     plan = _line_plans.get(scene)
     if plan is None:
-        laws = coupler_kernels.pack_laws([c.coupling for c in scene.couplers])
+        laws = pack_laws([c.coupling for c in scene.couplers])
         couplers = coupler_kernels.new_state(laws)
         velocities = [float(car.velocity) for car in scene.cars]
         maps = coupler_maps(scene)

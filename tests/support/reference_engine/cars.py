@@ -1,4 +1,4 @@
-"""The reference steppers of the two car descriptions (:mod:`femref.impact.systems`), in Python.
+"""The reference steppers of the two car descriptions (:mod:`femref.impact.systems`), in Python: the oracle.
 
 The compiled loop (:mod:`femref.impact.kernels`) steps the same descriptions with the same
 arithmetic and is held to these readable steppers in the tests. Every car answers the
@@ -23,7 +23,6 @@ once, the new acceleration is ``a_free + Z L``.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -33,7 +32,7 @@ from numpy.typing import NDArray
 
 from femref.fem.banded import BandedCholesky
 from femref.fem.transient import DenseCholesky, Integrator, StepOperators
-from femref.impact.systems import CarSystem, SecondOrderSystem, StateSpaceSystem
+from femref.impact.systems import CarSystem, SecondOrderSystem, StateSpaceSystem, car_settings_after
 
 
 @dataclass(frozen=True, eq=False)
@@ -284,17 +283,6 @@ class StateSpaceCar:
 
     def car_settings(self) -> dict[str, Any]:
         return car_settings_after(self.system, self._sum_load2, self._sum_rate2)
-
-
-def car_settings_after(system: CarSystem, sum_load2: float, sum_rate2: float) -> dict[str, Any]:
-    """The system's settings plus what its ``settings_of_time_scale`` makes of the run's load time
-    scale ``π √(∫ΣL²/∫ΣL̇²)`` (∞ while the loads have not changed)."""
-    settings = dict(system.settings)
-    hook = getattr(system, "settings_of_time_scale", None)
-    if hook is not None:
-        scale = math.inf if sum_rate2 == 0.0 else math.pi * math.sqrt(sum_load2 / sum_rate2)
-        settings.update(hook(scale))
-    return settings
 
 
 def reference_car(system: CarSystem, integrator: Integrator, dt: float, velocity: float, loads: NDArray[np.float64]) -> CarModel:
