@@ -1,8 +1,7 @@
 """Models that answer a scene, by name: the registry the runner reads.
 
 One module per model (:mod:`.fem`, :mod:`.exact`, :mod:`.quasi_rigid`, :mod:`.rigid`,
-:mod:`.modal`), each holding its single-body and car forms (:mod:`.base`), and the
-inverse estimators (:mod:`.inverse`). The names are those of
+:mod:`.modal`), each holding its single-body and car forms (:mod:`.base`). The names are those of
 :data:`femref.core.catalog.MODELS`; a model serves the scene kinds its catalog entry lists.
 """
 

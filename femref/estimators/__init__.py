@@ -1,0 +1,59 @@
+"""Estimators of coupler forces from acceleration records: one protocol (:mod:`.protocol`) that simulated and
+measured runs share, one module per family — :mod:`.inverse`, :mod:`.kalman`, :mod:`.network` — and what both runs
+call: :func:`plug_ins` (a scene's estimators), :func:`capture` (one never-raising call) and :func:`fail_if_not_finite`
+(one non-finite policy)."""
+
+import time
+from typing import Any
+
+import numpy as np
+
+from femref.estimators.inverse import InverseEstimator
+from femref.estimators.kalman import KalmanEstimator
+from femref.estimators.network import NetworkPeak
+from femref.estimators.protocol import Estimator, Recorded
+from femref.events import ForceEstimate
+
+
+def plug_ins(scene: Any) -> list[Estimator]:
+    """The estimators ``scene`` names, in its order — ``kalman`` with a measured scene's kalman model and declared
+    anti-alias filters, the inverse ones by name — then its saved networks (on a measured scene reading the records
+    from the contact in the kalman force)."""
+    kalman = KalmanEstimator(scene.kalman, scene.anti_alias) if scene.kind == "measured" else None
+    named: list[Estimator] = [kalman if name == "kalman" and kalman is not None else InverseEstimator(name) for name in scene.estimators]
+    return [*named, *(NetworkPeak(network, kalman) for network in scene.networks)]
+
+
+def capture(estimator: Estimator, recorded: Recorded) -> list[ForceEstimate]:
+    """``estimator.estimate(recorded)``, never raising: each estimate with its share of the wall time (s) and held to
+    :func:`fail_if_not_finite`; an exception makes every coupler's estimate (the estimator's coupler, or each of the
+    line's) ``failed`` with the exception's message."""
+    started = time.perf_counter()
+    try:
+        estimates = estimator.estimate(recorded)
+    except Exception as error:  # recorded as the estimate's status, never swallowed silently
+        nan = np.full(recorded.time.size, np.nan)
+        couplers = [c.name for c in recorded.couplers] if estimator.coupler is None else [estimator.coupler]
+        estimates = [ForceEstimate(estimator.name, coupler, recorded.time, nan, nan, nan, status="failed", message=f"{type(error).__name__}: {error}")
+                     for coupler in couplers]
+    elapsed = time.perf_counter() - started
+    for estimate in estimates:
+        estimate.wall_time_s = elapsed / len(estimates)
+        fail_if_not_finite(estimate)
+    return estimates
+
+
+def fail_if_not_finite(estimate: ForceEstimate) -> None:
+    """An ok estimate whose force holds NaN or infinity is ``failed``, with no number; ``settings["not_finite"]`` keeps
+    how many samples and the first one (``[count, sample]``)."""
+    bad = np.flatnonzero(~np.isfinite(estimate.force))
+    if estimate.ok and bad.size:
+        estimate.status = "failed"
+        estimate.message = (f"the {estimate.estimator} force is not finite (NaN or infinity) at {bad.size} of {estimate.force.size} samples, "
+                            f"from t = {estimate.time[bad[0]]:g} s")
+        estimate.settings["not_finite"] = [int(bad.size), int(bad[0])]
+        estimate.force = np.full(estimate.force.shape, np.nan)
+        estimate.lower, estimate.upper = estimate.force.copy(), estimate.force.copy()
+
+
+__all__ = ["Estimator", "InverseEstimator", "KalmanEstimator", "NetworkPeak", "Recorded", "capture", "fail_if_not_finite", "plug_ins"]
