@@ -57,7 +57,7 @@ from femref.sensing import record_files, recordings
 from femref.sensing.measurement import FILTER_ORDER
 from femref.sensing.network import NetworkContract
 from femref.sensing.calibration import CalibrationFileError, read_calibration
-from femref.sensing.closing_speed import StatedSpeed
+from femref.sensing.findings import StatedSpeed
 from femref.sensing.events import MAX_WINDOW, QUIET, REARM_FRACTION
 
 __all__ = ["ChannelSpec", "KalmanSettings", "MeasuredCarSpec", "MeasuredCase", "MeasuredCouplerSpec", "RecordFileSpec", "TimeSpec"]
@@ -254,7 +254,7 @@ class EventSettings(CaseModel):
         return speeds
 
     def stated_speeds(self) -> tuple[StatedSpeed, ...]:
-        """The closing speeds the case gives, as :class:`femref.sensing.closing_speed.StatedSpeed`."""
+        """The closing speeds the case gives, as :class:`femref.sensing.findings.StatedSpeed`."""
         speeds = self.closing_speed
         if speeds is None:
             return ()

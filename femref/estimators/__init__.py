@@ -4,24 +4,33 @@ call: :func:`plug_ins` (a scene's estimators), :func:`capture` (one never-raisin
 (one non-finite policy)."""
 
 import time
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
-from femref.estimators.inverse import InverseEstimator
+from femref.estimators.inverse import ESTIMATORS, InverseEstimator
 from femref.estimators.kalman import KalmanEstimator
 from femref.estimators.network import NetworkPeak
 from femref.estimators.protocol import Estimator, Recorded
 from femref.events import ForceEstimate
 
 
+def _kalman(scene: Any) -> KalmanEstimator:
+    return KalmanEstimator(scene.kalman, scene.anti_alias)
+
+
+FAMILIES: dict[str, Callable[[Any], Estimator]] = {**{name: (lambda scene, name=name: InverseEstimator(name)) for name in ESTIMATORS},
+                                                    "kalman": _kalman}
+"""Estimator name → its plug-in for a scene: the inverse ones, ``kalman`` (a measured scene's kalman model and
+declared anti-alias filters). A new member is one module of the protocol and one entry here."""
+
+
 def plug_ins(scene: Any) -> list[Estimator]:
-    """The estimators ``scene`` names, in its order — ``kalman`` with a measured scene's kalman model and declared
-    anti-alias filters, the inverse ones by name — then its saved networks (on a measured scene reading the records
-    from the contact in the kalman force)."""
-    kalman = KalmanEstimator(scene.kalman, scene.anti_alias) if scene.kind == "measured" else None
-    named: list[Estimator] = [kalman if name == "kalman" and kalman is not None else InverseEstimator(name) for name in scene.estimators]
-    return [*named, *(NetworkPeak(network, kalman) for network in scene.networks)]
+    """The estimators ``scene`` names (:data:`FAMILIES`), in its order, then its saved networks (on a measured scene
+    reading the records from the contact in the kalman force)."""
+    contact_from = _kalman(scene) if scene.kind == "measured" else None
+    return [*(FAMILIES[name](scene) for name in scene.estimators), *(NetworkPeak(network, contact_from) for network in scene.networks)]
 
 
 def capture(estimator: Estimator, recorded: Recorded) -> list[ForceEstimate]:
@@ -56,4 +65,4 @@ def fail_if_not_finite(estimate: ForceEstimate) -> None:
         estimate.lower, estimate.upper = estimate.force.copy(), estimate.force.copy()
 
 
-__all__ = ["Estimator", "InverseEstimator", "KalmanEstimator", "NetworkPeak", "Recorded", "capture", "fail_if_not_finite", "plug_ins"]
+__all__ = ["FAMILIES", "Estimator", "InverseEstimator", "KalmanEstimator", "NetworkPeak", "Recorded", "capture", "fail_if_not_finite", "plug_ins"]

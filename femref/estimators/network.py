@@ -20,7 +20,7 @@ from femref.estimators.kalman import KalmanEstimator
 from femref.estimators.protocol import Recorded
 from femref.events import ForceEstimate
 from femref.sensing.contact import ContactEstimate
-from femref.sensing.impact_type import classify_records
+from femref.sensing.findings import classify_records
 from femref.sensing.network import ImpactTypeNetworks, NetworkEstimator
 
 
@@ -44,7 +44,7 @@ class NetworkPeak:
     def estimate(self, recorded: Recorded) -> list[ForceEstimate]:
         """The peak; an impact type without a network, no contact or a network that cannot read the records give a
         failed estimate with the reason. Without the event's impact type the records are classified at the network's
-        coupler (:func:`femref.sensing.impact_type.classify_records`) and the settings keep the zero-harmonic ratio."""
+        coupler (:func:`femref.sensing.findings.classify_records`) and the settings keep the zero-harmonic ratio."""
         t, nan = recorded.time, np.full(1, np.nan)
         settings: dict[str, Any] = dict(self.network.settings)
 

@@ -9,7 +9,7 @@ events (:func:`femref.sensing.events.search_events`), checks their cost against 
 * removes each channel's offset before the trigger and measures its noise there
   (:func:`femref.sensing.noise_gate.quiet_corrected`);
 * classifies it from the zero-harmonic ratio of the relative acceleration of the first coupler's cars
-  (:func:`femref.sensing.impact_type.classify_records`);
+  (:func:`femref.sensing.findings.classify_records`);
 * runs the scene's estimators, plug-ins of one protocol (:func:`femref.estimators.plug_ins`: the inverse ones,
   ``kalman``, then the saved networks, each reading the records from the contact in the kalman force), each
   through :func:`femref.estimators.capture`, on the records and the noise;
@@ -30,8 +30,7 @@ from femref.run.event_budget import check_events
 from femref.scene.measured import MeasuredScene
 from femref.sensing import events as event_finder
 from femref.sensing import findings
-from femref.sensing.closing_speed import stated_speed
-from femref.sensing.impact_type import classify_records
+from femref.sensing.findings import classify_records, stated_speed
 from femref.sensing.noise_gate import quiet_corrected
 from femref.sensing.recordings import Recordings, read_records
 

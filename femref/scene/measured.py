@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 from femref.core.body import Body
 from femref.sensing.calibration import Calibration
-from femref.sensing.closing_speed import StatedSpeed
+from femref.sensing.findings import StatedSpeed
 from femref.sensing.network import NetworkEstimator
 from femref.sensing.recordings import AntiAlias, RecordFile
 

@@ -15,7 +15,7 @@ through (a recorder with another filter is outside) and the largest sensor noise
 whose quiet-stretch noise refutes it, by a one-sided test that allows for the estimate's own
 sampling error at 1 % false rejects per event: :mod:`femref.sensing.noise_gate`), and the impact
 type (a compression-only coupler's impacts are free to roll, a bilateral one's coupled; an event
-classified otherwise is outside). The closing speed is an interval (:mod:`femref.sensing.closing_speed`):
+classified otherwise is outside). The closing speed is an interval (:mod:`femref.sensing.findings`):
 an event is outside the calibrated speeds only when its interval lies wholly outside them, and an
 interval that straddles an edge is said (:meth:`Calibration.edge_notes`). Masses and speeds are
 compared with the relative tolerance :data:`RANGE_RTOL` (a sweep that held a car's mass fixed

@@ -33,7 +33,7 @@ from femref.sweep.spec import Sweep
 
 
 CONTACT_JITTER = 5.0e-4
-"""s: how far the contact a measured case finds for a network may be off (``femref.run.measured.kalman_contact``:
+"""s: how far the contact a measured case finds for a network may be off (``femref.estimators.kalman.KalmanEstimator.contact``:
 within 0.5 ms on the default scene at 1–3 m/s). A network is calibrated on each sample's records started at
 the contact and at ± this, so its band carries that error too."""
 

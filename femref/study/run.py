@@ -425,9 +425,9 @@ def _train_network(study: StudyFile, train: SetData, probes: list[str], out_dir:
 
 def impact_types(study: StudyFile, data: SetData, model: str) -> NDArray[np.str_]:
     """Each ok sample's impact type from its stored records of ``model``: ``free_to_roll`` or ``coupled`` by the zero
-    harmonic of the study coupler's relative acceleration (:func:`femref.sensing.impact_type.classify_records`, each car
+    harmonic of the study coupler's relative acceleration (:func:`femref.sensing.findings.classify_records`, each car
     at its sensor nearest the centre), ``unknown`` where the records cannot be classified."""
-    from femref.sensing.impact_type import classify_records
+    from femref.sensing.findings import classify_records
 
     t = record_times(data.data.record_length, data.data.record_end)
     stored = data.data.records[model]
