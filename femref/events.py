@@ -56,18 +56,15 @@ from femref.core.publishing import atomic_path
 
 EVENTS_GROUP = "events"
 BOUNDS = ("covariance", "calibrated", "none")
-CLOSURE_STATUSES = ("closed", "not closed", "ambiguous")
-WEAR_STATUSES = ("ok", "worn", "unknown")
-ALARM_STATUSES = ("none", "possible", "certain")
 
 
 @dataclass
 class ForceEstimate:
-    """One estimator's force history of one coupler over an event, with its 95 % band.
+    """One estimator's force history of one coupler (a peak: one sample), with its 95 % band.
 
     ``lower``/``upper`` are NaN where there is no bound (``bound == "none"``); the peak's band
     is the band at the peak's sample. ``status`` is ``ok`` or why there is no number (then
-    ``force`` is NaN and the message says what went wrong).
+    ``force`` is NaN and the message says what went wrong: :meth:`no_number`).
     """
 
     estimator: str
@@ -82,6 +79,18 @@ class ForceEstimate:
     message: str = ""
     wall_time_s: float = 0.0
     settings: dict[str, Any] = field(default_factory=dict)
+
+    @classmethod
+    def no_number(cls, estimator: str, coupler: str, time: NDArray[np.float64], status: str, message: str, **fields: Any) -> "ForceEstimate":
+        """An estimate without a number on ``time``: ``status`` and why."""
+        nan = np.full(np.shape(time), np.nan)
+        return cls(estimator, coupler, time, nan, nan.copy(), nan.copy(), status=status, message=message, **fields)
+
+    def drop_number(self, status: str, message: str) -> None:
+        """Make this estimate ``status``, with ``message`` and no number (force and band NaN)."""
+        self.status, self.message = status, message
+        self.force = np.full(self.force.shape, np.nan)
+        self.lower, self.upper = self.force.copy(), self.force.copy()
 
     @property
     def ok(self) -> bool:
@@ -267,5 +276,5 @@ def _dataset(group: h5py.Group, name: str, data: NDArray, units: str) -> None:
     dataset.attrs["units"] = units
 
 
-__all__ = ["ALARM_STATUSES", "BOUNDS", "CLOSURE_STATUSES", "COMPLETE", "EVENTS_GROUP", "EVENTS_WRITTEN", "WEAR_STATUSES", "ClosureResult", "EventResult",
-           "EventWriter", "ForceEstimate", "event_file", "without_histories", "write_events"]
+__all__ = ["BOUNDS", "COMPLETE", "EVENTS_GROUP", "EVENTS_WRITTEN", "ClosureResult", "EventResult", "EventWriter", "ForceEstimate", "event_file",
+           "without_histories", "write_events"]

@@ -40,9 +40,9 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Annotated, Any, ClassVar, Literal, Union
+from typing import Annotated, Any, ClassVar, Literal
 
-from pydantic import AfterValidator, BeforeValidator, Discriminator, Field, PrivateAttr, Tag, ValidationInfo, field_validator, model_validator
+from pydantic import AfterValidator, Field, PrivateAttr, ValidationInfo, field_validator, model_validator
 from pydantic_core import PydanticCustomError
 
 from femref.case.base import SceneCase
@@ -50,7 +50,7 @@ from femref.case.bodies import RodBody
 from femref.case.cars import CarName
 from femref.case.couplers import Between, CouplerName, coupler_pair_problems
 from femref.case.errors import Problem, did_you_mean, problems_error
-from femref.case.estimators import ANY_IMPACT, AnnEstimatorSpec, estimator_kind, estimator_kind_or_network
+from femref.case.estimators import ANY_IMPACT, AnnEstimatorSpec, estimator_entry
 from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, ProbeName, Real, duplicates, name_rule, resolve_case_path
 from femref.core.catalog import MEASURED_ESTIMATORS
 from femref.sensing import record_files, recordings
@@ -315,24 +315,8 @@ class CheckSettings(CaseModel):
     )
 
 
-def _known_measured_estimator(name: str) -> str:
-    if name not in MEASURED_ESTIMATORS:
-        hint = did_you_mean(name, list(MEASURED_ESTIMATORS))
-        if not hint and (name == "ann" or name.startswith("ann_")):
-            hint = f" (a network estimator is a mapping {{name: {name}, network: file.npz}})"
-        raise PydanticCustomError(
-            "estimator_name", "unknown estimator{hint}; estimators: {known}, or a network {network}",
-            {"hint": hint, "known": ", ".join(MEASURED_ESTIMATORS), "network": "{name: ann_<name>, network: file.npz}"},
-        )
-    return name
-
-
 #: One entry of a measured case's ``estimators``: an estimator's name or a saved network.
-MeasuredEstimatorEntry = Annotated[
-    Union[Annotated[Annotated[str, AfterValidator(_known_measured_estimator)], Tag("inverse")], Annotated[AnnEstimatorSpec, Tag("ann")]],  # noqa: UP007
-    Discriminator(estimator_kind),
-    BeforeValidator(estimator_kind_or_network),
-]
+MeasuredEstimatorEntry = estimator_entry(MEASURED_ESTIMATORS)
 
 
 def _calibrated_coupler_problem(path: Path, coupler: str, couplers: tuple[MeasuredCouplerSpec, ...] | None) -> Problem | None:

@@ -1,12 +1,12 @@
-"""The kalman estimator: the joint input-state estimate of the first coupler's force (:mod:`reduced.kalman`) with a
-band that carries the sensor noise and the declared cars' tolerances, and the contact instant found in it.
+"""The kalman estimator: the joint input-state estimate of the first coupler's force (:mod:`reduced.kalman`), its
+band the envelope over the declared cars' tolerances (:func:`reduced.kalman.estimate_force_with_variants`: the
+corners of :func:`reduced.kalman.corner_models` at the nominal's force-rate level, widened for the masses), and the
+contact instant found in it.
 
 Each car of the first coupler is its rigid mode and ``model.modes`` elastic free-free modes of its fem mesh
 (:data:`KALMAN_FEM`, no static correction), observed at its recorded sensors through their recorders' declared
-anti-alias filters; the sensor noise (per probe) sets the channels' relative weights and the noise scale is
-estimated (model error shows as noise, not as force). The band is :func:`reduced.kalman.estimate_force_with_variants`'
-envelope over the nominal cars and the corners of the declared tolerances (:func:`reduced.kalman.corner_models`),
-each variant at the nominal's force-rate level, widened for the masses.
+anti-alias filters; the sensor noise sets the channels' weights and its scale is estimated (model error shows as
+noise, not as force).
 """
 
 from __future__ import annotations
@@ -79,8 +79,7 @@ class KalmanEstimator:
                     "damping_factors": list(model.damping_factors)}
         coupler = recorded.couplers[0].name
         if found.status != "ok":
-            nan = np.full(t.size, np.nan)
-            return [ForceEstimate(self.name, coupler, t, nan, nan, nan.copy(), bound="covariance", status="untrusted", message=found.status, settings=settings)]
+            return [ForceEstimate.no_number(self.name, coupler, t, "untrusted", found.status, bound="covariance", settings=settings)]
         return [ForceEstimate(self.name, coupler, t, found.force, found.lower, found.upper, bound="covariance", settings=settings)]
 
     def contact(self, recorded: Recorded, estimate: ForceEstimate) -> ContactEstimate:

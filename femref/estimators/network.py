@@ -1,12 +1,10 @@
 """A saved network as an estimator: the peak force of its coupler from the records started at contact
 (:class:`femref.sensing.network.AnnEstimator`), one network per impact type if so (:class:`ImpactTypeNetworks`).
 
-A peak, not a history: ``time`` and ``force`` hold the one value at the contact instant ``t_c``. A simulated run's
-records start at contact; a measured event's are read from ``t_c`` on, on ``t − t_c``, as the network's training
-records were, ``t_c`` where the kalman force of the network's coupler began
-(:meth:`femref.estimators.kalman.KalmanEstimator.contact`, found once per event and coupler). Bound ``none``:
-the error a network file reports is measured on its own training source, not on these records (a calibration file
-that covers the network gives it a calibrated band).
+A peak at the contact instant ``t_c``, not a history. A simulated run's records start at contact; a measured
+event's are read from ``t_c`` on, on ``t − t_c``, as the training records were, ``t_c`` where the kalman force of the
+network's coupler began (:meth:`femref.estimators.kalman.KalmanEstimator.contact`). Bound ``none``: the error a
+network file reports is measured on its own training source, not on these records.
 """
 
 from __future__ import annotations
@@ -42,14 +40,13 @@ class NetworkPeak:
         return self.network.coupler
 
     def estimate(self, recorded: Recorded) -> list[ForceEstimate]:
-        """The peak; an impact type without a network, no contact or a network that cannot read the records give a
-        failed estimate with the reason. Without the event's impact type the records are classified at the network's
-        coupler (:func:`femref.sensing.findings.classify_records`) and the settings keep the zero-harmonic ratio."""
-        t, nan = recorded.time, np.full(1, np.nan)
+        """The peak, or a failed estimate with the reason; without the event's impact type the records are classified
+        at the network's coupler and the settings keep the zero-harmonic ratio."""
+        t = recorded.time
         settings: dict[str, Any] = dict(self.network.settings)
 
         def failed(at: float, why: str) -> list[ForceEstimate]:
-            return [ForceEstimate(self.name, self.coupler, np.full(1, at), nan, nan, nan.copy(), status="failed", message=why, settings=settings)]
+            return [ForceEstimate.no_number(self.name, self.coupler, np.full(1, at), "failed", why, settings=settings)]
 
         network = self.network
         if isinstance(network, ImpactTypeNetworks):
@@ -75,7 +72,7 @@ class NetworkPeak:
             start, t = contact.time, t[after] - contact.time
             records = {probe: recorded.records[probe][after] for probe in network.contract.probes}
         try:
-            peak = network.peak_force(t, records, recorded.masses)
+            peak = network.peak_force(t, records, {car.name: car.mass for car in recorded.cars})
         except ValueError as error:
             return failed(recorded.time[0], f"{type(error).__name__}: {error}")
         if contact is not None:
@@ -83,6 +80,7 @@ class NetworkPeak:
         training = network.contract.training.get("validation_mean_error")
         note = f" (its file reports {training:.1%} mean error on its own training source: not a bound here)" if isinstance(training, (int, float)) else ""
         where = "records from the contact in the kalman force" if contact is not None else "records from contact"
+        nan = np.full(1, np.nan)
         return [ForceEstimate(self.name, network.coupler, np.full(1, start), np.full(1, peak), nan, nan.copy(),
                               message=f"peak only, {where}; no calibration of this network: no band" + note, settings=settings)]
 

@@ -1,12 +1,9 @@
 """One estimator protocol for simulated and measured runs: ``estimate(recorded) -> [ForceEstimate per coupler]``.
 
-An estimator reads what a railroad has — acceleration records on one time grid, the cars' masses, bodies and
-sensors, the couplers between them (:class:`Recorded`) — and gives each coupler it serves a
+An estimator reads what a railroad has (:class:`Recorded`) and gives each coupler it serves a
 :class:`femref.events.ForceEstimate`: a force history with its 95 % band (or a peak only), its bound and status.
-The simulated runner (:mod:`femref.run.runner`) hands it the fem run's records, a measured run
-(:mod:`femref.run.measured`) each event's; both call it through :func:`femref.estimators.capture`, which times it,
-turns an exception into a failed estimate and holds every estimate to one non-finite policy
-(:func:`femref.estimators.fail_if_not_finite`).
+The simulated runner hands it the fem run's records, a measured run each event's, both through
+:func:`femref.estimators.capture`.
 """
 
 from __future__ import annotations
@@ -37,11 +34,6 @@ class Recorded:
     impact_type: str | None = None
     earlier: Sequence[ForceEstimate] = ()
     contacts: dict[str, Any] = field(default_factory=dict)
-
-    @property
-    def masses(self) -> dict[str, float]:
-        """Car name → mass (kg)."""
-        return {car.name: car.mass for car in self.cars}
 
 
 class Estimator(Protocol):

@@ -33,8 +33,7 @@ from femref.core import catalog
 from femref.core.threads import one_blas_thread
 from femref.impact import ImpactResponse, solve_impact
 from femref.models import Progress, ProgressFor, model_form
-from femref.estimators import Estimator, Recorded, capture as capture_estimates, plug_ins
-from femref.events import ForceEstimate
+from femref.estimators import Recorded, capture as capture_estimates, plug_ins
 from femref.results import ModelResult
 from femref.run.budget import SELF_CHECK_VARIABLE, check_budget, resolution_warnings, self_check_levels
 from femref.run.capture import capture
@@ -315,51 +314,47 @@ def add_measured_records(scene: ImpactScene, result: ModelResult) -> None:
 
 
 def run_estimators(scene: ImpactScene, reference: ModelResult) -> list[ModelResult]:
-    """Each estimator of a force history (the inverse ones) on the fem run's (measured) records, as a result with
-    coupler forces only."""
-    return _estimated(reference, scene.cars, scene.couplers, [e for e in plug_ins(scene) if e.history])
+    """Each estimator of a force history (the inverse ones) on the fem run's (measured) records: coupler forces only."""
+    return _estimated(scene, reference, history=True)
 
 
 def run_networks(scene: ImpactScene, reference: ModelResult) -> list[ModelResult]:
-    """Each network estimator on the fem run's (measured) records, made as the sweep files that trained it store them
-    (:class:`femref.estimators.NetworkPeak`): a result holding only the peak force of its coupler,
+    """Each network estimator on the fem run's (measured) records: the peak force of its coupler,
     ``couplers[c]["peak_force"]`` (0-d, N), and no time axis."""
-    return _estimated(reference, scene.cars, scene.couplers, [e for e in plug_ins(scene) if not e.history])
+    return _estimated(scene, reference, history=False)
 
 
-def _estimated(reference: ModelResult, cars, couplers, estimators: list[Estimator]) -> list[ModelResult]:
+def _estimated(scene: ImpactScene, reference: ModelResult, history: bool) -> list[ModelResult]:
+    """The scene's estimators that give a force ``history`` (or a peak) through :func:`femref.estimators.capture`, each
+    as a result: one that raised or could not read the records failed with its message, one with a non-finite force
+    (:func:`femref.estimators.fail_if_not_finite`) failed saying where."""
     t, records = acceleration_histories(reference)
-    recorded = Recorded(t, records, cars, couplers)
-    return [estimate_result(estimator, capture_estimates(estimator, recorded), _records_source(reference)) for estimator in estimators]
-
-
-def estimate_result(estimator: Estimator, estimates: list[ForceEstimate], records_source: str) -> ModelResult:
-    """The estimates of one estimator as the result file's model group: every coupler's ``force`` on the time axis
-    (a peak estimator: ``peak_force``, 0-d), the settings with the ``records`` read; an estimator that raised or
-    could not read the records is a failed result with its message, one with a non-finite force
-    (:func:`femref.estimators.fail_if_not_finite`) a failed result that says where."""
-    wall = sum(e.wall_time_s for e in estimates)
-    refused = next((e for e in estimates if not e.ok and "not_finite" not in e.settings), None)
-    if refused is not None:
-        return ModelResult.failed(estimator.name, refused.message, wall)
-    settings = {k: v for e in estimates for k, v in e.settings.items() if k != "not_finite"}
-    result = ModelResult(estimator.name, settings={"records": records_source, **settings}, wall_time_s=wall)
-    if estimator.history:
-        result.axes = {"time": estimates[0].time}
-        result.couplers = {e.coupler: {"force": e.force} for e in estimates}
-    else:
-        result.couplers = {e.coupler: {"peak_force": np.array(e.force[0])} for e in estimates}
-    bad = [(e, *e.settings["not_finite"]) for e in estimates if "not_finite" in e.settings]
-    if bad:
-        result.status = "failed"
-        result.message = "the estimate is not finite (NaN or infinity): " + "; ".join(
-            f"{e.coupler} force ({count} value(s) from sample {first} of {e.force.size})" if estimator.history else f"{e.coupler} peak_force ({count} value(s))"
-            for e, count, first in bad)
-    return result
+    recorded = Recorded(t, records, scene.cars, scene.couplers)
+    results = []
+    for estimator in (e for e in plug_ins(scene) if e.history == history):
+        estimates = capture_estimates(estimator, recorded)
+        wall = sum(e.wall_time_s for e in estimates)
+        refused = next((e for e in estimates if not e.ok and "not_finite" not in e.settings), None)
+        if refused is not None:
+            results.append(ModelResult.failed(estimator.name, refused.message, wall))
+            continue
+        settings = {k: v for e in estimates for k, v in e.settings.items() if k != "not_finite"}
+        result = ModelResult(estimator.name, settings={"records": _records_source(reference), **settings}, wall_time_s=wall)
+        if history:
+            result.axes = {"time": t}
+            result.couplers = {e.coupler: {"force": e.force} for e in estimates}
+        else:
+            result.couplers = {e.coupler: {"peak_force": np.array(e.force[0])} for e in estimates}
+        bad = [f"{e.coupler} force ({count} value(s) from sample {first} of {e.force.size})" if history else f"{e.coupler} peak_force ({count} value(s))"
+               for e in estimates if "not_finite" in e.settings for count, first in [e.settings["not_finite"]]]
+        if bad:
+            result.status, result.message = "failed", f"the estimate is not finite (NaN or infinity): {'; '.join(bad)}"
+        results.append(result)
+    return results
 
 
 def _records_source(reference: ModelResult) -> str:
     return f"{reference.model} ({'measured' if reference.measured else 'model'})"
 
 
-__all__ = ["RunOutcome", "add_measured_records", "estimate_result", "load_compiled_loop", "model_result", "run_estimators", "run_model", "run_networks", "run_scene", "step_cars", "check_reference", "merge_scores"]
+__all__ = ["RunOutcome", "add_measured_records", "load_compiled_loop", "model_result", "run_estimators", "run_model", "run_networks", "run_scene", "step_cars", "check_reference", "merge_scores"]

@@ -79,20 +79,8 @@ impacts of the default scene through the measurement chain (every estimate far b
 An estimate whose peak exceeds the bound at the upper end of the event's closing speed interval
 is ``implausible`` (:func:`implausible`): a bias, a glitch or a wrong unit made it, not the cars.
 
-The **primary** estimate of a coupler is the first of the case's list with a force history, a number and a bound,
-else the first with a history and a number (:func:`primary`). From the first coupler's:
-
-* the closing speed (:func:`checked_closing_speed`), or the one the case gives for the event; before the primary is
-  taken for it, every implausible estimate is made so, without a number;
-* ``ε = T_wave / T_load`` (:func:`epsilon`), ``T_wave = l/c`` the longest wave travel time of the cars and
-  ``T_load = π √(∫P² / ∫Ṗ²)`` the pulse's time scale (NaN when a car has no body).
-
-Per coupler, the closure (:func:`closure`): :func:`reduced.signal_tools.detect_closure_force` on the primary force
-and the stroke made of it (:func:`coupler_stroke`); then wear (:func:`wear`): ``worn`` if the gear closed below
-``(1 − tolerance) ×`` its rated closure force, ``ok`` if at or above it, ``unknown`` if it did not close or no rating
-was given; and alarm (:func:`alarm`): ``certain`` if the peak band's lower end reaches the limit, ``possible`` if
-only its upper end (or, without a bound, the peak itself) does, or if a channel saturated during the event, else
-``none``.
+From the **primary** estimates (:func:`primary`): the closing speed (:func:`checked_closing_speed`), ε
+(:func:`epsilon`), the gear's closure on each coupler (:func:`closure`), wear (:func:`wear`) and alarm (:func:`alarm`).
 """
 
 from __future__ import annotations
@@ -254,18 +242,17 @@ def implausible(peak: float, closing_speed_upper: float, reduced_mass: float) ->
             f"(P ≤ v (√(k m*) + c), k = {STIFFEST_COUPLER:.0e} N/m, c = {MOST_DAMPED_COUPLER:.0e} N·s/m)")
 
 
-def central_record(car: Any, records: Mapping[str, NDArray[np.float64]]) -> NDArray[np.float64]:
-    """The car's record at its sensor nearest the centre (``"<car>/<sensor>"`` in ``records``)."""
-    sensor = min(car.sensors, key=lambda name: abs(car.sensors[name]))
-    return np.asarray(records[f"{car.name}/{sensor}"], dtype=float)
-
-
 def classify_records(cars: Cars, coupler: Any, time: NDArray[np.float64], records: Mapping[str, NDArray[np.float64]]) -> ImpactClassification:
     """The impact type at ``coupler`` from records on the uniform ``time`` (s): the zero harmonic of ``a_front −
     a_rear``, each car at its sensor nearest the centre (:func:`reduced.signal_tools.classify_impact`; ValueError
     when the records cannot be classified)."""
-    relative = central_record(cars[coupler.front], records) - central_record(cars[coupler.rear], records)
-    return classify_impact(relative, float(time[1] - time[0]))
+    front, rear = (cars[coupler.front], cars[coupler.rear])
+    relative = records[f"{front.name}/{_central_sensor(front)}"] - records[f"{rear.name}/{_central_sensor(rear)}"]
+    return classify_impact(np.asarray(relative, dtype=float), float(time[1] - time[0]))
+
+
+def _central_sensor(car: Any) -> str:
+    return min(car.sensors, key=lambda name: abs(car.sensors[name]))
 
 
 def primary(couplers: Couplers, estimates: Sequence[ForceEstimate]) -> dict[str, ForceEstimate]:
@@ -297,7 +284,7 @@ def checked_closing_speed(cars: Cars, couplers: Couplers, stated: ClosingSpeed |
         elif first is None:
             speed = unknown("no force history with a number to read it from")
         else:
-            channels = [quiet.get(f"{car.name}/{min(car.sensors, key=lambda name: abs(car.sensors[name]))}") for car in (rear, front)]
+            channels = [quiet.get(f"{car.name}/{_central_sensor(car)}") for car in (rear, front)]
             noise = math.sqrt(sum(c.std**2 for c in channels if c is not None and c.measured))
             speed = from_force(first.time, first.force, rear.mass * front.mass / (rear.mass + front.mass), noise, impact_type)
         flagged = [estimate for estimate in estimates if estimate.ok and _flag_implausible(estimate, speed.upper, line_mass)]
@@ -312,15 +299,14 @@ def _flag_implausible(estimate: ForceEstimate, closing_speed_upper: float, reduc
     reason = implausible(peak, closing_speed_upper, reduced_mass)
     if reason is None:
         return False
-    estimate.status, estimate.message = "implausible", reason
     estimate.settings["implausible_peak"] = peak
-    estimate.force = np.full(estimate.force.shape, np.nan)
-    estimate.lower, estimate.upper = estimate.force.copy(), estimate.force.copy()
+    estimate.drop_number("implausible", reason)
     return True
 
 
 def epsilon(cars: Cars, estimate: ForceEstimate) -> float:
-    """``ε = T_wave / T_load`` of the pulse ``estimate`` (module docstring)."""
+    """``ε = T_wave / T_load``: ``T_wave = l/c`` the longest wave travel time of the cars, ``T_load = π √(∫P² / ∫Ṗ²)``
+    the time scale of the pulse ``estimate`` (NaN when a car has no body)."""
     force = np.nan_to_num(estimate.force)
     rate = np.gradient(force, estimate.time)
     load_time = math.pi * math.sqrt(np.trapezoid(force**2, estimate.time) / max(np.trapezoid(rate**2, estimate.time), 1e-300))
@@ -373,8 +359,8 @@ def coupler_stroke(cars: Cars, couplers: Couplers, coupler: Any, primaries: Mapp
 
 
 def alarm(limit: float | None, estimates: Sequence[ForceEstimate], saturated: Sequence[str], implausible: Sequence[ForceEstimate]) -> tuple[str, str]:
-    """``certain``, ``possible`` or ``none`` from the primary ``estimates`` against the ``limit`` (N; None: no alarm
-    limit), and why. A channel ``saturated`` during the event (its quality flags) makes ``none`` ``possible``: the
+    """``certain`` if a primary estimate's peak band reaches the ``limit`` (N; None: no alarm limit) with its lower end,
+    ``possible`` if only with its upper end (or, without a bound, the peak itself), else ``none``; and why. A channel ``saturated`` during the event (its quality flags) makes ``none`` ``possible``: the
     records clip, the real peak lies above what they show. With no primary estimate, an ``implausible`` one at the
     limit makes it ``possible``: nothing rules the limit out."""
     if limit is None:
@@ -401,8 +387,8 @@ def alarm(limit: float | None, estimates: Sequence[ForceEstimate], saturated: Se
 
 
 def wear(rated: float | None, tolerance: float, closures: Sequence[ClosureResult]) -> tuple[str, str]:
-    """``worn``, ``ok`` or ``unknown`` from the least closure force against ``(1 − tolerance) × rated`` (N; None: no
-    rating), and why."""
+    """``worn`` if the gear closed below ``(1 − tolerance) × rated`` (N; None: no rating), ``ok`` if at or above it,
+    ``unknown`` if it did not close or no rating was given; and why."""
     if rated is None:
         return "unknown", "no rated closure force given"
     closed = [c for c in closures if c.status == "closed"]
@@ -414,6 +400,6 @@ def wear(rated: float | None, tolerance: float, closures: Sequence[ClosureResult
     return state, f"{least.coupler} closed at {least.closure_force:.4g} N against {threshold:.4g} N ({1 - tolerance:.0%} of the rated {rated:.4g} N)"
 
 
-__all__ = ["EDGE_FRACTIONS", "MOST_DAMPED_COUPLER", "RESIDUAL_STROKE", "STIFFEST_COUPLER", "ClosingSpeed", "StatedSpeed", "alarm", "central_record",
+__all__ = ["EDGE_FRACTIONS", "MOST_DAMPED_COUPLER", "RESIDUAL_STROKE", "STIFFEST_COUPLER", "ClosingSpeed", "StatedSpeed", "alarm",
            "checked_closing_speed", "classify_records", "closure", "coupler_stroke", "epsilon", "from_force", "implausible", "line_reduced_mass",
            "peak_force_bound", "primary", "stated_speed", "unknown", "wear"]

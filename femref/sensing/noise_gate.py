@@ -93,10 +93,8 @@ def quiet_corrected(time: NDArray[np.float64], records: dict[str, NDArray[np.flo
                     ) -> tuple[dict[str, NDArray[np.float64]], dict[str, float], dict[str, QuietNoise]]:
     """Each channel less its median before ``trigger_time`` (its offset: the cars are at rest or rolling freely
     there), its noise std there (m/s²) as the estimators weigh it, and that noise with its effective sample count for
-    the gate (:func:`quiet_noise`: ``1.4826 ×`` the median absolute deviation, robust to the impact's first rise,
-    which a channel near the coupler records before the trigger fires on it — a plain standard deviation read
-    0.37 m/s² there for 0.05 m/s² of noise). With fewer than :data:`MIN_QUIET_SAMPLES` quiet samples no offset is
-    removed, the noise is not measured and the estimators take it equal on every channel."""
+    the gate (:func:`quiet_noise`; a plain standard deviation read 0.37 m/s² there for 0.05 m/s² of noise). With fewer
+    than :data:`MIN_QUIET_SAMPLES` quiet samples no offset is removed and the noise is taken equal on every channel."""
     quiet = time < trigger_time
     if np.count_nonzero(quiet) < MIN_QUIET_SAMPLES:
         return dict(records), {probe: 1.0 for probe in records}, {probe: QuietNoise(math.nan, 0, 0.0) for probe in records}

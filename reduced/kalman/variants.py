@@ -2,9 +2,10 @@
 (:func:`estimate_force_with_variants`, :class:`VariantForceEstimate`).
 
 Model uncertainty (:func:`estimate_force_with_variants`): the caller builds perturbed
-models (e.g. the corners of mass ±5 %, modal frequencies ±15 %, damping ×0.6–1.6); each is
-estimated with its own ``q_P`` and — by default — its own noise scale, and the band is the
-union (envelope) of their 95 % bands. The noise scale is needed: with the declared noise
+models (e.g. :func:`corner_models`: modal frequencies ±15 %, damping ×0.6–1.6); each is
+estimated with its own ``q_P`` (or at the nominal's, ``variant_force_rate="nominal"``, as a
+measured case's kalman estimator does) and — by default — its own noise scale, and the band is the
+union (envelope) of their 95 % bands, widened by a mass tolerance if given. The noise scale is needed: with the declared noise
 every wrong model biases the peak *up* (see :mod:`.estimate`), so the corners do not bracket a
 truth inside the box (tests: +0.4 … +65 % for the interior truth there); with it they do
 (−8 … +6 %, and −10 … +14 % for the corner truth). Not ``mean ± 1.96 √(std² + spread²)``:
