@@ -64,7 +64,7 @@ class ForceEstimate:
 
     ``lower``/``upper`` are NaN where there is no bound (``bound == "none"``); the peak's band
     is the band at the peak's sample. ``status`` is ``ok`` or why there is no number (then
-    ``force`` is NaN and the message says what went wrong: :meth:`no_number`).
+    ``force`` is NaN and the message says what went wrong).
     """
 
     estimator: str
@@ -85,12 +85,6 @@ class ForceEstimate:
         """An estimate without a number on ``time``: ``status`` and why."""
         nan = np.full(np.shape(time), np.nan)
         return cls(estimator, coupler, time, nan, nan.copy(), nan.copy(), status=status, message=message, **fields)
-
-    def drop_number(self, status: str, message: str) -> None:
-        """Make this estimate ``status``, with ``message`` and no number (force and band NaN)."""
-        self.status, self.message = status, message
-        self.force = np.full(self.force.shape, np.nan)
-        self.lower, self.upper = self.force.copy(), self.force.copy()
 
     @property
     def ok(self) -> bool:

@@ -41,8 +41,10 @@ def capture(estimator: Estimator, recorded: Recorded) -> list[ForceEstimate]:
     try:
         estimates = estimator.estimate(recorded)
     except Exception as error:  # recorded as the estimate's status, never swallowed silently
+        nan = np.full(recorded.time.size, np.nan)
         couplers = [c.name for c in recorded.couplers] if estimator.coupler is None else [estimator.coupler]
-        estimates = [ForceEstimate.no_number(estimator.name, coupler, recorded.time, "failed", f"{type(error).__name__}: {error}") for coupler in couplers]
+        estimates = [ForceEstimate(estimator.name, coupler, recorded.time, nan, nan, nan, status="failed", message=f"{type(error).__name__}: {error}")
+                     for coupler in couplers]
     elapsed = time.perf_counter() - started
     for estimate in estimates:
         estimate.wall_time_s = elapsed / len(estimates)
@@ -55,9 +57,12 @@ def fail_if_not_finite(estimate: ForceEstimate) -> None:
     how many samples and the first one (``[count, sample]``)."""
     bad = np.flatnonzero(~np.isfinite(estimate.force))
     if estimate.ok and bad.size:
+        estimate.status = "failed"
+        estimate.message = (f"the {estimate.estimator} force is not finite (NaN or infinity) at {bad.size} of {estimate.force.size} samples, "
+                            f"from t = {estimate.time[bad[0]]:g} s")
         estimate.settings["not_finite"] = [int(bad.size), int(bad[0])]
-        estimate.drop_number("failed", f"the {estimate.estimator} force is not finite (NaN or infinity) at {bad.size} of {estimate.force.size} samples, "
-                                       f"from t = {estimate.time[bad[0]]:g} s")
+        estimate.force = np.full(estimate.force.shape, np.nan)
+        estimate.lower, estimate.upper = estimate.force.copy(), estimate.force.copy()
 
 
 __all__ = ["FAMILIES", "Estimator", "InverseEstimator", "KalmanEstimator", "NetworkPeak", "Recorded", "capture", "fail_if_not_finite", "plug_ins"]
