@@ -12,7 +12,7 @@ Layout of a measured case file::
     events:      {trigger, pre, post, rearm, quiet, max_window}: an event starts where a channel's
                  |a| first exceeds trigger (m/s²) and rings while one exceeds rearm; it spans
                  [t − pre, t_last + post], at most max_window long; the trigger re-arms after
-                 quiet s below rearm (femref.sensing.events); closing_speed: the speeds the user
+                 quiet s below rearm (femref.sensing.trigger); closing_speed: the speeds the user
                  has {value, uncertainty, time} (radar, wayside), replacing the estimates
     estimators:  inverse_rigid, inverse_quasi_rigid, kalman (femref.core.catalog.MEASURED_ESTIMATORS), or a
                  saved network {name: ann_<name>, network: file.npz} (needs kalman: its contact instant)
@@ -58,7 +58,7 @@ from femref.sensing.measurement import FILTER_ORDER
 from femref.sensing.network import NetworkContract
 from femref.sensing.calibration import CalibrationFileError, read_calibration
 from femref.sensing.findings import StatedSpeed
-from femref.sensing.events import MAX_WINDOW, QUIET, REARM_FRACTION
+from femref.sensing.trigger import MAX_WINDOW, QUIET, REARM_FRACTION
 
 __all__ = ["ChannelSpec", "KalmanSettings", "MeasuredCarSpec", "MeasuredCase", "MeasuredCouplerSpec", "RecordFileSpec", "TimeSpec"]
 
@@ -223,7 +223,7 @@ class ClosingSpeedSpec(CaseModel):
 
 
 class EventSettings(CaseModel):
-    """How events are cut from the records (:mod:`femref.sensing.events`): the trigger and re-arm levels, the
+    """How events are cut from the records (:mod:`femref.sensing.trigger`): the trigger and re-arm levels, the
     quiet time before re-arming and the window around the impact."""
 
     trigger: PositiveReal = Field(description="An event starts where a channel's |a| first exceeds this (m/s²), > 0. Required.")

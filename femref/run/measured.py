@@ -2,9 +2,9 @@
 the gear's closure, wear and alarm.
 
 :func:`run_measured` reads the scene's record files (:mod:`femref.sensing.recordings`), cuts the stream into
-events (:func:`femref.sensing.events.search_events`), checks their cost against the work budget
+events (:func:`femref.sensing.trigger.search_events`), checks their cost against the work budget
 (:func:`femref.run.event_budget.check_events`) and for each event, on one common time grid
-(:func:`femref.sensing.events.window`):
+(:func:`femref.sensing.trigger.window`):
 
 * removes each channel's offset before the trigger and measures its noise there
   (:func:`femref.sensing.noise_gate.quiet_corrected`);
@@ -28,7 +28,7 @@ from femref.events import EventResult, without_histories
 from femref.models import Progress, ProgressFor
 from femref.run.event_budget import check_events
 from femref.scene.measured import MeasuredScene
-from femref.sensing import events as event_finder
+from femref.sensing import trigger
 from femref.sensing import findings
 from femref.sensing.findings import classify_records, stated_speed
 from femref.sensing.noise_gate import quiet_corrected
@@ -42,9 +42,9 @@ class MeasuredOutcome:
     scene: MeasuredScene
     recordings: Recordings
     events: list[EventResult]
-    search: event_finder.EventSearch
+    search: trigger.EventSearch
     """How the events were found: spikes ignored, triggers outside the recorders' common span
-    (:class:`femref.sensing.events.EventSearch`; its notes are the run's warnings)."""
+    (:class:`femref.sensing.trigger.EventSearch`; its notes are the run's warnings)."""
     streamed: bool = False
     """True when a sink took each event as it finished: ``events`` are then summaries without their histories
     (:func:`femref.events.without_histories`)."""
@@ -69,13 +69,13 @@ def run_measured(scene: MeasuredScene, progress_for: ProgressFor | None = None, 
     cost is checked against the work budget (:func:`femref.run.event_budget.check_events`: a
     :class:`~femref.case.CaseError` at ``source``).
     """
-    trigger = event_finder.TriggerSettings(scene.trigger, scene.pre, scene.post, scene.rearm, scene.quiet, scene.max_window)
+    settings = trigger.TriggerSettings(scene.trigger, scene.pre, scene.post, scene.rearm, scene.quiet, scene.max_window)
     estimators = plug_ins(scene)
     step = progress_for(READ_LABEL) if progress_for else None
     recordings = read_records(scene.records)
     if step is not None:
         step(1, 1)
-    search = event_finder.search_events(recordings, trigger)
+    search = trigger.search_events(recordings, settings)
     found = search.events
     check_events(scene, recordings, found, source)
     events = []
@@ -94,11 +94,11 @@ def event_label(number: int, count: int, trigger_time: float) -> str:
     return f"event {number}/{count} at {trigger_time:.3f} s"
 
 
-def _event(scene: MeasuredScene, estimators: list[Estimator], recordings: Recordings, event: event_finder.Event,
+def _event(scene: MeasuredScene, estimators: list[Estimator], recordings: Recordings, event: trigger.Event,
            progress: Progress | None = None) -> EventResult:
     """One event's result (module docstring); ``progress(done, total)`` after its classification and each estimator."""
     cars, couplers = scene.cars, scene.couplers
-    t, raw = event_finder.window(recordings, event)
+    t, raw = trigger.window(recordings, event)
     records, noise_std, quiet = quiet_corrected(t, raw, event.trigger_time)
     result = EventResult(index=event.index, start=event.start, end=event.end, trigger_time=event.trigger_time,
                          trigger_probe=event.trigger_probe, flags=tuple(event.flags), time=t, records=records)

@@ -69,7 +69,7 @@ class KalmanModel:
 @dataclass(frozen=True, eq=False)
 class MeasuredScene:
     """Record files, cars and couplers, how events are cut (``trigger`` and ``rearm`` m/s², None: the default
-    re-arm level; ``pre``, ``post``, ``quiet``, ``max_window`` s; :mod:`femref.sensing.events`), the
+    re-arm level; ``pre``, ``post``, ``quiet``, ``max_window`` s; :mod:`femref.sensing.trigger`), the
     estimators run on each event (by name; the saved ``networks`` run after them), the kalman estimator's
     car model and the checks; the closing speeds the user has (radar, wayside), which replace the estimates."""
 

@@ -278,7 +278,7 @@ def test_the_kalman_state_size_and_event_memory_are_what_the_filter_builds_and_a
     from femref.estimators import KalmanEstimator, Recorded
     from femref.run.event_budget import event_cost, kalman_states
     from femref.sensing.noise_gate import quiet_corrected
-    from femref.sensing import events as finder
+    from femref.sensing import trigger as finder
     from femref.sensing.recordings import read_records
     from reduced import kalman
 
