@@ -80,12 +80,6 @@ class ForceEstimate:
     wall_time_s: float = 0.0
     settings: dict[str, Any] = field(default_factory=dict)
 
-    @classmethod
-    def no_number(cls, estimator: str, coupler: str, time: NDArray[np.float64], status: str, message: str, **fields: Any) -> "ForceEstimate":
-        """An estimate without a number on ``time``: ``status`` and why."""
-        nan = np.full(np.shape(time), np.nan)
-        return cls(estimator, coupler, time, nan, nan.copy(), nan.copy(), status=status, message=message, **fields)
-
     @property
     def ok(self) -> bool:
         return self.status == "ok"

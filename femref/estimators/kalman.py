@@ -79,7 +79,8 @@ class KalmanEstimator:
                     "damping_factors": list(model.damping_factors)}
         coupler = recorded.couplers[0].name
         if found.status != "ok":
-            return [ForceEstimate.no_number(self.name, coupler, t, "untrusted", found.status, bound="covariance", settings=settings)]
+            nan = np.full(t.size, np.nan)
+            return [ForceEstimate(self.name, coupler, t, nan, nan, nan.copy(), bound="covariance", status="untrusted", message=found.status, settings=settings)]
         return [ForceEstimate(self.name, coupler, t, found.force, found.lower, found.upper, bound="covariance", settings=settings)]
 
     def contact(self, recorded: Recorded, estimate: ForceEstimate) -> ContactEstimate:

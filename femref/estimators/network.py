@@ -42,11 +42,11 @@ class NetworkPeak:
     def estimate(self, recorded: Recorded) -> list[ForceEstimate]:
         """The peak, or a failed estimate with the reason; without the event's impact type the records are classified
         at the network's coupler and the settings keep the zero-harmonic ratio."""
-        t = recorded.time
+        t, nan = recorded.time, np.full(1, np.nan)
         settings: dict[str, Any] = dict(self.network.settings)
 
         def failed(at: float, why: str) -> list[ForceEstimate]:
-            return [ForceEstimate.no_number(self.name, self.coupler, np.full(1, at), "failed", why, settings=settings)]
+            return [ForceEstimate(self.name, self.coupler, np.full(1, at), nan, nan, nan.copy(), status="failed", message=why, settings=settings)]
 
         network = self.network
         if isinstance(network, ImpactTypeNetworks):
@@ -80,7 +80,6 @@ class NetworkPeak:
         training = network.contract.training.get("validation_mean_error")
         note = f" (its file reports {training:.1%} mean error on its own training source: not a bound here)" if isinstance(training, (int, float)) else ""
         where = "records from the contact in the kalman force" if contact is not None else "records from contact"
-        nan = np.full(1, np.nan)
         return [ForceEstimate(self.name, network.coupler, np.full(1, start), np.full(1, peak), nan, nan.copy(),
                               message=f"peak only, {where}; no calibration of this network: no band" + note, settings=settings)]
 
