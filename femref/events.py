@@ -56,14 +56,11 @@ from femref.core.publishing import atomic_path
 
 EVENTS_GROUP = "events"
 BOUNDS = ("covariance", "calibrated", "none")
-CLOSURE_STATUSES = ("closed", "not closed", "ambiguous")
-WEAR_STATUSES = ("ok", "worn", "unknown")
-ALARM_STATUSES = ("none", "possible", "certain")
 
 
 @dataclass
 class ForceEstimate:
-    """One estimator's force history of one coupler over an event, with its 95 % band.
+    """One estimator's force history of one coupler (a peak: one sample), with its 95 % band.
 
     ``lower``/``upper`` are NaN where there is no bound (``bound == "none"``); the peak's band
     is the band at the peak's sample. ``status`` is ``ok`` or why there is no number (then
@@ -267,5 +264,5 @@ def _dataset(group: h5py.Group, name: str, data: NDArray, units: str) -> None:
     dataset.attrs["units"] = units
 
 
-__all__ = ["ALARM_STATUSES", "BOUNDS", "CLOSURE_STATUSES", "COMPLETE", "EVENTS_GROUP", "EVENTS_WRITTEN", "WEAR_STATUSES", "ClosureResult", "EventResult",
-           "EventWriter", "ForceEstimate", "event_file", "without_histories", "write_events"]
+__all__ = ["BOUNDS", "COMPLETE", "EVENTS_GROUP", "EVENTS_WRITTEN", "ClosureResult", "EventResult", "EventWriter", "ForceEstimate", "event_file",
+           "without_histories", "write_events"]

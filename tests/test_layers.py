@@ -30,6 +30,7 @@ LAYERS = {
     "scene": 3,
     "impact": 4,
     "models": 5,
+    "estimators": 5,
     "run": 6,
     "choice": 7,
     "api": 7,

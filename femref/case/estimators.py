@@ -65,20 +65,6 @@ class MeasurementSpec(CaseModel):
 # Estimators
 
 
-def _known_estimator(name: str) -> str:
-    """A plain ``estimators`` entry names a registered inverse estimator (``ESTIMATOR_NAMES``)."""
-    if name not in ESTIMATOR_NAMES:
-        hint = did_you_mean(name, ESTIMATOR_NAMES)
-        if not hint and _is_network_name(name):
-            hint = f" (a network estimator is a mapping {{name: {name}, network: file.npz}})"
-        raise PydanticCustomError(
-            "estimator_name",
-            "unknown estimator{hint}; known estimators: {known}, or a network {network}",
-            {"hint": hint, "known": ", ".join(ESTIMATOR_NAMES), "network": "{name: ann_<name>, network: file.npz}"},
-        )
-    return name
-
-
 def _is_network_name(name: str) -> bool:
     return name == "ann" or name.startswith("ann_")
 
@@ -208,12 +194,28 @@ def estimator_kind_or_network(value: Any) -> Any:
     return value
 
 
-#: One entry of ``estimators``: an inverse estimator's name or an :class:`AnnEstimatorSpec`.
-EstimatorEntry = Annotated[
-    Union[Annotated[Annotated[str, AfterValidator(_known_estimator)], Tag("inverse")], Annotated[AnnEstimatorSpec, Tag("ann")]],  # noqa: UP007
-    Discriminator(estimator_kind),
-    BeforeValidator(estimator_kind_or_network),
-]
+def estimator_entry(names: tuple[str, ...]) -> Any:
+    """The type of one entry of ``estimators``: one of the estimator ``names`` (an unknown name is refused with the
+    known ones, or how a network is given) or an :class:`AnnEstimatorSpec`."""
+
+    def known(name: str) -> str:
+        if name not in names:
+            hint = did_you_mean(name, list(names))
+            if not hint and _is_network_name(name):
+                hint = f" (a network estimator is a mapping {{name: {name}, network: file.npz}})"
+            raise PydanticCustomError("estimator_name", "unknown estimator{hint}; known estimators: {known}, or a network {network}",
+                                      {"hint": hint, "known": ", ".join(names), "network": "{name: ann_<name>, network: file.npz}"})
+        return name
+
+    return Annotated[
+        Union[Annotated[Annotated[str, AfterValidator(known)], Tag("inverse")], Annotated[AnnEstimatorSpec, Tag("ann")]],  # noqa: UP007
+        Discriminator(estimator_kind),
+        BeforeValidator(estimator_kind_or_network),
+    ]
+
+
+#: One entry of an impact case's ``estimators``: an inverse estimator's name or an :class:`AnnEstimatorSpec`.
+EstimatorEntry = estimator_entry(ESTIMATOR_NAMES)
 
 
 def estimator_entry_name(entry: str | AnnEstimatorSpec) -> str:

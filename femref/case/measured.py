@@ -12,7 +12,7 @@ Layout of a measured case file::
     events:      {trigger, pre, post, rearm, quiet, max_window}: an event starts where a channel's
                  |a| first exceeds trigger (m/s²) and rings while one exceeds rearm; it spans
                  [t − pre, t_last + post], at most max_window long; the trigger re-arms after
-                 quiet s below rearm (femref.sensing.events); closing_speed: the speeds the user
+                 quiet s below rearm (femref.sensing.trigger); closing_speed: the speeds the user
                  has {value, uncertainty, time} (radar, wayside), replacing the estimates
     estimators:  inverse_rigid, inverse_quasi_rigid, kalman (femref.core.catalog.MEASURED_ESTIMATORS), or a
                  saved network {name: ann_<name>, network: file.npz} (needs kalman: its contact instant)
@@ -40,9 +40,9 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Annotated, Any, ClassVar, Literal, Union
+from typing import Annotated, Any, ClassVar, Literal
 
-from pydantic import AfterValidator, BeforeValidator, Discriminator, Field, PrivateAttr, Tag, ValidationInfo, field_validator, model_validator
+from pydantic import AfterValidator, Field, PrivateAttr, ValidationInfo, field_validator, model_validator
 from pydantic_core import PydanticCustomError
 
 from femref.case.base import SceneCase
@@ -50,15 +50,15 @@ from femref.case.bodies import RodBody
 from femref.case.cars import CarName
 from femref.case.couplers import Between, CouplerName, coupler_pair_problems
 from femref.case.errors import Problem, did_you_mean, problems_error
-from femref.case.estimators import ANY_IMPACT, AnnEstimatorSpec, estimator_kind, estimator_kind_or_network
+from femref.case.estimators import ANY_IMPACT, AnnEstimatorSpec, estimator_entry
 from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, ProbeName, Real, duplicates, name_rule, resolve_case_path
 from femref.core.catalog import MEASURED_ESTIMATORS
 from femref.sensing import record_files, recordings
 from femref.sensing.measurement import FILTER_ORDER
 from femref.sensing.network import NetworkContract
 from femref.sensing.calibration import CalibrationFileError, read_calibration
-from femref.sensing.closing_speed import StatedSpeed
-from femref.sensing.events import MAX_WINDOW, QUIET, REARM_FRACTION
+from femref.sensing.findings import StatedSpeed
+from femref.sensing.trigger import MAX_WINDOW, QUIET, REARM_FRACTION
 
 __all__ = ["ChannelSpec", "KalmanSettings", "MeasuredCarSpec", "MeasuredCase", "MeasuredCouplerSpec", "RecordFileSpec", "TimeSpec"]
 
@@ -223,7 +223,7 @@ class ClosingSpeedSpec(CaseModel):
 
 
 class EventSettings(CaseModel):
-    """How events are cut from the records (:mod:`femref.sensing.events`): the trigger and re-arm levels, the
+    """How events are cut from the records (:mod:`femref.sensing.trigger`): the trigger and re-arm levels, the
     quiet time before re-arming and the window around the impact."""
 
     trigger: PositiveReal = Field(description="An event starts where a channel's |a| first exceeds this (m/s²), > 0. Required.")
@@ -254,7 +254,7 @@ class EventSettings(CaseModel):
         return speeds
 
     def stated_speeds(self) -> tuple[StatedSpeed, ...]:
-        """The closing speeds the case gives, as :class:`femref.sensing.closing_speed.StatedSpeed`."""
+        """The closing speeds the case gives, as :class:`femref.sensing.findings.StatedSpeed`."""
         speeds = self.closing_speed
         if speeds is None:
             return ()
@@ -315,24 +315,8 @@ class CheckSettings(CaseModel):
     )
 
 
-def _known_measured_estimator(name: str) -> str:
-    if name not in MEASURED_ESTIMATORS:
-        hint = did_you_mean(name, list(MEASURED_ESTIMATORS))
-        if not hint and (name == "ann" or name.startswith("ann_")):
-            hint = f" (a network estimator is a mapping {{name: {name}, network: file.npz}})"
-        raise PydanticCustomError(
-            "estimator_name", "unknown estimator{hint}; estimators: {known}, or a network {network}",
-            {"hint": hint, "known": ", ".join(MEASURED_ESTIMATORS), "network": "{name: ann_<name>, network: file.npz}"},
-        )
-    return name
-
-
 #: One entry of a measured case's ``estimators``: an estimator's name or a saved network.
-MeasuredEstimatorEntry = Annotated[
-    Union[Annotated[Annotated[str, AfterValidator(_known_measured_estimator)], Tag("inverse")], Annotated[AnnEstimatorSpec, Tag("ann")]],  # noqa: UP007
-    Discriminator(estimator_kind),
-    BeforeValidator(estimator_kind_or_network),
-]
+MeasuredEstimatorEntry = estimator_entry(MEASURED_ESTIMATORS)
 
 
 def _calibrated_coupler_problem(path: Path, coupler: str, couplers: tuple[MeasuredCouplerSpec, ...] | None) -> Problem | None:

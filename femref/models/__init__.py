@@ -2,7 +2,7 @@
 
 One module per model, named as the model (:mod:`.fem`, :mod:`.exact`, :mod:`.quasi_rigid`,
 :mod:`.rigid`, :mod:`.modal`), each holding its single-body and car forms (:mod:`.base`) and its
-instance as ``MODEL``, and the inverse estimators (:mod:`.inverse`). The names are those of
+instance as ``MODEL``. The names are those of
 :data:`femref.core.catalog.MODELS`, each module found by its name; a model serves the scene kinds
 its catalog entry lists, and a car fidelity (:class:`~femref.models.base.CarFidelity`) is found in
 :data:`CAR_FIDELITIES`.

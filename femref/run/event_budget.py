@@ -1,7 +1,7 @@
 """The work budget of a measured scene: events × estimators × the event grid (docs/design.md §3.5).
 
 A measured run reads its records, finds the events in them, and runs every estimator on each event's window,
-resampled onto one grid at the fastest channel's rate (:func:`femref.sensing.events.window`). Its cost is
+resampled onto one grid at the fastest channel's rate (:func:`femref.sensing.trigger.window`). Its cost is
 
     work   = Σ over events of the event's grid samples × the per-sample cost of every estimator (:func:`event_cost`)
     memory = the records held + the largest event (events are written as they finish and not kept)
@@ -36,7 +36,7 @@ from femref.sensing.recordings import RecordError, RecordFile, Recordings, read_
 
 if TYPE_CHECKING:
     from femref.scene.measured import MeasuredScene
-    from femref.sensing.events import Event
+    from femref.sensing.trigger import Event
 
 _BYTES = 8.0  # a float64
 

@@ -14,9 +14,9 @@ status with its message, and the other models still run.
   fails keeps its histories up to the failing step and is recorded as failed with the time.
   Sensor records go through the measurement chain (:mod:`femref.sensing.measurement`) when
   the scene has one; the estimators read the fem run's records — measured if so — as a
-  railroad's accelerometers would deliver them: the inverse estimators
-  (:mod:`femref.models.inverse`) give coupler force histories, the network estimators
-  (:class:`femref.sensing.network.AnnEstimator`) the peak force of one coupler.
+  railroad's accelerometers would deliver them, through the estimator protocol a measured run uses too
+  (:mod:`femref.estimators`): the inverse estimators give coupler force histories, the network
+  estimators the peak force of one coupler.
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ from femref.core import catalog
 from femref.core.threads import one_blas_thread
 from femref.impact import ImpactResponse, solve_impact
 from femref.models import Progress, ProgressFor, model_form
-from femref.models.inverse import ESTIMATORS
+from femref.estimators import Recorded, capture as capture_estimates, plug_ins
 from femref.results import ModelResult
 from femref.run.budget import SELF_CHECK_VARIABLE, check_budget, resolution_warnings, self_check_levels
 from femref.run.capture import capture
@@ -41,9 +41,7 @@ from femref.run.scoring import PeakError, reference_error_estimate, score_result
 from femref.run.timestep import impact_time_step, single_body_time_step
 from femref.run.validity import quasi_rigid_range
 from femref.scene import ImpactScene, ModelRun, Scene
-from femref.sensing.impact_type import classify_records
 from femref.sensing.measurement import measure
-from femref.sensing.network import ImpactTypeNetworks, NetworkEstimator
 from femref.sensing.records import acceleration_histories
 
 
@@ -316,66 +314,43 @@ def add_measured_records(scene: ImpactScene, result: ModelResult) -> None:
 
 
 def run_estimators(scene: ImpactScene, reference: ModelResult) -> list[ModelResult]:
-    """Each inverse estimator on the fem run's (measured) records, as a result with coupler forces only."""
-    t, records = acceleration_histories(reference)
-
-    def estimate(name: str) -> ModelResult:
-        result = ModelResult(name, settings={"records": _records_source(reference)})
-        result.axes = {"time": t}
-        result.couplers = {c: {"force": f} for c, f in ESTIMATORS[name](scene, t, records).items()}
-        return _failed_if_not_finite(result)
-
-    return [capture(name, lambda name=name: estimate(name)) for name in scene.estimators]
+    """Each estimator of a force history (the inverse ones) on the fem run's (measured) records: coupler forces only."""
+    return _estimated(scene, reference, history=True)
 
 
 def run_networks(scene: ImpactScene, reference: ModelResult) -> list[ModelResult]:
-    """Each network estimator on the fem run's (measured) records: a result holding only the peak
-    force of its coupler, ``couplers[c]["peak_force"]`` (0-d, N), and no time axis.
+    """Each network estimator on the fem run's (measured) records: the peak force of its coupler,
+    ``couplers[c]["peak_force"]`` (0-d, N), and no time axis."""
+    return _estimated(scene, reference, history=False)
 
-    The records are made as the sweep files that trained it store them
-    (:meth:`femref.sensing.network.AnnEstimator.peak_force`); the wall time covers making
-    them and the prediction. An estimator with one network per impact type classifies the records
-    first (:func:`femref.sensing.impact_type.classify_records`, at the network's coupler) and reads
-    them with that type's network; the settings record the type and the zero-harmonic ratio.
-    """
+
+def _estimated(scene: ImpactScene, reference: ModelResult, history: bool) -> list[ModelResult]:
+    """The scene's estimators that give a force ``history`` (or a peak) through :func:`femref.estimators.capture`, each
+    as a result: one that raised or could not read the records failed with its message, one with a non-finite force
+    (:func:`femref.estimators.fail_if_not_finite`) failed saying where."""
     t, records = acceleration_histories(reference)
-    masses = {car.name: car.mass for car in scene.cars}
-
-    def estimate(estimator: NetworkEstimator) -> ModelResult:
-        settings: dict[str, Any] = {"records": _records_source(reference)}
-        if isinstance(estimator, ImpactTypeNetworks):
-            coupler = next(c for c in scene.couplers if c.name == estimator.coupler)
-            found = classify_records(scene.cars, coupler, t, records)
-            network = estimator.network_for(found.kind)
-            settings.update(impact_type=found.kind, zero_harmonic_ratio=found.zero_frequency_ratio)
+    recorded = Recorded(t, records, scene.cars, scene.couplers)
+    results = []
+    for estimator in (e for e in plug_ins(scene) if e.history == history):
+        estimates = capture_estimates(estimator, recorded)
+        wall = sum(e.wall_time_s for e in estimates)
+        refused = next((e for e in estimates if not e.ok and "not_finite" not in e.settings), None)
+        if refused is not None:
+            results.append(ModelResult.failed(estimator.name, refused.message, wall))
+            continue
+        settings = {k: v for e in estimates for k, v in e.settings.items() if k != "not_finite"}
+        result = ModelResult(estimator.name, settings={"records": _records_source(reference), **settings}, wall_time_s=wall)
+        if history:
+            result.axes = {"time": t}
+            result.couplers = {e.coupler: {"force": e.force} for e in estimates}
         else:
-            network = estimator
-        peak = network.peak_force(t, records, masses)
-        result = ModelResult(estimator.name, settings={**settings, **network.settings})
-        result.couplers = {network.coupler: {"peak_force": np.array(peak)}}
-        return _failed_if_not_finite(result)
-
-    return [capture(network.name, lambda network=network: estimate(network)) for network in scene.networks]
-
-
-def _failed_if_not_finite(result: ModelResult) -> ModelResult:
-    """An estimate with a NaN or infinite force (history or peak) is a failed result, never ok.
-
-    It keeps its values, as a failed model run keeps its histories; the message names the coupler
-    outputs that hold them and where the first one is.
-    """
-    bad = []
-    for coupler, outputs in result.couplers.items():
-        for key, values in outputs.items():
-            values = np.asarray(values, dtype=float)
-            where = np.flatnonzero(~np.isfinite(values))
-            if where.size:
-                at = f" from sample {where[0]} of {values.size}" if values.ndim else ""
-                bad.append(f"{coupler} {key} ({where.size} value(s){at})")
-    if bad:
-        result.status = "failed"
-        result.message = f"the estimate is not finite (NaN or infinity): {'; '.join(bad)}"
-    return result
+            result.couplers = {e.coupler: {"peak_force": np.array(e.force[0])} for e in estimates}
+        bad = [f"{e.coupler} force ({count} value(s) from sample {first} of {e.force.size})" if history else f"{e.coupler} peak_force ({count} value(s))"
+               for e in estimates if "not_finite" in e.settings for count, first in [e.settings["not_finite"]]]
+        if bad:
+            result.status, result.message = "failed", f"the estimate is not finite (NaN or infinity): {'; '.join(bad)}"
+        results.append(result)
+    return results
 
 
 def _records_source(reference: ModelResult) -> str:

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 from femref.core.body import Body
 from femref.sensing.calibration import Calibration
-from femref.sensing.closing_speed import ClosingSpeed, StatedSpeed
+from femref.sensing.findings import StatedSpeed
 from femref.sensing.network import NetworkEstimator
 from femref.sensing.recordings import AntiAlias, RecordFile
 
@@ -69,7 +69,7 @@ class KalmanModel:
 @dataclass(frozen=True, eq=False)
 class MeasuredScene:
     """Record files, cars and couplers, how events are cut (``trigger`` and ``rearm`` m/s², None: the default
-    re-arm level; ``pre``, ``post``, ``quiet``, ``max_window`` s; :mod:`femref.sensing.events`), the
+    re-arm level; ``pre``, ``post``, ``quiet``, ``max_window`` s; :mod:`femref.sensing.trigger`), the
     estimators run on each event (by name; the saved ``networks`` run after them), the kalman estimator's
     car model and the checks; the closing speeds the user has (radar, wayside), which replace the estimates."""
 
@@ -95,11 +95,6 @@ class MeasuredScene:
     def anti_alias(self) -> dict[str, AntiAlias | None]:
         """``"<car>/<sensor>"`` → the anti-alias filter its recorder declared (None: not declared)."""
         return {source.probe: record.anti_alias for record in self.records for source in record.channels}
-
-    def closing_speed_for(self, start: float, end: float) -> ClosingSpeed | None:
-        """The closing speed the case gives for the event with window ``[start, end]`` (s), if any."""
-        stated = next((speed for speed in self.closing_speeds if speed.covers(start, end)), None)
-        return None if stated is None else stated.speed()
 
     @property
     def probes(self) -> dict[str, tuple[int, float]]:

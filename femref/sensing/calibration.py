@@ -15,7 +15,7 @@ through (a recorder with another filter is outside) and the largest sensor noise
 whose quiet-stretch noise refutes it, by a one-sided test that allows for the estimate's own
 sampling error at 1 % false rejects per event: :mod:`femref.sensing.noise_gate`), and the impact
 type (a compression-only coupler's impacts are free to roll, a bilateral one's coupled; an event
-classified otherwise is outside). The closing speed is an interval (:mod:`femref.sensing.closing_speed`):
+classified otherwise is outside). The closing speed is an interval (:mod:`femref.sensing.findings`):
 an event is outside the calibrated speeds only when its interval lies wholly outside them, and an
 interval that straddles an edge is said (:meth:`Calibration.edge_notes`). Masses and speeds are
 compared with the relative tolerance :data:`RANGE_RTOL` (a sweep that held a car's mass fixed
@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
@@ -49,6 +50,7 @@ import h5py
 import numpy as np
 from numpy.typing import NDArray
 
+from femref.events import ForceEstimate
 from femref.sensing.hdf5_checks import HDF5ObjectError, check_plain_dataset, check_regular_file, hard_link, members
 from femref.sensing.noise_gate import FALSE_REJECT, QuietNoise, exceedance, noise_limit
 
@@ -145,6 +147,26 @@ class Calibration:
         lower, upper = closing_speed
         return [f"the closing speed [{lower:.3g}, {upper:.3g}] m/s straddles the calibrated edge {edge:.3g} m/s"
                 for edge in (lo, hi) if lower < edge < upper]
+
+    def band(self, estimates: Sequence[ForceEstimate], closing_speed: tuple[float, float], masses: dict[str, float],
+             lowpass: dict[str, float | None], noise: dict[str, QuietNoise], impact_type: str) -> None:
+        """Calibrated bands on the ok estimates of the calibrated estimators and coupler: ``P ∈ [P̂/(1 + e_hi),
+        P̂/(1 + e_lo)]`` inside the calibrated ranges (:meth:`outside`; an interval that straddles an edge is said in the
+        message); outside, no band, ``in_calibrated_range`` false and the reason."""
+        outside = self.outside(closing_speed, masses, lowpass, noise, impact_type)
+        notes = "".join(f"; {note}" for note in self.edge_notes(closing_speed))
+        for estimate in estimates:
+            if estimate.estimator not in self.errors or estimate.coupler != self.coupler or not estimate.ok:
+                continue
+            estimate.in_calibrated_range = not outside
+            if outside:
+                estimate.message = "outside the calibrated range: " + "; ".join(outside) + ": no band"
+                continue
+            e_lo, e_hi = self.error_band(estimate.estimator)
+            low, high = estimate.force / (1.0 + e_hi), estimate.force / (1.0 + e_lo)
+            estimate.lower, estimate.upper = np.minimum(low, high), np.maximum(low, high)
+            estimate.bound = "calibrated"
+            estimate.message = f"calibrated peak error 95 % band [{e_lo:+.1%}, {e_hi:+.1%}]" + notes
 
 
 def _chain(corner: float | None) -> str:

@@ -271,7 +271,7 @@ class AnnEstimator:
 class ImpactTypeNetworks:
     """One network per impact type under one estimator ``name``: a record set goes to the network of its
     impact type, ``P̂ = P̂_k(records)`` with ``k`` = free_to_roll or coupled from the zero harmonic of the
-    relative acceleration (:func:`femref.sensing.impact_type.classify_records`).
+    relative acceleration (:func:`femref.sensing.findings.classify_records`).
 
     The source study trained its networks on one kind of impact at a time; a network trained on
     free-to-roll impacts has never seen the rebound of a coupled one. ``by_type`` maps impact types

@@ -85,6 +85,25 @@ def quiet_noise(quiet: NDArray[np.float64]) -> QuietNoise:
     return QuietNoise(std, n, n / correlation_time(y))
 
 
+MIN_QUIET_SAMPLES = 10
+"""Samples before the trigger needed to measure a channel's offset and noise."""
+
+
+def quiet_corrected(time: NDArray[np.float64], records: dict[str, NDArray[np.float64]], trigger_time: float
+                    ) -> tuple[dict[str, NDArray[np.float64]], dict[str, float], dict[str, QuietNoise]]:
+    """Each channel less its median before ``trigger_time`` (its offset: the cars are at rest or rolling freely
+    there), its noise std there (m/s²) as the estimators weigh it, and that noise with its effective sample count for
+    the gate (:func:`quiet_noise`; a plain standard deviation read 0.37 m/s² there for 0.05 m/s² of noise). With fewer
+    than :data:`MIN_QUIET_SAMPLES` quiet samples no offset is removed and the noise is taken equal on every channel."""
+    quiet = time < trigger_time
+    if np.count_nonzero(quiet) < MIN_QUIET_SAMPLES:
+        return dict(records), {probe: 1.0 for probe in records}, {probe: QuietNoise(math.nan, 0, 0.0) for probe in records}
+    corrected = {probe: a - float(np.median(a[quiet])) for probe, a in records.items()}
+    measured = {probe: quiet_noise(a[quiet]) for probe, a in corrected.items()}
+    floor = max(max(found.std for found in measured.values()), 1e-12) * 1e-3
+    return corrected, {probe: max(found.std, floor) for probe, found in measured.items()}, measured
+
+
 def correlation_time(y: NDArray[np.float64]) -> float:
     """``τ̂ = 1 + 2 Σ_{k=1}^{K} ρ̂_k²`` (samples, ≥ 1): the samples' autocorrelation summed while
     ``|ρ̂_k| ≥ 2/√n``."""
@@ -120,4 +139,5 @@ def exceedance(ratio: float, effective_samples: float) -> float:
     return float(1.0 - betainc(a, a, 2.0 * ndtr(ratio * _Z) - 1.0))
 
 
-__all__ = ["FALSE_REJECT", "MAD_SCALE", "QuietNoise", "correlation_time", "exceedance", "noise_limit", "quiet_noise"]
+__all__ = ["FALSE_REJECT", "MAD_SCALE", "MIN_QUIET_SAMPLES", "QuietNoise", "correlation_time", "exceedance", "noise_limit", "quiet_corrected",
+           "quiet_noise"]

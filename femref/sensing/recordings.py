@@ -64,7 +64,7 @@ the gear solid) decelerates even an empty 20 t car by 4.5e6 / 2e4 = 225 m/s² (2
 coupler multiplies that locally by a few, and shock loggers' ranges end at ±200–500 g. A sample beyond is a glitch, a
 wrong unit or a sensor knocked loose: flagged ``implausible``, never taken silently."""
 MAX_EVENT_VALUES = 2_000_000
-"""Most values of one event's records on its grid (:func:`femref.sensing.events.window`: ``max_window × rate``
+"""Most values of one event's records on its grid (:func:`femref.sensing.trigger.window`: ``max_window × rate``
 samples, the highest channel rate, times the channels), checked when the case is loaded: a fixed ceiling on what one
 event may ask, whatever the estimators. The default 5 s window of five channels at 50 kHz holds 1.25e6. At the limit
 an event's records are 16 MB and ``inverse_rigid`` holds about 0.5 GB (240 bytes a value, measured on a 250 s window);

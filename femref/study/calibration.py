@@ -2,7 +2,7 @@
 
 :func:`calibrate` reads a sweep's result file (the sweep's impacts — speeds, cars, gears,
 measurement chain — are the distribution the bounds hold for), rebuilds each ok sample's scene,
-runs every inverse estimator (:mod:`femref.models.inverse`), and any saved networks given, on the
+runs every inverse estimator (:mod:`femref.estimators.inverse`), and any saved networks given, on the
 sample's stored fixed-length fem records (through the measurement chain when the sweep has one;
 they start at contact: a network also reads them started ±:data:`CONTACT_JITTER` from it, the
 error of finding the contact in measured records) and keeps
@@ -33,7 +33,7 @@ from femref.sweep.spec import Sweep
 
 
 CONTACT_JITTER = 5.0e-4
-"""s: how far the contact a measured case finds for a network may be off (``femref.run.measured.kalman_contact``:
+"""s: how far the contact a measured case finds for a network may be off (``femref.estimators.kalman.KalmanEstimator.contact``:
 within 0.5 ms on the default scene at 1–3 m/s). A network is calibrated on each sample's records started at
 the contact and at ± this, so its band carries that error too."""
 
@@ -51,7 +51,7 @@ def calibrate(sweep: Sweep, results: Path, coupler: str | None = None, networks:
     samples read and their scenes rebuilt), then each estimator's and network's name — and the
     callback it may return gets ``(done, total)`` samples after each sample of that stage.
     """
-    from femref.models.inverse import ESTIMATORS
+    from femref.estimators.inverse import ESTIMATORS
 
     def stage(label: str) -> Callable[[int, int], None]:
         callback = progress_for(label) if progress_for is not None else None

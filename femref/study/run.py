@@ -16,7 +16,7 @@
    — the pair a case reads as ``network: {free_to_roll: …, coupled: …}``;
 3. on every evaluation set: each network (with ``impact_types``, ``<s>_<n>`` reading each
    record with the network of its classified type) and each inverse estimator
-   (:mod:`femref.models.inverse`, on the same fixed-length fem records) against the fem
+   (:mod:`femref.estimators.inverse`, on the same fixed-length fem records) against the fem
    peak force, ``e = |P̂ − P_fem| / P_fem`` per sample, summarised by its mean and 95th
    percentile (:func:`error_summary`);
 4. ``study.h5`` (every per-sample estimate and error, each network's loss curve) and
@@ -425,9 +425,9 @@ def _train_network(study: StudyFile, train: SetData, probes: list[str], out_dir:
 
 def impact_types(study: StudyFile, data: SetData, model: str) -> NDArray[np.str_]:
     """Each ok sample's impact type from its stored records of ``model``: ``free_to_roll`` or ``coupled`` by the zero
-    harmonic of the study coupler's relative acceleration (:func:`femref.sensing.impact_type.classify_records`, each car
+    harmonic of the study coupler's relative acceleration (:func:`femref.sensing.findings.classify_records`, each car
     at its sensor nearest the centre), ``unknown`` where the records cannot be classified."""
-    from femref.sensing.impact_type import classify_records
+    from femref.sensing.findings import classify_records
 
     t = record_times(data.data.record_length, data.data.record_end)
     stored = data.data.records[model]
@@ -483,7 +483,7 @@ def evaluate_set(study: StudyFile, name: str, data: SetData, networks: list[Trai
 
 def inverse_estimates(study: StudyFile, data: SetData) -> dict[str, NDArray[np.float64]]:
     """Peak of each inverse estimator's force history, from the stored fixed-length fem records."""
-    from femref.models.inverse import ESTIMATORS
+    from femref.estimators.inverse import ESTIMATORS
 
     t = record_times(data.data.record_length, data.data.record_end)
     all_records = data.data.records["fem"]

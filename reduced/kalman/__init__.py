@@ -28,30 +28,32 @@ The derivation goes on in the modules, in the order of the data flow:
   covariance (the DARE by doubling): generic, nothing of cars;
 * :mod:`.steady` — the O(dim²)-per-step estimator: the stationary filter and smoother with the
   initial force as a regression (de Jong 1991), their likelihood and the smoothed force;
-* :mod:`.estimate` — :func:`estimate_force`, :class:`ForceEstimate`: the force-rate search, the
+* :mod:`.estimate` — :func:`estimate_force`, :class:`KalmanForce`: the force-rate search, the
   noise scale, the peak and its band, the status (:data:`DEFAULT_FORCE_RATE_RANGE`,
   :data:`NOISE_SCALES`);
-* :mod:`.variants` — :func:`estimate_force_with_variants`, :class:`VariantForceEstimate`: the band
-  widened to the envelope over perturbed models.
+* :mod:`.variants` — :func:`estimate_force_with_variants`, :class:`VariantForceEstimate`,
+  :func:`corner_models`: the band widened to the envelope over perturbed models (the declared cars'
+  tolerance corners) and the masses' tolerance.
 """
 
 from .augmented import AugmentedModel, augmented_model, forced_response
 from .cars import CarDynamics, CoupledCars, SensorFilter
-from .estimate import DEFAULT_FORCE_RATE_RANGE, NOISE_SCALES, ForceEstimate, estimate_force
+from .estimate import DEFAULT_FORCE_RATE_RANGE, NOISE_SCALES, KalmanForce, estimate_force
 from .linear_gaussian import GaussianSmoothing, kalman_smoother, van_loan_discretisation
-from .variants import VariantForceEstimate, estimate_force_with_variants
+from .variants import VariantForceEstimate, corner_models, estimate_force_with_variants
 
 __all__ = [
     "DEFAULT_FORCE_RATE_RANGE",
     "AugmentedModel",
     "CarDynamics",
     "CoupledCars",
-    "ForceEstimate",
+    "KalmanForce",
     "GaussianSmoothing",
     "NOISE_SCALES",
     "VariantForceEstimate",
     "SensorFilter",
     "augmented_model",
+    "corner_models",
     "estimate_force",
     "estimate_force_with_variants",
     "forced_response",

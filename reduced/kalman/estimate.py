@@ -1,4 +1,4 @@
-"""The public force estimator: :func:`estimate_force` and its result :class:`ForceEstimate` — the
+"""The public force estimator: :func:`estimate_force` and its result :class:`KalmanForce` — the
 force-rate search, the noise scale, the peak and its band, the status.
 
 Force-rate level: the innovation log-likelihood ℓ(q_P) (:mod:`.steady`) is maximised over a log grid
@@ -55,7 +55,7 @@ NOISE_SCALES: tuple[str, ...] = ("declared", "estimated")
 
 
 @dataclass(frozen=True, eq=False)
-class ForceEstimate:
+class KalmanForce:
     """The smoothed coupler force (N, compression positive) and its diagnostics.
 
     ``force``/``force_std`` are the smoothed posterior mean and std at each sample,
@@ -166,7 +166,7 @@ def estimate_force(
     initial_force_std: float = 1.0e5,
     noise_scale: str = "declared",
     nis_range: tuple[float, float] = (0.5, 2.0),
-) -> ForceEstimate:
+) -> KalmanForce:
     """Smoothed coupler force ``P(t)`` from the cars' accelerations (equations in :mod:`reduced.kalman` and its modules).
 
     ``time`` (s, uniform, N samples), ``accelerations`` (m/s², N × channels, rear car's
@@ -232,7 +232,7 @@ def estimate_force(
     unit = aug.state_unit[-1]
     force, std = mean * unit, np.sqrt(var * scale) * unit
     k = int(np.argmax(force))
-    return ForceEstimate(
+    return KalmanForce(
         time=t,
         force=force,
         force_std=std,
@@ -257,6 +257,6 @@ def estimate_force(
 __all__ = [
     "DEFAULT_FORCE_RATE_RANGE",
     "NOISE_SCALES",
-    "ForceEstimate",
+    "KalmanForce",
     "estimate_force",
 ]

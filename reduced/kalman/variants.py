@@ -2,9 +2,10 @@
 (:func:`estimate_force_with_variants`, :class:`VariantForceEstimate`).
 
 Model uncertainty (:func:`estimate_force_with_variants`): the caller builds perturbed
-models (e.g. the corners of mass ±5 %, modal frequencies ±15 %, damping ×0.6–1.6); each is
-estimated with its own ``q_P`` and — by default — its own noise scale, and the band is the
-union (envelope) of their 95 % bands. The noise scale is needed: with the declared noise
+models (e.g. :func:`corner_models`: modal frequencies ±15 %, damping ×0.6–1.6); each is
+estimated with its own ``q_P`` (or at the nominal's, ``variant_force_rate="nominal"``, as a
+measured case's kalman estimator does) and — by default — its own noise scale, and the band is the
+union (envelope) of their 95 % bands, widened by a mass tolerance if given. The noise scale is needed: with the declared noise
 every wrong model biases the peak *up* (see :mod:`.estimate`), so the corners do not bracket a
 truth inside the box (tests: +0.4 … +65 % for the interior truth there); with it they do
 (−8 … +6 %, and −10 … +14 % for the corner truth). Not ``mean ± 1.96 √(std² + spread²)``:
@@ -31,17 +32,19 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .cars import CoupledCars
-from .estimate import ForceEstimate, estimate_force
+from .cars import CarDynamics, CoupledCars
+from .estimate import KalmanForce, estimate_force
 
 FloatArray = NDArray[np.float64]
+
+VARIANT_FORCE_RATES: tuple[str, ...] = ("own", "nominal")
 
 
 @dataclass(frozen=True, eq=False)
 class VariantForceEstimate:
     """The nominal estimate with its band widened to cover perturbed models (module docstring).
 
-    ``estimates[0]`` is the nominal model's :class:`ForceEstimate`, the others the
+    ``estimates[0]`` is the nominal model's :class:`KalmanForce`, the others the
     variants'. ``force`` and ``peak_force``/``peak_time`` are the nominal's; ``lower``/``upper``
     the envelope of all 95 % bands; ``peak_lower``/``peak_upper`` the envelope of all peak
     bands. ``status`` is the nominal's; ``variant_status`` every model's.
@@ -57,11 +60,23 @@ class VariantForceEstimate:
     peak_upper: float
     status: str
     variant_status: tuple[str, ...]
-    estimates: tuple[ForceEstimate, ...] = field(repr=False)
+    estimates: tuple[KalmanForce, ...] = field(repr=False)
 
     @property
-    def nominal(self) -> ForceEstimate:
+    def nominal(self) -> KalmanForce:
         return self.estimates[0]
+
+
+def corner_models(model: CoupledCars, frequency_tolerance: float, damping_factors: Sequence[float]) -> list[CoupledCars]:
+    """The corners of the declared cars' tolerances: mode frequencies × ``(1 ± frequency_tolerance)`` (``K → f² K``)
+    and viscosity × each of ``damping_factors`` (``C → d C``), each pair once."""
+    corners = []
+    for frequency in {1.0 - frequency_tolerance, 1.0 + frequency_tolerance}:
+        for damping in set(damping_factors):
+            cars = [CarDynamics(c.mass, damping * c.damping, frequency**2 * c.stiffness, c.load_map, c.sensor_map, c.coupler_load)
+                    for c in (model.rear, model.front)]
+            corners.append(CoupledCars(*cars, model.sensor_filter))
+    return corners
 
 
 def estimate_force_with_variants(
@@ -69,29 +84,45 @@ def estimate_force_with_variants(
     time: ArrayLike,
     accelerations: ArrayLike,
     noise_std: float | ArrayLike,
+    *,
+    variant_force_rate: str = "own",
+    mass_tolerance: float = 0.0,
     **options: object,
 ) -> VariantForceEstimate:
     """:func:`estimate_force` on each model (``models[0]`` nominal); band = envelope of the bands.
 
-    ``options`` are passed to :func:`estimate_force`; each model gets its own ``q_P`` and,
-    unless ``noise_scale`` is given, its own noise scale (``noise_scale="estimated"``:
-    a variant is by construction not the true model, and its misfit must show as noise,
-    not as force — module docstring).
+    ``options`` are passed to :func:`estimate_force`; each model gets, unless ``noise_scale`` is given, its own
+    noise scale (``noise_scale="estimated"``: a variant is by construction not the true model, and its misfit must
+    show as noise, not as force — module docstring). ``variant_force_rate``: ``"own"`` — each model its own ``q_P``;
+    ``"nominal"`` — every variant at the nominal's rate per unit of the declared noise variance (``q_P/λ̂``), and no
+    variant of a nominal whose status is not ok. ``mass_tolerance`` ``m``: scaling every mass by ``s`` scales the
+    force the accelerations imply by exactly ``s``, so the envelope widens to ``[lower (1 ∓ m), upper (1 ± m)]``.
     """
     if len(models) < 1:
         raise ValueError("models must hold at least the nominal model")
+    if variant_force_rate not in VARIANT_FORCE_RATES:
+        raise ValueError(f"variant_force_rate must be one of {', '.join(VARIANT_FORCE_RATES)}, got {variant_force_rate!r}")
     options = {"noise_scale": "estimated", **options}
-    estimates = tuple(estimate_force(mdl, time, accelerations, noise_std, **options) for mdl in models)  # type: ignore[arg-type]
-    nominal = estimates[0]
+    nominal = estimate_force(models[0], time, accelerations, noise_std, **options)  # type: ignore[arg-type]
+    if variant_force_rate == "nominal":
+        variants = () if nominal.status != "ok" else (
+            estimate_force(mdl, time, accelerations, noise_std, **{**options, "force_rate": nominal.force_rate / nominal.noise_scale**2})  # type: ignore[arg-type]
+            for mdl in models[1:])
+    else:
+        variants = (estimate_force(mdl, time, accelerations, noise_std, **options) for mdl in models[1:])  # type: ignore[arg-type]
+    estimates = (nominal, *variants)
+    low, high = 1.0 - mass_tolerance, 1.0 + mass_tolerance
+    lower, upper = np.min([e.lower for e in estimates], axis=0), np.max([e.upper for e in estimates], axis=0)
+    peak_lower, peak_upper = min(e.peak_lower for e in estimates), max(e.peak_upper for e in estimates)
     return VariantForceEstimate(
         time=nominal.time,
         force=nominal.force,
-        lower=np.min([e.lower for e in estimates], axis=0),
-        upper=np.max([e.upper for e in estimates], axis=0),
+        lower=np.minimum(lower * low, lower * high),
+        upper=np.maximum(upper * low, upper * high),
         peak_force=nominal.peak_force,
         peak_time=nominal.peak_time,
-        peak_lower=min(e.peak_lower for e in estimates),
-        peak_upper=max(e.peak_upper for e in estimates),
+        peak_lower=min(peak_lower * low, peak_lower * high),
+        peak_upper=max(peak_upper * low, peak_upper * high),
         status=nominal.status,
         variant_status=tuple(e.status for e in estimates),
         estimates=estimates,
@@ -100,5 +131,6 @@ def estimate_force_with_variants(
 
 __all__ = [
     "VariantForceEstimate",
+    "corner_models",
     "estimate_force_with_variants",
 ]

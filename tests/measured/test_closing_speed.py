@@ -1,4 +1,4 @@
-"""The closing speed with its interval (femref.sensing.closing_speed): against the exact Kelvin-Voigt pair, and on
+"""The closing speed with its interval (femref.sensing.findings): against the exact Kelvin-Voigt pair, and on
 fem impacts of every coupler law of the case schema recorded through the measurement chain, read back through
 measured cases; the speed a user gives replacing it; the calibrated range checked on the interval."""
 
@@ -19,7 +19,7 @@ from femref.events import write_events
 from femref.run.measured import run_measured
 from femref.scene.build import scene_from_case
 from femref.sensing.calibration import Calibration
-from femref.sensing.closing_speed import RESIDUAL_STROKE, from_force
+from femref.sensing.findings import RESIDUAL_STROKE, from_force
 from support.measured import simulated_event, yard_case_with_inverse_estimators
 
 LAWS = {

@@ -6,7 +6,7 @@ through a gear of tests/support/gear_families.py, integrated at 10 kHz; each car
 anti-alias filter, 1 kHz sampling, white noise 0.05 m/s²), is written to a CSV file in g with 0.15 s of quiet
 before the impact (1.2 s in all), and read back through a measured case (cars by mass and length, the ``inverse_rigid``
 estimator) by :func:`femref.run.measured.run_measured`. Its closure — the primary force and the stroke made
-of it with the event's closing speed (``femref.run.measured._coupler_stroke``) — is compared with the truth of
+of it with the event's closing speed (``femref.sensing.findings.coupler_stroke``) — is compared with the truth of
 the gear's law. The default run takes two events per family; ``pytest -m slow`` eighteen gears drawn at random.
 """
 
@@ -20,7 +20,8 @@ import yaml
 
 from femref.case import load_case
 from femref.events import ClosureResult, ForceEstimate
-from femref.run.measured import _coupler_stroke, run_measured
+from femref.run.measured import run_measured
+from femref.sensing.findings import coupler_stroke
 from femref.scene.build import scene_from_case
 from femref.sensing.measurement import Measurement, measure
 from support.gear_families import GearRecord, closing_records, random_records
@@ -73,7 +74,7 @@ def _check(tmp_path: Path, records: list[GearRecord]) -> list[float]:
 
 
 def test_the_stroke_made_from_the_force_is_the_cars_relative_motion(tmp_path: Path) -> None:
-    """``δ = v₀ (t − t₀) − (1/m₁ + 1/m₂) ∫∫ P`` (``_coupler_stroke``, trapezoids) from the exact force of a friction
+    """``δ = v₀ (t − t₀) − (1/m₁ + 1/m₂) ∫∫ P`` (``coupler_stroke``, trapezoids) from the exact force of a friction
     gear at 10 kHz, against the stroke the test's ODE integrated (DOP853, rtol 1e-10): from contact to the peak
     within 1e-5 of the largest stroke (measured 2.9e-6; after the peak the force's drop to the unloading curve
     costs the trapezoids more); without a closing speed, no stroke."""
@@ -81,12 +82,12 @@ def test_the_stroke_made_from_the_force_is_the_cars_relative_motion(tmp_path: Pa
     scene = scene_from_case(load_case(measured_case(tmp_path, record, seed=0)))
     nan = np.full(record.time.size, np.nan)
     primary = {"c1": ForceEstimate("exact", "c1", record.time, record.force, nan, nan)}
-    stroke = _coupler_stroke(scene, scene.couplers[0], primary, record.closing_speed)
+    stroke = coupler_stroke(scene.cars, scene.couplers, scene.couplers[0], primary, record.closing_speed)
     exact = record.stroke - record.stroke[0]
     loading = slice(0, int(np.argmax(record.force)) + 1)
     assert np.max(np.abs(stroke - exact)[loading]) <= 1e-5 * np.max(record.stroke)
     with pytest.raises(ValueError, match="no closing speed"):
-        _coupler_stroke(scene, scene.couplers[0], primary, float("nan"))
+        coupler_stroke(scene.cars, scene.couplers, scene.couplers[0], primary, float("nan"))
 
 
 def test_two_gears_of_each_family_close_within_5_percent_through_the_chain(tmp_path: Path) -> None:

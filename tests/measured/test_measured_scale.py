@@ -275,9 +275,10 @@ def test_the_kalman_state_size_and_event_memory_are_what_the_filter_builds_and_a
     a factor 10 either way, as the model runs' calibration; measured 1.14×)."""
     import tracemalloc
 
-    from femref.run import measured as runner
+    from femref.estimators import KalmanEstimator, Recorded
     from femref.run.event_budget import event_cost, kalman_states
-    from femref.sensing import events as finder
+    from femref.sensing.noise_gate import quiet_corrected
+    from femref.sensing import trigger as finder
     from femref.sensing.recordings import read_records
     from reduced import kalman
 
@@ -286,19 +287,19 @@ def test_the_kalman_state_size_and_event_memory_are_what_the_filter_builds_and_a
     recordings = read_records(scene.records)
     event = finder.find_events(recordings, scene.trigger, scene.pre, scene.post, quiet=scene.quiet, max_window=scene.max_window)[0]
     t, raw = finder.window(recordings, event)
-    records, noise, _ = runner._quiet_corrected(t, raw, event)
-    cars, probes = runner.kalman_cars(scene, records)
+    records, noise, _ = quiet_corrected(t, raw, event.trigger_time)
+    cars, probes = KalmanEstimator(scene.kalman, scene.anti_alias).cars(Recorded(t, records, scene.cars, scene.couplers))
     assert kalman.augmented_model(cars, float(t[1] - t[0]), [noise[p] for p in probes]).transition.shape[0] == kalman_states(scene) == 13
     data = yaml.safe_load(case.read_text())
     data["records"][0]["anti_alias"] = {"corner": 500.0, "order": 4}
     filtered = scene_from_case(load_case(_write(tmp_path / "filtered.yaml", data)))
-    cars, probes = runner.kalman_cars(filtered, records)
+    cars, probes = KalmanEstimator(filtered.kalman, filtered.anti_alias).cars(Recorded(t, records, filtered.cars, filtered.couplers))
     assert kalman.augmented_model(cars, float(t[1] - t[0]), [noise[p] for p in probes]).transition.shape[0] == kalman_states(filtered) == 21
 
     tracemalloc.start()
     started = time.perf_counter()
     try:
-        assert runner.kalman_estimate(scene, t, records, noise).status == "ok"
+        assert KalmanEstimator(scene.kalman, scene.anti_alias).estimate(Recorded(t, records, scene.cars, scene.couplers, noise))[0].status == "ok"
         elapsed, peak = time.perf_counter() - started, tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()

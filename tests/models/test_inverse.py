@@ -1,4 +1,4 @@
-"""Inverse estimators of an impact scene (femref.models.inverse) on records whose coupler
+"""Inverse estimators of an impact scene (femref.estimators.inverse) on records whose coupler
 forces are known: rigid closed forms and rigid lines (exact), two-term quasi-rigid cars
 (reduced.quasi_rigid, error O(ε))."""
 
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from femref.models.inverse import ESTIMATORS, inverse_quasi_rigid, inverse_rigid
+from femref.estimators.inverse import ESTIMATORS, inverse_quasi_rigid, inverse_rigid
 from femref.core.catalog import ESTIMATORS as ESTIMATOR_NAMES
 from femref.scene import Car, Coupler, ImpactScene
 from femref.core.profiles import Linear, Uniform

@@ -49,8 +49,8 @@ HOMES = {
         "augmented": ["AugmentedModel", "augmented_model", "forced_response"],
         "linear_gaussian": ["GaussianSmoothing", "kalman_smoother", "van_loan_discretisation"],
         "steady": [],
-        "estimate": ["DEFAULT_FORCE_RATE_RANGE", "NOISE_SCALES", "ForceEstimate", "estimate_force"],
-        "variants": ["VariantForceEstimate", "estimate_force_with_variants"],
+        "estimate": ["DEFAULT_FORCE_RATE_RANGE", "NOISE_SCALES", "KalmanForce", "estimate_force"],
+        "variants": ["VariantForceEstimate", "corner_models", "estimate_force_with_variants"],
     },
 }
 

@@ -331,7 +331,7 @@ def overflowing(path: Path, parts) -> None:
 def test_non_finite_estimates_are_failed_results(parts, tmp_path: Path, monkeypatch) -> None:
     """The network's infinite peak and an inverse estimator's NaN force history (a stand-in estimator)
     are failed results with the reason; the run exits 1 (a model failed) and still writes its file."""
-    from femref.models import inverse
+    from femref.estimators import inverse
 
     overflowing(tmp_path / "net.npz", parts)
     monkeypatch.setitem(inverse.ESTIMATORS, "inverse_rigid", lambda scene, t, records: {"c1": np.where(t > 0.1, np.nan, 0.0)})
@@ -351,16 +351,14 @@ def test_non_finite_estimates_are_failed_results(parts, tmp_path: Path, monkeypa
 
 
 def test_a_measured_cases_non_finite_inverse_estimate_is_failed(monkeypatch) -> None:
-    """In a measured case too (:mod:`femref.run.measured`): an inverse estimator whose force history holds a NaN
+    """In a measured case too (the same :func:`femref.estimators.capture`): an inverse estimator whose force history holds a NaN
     (a stand-in estimator) gives a failed estimate with no number, never an ok one."""
-    from types import SimpleNamespace
 
-    from femref.models import inverse
-    from femref.run import measured
+    from femref.estimators import InverseEstimator, Recorded, capture, inverse
 
     t = np.linspace(0.0, 1.0, 11)
     monkeypatch.setitem(inverse.ESTIMATORS, "inverse_rigid", lambda scene, t, records: {"c1": np.where(t > 0.45, np.inf, 1.0e5)})
-    (estimate,) = measured._estimates(SimpleNamespace(couplers=[]), "inverse_rigid", t, {}, {})
+    (estimate,) = capture(InverseEstimator("inverse_rigid"), Recorded(t, {}, [], []))
     assert (estimate.status, estimate.ok) == ("failed", False)
     assert estimate.message == "the inverse_rigid force is not finite (NaN or infinity) at 6 of 11 samples, from t = 0.5 s"
     assert np.all(np.isnan(estimate.force)) and np.all(np.isnan(estimate.peak))

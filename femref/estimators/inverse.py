@@ -1,14 +1,14 @@
-"""Inverse estimators: coupler forces of an impact scene from its cars' acceleration records.
+"""Inverse estimators: coupler forces of a line of cars from their acceleration records.
 
 An estimator reads what a railroad has — accelerometer records of the cars, the car
 masses and body profiles — and returns the compression-positive force of every coupler
 (docs/design.md §2), on the records' time axis::
 
-    estimate(scene, time (Nm,), records {"<car>/<sensor>": (Nm,)}) -> {coupler: (Nm,)}
+    forces(line, time (Nm,), records {"<car>/<sensor>": (Nm,)}) -> {coupler: (Nm,)}
 
-``records`` are the fem run's sensor accelerations (m/s²), possibly passed through the
-measurement chain (:mod:`femref.sensing.measurement`); the runner scores the estimates
-against the fem coupler forces (:mod:`femref.run.scoring`).
+``line`` is anything with the ``cars`` and ``couplers`` of an impact scene (a scene, a measured scene,
+a :class:`femref.estimators.protocol.Recorded`); :class:`InverseEstimator` makes each one a plug-in of
+the estimator protocol (:mod:`femref.estimators.protocol`).
 
 Signs and geometry (:mod:`femref.scene.impact`): cars in line order, coupler ``j``
 between the front (+l) of car ``j = Coupler.rear`` and the back (−l) of car ``j + 1``.
@@ -16,33 +16,30 @@ A compressed coupler pushes the car ahead of it forward and the car behind it ba
 so rigid car ``k`` obeys ``M_k a_k = P_{k−1} − P_k`` (its rear coupler ``P_{k−1}``, its
 front coupler ``P_k``; an absent coupler counts 0).
 
-Registry :data:`ESTIMATORS` (names of :data:`femref.core.catalog.ESTIMATORS`). These
-are the inverse estimators, which a case names; the network estimators (``ann_<name>``, a
-saved network file) are not in this registry: they estimate one coupler's peak force,
-not a history, and live in :mod:`femref.sensing.network`.
+Registry :data:`ESTIMATORS` (names of :data:`femref.core.catalog.ESTIMATORS`).
 """
 
 from __future__ import annotations
 
-from typing import Protocol
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from femref.core import catalog
-from femref.scene import Car, ImpactScene
+from femref.estimators.protocol import Recorded
+from femref.events import ForceEstimate
+from femref.scene import Car
 from reduced.inverse import CoupledImpactInversion, rigid_coupler_force
 
 Records = dict[str, NDArray[np.float64]]
+InverseForces = Callable[[Any, ArrayLike, dict[str, ArrayLike]], Records]
+"""``(line, time (Nm,), records) -> {coupler name: force (Nm,)}`` (N, compression positive)."""
 
 
-class Estimator(Protocol):
-    """``(scene, time (Nm,), records) -> {coupler name: force (Nm,)}`` (N, compression positive)."""
-
-    def __call__(self, scene: ImpactScene, time: ArrayLike, records: dict[str, ArrayLike]) -> Records: ...
-
-
-def inverse_rigid(scene: ImpactScene, time: ArrayLike, records: dict[str, ArrayLike]) -> Records:
+def inverse_rigid(scene: Any, time: ArrayLike, records: dict[str, ArrayLike]) -> Records:
     """Rigid cars: coupler ``j`` from the inertia of the cars ahead of it.
 
     Summing ``M_k a_k = P_{k−1} − P_k`` over the cars ``k = j+1 … n`` ahead of coupler
@@ -80,7 +77,7 @@ def inverse_rigid(scene: ImpactScene, time: ArrayLike, records: dict[str, ArrayL
     return forces
 
 
-def inverse_quasi_rigid(scene: ImpactScene, time: ArrayLike, records: dict[str, ArrayLike]) -> Records:
+def inverse_quasi_rigid(scene: Any, time: ArrayLike, records: dict[str, ArrayLike]) -> Records:
     """Quasi-rigid car body: coupler ``j`` from the two end accelerations of the car ahead of it.
 
     The car ahead (``j + 1``) carries ``F1 = −P_j`` at its −l end (internal force,
@@ -121,13 +118,29 @@ def inverse_quasi_rigid(scene: ImpactScene, time: ArrayLike, records: dict[str, 
     return forces
 
 
-ESTIMATORS: dict[str, Estimator] = {
+ESTIMATORS: dict[str, InverseForces] = {
     "inverse_rigid": inverse_rigid,
     "inverse_quasi_rigid": inverse_quasi_rigid,
 }
 """Estimator name → function; the names are :data:`femref.core.catalog.ESTIMATORS`."""
 
 assert tuple(ESTIMATORS) == catalog.ESTIMATORS  # internal contract: one registry, one list of names
+
+
+@dataclass(frozen=True)
+class InverseEstimator:
+    """Inverse estimator ``name`` (:data:`ESTIMATORS`, looked up when it runs) as a plug-in: every coupler's force
+    history, ``bound = none`` (a measured case's calibration file may give it a band)."""
+
+    name: str
+    coupler: None = None
+    history: bool = True
+
+    def estimate(self, recorded: Recorded) -> list[ForceEstimate]:
+        nan = np.full(recorded.time.size, np.nan)
+        forces = ESTIMATORS[self.name](recorded, recorded.time, dict(recorded.records))
+        return [ForceEstimate(self.name, coupler, recorded.time, force, nan, nan.copy(), message="no calibration of this estimator's error: no band")
+                for coupler, force in forces.items()]
 
 
 # ------------------------------------------------------------------------ helpers
@@ -185,4 +198,4 @@ def _record(records: dict[str, ArrayLike], car: Car, sensor: str, samples: int) 
     return a
 
 
-__all__ = ["ESTIMATORS", "Estimator", "inverse_quasi_rigid", "inverse_rigid"]
+__all__ = ["ESTIMATORS", "InverseEstimator", "InverseForces", "inverse_quasi_rigid", "inverse_rigid"]
