@@ -59,12 +59,34 @@ class RunOutcome:
 
 
 def run_scene(scene: Scene | ImpactScene, progress_for: ProgressFor | None = None, *, source: str = "<case>", budget_checked: bool = False) -> RunOutcome:
-    """Run every model of ``scene`` in order (then, for impacts, the estimators) and score them;
-    ``progress_for(model)`` may supply a progress callback.
+    """Run every model of a simulated scene in order (then, for impacts, the estimators) and score them.
 
-    Before any work the scene's budget is checked (:func:`femref.run.budget.check_budget`: its runs and the
-    reference's self-check; a CaseError naming ``source`` when over it) — unless ``budget_checked`` says the
-    caller has checked it already (``femref run`` does, before its output check: once per command)."""
+    Parameters
+    ----------
+    scene : femref.scene.Scene or femref.scene.ImpactScene
+        A resolved single-body or impact scene (:func:`femref.scene.build.scene_from_case`).
+    progress_for : callable, optional
+        ``progress_for(model)`` → a progress callback for that model, or None.
+    source : str
+        The case's name in a refusal message.
+    budget_checked : bool
+        The caller has checked the scene's work budget already (``femref run`` does, before its output check:
+        once per command); otherwise it is checked here first (:func:`femref.run.budget.check_budget`: its runs
+        and the reference's self-check).
+
+    Returns
+    -------
+    RunOutcome
+        Every model's and estimator's result (a failed one is a result with ``status == "failed"``) and the
+        scores against the reference.
+
+    Raises
+    ------
+    femref.case.CaseError
+        The scene is over the work budget (naming ``source``), before any work.
+    TypeError
+        A measured scene (:func:`femref.run.measured.run_measured` runs those).
+    """
 
     def progress(name: str) -> Progress | None:
         return progress_for(name) if progress_for else None
