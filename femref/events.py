@@ -203,7 +203,11 @@ class EventWriter:
         with hdf5_writer(self.path, "a") as h5:
             h5.attrs[COMPLETE] = True
 
-    __call__ = write  # the writer is the sink femref.run.measured.run_measured takes
+    def __call__(self, event: EventResult) -> EventResult:
+        """The sink :func:`femref.run.measured.run_measured` takes: write ``event`` and give back what the run keeps,
+        its summary (:func:`without_histories`: the histories are in the file)."""
+        self.write(event)
+        return without_histories(event)
 
 
 @contextlib.contextmanager

@@ -24,7 +24,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from femref.estimators import Estimator, Recorded, capture, plug_ins
-from femref.events import EventResult, without_histories
+from femref.events import EventResult
 from femref.models import Progress, ProgressFor
 from femref.run.event_budget import check_events
 from femref.scene.measured import MeasuredScene
@@ -46,15 +46,15 @@ class MeasuredOutcome:
     """How the events were found: spikes ignored, triggers outside the recorders' common span
     (:class:`femref.sensing.trigger.EventSearch`; its notes are the run's warnings)."""
     streamed: bool = False
-    """True when a sink took each event as it finished: ``events`` are then summaries without their histories
-    (:func:`femref.events.without_histories`)."""
+    """True when a sink took each event as it finished: ``events`` are then what it returned (``femref run``'s
+    writer: summaries without their histories, :func:`femref.events.without_histories`)."""
 
 
 #: The progress label while the record files are read.
 READ_LABEL = "read records"
 
 
-def run_measured(scene: MeasuredScene, progress_for: ProgressFor | None = None, sink: Callable[[EventResult], None] | None = None,
+def run_measured(scene: MeasuredScene, progress_for: ProgressFor | None = None, sink: Callable[[EventResult], EventResult] | None = None,
                  source: str = "<case>") -> MeasuredOutcome:
     """Every event of the scene's records (module docstring).
 
@@ -63,9 +63,9 @@ def run_measured(scene: MeasuredScene, progress_for: ProgressFor | None = None, 
     the callback it may return gets ``(done, total)`` after each step of that stage: the records read;
     the event's classification and each estimator (the saved networks last).
 
-    ``sink(event)``, if given, takes each event's full result as soon as it is done (``femref run`` writes it:
-    :class:`femref.events.EventWriter`) and the outcome keeps only its summary, so memory does not grow with the
-    events' histories. Once the trigger has found the events, before the first event's estimators run, their total
+    ``sink(event)``, if given, takes each event's full result as soon as it is done and returns what the outcome
+    keeps: ``femref run``'s :class:`femref.events.EventWriter` writes it and returns its summary (without
+    histories), so memory does not grow with the events' histories. Once the trigger has found the events, before the first event's estimators run, their total
     cost is checked against the work budget (:func:`femref.run.event_budget.check_events`: a
     :class:`~femref.case.CaseError` at ``source``).
     """
@@ -82,10 +82,7 @@ def run_measured(scene: MeasuredScene, progress_for: ProgressFor | None = None, 
     for number, event in enumerate(found, start=1):
         step = progress_for(event_label(number, len(found), event.trigger_time)) if progress_for else None
         result = _event(scene, estimators, recordings, event, step)
-        if sink is not None:
-            sink(result)
-            result = without_histories(result)
-        events.append(result)
+        events.append(result if sink is None else sink(result))
     return MeasuredOutcome(scene, recordings, events, search, streamed=sink is not None)
 
 

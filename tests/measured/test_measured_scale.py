@@ -25,7 +25,7 @@ from click.testing import CliRunner
 
 from femref.case import load_case
 from femref.cli import main
-from femref.events import COMPLETE, EVENTS_WRITTEN, EventResult, ForceEstimate, write_events
+from femref.events import COMPLETE, EVENTS_WRITTEN, EventResult, ForceEstimate, event_file, write_events
 from femref.run.costs import BUDGET_VARIABLE
 from femref.run.measured import run_measured
 from femref.scene.build import scene_from_case
@@ -125,11 +125,18 @@ def test_the_events_found_are_checked_in_total_before_the_first_estimate(tmp_pat
 
 
 def test_a_sink_takes_every_event_and_the_outcome_keeps_summaries(tmp_path):
-    """With a sink, each event goes to it in full as it finishes and the outcome keeps only summaries: no records, each
-    estimate cut to its peak sample (the same peak), a few kilobytes of arrays for all 30 events."""
+    """With the event file's writer as the sink, each event goes to it in full as it finishes and the outcome keeps only
+    the summaries it returns: no records, each estimate cut to its peak sample (the same peak), a few kilobytes of
+    arrays for all 30 events."""
     scene = scene_from_case(load_case(_stream(tmp_path, 30)))
     taken: list[EventResult] = []
-    outcome = run_measured(scene, sink=taken.append)
+
+    with event_file(tmp_path / "events.h5", {}) as writer:
+        def sink(event: EventResult) -> EventResult:
+            taken.append(event)
+            return writer(event)
+
+        outcome = run_measured(scene, sink=sink)
     assert outcome.streamed and len(taken) == len(outcome.events) == 30
     assert all(e.records and e.time.size > 1000 for e in taken)
     for full, summary in zip(taken, outcome.events):
