@@ -8,7 +8,7 @@ Every bad input raises :class:`CaseError` (a ``ValueError``) naming the file, th
 path, the rule and the value; several problems come in one error, one per line.
 """
 
-from femref.case.bodies import BODY_TYPES, BeamBody, Body, RodBody
+from femref.case.bodies import BODY_TYPES, BeamBody, BodySchema, RodBody
 from femref.case.capabilities import MODELS
 from femref.case.errors import CaseError, Problem
 from femref.case.impact import ImpactCase
@@ -21,7 +21,7 @@ __all__ = [
     "CASE_KINDS",
     "MODELS",
     "BeamBody",
-    "Body",
+    "BodySchema",
     "Case",
     "CaseError",
     "HarmonicCase",

@@ -1,10 +1,6 @@
 """What every case kind has: :class:`SceneCase`, the base of the ``kind:`` models.
 
-A case names its ``kind``; its ``models`` must be able to serve it (the reasons come
-from :mod:`femref.case.capabilities`). A key of another case kind is named as such
-("'frequency' is a harmonic-case key, not a transient-case key"); the kinds are found by
-walking the subclasses of :class:`SceneCase` (:func:`case_classes`), so this module
-knows none of them — :mod:`femref.case.kinds` is the one that lists every kind.
+The kinds are found by walking its subclasses (:func:`case_classes`), so this module knows none of them.
 """
 
 from typing import Any

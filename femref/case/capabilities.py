@@ -1,14 +1,8 @@
-"""Whether a model can serve a particular case: the reasons the case schema and its messages share.
+"""Whether a model can serve a particular case: :func:`refusal` gives ``None`` or the reason, worded to follow
+"<name> cannot serve this case: ".
 
-Which scene kinds a model serves at all is :data:`femref.core.catalog.MODELS`; this
-module adds the limits that depend on the case itself (``exact`` needs piecewise-constant
-profiles and, in the time domain, a rod; the quasi-rigid beam needs even profiles).
-:func:`refusal` returns ``None`` when the model can serve the case, otherwise the reason
-it cannot, worded to follow "<name> cannot serve this case: ". A model that cannot serve
-a scene is refused at validation (docs/design.md §4), never skipped at run time.
-
-The functions read a validated case by duck typing (``kind``; ``body`` for single-body
-cases), so this module imports nothing of the schema.
+Which scene kinds a model serves is :data:`femref.core.catalog.MODELS`; this module adds the limits that
+depend on the case itself. It reads a validated case by duck typing, so it imports nothing of the schema.
 """
 
 from __future__ import annotations

@@ -1,13 +1,8 @@
 """The ``couplers`` of an impact case: which neighbours each joins, its force law, contact and slack.
 
-Coupler laws (registry :data:`COUPLER_LAW_SPECS`): ``kelvin_voigt``, ``power_law``,
-``draft_gear``, ``table`` and ``friction_gear`` (its ``loading`` curve from the registry
-:data:`LOADING_CURVE_SPECS`: ``cubic`` or ``exponential``), each built into a
-:mod:`reduced.couplers` law, its class ``law``; a law without a compiled form
-(:func:`reduced.couplers.compiled_form_rule`) is refused. A new law is its module in
-:mod:`reduced.couplers` and its class here. Whether a coupler's cars exist
-and are neighbours in line order is checked on the case (:func:`coupler_pair_problems`),
-once the cars are valid.
+Each law (registry :data:`COUPLER_LAW_SPECS`; the friction gear's ``loading`` curve from
+:data:`LOADING_CURVE_SPECS`) builds the :mod:`reduced.couplers` law of its class ``law``, which must
+have a compiled form. A new law is its module in :mod:`reduced.couplers` and its class here.
 """
 
 from __future__ import annotations
@@ -19,7 +14,7 @@ from pydantic import AfterValidator, BeforeValidator, Field, model_validator
 from pydantic_core import PydanticCustomError
 
 from femref.case.errors import Problem, did_you_mean, problems_error
-from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, Real, TaggedSpec, name_rule, tagged_union
+from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, Real, TaggedSpec, duplicates, name_rule, tagged_union
 from femref.case.plausibility import BOUNDS, format_number, plausible, sequence_check
 from reduced.couplers import (
     CONTACT_KINDS,
@@ -66,10 +61,6 @@ Travel = Annotated[NonNegativeReal, plausible("coupler_travel")]
 
 
 CouplerName = Annotated[str, AfterValidator(name_rule("coupler"))]
-
-
-# ---------------------------------------------------------------------------------------------
-# Coupler laws (registry COUPLER_LAW_SPECS)
 
 
 class CouplerLawSpec(TaggedSpec):
@@ -365,10 +356,6 @@ COUPLER_LAW_SPECS: Mapping[str, type[CouplerLawSpec]] = {
 AnyCouplerLaw = tagged_union(COUPLER_LAW_SPECS, "coupler law")
 
 
-# ---------------------------------------------------------------------------------------------
-# Couplers
-
-
 def _two_names(value: Any) -> Any:
     """``between`` is exactly two names; whether they are cars in line order is checked on the case."""
     if isinstance(value, (list, tuple)) and len(value) == 2 and all(isinstance(v, str) for v in value):
@@ -430,6 +417,18 @@ def _line_order_rule(rear: int, front: int, names: list[str]) -> str:
         return f"lists the cars in reverse order; the rear car comes first, in line order: [{names[front]}, {names[rear]}]"
     pairs = ", ".join(f"[{a}, {b}]" for a, b in zip(names, names[1:]))
     return f"{names[rear]} (cars[{rear}]) and {names[front]} (cars[{front}]) are not neighbours; a coupler joins [cars[i], cars[i+1]]: one of {pairs}"
+
+
+def named_couplers(couplers: tuple[Any, ...], cars: tuple[Any, ...] | None) -> tuple[Any, ...]:
+    """The couplers, the k-th unnamed one named ``c<k>``; names unique, each between neighbours in line order
+    (checked against ``cars`` unless they are invalid themselves, None)."""
+    named = tuple(c if c.name is not None else c.model_copy(update={"name": f"c{k + 1}"}) for k, c in enumerate(couplers))
+    problems = duplicates([c.name for c in named], "coupler", lambda k: (k, "name"))
+    if cars is not None:
+        problems += coupler_pair_problems(named, [car.name for car in cars])
+    if problems:
+        raise problems_error(problems)
+    return named
 
 
 def coupler_pair_problems(couplers: tuple[CouplerSpec, ...], names: list[str]) -> list[Problem]:

@@ -1,15 +1,10 @@
-"""One error for every bad case file: :class:`CaseError`, naming the file, key path, rule and value.
-
-Validation may find several independent problems; they are all collected as
-:class:`Problem` records and raised once, as one ``CaseError`` with one line per problem::
+"""One error for every bad case file: :class:`CaseError`, naming the file, key path, rule and value::
 
     case.yaml: body.mass_per_length.piecewise.breaks: must lie strictly inside the body (-8.0, 8.0); got [-9.0, 4.0]
 
-Inside the pydantic models a validator that finds problems raises
-:func:`problems_error` (a pydantic custom error carrying the problems, with key
-paths relative to the value being validated); :func:`problems_from` turns a pydantic
-``ValidationError`` back into problems with full key paths, translating pydantic's
-own messages into the rules of the case-file language.
+A validator raises :func:`problems_error` (a pydantic error carrying :class:`Problem` records, key paths
+relative to the value validated); :func:`problems_from` turns the ``ValidationError`` back into problems
+with full key paths, pydantic's own messages translated into the rules of the case-file language.
 """
 
 from __future__ import annotations

@@ -1,13 +1,8 @@
 """The sensor records of an impact case and what reads them: ``measurement`` and ``estimators``.
 
-``measurement`` (:class:`MeasurementSpec`) makes accelerometer records from the model's
-sensor accelerations. An ``estimators`` entry is an inverse estimator's name
-(``femref.core.catalog.ESTIMATORS``) or a saved network ``{name: ann_<name>, network:
-file.npz}`` — or one network per impact type, ``network: {free_to_roll: a.npz, coupled:
-b.npz}`` — (:class:`AnnEstimatorSpec`, read when the case is loaded). The checks of
-the estimators against the scene — sensors of ``inverse_quasi_rigid``, a network's
-contract against the couplers, probes, ``time.end`` and measurement — are here too;
-the case runs them once the keys they relate are valid.
+An ``estimators`` entry is an inverse estimator's name (``femref.core.catalog.ESTIMATORS``) or a saved
+network (:class:`AnnEstimatorSpec`, read when the case is loaded). The checks of the estimators against
+the scene are here too; the case runs them once the keys they relate are valid.
 """
 
 from __future__ import annotations
@@ -33,10 +28,6 @@ __all__ = ["ANY_IMPACT", "QUASI_RIGID_INVERSE_SENSORS", "AnnEstimatorSpec", "Est
 QUASI_RIGID_INVERSE_SENSORS = 2
 
 
-# ---------------------------------------------------------------------------------------------
-# Measurement
-
-
 class MeasurementSpec(CaseModel):
     """How accelerometer records are made from the model's sensor accelerations:
     anti-alias low-pass, resampling at ``rate``, then white noise."""
@@ -59,10 +50,6 @@ class MeasurementSpec(CaseModel):
             rule = f"must be below the Nyquist frequency rate/2 = {0.5 * self.rate:g} Hz"
             raise problems_error([Problem(("lowpass",), rule, self.lowpass)])
         return self
-
-
-# ---------------------------------------------------------------------------------------------
-# Estimators
 
 
 def _is_network_name(name: str) -> bool:
@@ -237,10 +224,6 @@ def estimators_rule(entries: tuple[str | AnnEstimatorSpec, ...]) -> tuple[str | 
     if problems:
         raise problems_error(problems)
     return entries
-
-
-# ---------------------------------------------------------------------------------------------
-# Estimators against the scene
 
 
 def quasi_rigid_sensor_problems(at: int, cars: tuple[CarSpec, ...], couplers: tuple[CouplerSpec, ...]) -> list[Problem]:

@@ -1,20 +1,8 @@
 """The building blocks of every case-file model: numbers, names, the base models and tagged specs.
 
-Every model is frozen, forbids unknown keys (with a "did you mean …?" hint, or the
-sibling model a key belongs to) and accepts finite numbers only:
-
-* numbers: :data:`Real`, :data:`PositiveReal`, :data:`NonNegativeReal`, :data:`Count`
-  (YAML ``true``/``false`` refused by :func:`reject_bool`);
-* names: :data:`ProbeName` and :func:`name_rule` (names that become HDF5 path parts),
-  :func:`duplicates` (a problem at each repeat of a name);
-* :class:`CaseModel`, the base of every model, and its unknown-key machinery
-  (:func:`foreign_key_rule`, :func:`validate_collecting`);
-* :class:`TaggedSpec`, a spec written ``{tag: {fields…}}``, and :func:`tagged_union`, the
-  type "one of a registry of tagged specs" (profiles, signals, frequency axes, coupler laws);
-* :func:`resolve_case_path`, the rule for file paths written in a case (CSV loads, networks).
-
-Validators raise :func:`~femref.case.errors.problems_error`; the loader turns the
-pydantic error into one :class:`~femref.case.errors.CaseError`.
+Every model is frozen, forbids unknown keys (with a "did you mean …?" hint, or the sibling model a
+key belongs to) and accepts finite numbers only. :class:`TaggedSpec` is a spec written
+``{tag: {fields…}}``; :func:`tagged_union` is the type "one of a registry of tagged specs".
 """
 
 from collections.abc import Callable, Mapping
@@ -50,10 +38,6 @@ __all__ = [
 ]
 
 
-# ---------------------------------------------------------------------------------------------
-# Numbers
-
-
 def reject_bool(value: Any) -> Any:
     """YAML ``true``/``yes`` would otherwise pass as the number 1."""
     if isinstance(value, bool):
@@ -82,10 +66,6 @@ PositiveReal = Annotated[Real, Field(gt=0)]
 NonNegativeReal = Annotated[Real, Field(ge=0)]
 #: An integer >= 1 (element counts, strides, sample counts).
 Count = Annotated[int, BeforeValidator(reject_bool), Field(ge=1)]
-
-
-# ---------------------------------------------------------------------------------------------
-# Base model: frozen, unknown keys refused with a hint, several problems collected
 
 
 def validate_collecting(handler: Callable[[Any], Any], data: Any, problems: list[Problem]) -> Any:
@@ -186,10 +166,6 @@ def tagged_union(registry: Mapping[str, type[TaggedSpec]], what: str, number_tag
     return Annotated[Union[members], Discriminator(tag_of), BeforeValidator(check_shape)]  # noqa: UP007
 
 
-# ---------------------------------------------------------------------------------------------
-# Names
-
-
 def _probe_name(name: str) -> str:
     if not name or not all(c.isalnum() or c in "_-." for c in name):
         raise PydanticCustomError("probe_name", "probe names use letters, digits, '_', '-' and '.' only")
@@ -219,10 +195,6 @@ def duplicates(names: list[str], what: str, path_of: Callable[[int], tuple[str |
             problems.append(Problem(path_of(i), f"duplicate {what} name; {name!r} is already used at index {first[name]}", name))
         first.setdefault(name, i)
     return problems
-
-
-# ---------------------------------------------------------------------------------------------
-# File paths
 
 
 def resolve_case_path(path: Path, info: ValidationInfo) -> Path:

@@ -1,13 +1,7 @@
 """The files a validated case reads: every file path it names, by the key path that names it.
 
-A case names files of its own — a measured case's ``records[i].file`` and ``calibration``, a
-transient load ``loads.F2.csv.path``, a network estimator's ``estimators[i].network`` (or
-``network.free_to_roll`` / ``network.coupled``) — which validation has already resolved against
-the case file's folder (:func:`femref.case.fields.resolve_case_path`) and read. The commands
-protect them as inputs: an output may not overwrite one (``femref.cli.common.check_output``).
-
-:func:`case_inputs` walks the validated model, so a file path field added to the case language
-later is protected without a change here.
+The commands protect them as inputs: an output may not overwrite one (``femref.cli.common.check_output``).
+:func:`case_inputs` walks the validated model, so a file path field added later is protected without a change here.
 """
 
 from __future__ import annotations

@@ -1,29 +1,13 @@
 """Case files: YAML text → validated :data:`~femref.case.kinds.Case`, and back.
 
-``load_case`` and ``parse_case`` raise :class:`~femref.case.errors.CaseError` and
-nothing else for bad input (missing or unreadable file, YAML syntax, a document that
-is not a mapping, any schema rule). ``resolved_yaml`` writes a case with every
-default filled in; loading that text gives an equal case.
+Bad input raises :class:`~femref.case.errors.CaseError` and nothing else. YAML dialect: safe YAML, with
+duplicate keys refused (PyYAML keeps the last) and ``1e9`` read as a number (YAML 1.2; 1.1 reads text).
 
-YAML dialect: safe YAML, with two corrections of PyYAML's YAML 1.1 reading —
-duplicate keys are errors (PyYAML silently keeps the last one), and ``1e9`` is the
-number 10⁹ as in YAML 1.2 (YAML 1.1 reads it as text).
-
-Limits, so that a small hostile file cannot exhaust memory, time or the stack (every
-case, sweep and study file goes through :func:`read_yaml_file`):
-
-* a file is a regular file (:func:`femref.core.files.regular_file`: a FIFO or a device is
-  refused before it is opened, a loop of symbolic links named as such);
-* a file holds at most :data:`MAX_YAML_BYTES` bytes;
-* collections nest at most :data:`MAX_YAML_DEPTH` levels (``[[[…]]]``), counted
-  through aliases: an alias nests its anchor's levels where it is used;
-* a document holds at most :data:`MAX_YAML_NODES` values (scalars and collections),
-  an alias counting every value of its anchor each time it is used — so a few lines
-  of nested aliases ("billion laughs") cannot stand for 10⁹ values;
-* an alias cannot refer to the collection it is inside (a recursive structure).
-
-Anchors, aliases and merge keys (``<<: *defaults``) used within these limits work
-as in any YAML reader.
+Limits, so that a small hostile file cannot exhaust memory, time or the stack (every case, sweep and study
+file goes through :func:`read_yaml_file`): a regular file only (a FIFO would block the open), at most
+:data:`MAX_YAML_BYTES` bytes, collections nested at most :data:`MAX_YAML_DEPTH` levels and at most
+:data:`MAX_YAML_NODES` values — both counted through aliases, so nested aliases ("billion laughs") cannot
+stand for 10⁹ values — and no alias inside its own anchor (a recursive structure).
 """
 
 from __future__ import annotations

@@ -1,38 +1,10 @@
 """The ``kind: measured`` case: coupler forces, impact type, gear closure, wear and alarm from recorded accelerations.
 
-Layout of a measured case file::
-
-    records:     one or more CSV (header row) or HDF5 files: per file its time source
-                 ({column | dataset, unit} or {rate, start}), a clock offset (s, added to its
-                 times), a channel map <car>/<sensor>: {column | dataset, unit} and the
-                 recorder's anti-alias low-pass {corner, order} (optional)
-    cars:        >= 2 cars in line order (rear to front), each a rod body (as in impact cases)
-                 or only its mass and length (rigid estimates only), with its sensors' positions
-    couplers:    one between each pair of neighbours that touch: {name, between}
-    events:      {trigger, pre, post, rearm, quiet, max_window}: an event starts where a channel's
-                 |a| first exceeds trigger (m/s²) and rings while one exceeds rearm; it spans
-                 [t − pre, t_last + post], at most max_window long; the trigger re-arms after
-                 quiet s below rearm (femref.sensing.trigger); closing_speed: the speeds the user
-                 has {value, uncertainty, time} (radar, wayside), replacing the estimates
-    estimators:  inverse_rigid, inverse_quasi_rigid, kalman (femref.core.catalog.MEASURED_ESTIMATORS), or a
-                 saved network {name: ann_<name>, network: file.npz} (needs kalman: its contact instant)
-    kalman:      {modes}: elastic modes per car of the kalman estimator's model
-    checks:      {alarm, rated_closure_force, wear_tolerance}: the alarm force limit (N), the
-                 gear's rated closure force (N) and the relative shortfall that counts as worn
-    calibration: the inverse estimators' error bands (a file of femref calibrate)
-
-Every record file is read when the case is loaded (:mod:`femref.sensing.recordings`) and
-what was read is kept for the run, which reads a file again only if it changed since: a
-missing file, channel or unit, a time column that does not increase, a channel that is
-all NaN, a file that is not a regular file, points outside itself (HDF5 external storage,
-external links, virtual datasets) or exceeds the limits of size, samples and rate
-(:mod:`femref.sensing.record_files`) are case errors naming the file, channel and rule;
-so is an event grid (``events.max_window`` × the highest rate × the channels) beyond
-:data:`~femref.sensing.recordings.MAX_EVENT_VALUES`. The relations between keys —
-channels against the cars' sensors, couplers against the cars, estimators against what
-they need (a rod body, two sensors on the front car) — are checked once the keys are valid.
-
-:func:`femref.scene.build.scene_from_case` turns the validated case into a
+Every record file is read when the case is loaded (:mod:`femref.sensing.recordings`) and what was read is kept
+for the run, which reads a file again only if it changed since: a bad file, channel, unit or time column, or a file
+beyond the limits of :mod:`femref.sensing.record_files`, is a case error naming the file, channel and rule; so is an
+event grid beyond :data:`~femref.sensing.recordings.MAX_EVENT_VALUES`. The relations between keys are checked once
+the keys are valid. :func:`femref.scene.build.scene_from_case` turns the case into a
 :class:`femref.scene.measured.MeasuredScene`.
 """
 
@@ -47,8 +19,8 @@ from pydantic_core import PydanticCustomError
 
 from femref.case.base import SceneCase
 from femref.case.bodies import RodBody
-from femref.case.cars import CarName
-from femref.case.couplers import Between, CouplerName, coupler_pair_problems
+from femref.case.cars import CarName, cars_rule
+from femref.case.couplers import Between, CouplerName, named_couplers
 from femref.case.errors import Problem, did_you_mean, problems_error
 from femref.case.estimators import ANY_IMPACT, AnnEstimatorSpec, estimator_entry
 from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, ProbeName, Real, duplicates, name_rule, resolve_case_path
@@ -348,7 +320,7 @@ class MeasuredCase(SceneCase):
 
     kind: Literal["measured"] = Field(default="measured", description="measured. Required in the case file.")
     records: tuple[RecordFileSpec, ...] = Field(description="The record files, one per recorder; at least one. Required.")
-    cars: tuple[MeasuredCarSpec, ...] = Field(description="Two or more cars in line order (rear to front). Required.")
+    cars: Annotated[tuple[MeasuredCarSpec, ...], AfterValidator(cars_rule("a measured impact"))] = Field(description="Two or more cars in line order (rear to front). Required.")
     couplers: tuple[MeasuredCouplerSpec, ...] = Field(description="One or more couplers between neighbouring cars. Required.")
     events: EventSettings = Field(description="Event detection: {trigger, pre, post, rearm, quiet, max_window}. Required (trigger at least).")
     estimators: Annotated[tuple[MeasuredEstimatorEntry, ...], AfterValidator(_estimators_rule)] = Field(
@@ -397,29 +369,12 @@ class MeasuredCase(SceneCase):
             raise problems_error(problems)
         return records
 
-    @field_validator("cars", mode="after")
-    @classmethod
-    def _two_cars(cls, cars: tuple[MeasuredCarSpec, ...]) -> tuple[MeasuredCarSpec, ...]:
-        if len(cars) < 2:
-            raise problems_error([Problem((), f"a measured impact needs at least 2 cars, in line order (rear to front); got {len(cars)}")])
-        problems = duplicates([car.name for car in cars], "car", lambda i: (i, "name"))
-        if problems:
-            raise problems_error(problems)
-        return cars
-
     @field_validator("couplers", mode="after")
     @classmethod
     def _couplers_join_neighbours(cls, couplers: tuple[MeasuredCouplerSpec, ...], info: ValidationInfo) -> tuple[MeasuredCouplerSpec, ...]:
         if not couplers:
             raise problems_error([Problem((), "name at least one coupler between neighbouring cars")])
-        named = tuple(c if c.name is not None else c.model_copy(update={"name": f"c{k + 1}"}) for k, c in enumerate(couplers))
-        problems = duplicates([c.name for c in named], "coupler", lambda k: (k, "name"))  # type: ignore[misc]
-        cars = info.data.get("cars")
-        if cars is not None:
-            problems += coupler_pair_problems(named, [car.name for car in cars])  # type: ignore[arg-type]
-        if problems:
-            raise problems_error(problems)
-        return named
+        return named_couplers(couplers, info.data.get("cars"))
 
     @model_validator(mode="after")
     def _relations(self) -> "MeasuredCase":

@@ -1,9 +1,7 @@
 """Profiles of the case file: a section property along the body, ``x ∈ [−l, l]`` (docs/design.md §3).
 
-A profile is a number or ``{piecewise|linear|table: …}`` (registry :data:`PROFILES`),
-each with ``build(half_length) -> femref.core.profiles`` object. :data:`PositiveProfile`
-and :data:`NonNegativeProfile` add the sign rule of the property; whether breaks and
-positions fit on the body is checked by the body (:meth:`ProfileSpec.range_problems`).
+A profile is a number or ``{piecewise|linear|table: …}`` (registry :data:`PROFILES`); whether its
+breaks and positions fit on the body is checked by the body (:meth:`ProfileSpec.range_problems`).
 """
 
 from collections.abc import Callable, Mapping

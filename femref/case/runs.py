@@ -1,10 +1,8 @@
 """The model runs of an impact case: ``models``, ``modal`` and ``tolerance``.
 
-A ``models`` entry is a model name (a uniform run: every car at that fidelity) or a
-mixed-fidelity run ``{name, fidelity, cars: {car: fidelity}}`` (:class:`ModelRunSpec`);
-the fidelities are the models that serve impacts (``femref.core.catalog.FIDELITIES``).
-``modal`` sets the modal car model; ``tolerance`` (:class:`ToleranceSpec`) asks for the
-cheapest model expected within it instead of the ``models`` list (femref.choice).
+A ``models`` entry is a model name (a uniform run: every car at that fidelity) or a mixed-fidelity run
+``{name, fidelity, cars: {car: fidelity}}`` (:class:`ModelRunSpec`); ``tolerance`` asks for the cheapest
+model expected within it instead (femref.choice).
 """
 
 from __future__ import annotations
@@ -52,10 +50,6 @@ def _fidelity(name: str) -> str:
 
 #: How one car is modelled within a run: one of ``femref.core.catalog.FIDELITIES``.
 Fidelity = Annotated[str, AfterValidator(_fidelity)]
-
-
-# ---------------------------------------------------------------------------------------------
-# Model runs
 
 
 class ModelRunSpec(CaseModel):
@@ -136,10 +130,6 @@ def runs_rule(runs: tuple[str | ModelRunSpec, ...]) -> tuple[str | ModelRunSpec,
 def car_fidelities(run: str | ModelRunSpec, car_names: list[str]) -> tuple[str, ...]:
     """Per-car fidelities of a run; a plain model name models every car alike."""
     return (run,) * len(car_names) if isinstance(run, str) else run.fidelities(car_names)
-
-
-# ---------------------------------------------------------------------------------------------
-# Modal settings, tolerance
 
 
 class ModalSettings(CaseModel):

@@ -1,20 +1,10 @@
-"""End-load histories of a transient case: a number or ``{half_sine|ramp_step|csv: …}``.
+"""End-load histories of a transient case: a number or ``{half_sine|ramp_step|csv: …}`` (registry :data:`SIGNALS`).
 
-Registry :data:`SIGNALS`; each spec has ``build(base_dir) -> femref.core.signals``
-object. A CSV file is read and checked when the case is loaded, so a missing or broken
-file is a case error; its relative path resolves against the case file's directory
-(:func:`~femref.case.fields.resolve_case_path`). Its size is checked before it is read
-(:func:`femref.core.signals.check_csv_size`: at most
-:data:`~femref.core.signals.MAX_CSV_BYTES` bytes by ``os.stat``, at most
-:data:`~femref.core.signals.MAX_CSV_ROWS` samples estimated from the bytes per row), so
-a huge record is refused at ``loads.<name>.csv.path`` in milliseconds. The samples read then
-are kept with the validated spec: :meth:`CsvSignal.build` makes the signal from them and reads
-the file again only when its size or modification time (``st_mtime_ns``) changed since.
-
-Plausibility (:mod:`femref.case.plausibility`): pulse durations and rise times lie within
-``BOUNDS["load_time"]``; the load levels — a constant, an amplitude, a record's largest
-``|value|`` — are offered by :meth:`SignalSpec.level_problems` to the loads model, which
-knows whether the load is a force or a moment (:mod:`femref.case.single`).
+A CSV file is read and checked when the case is loaded, so a missing or broken file is a case error; its size is
+checked first (:func:`femref.core.signals.check_csv_size`), so a huge record is refused in milliseconds. The
+samples read are kept with the validated spec: :meth:`CsvSignal.build` reads the file again only when its size or
+``st_mtime_ns`` changed since. The load levels are offered by :meth:`SignalSpec.level_problems` to the loads
+model, which knows whether the load is a force or a moment (:mod:`femref.case.single`).
 """
 
 from collections.abc import Callable, Mapping

@@ -1,12 +1,8 @@
 """From a validated case (:mod:`femref.case`) to the resolved scene: the one case → scene builder.
 
-Single-body cases (harmonic, transient) become a :class:`femref.scene.single.Scene`, impact
-cases a :class:`femref.scene.impact.ImpactScene`, measured cases a
-:class:`femref.scene.measured.MeasuredScene`. The case has already checked every rule;
-this module only converts: body specs to :class:`femref.core.body.Body` (the same way
-for a single body and for a car), coupler specs to :class:`reduced.couplers.Coupling`,
-runs to per-car fidelity tuples in line order, network estimator specs to loaded
-:class:`femref.sensing.network.AnnEstimator` networks (or :class:`~femref.sensing.network.ImpactTypeNetworks`).
+The case has already checked every rule; this module only converts (body specs to
+:class:`femref.core.body.Body` alike for a single body and for a car, coupler specs to
+:class:`reduced.couplers.Coupling`, network specs to loaded networks).
 """
 
 from __future__ import annotations
@@ -17,11 +13,11 @@ import numpy as np
 
 from femref.case import Case, CaseError, ImpactCase
 from femref.case.measured import MeasuredCase
-from femref.case.bodies import Body as BodySpec
+from femref.case.bodies import BodySchema
 from femref.case.cars import CarSpec
 from femref.case.couplers import CouplerSpec
 from femref.case.estimators import ANY_IMPACT, AnnEstimatorSpec, MeasurementSpec
-from femref.case.settings import FemSettings as FemSpec
+from femref.case.settings import FemSpec
 from femref.core.body import Body
 from femref.fem.build import FemSettings
 from femref.scene.impact import Car, Coupler, ImpactScene, ModelRun
@@ -57,7 +53,7 @@ def scene_from_case(case: Case, base_dir: Path | None = None) -> Scene | ImpactS
     )
 
 
-def body_from_spec(spec: BodySpec) -> Body:
+def body_from_spec(spec: BodySchema) -> Body:
     """The resolved body of a body spec: built profiles and the wave travel time."""
     built = spec.profiles()
     return Body(

@@ -1,15 +1,9 @@
 """A resolved impact scene: cars in a line, couplers between neighbours, model runs.
 
-The case schema (:mod:`femref.case`) validates what the user wrote;
-:func:`femref.scene.build_impact.impact_scene_from_case` turns it into these frozen objects,
-so the solver never sees YAML or pydantic.
-
-Geometry and signs (docs/design.md §2, §3): cars are listed in line order; coupler ``j``
-joins the front (``x = +l``) of car ``rear`` to the back (``x = −l``) of car
-``rear + 1``. Its closure ``δ = u_rear(+l) − u_front(−l)`` is positive when the
-coupler is compressed, and its force ``P`` is positive in compression (buff): the
-rear car carries the end load ``F2 = −P``, the front car ``F1 = −P`` (internal axial
-force at the end, tension positive).
+Geometry and signs (docs/design.md §2, §3): coupler ``j`` joins the front (``x = +l``) of car ``rear`` to
+the back (``x = −l``) of car ``rear + 1``. Its closure ``δ = u_rear(+l) − u_front(−l)`` is positive when the
+coupler is compressed, and its force ``P`` is positive in compression (buff): the rear car carries the end
+load ``F2 = −P``, the front car ``F1 = −P`` (internal axial force at the end, tension positive).
 """
 
 from __future__ import annotations

@@ -1,9 +1,4 @@
-"""A resolved scene: everything a model needs, as plain numbers, profiles and signals.
-
-The case schema (:mod:`femref.case`) validates what the user wrote; :func:`scene_from_case`
-(:mod:`femref.scene.build`) turns it into this frozen object so that the models never see
-YAML or pydantic.
-"""
+"""A resolved single-body scene: everything a model needs, as plain numbers, profiles and signals."""
 
 from __future__ import annotations
 
