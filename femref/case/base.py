@@ -38,12 +38,8 @@ class SceneCase(CaseModel):
 
 
 def case_classes() -> dict[str, type[SceneCase]]:
-    """Every case class defined so far by its ``kind``, in catalog order (``femref.core.catalog.SCENE_KINDS``).
-
-    A case class is a subclass of :class:`SceneCase` whose ``kind`` has a default (its
-    literal); the shallowest class of a kind wins. Once :mod:`femref.case` is imported this
-    equals :data:`femref.case.kinds.CASE_KINDS`.
-    """
+    """Every case class defined so far by its ``kind``, in catalog order: a subclass of :class:`SceneCase` whose
+    ``kind`` has a default (its literal), the shallowest of a kind."""
     found: dict[str, type[SceneCase]] = {}
     pending = list(SceneCase.__subclasses__())
     while pending:

@@ -28,10 +28,8 @@ def _kind_served(model: str, case: Any) -> str | None:
 
 
 def _exact(case: Any) -> str | None:
-    """The exact solutions are transfer-matrix solutions over piecewise-constant profiles.
-
-    In the time domain (transient) they exist for rods only; impacts (nonlinear contact) have none.
-    """
+    """The exact solutions are transfer-matrix solutions over piecewise-constant profiles; in the time domain
+    they exist for rods only, and impacts (nonlinear contact) have none."""
     if case.kind in catalog.IMPACT_KINDS:
         return "no exact solution is implemented for impact scenes (nonlinear contact); score against fem"
     body = case.body
@@ -45,23 +43,16 @@ def _exact(case: Any) -> str | None:
 
 
 def _quasi_rigid(case: Any) -> str | None:
-    """The quasi-rigid beam expands about the rigid modes of a symmetric body: even profiles only.
-
-    Impact cars are rods, which the quasi-rigid rod serves with any profile; a car that bends is also
-    a quasi-rigid beam, which needs even profiles.
-    """
+    """The quasi-rigid beam expands about the rigid modes of a symmetric body: even profiles only (the quasi-rigid
+    rod serves any profile; an impact car that bends is also a quasi-rigid beam)."""
     if case.kind in catalog.IMPACT_KINDS:
-        for car in case.cars:
-            if car.body.bends:
-                odd = _odd_profile(car.body.beam())
-                if odd:
-                    return f"the quasi-rigid beam needs even profiles m(x), EI(x), cI(x), but car {car.name}'s body.{odd} is not even in x"
-        return None
-    if case.body.type != "beam":
-        return None
-    odd = _odd_profile(case.body)
-    if odd:
-        return f"the quasi-rigid beam needs even profiles m(x), EI(x), cI(x), but body.{odd} is not even in x"
+        beams = [(f"car {car.name}'s ", car.body.beam()) for car in case.cars if car.body.bends]
+    else:
+        beams = [("", case.body)] if case.body.type == "beam" else []
+    for owner, body in beams:
+        odd = _odd_profile(body)
+        if odd:
+            return f"the quasi-rigid beam needs even profiles m(x), EI(x), cI(x), but {owner}body.{odd} is not even in x"
     return None
 
 
@@ -73,12 +64,7 @@ def _odd_profile(body: Any) -> str | None:
 
 
 def _ann(case: Any) -> str | None:
-    """A network is an estimator on the fem sensor records, not a model run of the scene.
-
-    Networks serve impacts only, as entries of ``estimators:`` (a mapping with the saved
-    network file); as a ``models:`` entry ``ann`` is refused for every case kind, with the
-    reason pointing there.
-    """
+    """A network is an estimator on the fem sensor records (an ``estimators:`` entry of an impact case), never a model run."""
     if case.kind not in catalog.IMPACT_KINDS:
         return f"it serves impact cases only (kind: impact), and this is a {case.kind} case"
     return "a network is an estimator on the fem sensor records, not a model run; list it under estimators: as {name: ann_<name>, network: file.npz}"

@@ -76,8 +76,8 @@ class CouplerLawSpec(TaggedSpec):
         return self
 
     def build(self) -> Any:
-        """The ``reduced.couplers`` law object."""
-        raise NotImplementedError
+        """The ``reduced.couplers`` law object: the class ``law`` of the spec's fields."""
+        return self.law(**dict(self))
 
 
 class KelvinVoigtLaw(CouplerLawSpec):
@@ -87,9 +87,6 @@ class KelvinVoigtLaw(CouplerLawSpec):
     law: ClassVar[type] = KelvinVoigt
     stiffness: Stiffness = Field(description="Spring stiffness c (N/m), > 0. Required.")
     damping: Damping = Field(default=0.0, description="Dashpot μ (N·s/m), >= 0. Default 0.")
-
-    def build(self) -> KelvinVoigt:
-        return KelvinVoigt(stiffness=self.stiffness, damping=self.damping)
 
 
 class DraftGearLaw(CouplerLawSpec):
@@ -105,16 +102,6 @@ class DraftGearLaw(CouplerLawSpec):
     solid_stiffness: Stiffness = Field(description="Gear stiffness c* beyond the stroke (N/m), > 0. Required.")
     series_stiffness_1: Stiffness = Field(default=4.0e8, description="First series spring c1, car body (N/m), > 0. Default 4e8.")
     series_stiffness_2: Stiffness = Field(default=4.0e8, description="Second series spring c2, coupler (N/m), > 0. Default 4e8.")
-
-    def build(self) -> StandardLinearDraftGear:
-        return StandardLinearDraftGear(
-            series_stiffness_1=self.series_stiffness_1,
-            series_stiffness_2=self.series_stiffness_2,
-            gear_stiffness=self.gear_stiffness,
-            gear_damping=self.gear_damping,
-            stroke=self.stroke,
-            solid_stiffness=self.solid_stiffness,
-        )
 
 
 class TableLaw(CouplerLawSpec):
@@ -185,15 +172,6 @@ class TableLaw(CouplerLawSpec):
         )
         return [Problem(("unloading",), rule, list(self.unloading))]
 
-    def build(self) -> HystereticTable:
-        return HystereticTable(
-            closure=self.closure,
-            loading=self.loading,
-            unloading=self.unloading,
-            damping=self.damping,
-            switch_velocity=self.switch_velocity,
-        )
-
 
 class PowerLawGearLaw(CouplerLawSpec):
     """Power-law gear with preload and closure-dependent damping (reduced.couplers.PowerLawGear):
@@ -228,9 +206,6 @@ class PowerLawGearLaw(CouplerLawSpec):
         if problems:
             raise problems_error(problems)
         return self
-
-    def build(self) -> PowerLawGear:
-        return PowerLawGear(stiffness=self.stiffness, exponent=self.exponent, preload=self.preload, damping=self.damping)
 
 
 class LoadingCurveSpec(TaggedSpec):

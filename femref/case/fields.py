@@ -47,17 +47,13 @@ def reject_bool(value: Any) -> Any:
 
 def is_number(value: Any) -> bool:
     """A number, or text that reads as one (YAML 1.1 reads ``1e9`` as text)."""
-    if isinstance(value, bool):
-        return False
-    if isinstance(value, (int, float)):
-        return True
     if isinstance(value, str):
         try:
             float(value)
         except ValueError:
             return False
         return True
-    return False
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
 #: A finite real number (NaN and ±inf are refused by every model's configuration).
@@ -166,13 +162,25 @@ def tagged_union(registry: Mapping[str, type[TaggedSpec]], what: str, number_tag
     return Annotated[Union[members], Discriminator(tag_of), BeforeValidator(check_shape)]  # noqa: UP007
 
 
-def _probe_name(name: str) -> str:
-    if not name or not all(c.isalnum() or c in "_-." for c in name):
-        raise PydanticCustomError("probe_name", "probe names use letters, digits, '_', '-' and '.' only")
-    return name
+def name_or_model(name: Any, model: type[CaseModel], tags: tuple[str, str], shape_error: tuple[str, str, dict[str, str]],
+                  names: tuple[type, ...] = (str,)) -> Any:
+    """The type "a name (an instance of ``names``, validated as ``name``) or a mapping validated as ``model``",
+    discriminated by ``tags`` (tags no input has as a key: error key paths drop them); anything else raises
+    the ``PydanticCustomError(*shape_error)``."""
 
+    def tag_of(value: Any) -> str | None:
+        if isinstance(value, names):
+            return tags[0]
+        if isinstance(value, (Mapping, model)):
+            return tags[1]
+        return None
 
-ProbeName = Annotated[str, AfterValidator(_probe_name)]
+    def check_shape(value: Any) -> Any:
+        if tag_of(value) is None:
+            raise PydanticCustomError(*shape_error)
+        return value
+
+    return Annotated[Annotated[name, Tag(tags[0])] | Annotated[model, Tag(tags[1])], Discriminator(tag_of), BeforeValidator(check_shape)]
 
 
 def name_rule(what: str) -> Callable[[str], str]:
@@ -184,6 +192,9 @@ def name_rule(what: str) -> Callable[[str], str]:
         return name
 
     return check
+
+
+ProbeName = Annotated[str, AfterValidator(name_rule("probe"))]
 
 
 def duplicates(names: list[str], what: str, path_of: Callable[[int], tuple[str | int, ...]]) -> list[Problem]:
@@ -198,11 +209,8 @@ def duplicates(names: list[str], what: str, path_of: Callable[[int], tuple[str |
 
 
 def resolve_case_path(path: Path, info: ValidationInfo) -> Path:
-    """A file path of a case, absolute: relative paths are relative to the case file's directory.
-
-    The directory comes in the validation context (``base_dir``, set by the loader);
-    without one, the working directory.
-    """
+    """A file path of a case, absolute: a relative path is relative to the validation context's ``base_dir``
+    (the case file's directory, set by the loader; without one, the working directory)."""
     base_dir = Path((info.context or {}).get("base_dir") or Path.cwd())
     path = path.expanduser()
     return path if path.is_absolute() else (base_dir / path).resolve()

@@ -49,10 +49,8 @@ class _YamlLimitError(yaml.YAMLError):
 class _CaseYamlLoader(yaml.SafeLoader):
     """Safe YAML that refuses duplicate keys, reads ``1e9`` as a number and keeps to the size limits.
 
-    The limits are checked while the document is composed, before any Python value is made:
-    each finished node records its nesting height and its value count with aliases expanded
-    (an alias is the node of its anchor, so both come from the children's records), and a
-    node beyond :data:`MAX_YAML_DEPTH` or :data:`MAX_YAML_NODES` stops the composition there.
+    The limits are checked while the document is composed, before any Python value is made: each finished
+    node records its nesting height and value count with aliases expanded (an alias is its anchor's node).
     The open collections are counted too, which bounds the composer's own recursion.
     """
 
@@ -137,23 +135,13 @@ def _yaml_problem(error: yaml.YAMLError) -> str:
 
 
 def load_case(path: str | Path) -> Case:
-    """Read, parse and validate the case file at ``path``.
-
-    Relative CSV paths inside it are relative to the file's directory. Raises
-    :class:`CaseError` for any bad input.
-    """
+    """Read, parse and validate the case file at ``path`` (relative file paths inside it: from its directory)."""
     path = Path(path)
     return parse_case(read_yaml_file(path, "case"), source=str(path), base_dir=path.parent)
 
 
 def read_yaml_file(path: str | Path, what: str) -> Any:
-    """The YAML document of a ``what`` file (case, sweep, study) in this module's dialect.
-
-    Raises :class:`CaseError` (source: the path) for a missing or unreadable file, a path that
-    is not a regular file (a FIFO, a device, a folder, a loop of symbolic links), a file larger
-    than :data:`MAX_YAML_BYTES` or not UTF-8 text, a YAML syntax error, or a document beyond
-    the nesting or size limits (module docstring).
-    """
+    """The YAML document of a ``what`` file (case, sweep, study) in this module's dialect and limits."""
     source = str(path)
     try:
         regular_file(path)  # before opening: a FIFO would block the open until a writer came
@@ -175,10 +163,7 @@ def read_yaml_file(path: str | Path, what: str) -> Any:
 
 
 def load_yaml_text(text: str, source: str = "<yaml>") -> Any:
-    """The YAML document in ``text``, in this module's dialect and within its limits (module docstring).
-
-    Raises :class:`CaseError` (naming ``source``) for a syntax error or a document beyond the limits.
-    """
+    """The YAML document in ``text``, in this module's dialect and limits; ``source`` names it in errors."""
     try:
         return yaml.load(text, Loader=_CaseYamlLoader)  # noqa: S506 - a SafeLoader subclass
     except yaml.YAMLError as error:
@@ -186,11 +171,8 @@ def load_yaml_text(text: str, source: str = "<yaml>") -> Any:
 
 
 def parse_case(data: Any, *, source: str = "<case>", base_dir: Path | None = None) -> Case:
-    """Validate parsed YAML (or any mapping) into a case.
-
-    ``source`` names the input in error messages; ``base_dir`` resolves relative CSV
-    paths (default: the working directory at call time). Raises :class:`CaseError`.
-    """
+    """Validate parsed YAML (or any mapping) into a case; ``source`` names it in errors, ``base_dir`` resolves
+    relative file paths (default: the working directory)."""
     if data is None:
         raise CaseError(Problem((), "the case is empty; a case needs at least kind, body, loads"), source)
     if not isinstance(data, Mapping):

@@ -22,7 +22,7 @@ from femref.case.bodies import RodBody
 from femref.case.cars import CarName, cars_rule
 from femref.case.couplers import Between, CouplerName, named_couplers
 from femref.case.errors import Problem, did_you_mean, problems_error
-from femref.case.estimators import ANY_IMPACT, AnnEstimatorSpec, estimator_entry
+from femref.case.estimators import ANY_IMPACT, AnnEstimatorSpec, contract_scene_problems, estimator_entry
 from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, ProbeName, Real, duplicates, name_rule, resolve_case_path
 from femref.core.catalog import MEASURED_ESTIMATORS
 from femref.sensing import record_files, recordings
@@ -433,22 +433,11 @@ class MeasuredCase(SceneCase):
         return problems
 
     def _network_problems(self, contract: NetworkContract) -> list[Problem]:
-        """A network's contract against this case (:mod:`femref.sensing.network`): its coupler, its probes
-        recorded, its mass inputs declared cars, its records within the event window after contact, the
-        records filtered as its training records were (``kalman`` listed is checked by the caller, once per
-        estimator: the contact instant the network's records start at is read from the kalman force)."""
-        problems: list[Problem] = []
-        couplers = [c.name for c in self.couplers]
-        if contract.coupler not in couplers:
-            problems.append(Problem((), f"the network estimates coupler {contract.coupler!r}, which this case does not have; couplers: {', '.join(couplers)}"))
+        """A network's contract against this case: its coupler, probes recorded, mass inputs declared cars, records
+        within the event window after contact, filtered as its training records were."""
         files = {probe: record for record in self.records for probe in record.channels}
-        missing = [probe for probe in contract.probes if probe not in files]
-        if missing:
-            problems.append(Problem((), f"the network reads probe(s) {', '.join(missing)}, which are not recorded; channels: {', '.join(files)}"))
-        cars = [car.name for car in self.cars]
-        unknown = [car for car in contract.mass_inputs if car not in cars]
-        if unknown:
-            problems.append(Problem((), f"the network takes the mass of car(s) {', '.join(unknown)}, which this case does not have; cars: {', '.join(cars)}"))
+        problems = contract_scene_problems(contract, [str(c.name) for c in self.couplers], list(files), "are not recorded; channels",
+                                           [car.name for car in self.cars])
         if contract.record_end > self.events.post:
             problems.append(Problem((), f"the network reads {contract.record_end:g} s after contact, beyond events.post = {self.events.post:g} s"))
         trained = contract.measurement
@@ -466,9 +455,8 @@ class MeasuredCase(SceneCase):
         return problems
 
     def _record_problems(self) -> list[Problem]:
-        """Each file read as the run will read it (and kept for it): a bad file, channel or unit is the case's error,
-        the files together within :data:`~femref.sensing.record_files.MAX_RECORD_VALUES`; the event settings against
-        the span the files share, an event's grid within :data:`~femref.sensing.recordings.MAX_EVENT_VALUES`."""
+        """Each file read as the run will read it (and kept for it), the files together within
+        :data:`~femref.sensing.record_files.MAX_RECORD_VALUES`; the event settings against the span they share."""
         problems = []
         spans = []
         rates = []
@@ -498,9 +486,8 @@ class MeasuredCase(SceneCase):
         return problems
 
     def _event_grid_problems(self, rate: float, file: str, channels: int) -> list[Problem]:
-        """An event's records on its grid — ``max_window × rate + 1`` samples at the highest ``rate`` (Hz, of
-        ``file``), for each of ``channels`` — within :data:`~femref.sensing.recordings.MAX_EVENT_VALUES`, so no
-        window asks for more before the first one is cut."""
+        """An event's grid, ``(max_window × rate + 1) × channels`` values at the highest ``rate`` (Hz, of ``file``), within
+        :data:`~femref.sensing.recordings.MAX_EVENT_VALUES`, so no window asks for more before the first one is cut."""
         window = self.events.max_window
         values = (math.floor(window * rate) + 1) * channels
         if values <= recordings.MAX_EVENT_VALUES:

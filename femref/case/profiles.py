@@ -77,13 +77,8 @@ class PiecewiseProfile(ProfileSpec):
         if any(a >= b for a, b in zip(self.breaks, self.breaks[1:])):
             problems.append(Problem(("breaks",), "must increase strictly", list(self.breaks)))
         if len(self.values) != len(self.breaks) + 1:
-            problems.append(
-                Problem(
-                    ("values",),
-                    f"must have one value per piece: len(breaks) + 1 = {len(self.breaks) + 1} entries, not {len(self.values)}",
-                    list(self.values),
-                )
-            )
+            rule = f"must have one value per piece: len(breaks) + 1 = {len(self.breaks) + 1} entries, not {len(self.values)}"
+            problems.append(Problem(("values",), rule, list(self.values)))
         if problems:
             raise problems_error(problems)
         return self
@@ -174,11 +169,8 @@ NonNegativeProfile = Annotated[_AnyProfile, AfterValidator(_values_at_least(0.0,
 
 
 def length_average(profile: profiles.Profile, half_length: float) -> float:
-    """``(1/2l) ∫_{−l}^{l} p(x) dx``.
-
-    Exact for every profile kind here: each is linear between its jumps and kinks, and
-    the midpoint rule on those segments integrates a linear function exactly.
-    """
+    """``(1/2l) ∫_{−l}^{l} p(x) dx``, exact: every profile kind is linear between its jumps and kinks, where the
+    midpoint rule integrates it exactly."""
     inner = sorted({p for p in (*profile.jumps, *profile.kinks) if -half_length < p < half_length})
     edges = np.array([-half_length, *inner, half_length], dtype=float)
     mids = 0.5 * (edges[:-1] + edges[1:])

@@ -7,15 +7,14 @@ model expected within it instead (femref.choice).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from typing import Annotated, Any, Literal, Union
+from typing import Annotated, Any, Literal
 
-from pydantic import AfterValidator, BeforeValidator, Discriminator, Field, Tag, model_validator
+from pydantic import AfterValidator, BeforeValidator, Field, model_validator
 from pydantic_core import PydanticCustomError
 
 from femref.case.capabilities import MODELS
 from femref.case.errors import Problem, did_you_mean, problems_error
-from femref.case.fields import CaseModel, duplicates, name_rule, reject_bool
+from femref.case.fields import CaseModel, duplicates, name_or_model, name_rule, reject_bool
 from femref.core.catalog import ESTIMATORS as ESTIMATOR_NAMES
 from femref.core.catalog import CHOICE_GROUP, FIDELITIES, SCENE_GROUP, SCORES_GROUP
 
@@ -88,28 +87,9 @@ def _known_model(name: str) -> str:
     return name
 
 
-def _run_kind(value: Any) -> str | None:
-    """The union tag of a ``models`` entry: a plain model name or a mixed-run mapping."""
-    if isinstance(value, str):
-        return "plain"
-    if isinstance(value, (Mapping, ModelRunSpec)):
-        return "mixed"
-    return None
-
-
-def _run_shape(value: Any) -> Any:
-    """Refuse an entry that is neither (pydantic would report a missing tag instead)."""
-    if _run_kind(value) is None:
-        raise PydanticCustomError("run_shape", "must be a model name or a mapping {shape}", {"shape": "{name, fidelity, cars}"})
-    return value
-
-
 #: One entry of ``models``: a model name (a uniform run) or a :class:`ModelRunSpec`.
-ModelRunEntry = Annotated[
-    Union[Annotated[Annotated[str, AfterValidator(_known_model)], Tag("plain")], Annotated[ModelRunSpec, Tag("mixed")]],  # noqa: UP007
-    Discriminator(_run_kind),
-    BeforeValidator(_run_shape),
-]
+ModelRunEntry = name_or_model(Annotated[str, AfterValidator(_known_model)], ModelRunSpec, ("plain", "mixed"),
+                              ("run_shape", "must be a model name or a mapping {shape}", {"shape": "{name, fidelity, cars}"}))
 
 
 def run_name(entry: str | ModelRunSpec) -> str:

@@ -137,9 +137,8 @@ CsvColumn = Annotated[int | str, PlainValidator(_csv_column)]
 
 @dataclass(frozen=True, eq=False)
 class _CsvRead:
-    """What :class:`CsvSignal` validation read: the file (absolute), its :func:`_stamp` before reading, the two columns.
-
-    Equal when the file, the stamp and the samples are (pydantic compares private attributes in ``==`` of cases)."""
+    """What :class:`CsvSignal` validation read: the file (absolute), its :func:`_stamp` before reading, the two columns;
+    equal when all are (pydantic compares private attributes in ``==`` of cases)."""
 
     path: Path
     stamp: tuple[int, int] | None
@@ -165,15 +164,9 @@ def _stamp(path: Path) -> tuple[int, int] | None:
 
 
 class CsvSignal(SignalSpec):
-    """Samples from a CSV file, interpolated linearly, zero outside the recorded times.
-
-    The file is read and checked when the case is loaded, its size first, before it is
-    read (module docstring). A relative ``path`` is relative to the case file's directory
-    and is stored resolved (absolute), so the resolved case reads the same file from
-    anywhere. The largest ``|value|`` and its data row are kept for :meth:`level_problems`,
-    and the samples read for :meth:`build` (private: not a field of the case, not in the
-    resolved case), so a run reads the file once unless it changed since it was validated.
-    """
+    """Samples from a CSV file, interpolated linearly, zero outside the recorded times. ``path`` is stored resolved,
+    so the resolved case reads the same file from anywhere; the largest ``|value|`` and the samples read are kept
+    private (not in the resolved case) for :meth:`level_problems` and :meth:`build`."""
 
     tag: ClassVar[str] = "csv"
     path: Path = Field(description="CSV file, relative to the case file's directory. Required.")

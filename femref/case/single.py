@@ -50,12 +50,8 @@ def _load_field(name: str, what: str) -> Any:
 
 
 class Loads(CaseModel):
-    """End loads (docs/design.md §2; tension positive): rod ``F1, F2``; beam ``N1, N2, G1, G2``.
-
-    The case fills the body's loads that are not given with 0 and refuses the loads of
-    other body types; at least one load must be non-zero. Loads that do not apply are
-    ``None`` and are left out of the resolved case.
-    """
+    """End loads (docs/design.md §2; tension positive): rod ``F1, F2``; beam ``N1, N2, G1, G2``; at least one
+    non-zero. Loads of other body types are ``None`` and left out of the resolved case."""
 
     def items(self) -> list[tuple[str, Any]]:
         """``(name, load)`` for every load that applies, in field order."""
@@ -210,10 +206,8 @@ class SingleBodyCase(SceneCase):
         if fem.order is None:
             return fem.model_copy(update={"order": body.default_order})
         if fem.order not in body.element_orders:
-            rule = {
-                "rod": "a rod uses order 1 (P1) or 2 (P2)",
-                "beam": "a beam always uses Hermite cubic elements (order 3); leave order out",
-            }.get(body.type, f"must be one of {body.element_orders}")
+            rod = "a rod uses order 1 (P1) or 2 (P2)"
+            rule = rod if body.type == "rod" else "a beam always uses Hermite cubic elements (order 3); leave order out"
             raise problems_error([Problem(("order",), rule, fem.order)])
         return fem
 

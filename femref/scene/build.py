@@ -8,6 +8,7 @@ The case has already checked every rule; this module only converts (body specs t
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -41,16 +42,14 @@ def scene_from_case(case: Case, base_dir: Path | None = None) -> Scene | ImpactS
     if case.kind == "harmonic":
         loads = {name: complex(value) for name, value in case.load_amplitudes().items() if value != 0}
         return Scene(kind="harmonic", loads=loads, omega=np.asarray(case.omega(), dtype=float), **common)
-    return Scene(
-        kind="transient",
-        loads=case.load_signals(base_dir),
-        end=case.time.end,
-        dt=case.time.dt,
-        output_stride=case.time.output_stride,
-        integrator=case.integrator.scheme,
-        rho_inf=case.integrator.rho_inf if case.integrator.rho_inf is not None else 1.0,
-        **common,
-    )
+    return Scene(kind="transient", loads=case.load_signals(base_dir), **_time_of(case), **common)
+
+
+def _time_of(case: Case) -> dict[str, Any]:
+    """The time settings of a transient or impact case (``rho_inf`` 1 for newmark, which has no numerical damping)."""
+    time, integrator = case.time, case.integrator  # type: ignore[union-attr]
+    rho_inf = integrator.rho_inf if integrator.rho_inf is not None else 1.0
+    return dict(end=time.end, dt=time.dt, output_stride=time.output_stride, integrator=integrator.scheme, rho_inf=rho_inf)
 
 
 def body_from_spec(spec: BodySchema) -> Body:
@@ -72,24 +71,14 @@ def fem_settings_of(fem: FemSpec) -> FemSettings:
 
 
 def impact_scene_from_case(case: ImpactCase) -> ImpactScene:
-    """Resolve the cars, couplers, model runs and settings of an impact case.
-
-    The network files of ``estimators`` were resolved (absolute) when the case was loaded.
-    Raises :class:`CaseError` when :mod:`reduced.couplers` refuses a law's parameters by a
-    rule the schema does not check, or when a network file
-    can no longer be read as it was at validation.
-    """
+    """Resolve the cars, couplers, model runs and settings of an impact case; :class:`CaseError` when
+    :mod:`reduced.couplers` refuses a law by a rule the schema does not check, or a network file changed."""
     index = {name: i for i, name in enumerate(case.car_names)}
-    integrator = case.integrator
     return ImpactScene(
         cars=tuple(_car_of(spec, _coupler_slopes(case, i)) for i, spec in enumerate(case.cars)),
         couplers=tuple(_coupler_of(k, spec, index) for k, spec in enumerate(case.couplers)),
         runs=tuple(ModelRun(name, fidelity) for name, fidelity in case.run_fidelities().items()),
-        end=case.time.end,
-        dt=case.time.dt,
-        output_stride=case.time.output_stride,
-        integrator=integrator.scheme,
-        rho_inf=integrator.rho_inf if integrator.rho_inf is not None else 1.0,
+        **_time_of(case),
         fem=fem_settings_of(case.fem),
         modal_modes=case.modal.modes,
         measurement=_measurement_of(case.measurement),
