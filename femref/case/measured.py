@@ -291,17 +291,6 @@ class CheckSettings(CaseModel):
 MeasuredEstimatorEntry = estimator_entry(MEASURED_ESTIMATORS)
 
 
-def _calibrated_coupler_problem(path: Path, coupler: str, couplers: tuple[MeasuredCouplerSpec, ...] | None) -> Problem | None:
-    """A calibration of a coupler the case does not have would never give a band: a case error naming both."""
-    if couplers is None:  # the couplers are invalid themselves: their own problem is reported
-        return None
-    names = [spec.name for spec in couplers]
-    if coupler in names:
-        return None
-    return Problem((), f"{path}: attribute coupler: the calibration is of coupler {coupler!r}, which this case does not have; "
-                       f"couplers: {', '.join(str(name) for name in names)}")
-
-
 def _estimators_rule(entries: tuple[str | AnnEstimatorSpec, ...]) -> tuple[str | AnnEstimatorSpec, ...]:
     names = [entry if isinstance(entry, str) else entry.name for entry in entries]
     problems = duplicates(names, "estimator", lambda i: (i,))
@@ -320,7 +309,9 @@ class MeasuredCase(SceneCase):
 
     kind: Literal["measured"] = Field(default="measured", description="measured. Required in the case file.")
     records: tuple[RecordFileSpec, ...] = Field(description="The record files, one per recorder; at least one. Required.")
-    cars: Annotated[tuple[MeasuredCarSpec, ...], AfterValidator(cars_rule("a measured impact"))] = Field(description="Two or more cars in line order (rear to front). Required.")
+    cars: Annotated[tuple[MeasuredCarSpec, ...], AfterValidator(cars_rule("a measured impact"))] = Field(
+        description="Two or more cars in line order (rear to front). Required."
+    )
     couplers: tuple[MeasuredCouplerSpec, ...] = Field(description="One or more couplers between neighbouring cars. Required.")
     events: EventSettings = Field(description="Event detection: {trigger, pre, post, rearm, quiet, max_window}. Required (trigger at least).")
     estimators: Annotated[tuple[MeasuredEstimatorEntry, ...], AfterValidator(_estimators_rule)] = Field(
@@ -348,9 +339,12 @@ class MeasuredCase(SceneCase):
         if cars is not None and set(calibration.masses) != {car.name for car in cars}:
             rule = f"{path}: attribute masses calibrates cars {', '.join(calibration.masses)}, not this case's {', '.join(car.name for car in cars)}"
             raise problems_error([Problem((), rule)])
-        problem = _calibrated_coupler_problem(path, calibration.coupler, info.data.get("couplers"))
-        if problem is not None:
-            raise problems_error([problem])
+        couplers = info.data.get("couplers")  # None: invalid themselves, their own problem is reported
+        names = [str(spec.name) for spec in couplers or ()]
+        if couplers is not None and calibration.coupler not in names:  # a calibration that would never give a band
+            rule = (f"{path}: attribute coupler: the calibration is of coupler {calibration.coupler!r}, which this case does not have; "
+                    f"couplers: {', '.join(names)}")
+            raise problems_error([Problem((), rule)])
         return path
 
     @field_validator("records", mode="after")

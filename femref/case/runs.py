@@ -60,7 +60,8 @@ class ModelRunSpec(CaseModel):
 
     @model_validator(mode="after")
     def _not_a_reserved_name(self) -> "ModelRunSpec":
-        if self.name in RESERVED_RUN_NAMES and not self._is_uniform_run_of(self.name):
+        uniform = self.fidelity == self.name and all(f == self.name for f in self.cars.values())
+        if self.name in RESERVED_RUN_NAMES and not uniform:
             if self.name in FIDELITIES:
                 rule = f"{self.name!r} names the uniform {self.name} run; give a mixed run another name (e.g. {self.fidelity}_with_...)"
             else:
@@ -69,9 +70,6 @@ class ModelRunSpec(CaseModel):
         if self.name.startswith("ann_"):
             raise problems_error([Problem(("name",), "names starting with 'ann_' are reserved for network estimators (ann_<name>)", self.name)])
         return self
-
-    def _is_uniform_run_of(self, fidelity: str) -> bool:
-        return self.fidelity == fidelity and all(f == fidelity for f in self.cars.values())
 
     def fidelities(self, car_names: list[str]) -> tuple[str, ...]:
         """The fidelity of each car, in line order."""
