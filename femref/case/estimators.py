@@ -18,7 +18,7 @@ from pydantic_core import PydanticCustomError
 from femref.case.cars import CarSpec
 from femref.case.couplers import CouplerSpec
 from femref.case.errors import Problem, did_you_mean, problems_error
-from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, name_or_model, name_rule, reject_bool, resolve_case_path
+from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, entry_name, name_or_model, name_rule, reject_bool, resolve_case_path
 from femref.core.catalog import ESTIMATORS as ESTIMATOR_NAMES
 from femref.sensing.network import NetworkContract, NetworkFileError, read_network
 
@@ -162,15 +162,10 @@ def estimator_entry(names: tuple[str, ...]) -> Any:
 EstimatorEntry = estimator_entry(ESTIMATOR_NAMES)
 
 
-def estimator_entry_name(entry: str | AnnEstimatorSpec) -> str:
-    """The result-group name of an estimator."""
-    return entry if isinstance(entry, str) else entry.name
-
-
 def estimators_rule(entries: tuple[str | AnnEstimatorSpec, ...]) -> tuple[str | AnnEstimatorSpec, ...]:
     """Each estimator once: names unique (a name listed twice, or two networks of one name)."""
     problems = []
-    names = [estimator_entry_name(entry) for entry in entries]
+    names = [entry_name(entry) for entry in entries]
     for i, (entry, name) in enumerate(zip(entries, names)):
         if name not in names[:i]:
             continue

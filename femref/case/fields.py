@@ -116,19 +116,23 @@ def foreign_key_rule(
 
 
 class TaggedSpec(CaseModel):
-    """A spec written ``{tag: {fields…}}`` in the case file (the tag picks the class)."""
+    """A spec written ``{tag: {fields…}}`` in the case file (the tag picks the class), or, with a ``number_field``,
+    as a plain number: the value of that field."""
 
     tag: ClassVar[str]
+    number_field: ClassVar[str | None] = None
 
     @classmethod
     def _shorthand(cls, data: Any) -> Any:
+        if cls.number_field is not None:
+            return {cls.number_field: data} if is_number(data) else data
         if isinstance(data, Mapping) and len(data) == 1 and cls.tag in data:
             return data[cls.tag]
         return data
 
     @model_serializer(mode="wrap")
     def _serialize(self, handler: Callable[[Any], Any]) -> Any:
-        return {self.tag: handler(self)}
+        return {self.tag: handler(self)} if self.number_field is None else getattr(self, self.number_field)
 
 
 def tagged_union(registry: Mapping[str, type[TaggedSpec]], what: str, number_tag: str | None = None) -> Any:
@@ -195,6 +199,11 @@ def name_rule(what: str) -> Callable[[str], str]:
 
 
 ProbeName = Annotated[str, AfterValidator(name_rule("probe"))]
+
+
+def entry_name(entry: Any) -> str:
+    """The result-group name of a ``models`` or ``estimators`` entry: a plain name, or a mapping's ``name``."""
+    return entry if isinstance(entry, str) else entry.name
 
 
 def duplicates(names: list[str], what: str, path_of: Callable[[int], tuple[str | int, ...]]) -> list[Problem]:

@@ -23,12 +23,12 @@ from femref.case.estimators import (
     AnnEstimatorSpec,
     EstimatorEntry,
     MeasurementSpec,
-    estimator_entry_name,
     estimators_rule,
     network_problems,
     quasi_rigid_sensor_problems,
 )
-from femref.case.runs import DEFAULT_MODELS, ModalSettings, ModelRunEntry, ModelRunSpec, ToleranceSpec, car_fidelities, run_name, runs_rule
+from femref.case.fields import entry_name
+from femref.case.runs import DEFAULT_MODELS, ModalSettings, ModelRunEntry, ModelRunSpec, ToleranceSpec, car_fidelities, runs_rule
 from femref.case.settings import FemSpec, IntegratorSettings, TimeSettings, fem_field
 from femref.core.catalog import ESTIMATORS as ESTIMATOR_NAMES
 
@@ -138,7 +138,7 @@ class ImpactCase(SceneCase):
         cars, couplers, runs = (info.data.get(key) for key in ("cars", "couplers", "models"))
         if not entries or cars is None or runs is None:
             return entries
-        names = [estimator_entry_name(entry) for entry in entries]
+        names = [entry_name(entry) for entry in entries]
         car_names = [car.name for car in cars]
         if not any(set(car_fidelities(run, car_names)) == {"fem"} for run in runs):
             rule = "the estimators run on the fem sensor records; add fem (a uniform fem run) to models"
@@ -189,4 +189,4 @@ class ImpactCase(SceneCase):
 
     def run_fidelities(self) -> dict[str, tuple[str, ...]]:
         """Run name → the fidelity of each car in line order, in the order of ``models``."""
-        return {run_name(run): car_fidelities(run, self.car_names) for run in self.models}
+        return {entry_name(run): car_fidelities(run, self.car_names) for run in self.models}

@@ -23,7 +23,7 @@ from femref.case.cars import CarName, cars_rule
 from femref.case.couplers import Between, CouplerName, named_couplers
 from femref.case.errors import Problem, did_you_mean, problems_error
 from femref.case.estimators import ANY_IMPACT, AnnEstimatorSpec, contract_scene_problems, estimator_entry
-from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, ProbeName, Real, duplicates, name_rule, resolve_case_path
+from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, ProbeName, Real, duplicates, entry_name, name_rule, resolve_case_path
 from femref.core.catalog import MEASURED_ESTIMATORS
 from femref.sensing import record_files, recordings
 from femref.sensing.measurement import FILTER_ORDER
@@ -292,7 +292,7 @@ MeasuredEstimatorEntry = estimator_entry(MEASURED_ESTIMATORS)
 
 
 def _estimators_rule(entries: tuple[str | AnnEstimatorSpec, ...]) -> tuple[str | AnnEstimatorSpec, ...]:
-    names = [entry if isinstance(entry, str) else entry.name for entry in entries]
+    names = [entry_name(entry) for entry in entries]
     problems = duplicates(names, "estimator", lambda i: (i,))
     if not entries:
         problems.append(Problem((), f"name at least one estimator: {', '.join(MEASURED_ESTIMATORS)}"))

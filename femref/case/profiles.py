@@ -5,13 +5,13 @@ breaks and positions fit on the body is checked by the body (:meth:`ProfileSpec.
 """
 
 from collections.abc import Callable, Mapping
-from typing import Annotated, Any, ClassVar
+from typing import Annotated, ClassVar
 
 import numpy as np
-from pydantic import AfterValidator, Field, model_serializer, model_validator
+from pydantic import AfterValidator, Field, model_validator
 
 from femref.case.errors import Problem, problems_error
-from femref.case.fields import Real, TaggedSpec, is_number, tagged_union
+from femref.case.fields import Real, TaggedSpec, tagged_union
 from femref.core import profiles
 
 __all__ = [
@@ -47,15 +47,8 @@ class UniformProfile(ProfileSpec):
     """The same value everywhere; written as a plain number."""
 
     tag: ClassVar[str] = "uniform"
+    number_field: ClassVar[str | None] = "value"
     value: Real = Field(description="The value everywhere (units of the property). Required.")
-
-    @classmethod
-    def _shorthand(cls, data: Any) -> Any:
-        return {"value": data} if is_number(data) else data
-
-    @model_serializer(mode="wrap")
-    def _serialize(self, handler: Callable[[Any], Any]) -> Any:
-        return self.value
 
     def build(self, half_length: float) -> profiles.Profile:
         return profiles.Uniform(self.value)

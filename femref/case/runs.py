@@ -14,7 +14,7 @@ from pydantic_core import PydanticCustomError
 
 from femref.case.capabilities import MODELS
 from femref.case.errors import Problem, did_you_mean, problems_error
-from femref.case.fields import CaseModel, duplicates, name_or_model, name_rule, reject_bool
+from femref.case.fields import CaseModel, duplicates, entry_name, name_or_model, name_rule, reject_bool
 from femref.core.catalog import ESTIMATORS as ESTIMATOR_NAMES
 from femref.core.catalog import CHOICE_GROUP, FIDELITIES, SCENE_GROUP, SCORES_GROUP
 
@@ -90,16 +90,11 @@ ModelRunEntry = name_or_model(Annotated[str, AfterValidator(_known_model)], Mode
                               ("run_shape", "must be a model name or a mapping {shape}", {"shape": "{name, fidelity, cars}"}))
 
 
-def run_name(entry: str | ModelRunSpec) -> str:
-    """The result-group name of a run: the model name of a uniform run, the given name of a mixed one."""
-    return entry if isinstance(entry, str) else entry.name
-
-
 def runs_rule(runs: tuple[str | ModelRunSpec, ...]) -> tuple[str | ModelRunSpec, ...]:
     """At least one run; run names unique."""
     if not runs:
         raise PydanticCustomError("models_empty", "must list at least one model run ({known})", {"known": ", ".join(FIDELITIES)})
-    problems = duplicates([run_name(run) for run in runs], "run", lambda i: (i,))
+    problems = duplicates([entry_name(run) for run in runs], "run", lambda i: (i,))
     if problems:
         raise problems_error(problems)
     return runs

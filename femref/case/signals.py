@@ -7,17 +7,17 @@ samples read are kept with the validated spec: :meth:`CsvSignal.build` reads the
 model, which knows whether the load is a force or a moment (:mod:`femref.case.single`).
 """
 
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, ClassVar
 
 import numpy as np
-from pydantic import Field, PlainValidator, PrivateAttr, ValidationInfo, field_validator, model_serializer, model_validator
+from pydantic import Field, PlainValidator, PrivateAttr, ValidationInfo, field_validator, model_validator
 from pydantic_core import PydanticCustomError
 
 from femref.case.errors import Problem, problems_error
-from femref.case.fields import NonNegativeReal, PositiveReal, Real, TaggedSpec, is_number, tagged_union, resolve_case_path
+from femref.case.fields import NonNegativeReal, PositiveReal, Real, TaggedSpec, tagged_union, resolve_case_path
 from femref.case.plausibility import Bound, plausible
 from femref.core import signals
 
@@ -65,15 +65,8 @@ class ConstantSignal(SignalSpec):
     """A constant load switched on at ``t = 0`` (a step); written as a plain number."""
 
     tag: ClassVar[str] = "constant"
+    number_field: ClassVar[str | None] = "value"
     value: Real = Field(description="Load after t = 0 (N or N·m). Required.")
-
-    @classmethod
-    def _shorthand(cls, data: Any) -> Any:
-        return {"value": data} if is_number(data) else data
-
-    @model_serializer(mode="wrap")
-    def _serialize(self, handler: Callable[[Any], Any]) -> Any:
-        return self.value
 
     def build(self, base_dir: Path | None = None) -> signals.Signal:
         return signals.Constant(self.value)
@@ -86,7 +79,20 @@ class ConstantSignal(SignalSpec):
         return _level_problem((), bound, self.value)
 
 
-class HalfSineSignal(SignalSpec):
+class PulseSignal(SignalSpec):
+    """A history of level ``amplitude`` (N or N·m), zero before its ``start``."""
+
+    amplitude: Real
+
+    @property
+    def is_zero(self) -> bool:
+        return self.amplitude == 0.0
+
+    def level_problems(self, bound: Bound) -> list[Problem]:
+        return _level_problem((self.tag, "amplitude"), bound, self.amplitude)
+
+
+class HalfSineSignal(PulseSignal):
     """``A sin(π (t − start)/duration)`` during the pulse, zero elsewhere."""
 
     tag: ClassVar[str] = "half_sine"
@@ -97,15 +103,8 @@ class HalfSineSignal(SignalSpec):
     def build(self, base_dir: Path | None = None) -> signals.Signal:
         return signals.HalfSine(self.amplitude, self.duration, self.start)
 
-    @property
-    def is_zero(self) -> bool:
-        return self.amplitude == 0.0
 
-    def level_problems(self, bound: Bound) -> list[Problem]:
-        return _level_problem((self.tag, "amplitude"), bound, self.amplitude)
-
-
-class RampStepSignal(SignalSpec):
+class RampStepSignal(PulseSignal):
     """A linear rise from 0 at ``start`` to ``amplitude`` at ``start + rise``, then held."""
 
     tag: ClassVar[str] = "ramp_step"
@@ -115,13 +114,6 @@ class RampStepSignal(SignalSpec):
 
     def build(self, base_dir: Path | None = None) -> signals.Signal:
         return signals.RampStep(self.amplitude, self.rise, self.start)
-
-    @property
-    def is_zero(self) -> bool:
-        return self.amplitude == 0.0
-
-    def level_problems(self, bound: Bound) -> list[Problem]:
-        return _level_problem((self.tag, "amplitude"), bound, self.amplitude)
 
 
 def _csv_column(value: Any) -> int | str:
