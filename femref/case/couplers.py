@@ -209,16 +209,19 @@ class PowerLawGearLaw(CouplerLawSpec):
 
 
 class LoadingCurveSpec(TaggedSpec):
-    """A friction gear's loading curve ``L(δ)`` (N), convex, built into a ``reduced.couplers`` curve."""
+    """A friction gear's loading curve ``L(δ)`` (N), convex, built into the ``reduced.couplers`` class ``curve``."""
+
+    curve: ClassVar[type]
 
     def build(self) -> Any:
-        raise NotImplementedError
+        return self.curve(**dict(self))
 
 
 class CubicLoadingCurve(LoadingCurveSpec):
     """``L(δ) = k1 δ + k3 δ³`` (reduced.couplers.CubicLoading)."""
 
     tag: ClassVar[str] = "cubic"
+    curve: ClassVar[type] = CubicLoading
     linear_stiffness: Annotated[NonNegativeReal, plausible("gear_linear_stiffness")] = Field(description="k1 (N/m), >= 0. Required.")
     cubic_stiffness: Annotated[NonNegativeReal, plausible("gear_cubic_stiffness")] = Field(description="k3 (N/m³), >= 0. Required.")
 
@@ -228,19 +231,14 @@ class CubicLoadingCurve(LoadingCurveSpec):
             raise problems_error([Problem(("cubic_stiffness",), "linear_stiffness and cubic_stiffness are both 0: a gear that never pushes", 0.0)])
         return self
 
-    def build(self) -> CubicLoading:
-        return CubicLoading(self.linear_stiffness, self.cubic_stiffness)
-
 
 class ExponentialLoadingCurve(LoadingCurveSpec):
     """``L(δ) = a (e^{b δ} − 1)`` (reduced.couplers.ExponentialLoading)."""
 
     tag: ClassVar[str] = "exponential"
+    curve: ClassVar[type] = ExponentialLoading
     amplitude: Annotated[PositiveReal, plausible("gear_curve_amplitude")] = Field(description="a (N), > 0. Required.")
     rate: PositiveReal = Field(description="b (1/m), > 0; b·solid_closure within 1e-3–40. Required.")
-
-    def build(self) -> ExponentialLoading:
-        return ExponentialLoading(self.amplitude, self.rate)
 
 
 #: Loading curves of the friction gear by case-file name.

@@ -7,6 +7,7 @@ model expected within it instead (femref.choice).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Annotated, Any, Literal
 
 from pydantic import AfterValidator, BeforeValidator, Field, model_validator
@@ -38,17 +39,19 @@ RESERVED_RUN_NAMES: tuple[str, ...] = (*MODELS, *ESTIMATOR_NAMES, SCORES_GROUP, 
 RunName = Annotated[str, AfterValidator(name_rule("run"))]
 
 
-def _fidelity(name: str) -> str:
-    """A per-car fidelity, with a hint for misspellings."""
-    if name not in FIDELITIES:
-        raise PydanticCustomError(
-            "fidelity", "unknown fidelity{hint}; a car is one of {known}", {"hint": did_you_mean(name, FIDELITIES), "known": ", ".join(FIDELITIES)}
-        )
-    return name
+def _one_of(names: tuple[str, ...], error: str, template: str) -> Callable[[str], str]:
+    """A validator: one of ``names``, else the ``error`` with a hint for misspellings and the known names."""
+
+    def check(name: str) -> str:
+        if name not in names:
+            raise PydanticCustomError(error, template, {"hint": did_you_mean(name, names), "known": ", ".join(names)})
+        return name
+
+    return check
 
 
 #: How one car is modelled within a run: one of ``femref.core.catalog.FIDELITIES``.
-Fidelity = Annotated[str, AfterValidator(_fidelity)]
+Fidelity = Annotated[str, AfterValidator(_one_of(FIDELITIES, "fidelity", "unknown fidelity{hint}; a car is one of {known}"))]
 
 
 class ModelRunSpec(CaseModel):
@@ -76,17 +79,10 @@ class ModelRunSpec(CaseModel):
         return tuple(self.cars.get(name, self.fidelity) for name in car_names)
 
 
-def _known_model(name: str) -> str:
-    """A plain ``models`` entry names a registered model (whether it can serve is checked on the whole case)."""
-    if name not in MODELS:
-        raise PydanticCustomError(
-            "model_name", "unknown model{hint}; known models: {known}", {"hint": did_you_mean(name, MODELS), "known": ", ".join(MODELS)}
-        )
-    return name
-
-
+#: A registered model (whether it can serve is checked on the whole case).
+ModelName = Annotated[str, AfterValidator(_one_of(MODELS, "model_name", "unknown model{hint}; known models: {known}"))]
 #: One entry of ``models``: a model name (a uniform run) or a :class:`ModelRunSpec`.
-ModelRunEntry = name_or_model(Annotated[str, AfterValidator(_known_model)], ModelRunSpec, ("plain", "mixed"),
+ModelRunEntry = name_or_model(ModelName, ModelRunSpec, ("plain", "mixed"),
                               ("run_shape", "must be a model name or a mapping {shape}", {"shape": "{name, fidelity, cars}"}))
 
 
