@@ -8,8 +8,6 @@ Every bad input raises :class:`CaseError` (a ``ValueError``) naming the file, th
 path, the rule and the value; several problems come in one error, one per line.
 """
 
-from femref.case.bodies import BODY_TYPES, BeamBody, Body, RodBody
-from femref.case.capabilities import MODELS
 from femref.case.errors import CaseError, Problem
 from femref.case.impact import ImpactCase
 from femref.case.kinds import CASE_KINDS, Case
@@ -17,17 +15,12 @@ from femref.case.loader import load_case, parse_case, resolved_yaml
 from femref.case.single import HarmonicCase, TransientCase
 
 __all__ = [
-    "BODY_TYPES",
     "CASE_KINDS",
-    "MODELS",
-    "BeamBody",
-    "Body",
     "Case",
     "CaseError",
     "HarmonicCase",
     "ImpactCase",
     "Problem",
-    "RodBody",
     "TransientCase",
     "load_case",
     "parse_case",

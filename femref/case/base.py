@@ -1,10 +1,6 @@
 """What every case kind has: :class:`SceneCase`, the base of the ``kind:`` models.
 
-A case names its ``kind``; its ``models`` must be able to serve it (the reasons come
-from :mod:`femref.case.capabilities`). A key of another case kind is named as such
-("'frequency' is a harmonic-case key, not a transient-case key"); the kinds are found by
-walking the subclasses of :class:`SceneCase` (:func:`case_classes`), so this module
-knows none of them — :mod:`femref.case.kinds` is the one that lists every kind.
+The kinds are found by walking its subclasses (:func:`case_classes`), so this module knows none of them.
 """
 
 from typing import Any
@@ -42,12 +38,8 @@ class SceneCase(CaseModel):
 
 
 def case_classes() -> dict[str, type[SceneCase]]:
-    """Every case class defined so far by its ``kind``, in catalog order (``femref.core.catalog.SCENE_KINDS``).
-
-    A case class is a subclass of :class:`SceneCase` whose ``kind`` has a default (its
-    literal); the shallowest class of a kind wins. Once :mod:`femref.case` is imported this
-    equals :data:`femref.case.kinds.CASE_KINDS`.
-    """
+    """Every case class defined so far by its ``kind``, in catalog order: a subclass of :class:`SceneCase` whose
+    ``kind`` has a default (its literal), the shallowest of a kind."""
     found: dict[str, type[SceneCase]] = {}
     pending = list(SceneCase.__subclasses__())
     while pending:

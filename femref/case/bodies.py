@@ -1,9 +1,4 @@
-"""The ``body`` of a single-body case and the ``body`` of each impact car: a rod or a beam.
-
-Registry :data:`BODY_TYPES`, discriminated on ``type`` (:data:`BodySpec`); a key of the
-other body type is named as such ("'axial_stiffness' is a rod key, not a beam key").
-The profiles' breaks and positions are checked against the body's length.
-"""
+"""The ``body`` of a single-body case and of each impact car: a rod or a beam (registry :data:`BODY_TYPES`)."""
 
 import math
 from collections.abc import Mapping
@@ -17,10 +12,10 @@ from femref.case.plausibility import BOUNDS, profile_problems
 from femref.case.profiles import NonNegativeProfile, PositiveProfile, ProfileSpec, UniformProfile, length_average
 from femref.core import profiles
 
-__all__ = ["BODY_TYPES", "LOAD_OWNERS", "BeamBody", "Body", "BodySpec", "CarBody", "RodBody"]
+__all__ = ["BODY_TYPES", "LOAD_OWNERS", "BeamBody", "BodySchema", "BodySpec", "CarBody", "RodBody"]
 
 
-class Body(CaseModel):
+class BodySchema(CaseModel):
     """A body of length ``2l`` on ``x ∈ [−l, l]`` (docs/design.md §2); the subclasses name its properties."""
 
     #: The end-load names this body takes (docs/design.md §2).
@@ -51,7 +46,7 @@ class Body(CaseModel):
         return value
 
     @model_validator(mode="after")
-    def _plausible(self) -> "Body":
+    def _plausible(self) -> "BodySchema":
         """A length or profile values no rail vehicle has (:mod:`femref.case.plausibility`)."""
         rule = BOUNDS["length"].rule(self.length)
         problems = [Problem(("length",), rule, self.length)] if rule else []
@@ -96,7 +91,7 @@ class Body(CaseModel):
         raise NotImplementedError
 
 
-class RodBody(Body):
+class RodBody(BodySchema):
     """Longitudinal Kelvin-Voigt rod: ``F = EA u_x + cA u_xt``, ``F_x = m u_tt``; end loads ``F(∓l) = F1, F2``."""
 
     load_names: ClassVar[tuple[str, ...]] = ("F1", "F2")
@@ -117,7 +112,7 @@ class RodBody(Body):
         return self.half_length * math.sqrt(self.mean_mass_per_length() / self.mean_stiffness())
 
 
-class BeamBody(Body):
+class BeamBody(BodySchema):
     """Euler-Bernoulli beam: ``G = EI w_xx + cI w_xxt``, ``N = G_x``, ``N_x + m w_tt = 0``;
     end loads ``N(∓l) = N1, N2``, ``G(∓l) = G1, G2``."""
 
@@ -171,7 +166,7 @@ class CarBody(RodBody):
 
 
 #: Body types by case-file name.
-BODY_TYPES: Mapping[str, type[Body]] = {"rod": RodBody, "beam": BeamBody}
+BODY_TYPES: Mapping[str, type[BodySchema]] = {"rod": RodBody, "beam": BeamBody}
 #: Every end-load name, and the body type that takes it.
 LOAD_OWNERS: Mapping[str, str] = {load: name for name, body in BODY_TYPES.items() for load in body.load_names}
 

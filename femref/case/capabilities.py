@@ -1,14 +1,8 @@
-"""Whether a model can serve a particular case: the reasons the case schema and its messages share.
+"""Whether a model can serve a particular case: :func:`refusal` gives ``None`` or the reason, worded to follow
+"<name> cannot serve this case: ".
 
-Which scene kinds a model serves at all is :data:`femref.core.catalog.MODELS`; this
-module adds the limits that depend on the case itself (``exact`` needs piecewise-constant
-profiles and, in the time domain, a rod; the quasi-rigid beam needs even profiles).
-:func:`refusal` returns ``None`` when the model can serve the case, otherwise the reason
-it cannot, worded to follow "<name> cannot serve this case: ". A model that cannot serve
-a scene is refused at validation (docs/design.md §4), never skipped at run time.
-
-The functions read a validated case by duck typing (``kind``; ``body`` for single-body
-cases), so this module imports nothing of the schema.
+Which scene kinds a model serves is :data:`femref.core.catalog.MODELS`; this module adds the limits that
+depend on the case itself. It reads a validated case by duck typing, so it imports nothing of the schema.
 """
 
 from __future__ import annotations
@@ -34,10 +28,8 @@ def _kind_served(model: str, case: Any) -> str | None:
 
 
 def _exact(case: Any) -> str | None:
-    """The exact solutions are transfer-matrix solutions over piecewise-constant profiles.
-
-    In the time domain (transient) they exist for rods only; impacts (nonlinear contact) have none.
-    """
+    """The exact solutions are transfer-matrix solutions over piecewise-constant profiles; in the time domain
+    they exist for rods only, and impacts (nonlinear contact) have none."""
     if case.kind in catalog.IMPACT_KINDS:
         return "no exact solution is implemented for impact scenes (nonlinear contact); score against fem"
     body = case.body
@@ -51,23 +43,16 @@ def _exact(case: Any) -> str | None:
 
 
 def _quasi_rigid(case: Any) -> str | None:
-    """The quasi-rigid beam expands about the rigid modes of a symmetric body: even profiles only.
-
-    Impact cars are rods, which the quasi-rigid rod serves with any profile; a car that bends is also
-    a quasi-rigid beam, which needs even profiles.
-    """
+    """The quasi-rigid beam expands about the rigid modes of a symmetric body: even profiles only (the quasi-rigid
+    rod serves any profile; an impact car that bends is also a quasi-rigid beam)."""
     if case.kind in catalog.IMPACT_KINDS:
-        for car in case.cars:
-            if car.body.bends:
-                odd = _odd_profile(car.body.beam())
-                if odd:
-                    return f"the quasi-rigid beam needs even profiles m(x), EI(x), cI(x), but car {car.name}'s body.{odd} is not even in x"
-        return None
-    if case.body.type != "beam":
-        return None
-    odd = _odd_profile(case.body)
-    if odd:
-        return f"the quasi-rigid beam needs even profiles m(x), EI(x), cI(x), but body.{odd} is not even in x"
+        beams = [(f"car {car.name}'s ", car.body.beam()) for car in case.cars if car.body.bends]
+    else:
+        beams = [("", case.body)] if case.body.type == "beam" else []
+    for owner, body in beams:
+        odd = _odd_profile(body)
+        if odd:
+            return f"the quasi-rigid beam needs even profiles m(x), EI(x), cI(x), but {owner}body.{odd} is not even in x"
     return None
 
 
@@ -79,12 +64,7 @@ def _odd_profile(body: Any) -> str | None:
 
 
 def _ann(case: Any) -> str | None:
-    """A network is an estimator on the fem sensor records, not a model run of the scene.
-
-    Networks serve impacts only, as entries of ``estimators:`` (a mapping with the saved
-    network file); as a ``models:`` entry ``ann`` is refused for every case kind, with the
-    reason pointing there.
-    """
+    """A network is an estimator on the fem sensor records (an ``estimators:`` entry of an impact case), never a model run."""
     if case.kind not in catalog.IMPACT_KINDS:
         return f"it serves impact cases only (kind: impact), and this is a {case.kind} case"
     return "a network is an estimator on the fem sensor records, not a model run; list it under estimators: as {name: ann_<name>, network: file.npz}"

@@ -1,10 +1,5 @@
-"""The ``cars`` of an impact case: rods in line order, their initial velocities and accelerometers.
-
-Each car has a unique name (probes are named ``<car>/<sensor>``), a rod body as in
-transient cases (:mod:`femref.case.bodies`) — which, with a bending stiffness, is also a
-beam on the same axis — sensors on the car and the couplers' offsets below the body's
-neutral axis; an impact needs at least two cars.
-"""
+"""The ``cars`` of an impact case: rods in line order (a rod with a bending stiffness is also a beam on the
+same axis), their initial velocities, accelerometers and coupler offsets."""
 
 from __future__ import annotations
 
@@ -84,11 +79,15 @@ class CarSpec(CaseModel):
         return value
 
 
-def cars_rule(cars: tuple[CarSpec, ...]) -> tuple[CarSpec, ...]:
-    """At least two cars, unique names."""
-    if len(cars) < 2:
-        raise problems_error([Problem((), f"an impact needs at least 2 cars, in line order (rear to front); got {len(cars)}")])
-    problems = duplicates([car.name for car in cars], "car", lambda i: (i, "name"))
-    if problems:
-        raise problems_error(problems)
-    return cars
+def cars_rule(what: str) -> Callable[[tuple[Any, ...]], tuple[Any, ...]]:
+    """A validator of ``cars``: at least two cars (``what`` needs them), unique names."""
+
+    def check(cars: tuple[Any, ...]) -> tuple[Any, ...]:
+        if len(cars) < 2:
+            raise problems_error([Problem((), f"{what} needs at least 2 cars, in line order (rear to front); got {len(cars)}")])
+        problems = duplicates([car.name for car in cars], "car", lambda i: (i, "name"))
+        if problems:
+            raise problems_error(problems)
+        return cars
+
+    return check

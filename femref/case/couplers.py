@@ -1,13 +1,8 @@
 """The ``couplers`` of an impact case: which neighbours each joins, its force law, contact and slack.
 
-Coupler laws (registry :data:`COUPLER_LAW_SPECS`): ``kelvin_voigt``, ``power_law``,
-``draft_gear``, ``table`` and ``friction_gear`` (its ``loading`` curve from the registry
-:data:`LOADING_CURVE_SPECS`: ``cubic`` or ``exponential``), each built into a
-:mod:`reduced.couplers` law, its class ``law``; a law without a compiled form
-(:func:`reduced.couplers.compiled_form_rule`) is refused. A new law is its module in
-:mod:`reduced.couplers` and its class here. Whether a coupler's cars exist
-and are neighbours in line order is checked on the case (:func:`coupler_pair_problems`),
-once the cars are valid.
+Each law (registry :data:`COUPLER_LAW_SPECS`; the friction gear's ``loading`` curve from
+:data:`LOADING_CURVE_SPECS`) builds the :mod:`reduced.couplers` law of its class ``law``, which must
+have a compiled form. A new law is its module in :mod:`reduced.couplers` and its class here.
 """
 
 from __future__ import annotations
@@ -19,7 +14,7 @@ from pydantic import AfterValidator, BeforeValidator, Field, model_validator
 from pydantic_core import PydanticCustomError
 
 from femref.case.errors import Problem, did_you_mean, problems_error
-from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, Real, TaggedSpec, name_rule, tagged_union
+from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, Real, TaggedSpec, duplicates, name_rule, tagged_union
 from femref.case.plausibility import BOUNDS, format_number, plausible, sequence_check
 from reduced.couplers import (
     CONTACT_KINDS,
@@ -68,10 +63,6 @@ Travel = Annotated[NonNegativeReal, plausible("coupler_travel")]
 CouplerName = Annotated[str, AfterValidator(name_rule("coupler"))]
 
 
-# ---------------------------------------------------------------------------------------------
-# Coupler laws (registry COUPLER_LAW_SPECS)
-
-
 class CouplerLawSpec(TaggedSpec):
     """A coupler force law ``P(δ, δ̇, state)`` (N, compression positive), built into a ``reduced.couplers`` law
     of the class ``law``, which must have a compiled form (femref steps impacts compiled)."""
@@ -85,8 +76,8 @@ class CouplerLawSpec(TaggedSpec):
         return self
 
     def build(self) -> Any:
-        """The ``reduced.couplers`` law object."""
-        raise NotImplementedError
+        """The ``reduced.couplers`` law object: the class ``law`` of the spec's fields."""
+        return self.law(**dict(self))
 
 
 class KelvinVoigtLaw(CouplerLawSpec):
@@ -96,9 +87,6 @@ class KelvinVoigtLaw(CouplerLawSpec):
     law: ClassVar[type] = KelvinVoigt
     stiffness: Stiffness = Field(description="Spring stiffness c (N/m), > 0. Required.")
     damping: Damping = Field(default=0.0, description="Dashpot μ (N·s/m), >= 0. Default 0.")
-
-    def build(self) -> KelvinVoigt:
-        return KelvinVoigt(stiffness=self.stiffness, damping=self.damping)
 
 
 class DraftGearLaw(CouplerLawSpec):
@@ -114,16 +102,6 @@ class DraftGearLaw(CouplerLawSpec):
     solid_stiffness: Stiffness = Field(description="Gear stiffness c* beyond the stroke (N/m), > 0. Required.")
     series_stiffness_1: Stiffness = Field(default=4.0e8, description="First series spring c1, car body (N/m), > 0. Default 4e8.")
     series_stiffness_2: Stiffness = Field(default=4.0e8, description="Second series spring c2, coupler (N/m), > 0. Default 4e8.")
-
-    def build(self) -> StandardLinearDraftGear:
-        return StandardLinearDraftGear(
-            series_stiffness_1=self.series_stiffness_1,
-            series_stiffness_2=self.series_stiffness_2,
-            gear_stiffness=self.gear_stiffness,
-            gear_damping=self.gear_damping,
-            stroke=self.stroke,
-            solid_stiffness=self.solid_stiffness,
-        )
 
 
 class TableLaw(CouplerLawSpec):
@@ -194,15 +172,6 @@ class TableLaw(CouplerLawSpec):
         )
         return [Problem(("unloading",), rule, list(self.unloading))]
 
-    def build(self) -> HystereticTable:
-        return HystereticTable(
-            closure=self.closure,
-            loading=self.loading,
-            unloading=self.unloading,
-            damping=self.damping,
-            switch_velocity=self.switch_velocity,
-        )
-
 
 class PowerLawGearLaw(CouplerLawSpec):
     """Power-law gear with preload and closure-dependent damping (reduced.couplers.PowerLawGear):
@@ -238,21 +207,21 @@ class PowerLawGearLaw(CouplerLawSpec):
             raise problems_error(problems)
         return self
 
-    def build(self) -> PowerLawGear:
-        return PowerLawGear(stiffness=self.stiffness, exponent=self.exponent, preload=self.preload, damping=self.damping)
-
 
 class LoadingCurveSpec(TaggedSpec):
-    """A friction gear's loading curve ``L(δ)`` (N), convex, built into a ``reduced.couplers`` curve."""
+    """A friction gear's loading curve ``L(δ)`` (N), convex, built into the ``reduced.couplers`` class ``curve``."""
+
+    curve: ClassVar[type]
 
     def build(self) -> Any:
-        raise NotImplementedError
+        return self.curve(**dict(self))
 
 
 class CubicLoadingCurve(LoadingCurveSpec):
     """``L(δ) = k1 δ + k3 δ³`` (reduced.couplers.CubicLoading)."""
 
     tag: ClassVar[str] = "cubic"
+    curve: ClassVar[type] = CubicLoading
     linear_stiffness: Annotated[NonNegativeReal, plausible("gear_linear_stiffness")] = Field(description="k1 (N/m), >= 0. Required.")
     cubic_stiffness: Annotated[NonNegativeReal, plausible("gear_cubic_stiffness")] = Field(description="k3 (N/m³), >= 0. Required.")
 
@@ -262,19 +231,14 @@ class CubicLoadingCurve(LoadingCurveSpec):
             raise problems_error([Problem(("cubic_stiffness",), "linear_stiffness and cubic_stiffness are both 0: a gear that never pushes", 0.0)])
         return self
 
-    def build(self) -> CubicLoading:
-        return CubicLoading(self.linear_stiffness, self.cubic_stiffness)
-
 
 class ExponentialLoadingCurve(LoadingCurveSpec):
     """``L(δ) = a (e^{b δ} − 1)`` (reduced.couplers.ExponentialLoading)."""
 
     tag: ClassVar[str] = "exponential"
+    curve: ClassVar[type] = ExponentialLoading
     amplitude: Annotated[PositiveReal, plausible("gear_curve_amplitude")] = Field(description="a (N), > 0. Required.")
     rate: PositiveReal = Field(description="b (1/m), > 0; b·solid_closure within 1e-3–40. Required.")
-
-    def build(self) -> ExponentialLoading:
-        return ExponentialLoading(self.amplitude, self.rate)
 
 
 #: Loading curves of the friction gear by case-file name.
@@ -365,10 +329,6 @@ COUPLER_LAW_SPECS: Mapping[str, type[CouplerLawSpec]] = {
 AnyCouplerLaw = tagged_union(COUPLER_LAW_SPECS, "coupler law")
 
 
-# ---------------------------------------------------------------------------------------------
-# Couplers
-
-
 def _two_names(value: Any) -> Any:
     """``between`` is exactly two names; whether they are cars in line order is checked on the case."""
     if isinstance(value, (list, tuple)) and len(value) == 2 and all(isinstance(v, str) for v in value):
@@ -430,6 +390,18 @@ def _line_order_rule(rear: int, front: int, names: list[str]) -> str:
         return f"lists the cars in reverse order; the rear car comes first, in line order: [{names[front]}, {names[rear]}]"
     pairs = ", ".join(f"[{a}, {b}]" for a, b in zip(names, names[1:]))
     return f"{names[rear]} (cars[{rear}]) and {names[front]} (cars[{front}]) are not neighbours; a coupler joins [cars[i], cars[i+1]]: one of {pairs}"
+
+
+def named_couplers(couplers: tuple[Any, ...], cars: tuple[Any, ...] | None) -> tuple[Any, ...]:
+    """The couplers, the k-th unnamed one named ``c<k>``; names unique, each between neighbours in line order
+    (checked against ``cars`` unless they are invalid themselves, None)."""
+    named = tuple(c if c.name is not None else c.model_copy(update={"name": f"c{k + 1}"}) for k, c in enumerate(couplers))
+    problems = duplicates([c.name for c in named], "coupler", lambda k: (k, "name"))
+    if cars is not None:
+        problems += coupler_pair_problems(named, [car.name for car in cars])
+    if problems:
+        raise problems_error(problems)
+    return named
 
 
 def coupler_pair_problems(couplers: tuple[CouplerSpec, ...], names: list[str]) -> list[Problem]:

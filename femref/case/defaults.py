@@ -1,25 +1,15 @@
 """The built-in default scene of ``femref run`` with no case file: a free-to-roll yard impact.
 
-Two loaded covered hoppers (docs/design.md §8, the source study's test pair): the hammer,
-263,000 lb ≈ 119 t, rolls at 2.2 m/s (≈ 4.9 mph) into the anvil, 220,000 lb ≈ 100 t,
-at rest. Both are 17 m over the ends (x ∈ [−8.5, 8.5]); the lading sits between the
-bolsters (|x| < 6.5 m) so the mass per length is higher there than over the end
-structures; equivalent axial stiffness 3 GN (first free-free axial mode ≈ 19 Hz) and
-Voigt viscosity 2 MN·s (β ≈ 0.05).
+Two loaded covered hoppers 17 m over the ends (docs/design.md §8, the source study's test pair): the hammer,
+263,000 lb ≈ 119 t, rolls at 2.2 m/s (≈ 4.9 mph) into the anvil, 220,000 lb ≈ 100 t, at rest; the lading sits
+between the bolsters (|x| < 6.5 m); axial stiffness 3 GN (first free-free axial mode ≈ 19 Hz), Voigt viscosity
+2 MN·s (β ≈ 0.05). The coupler is the two cars' M-901E-class draft gears in series (each 34 MN/m secant to
+2.52 MN at 74 mm): one standard-linear gear of 17 MN/m, 165 mm stroke, 100 MN/m solid, 0.25 MN·s/m, 400 MN/m of
+series stiffness. At 2.2 m/s the gears take about 120 mm and 2 MN over a ~0.18 s pulse: ε ≈ 0.005.
 
-The coupler carries the two cars' M-901E-class draft gears in series (each 34 MN/m
-secant to 2.52 MN at 74 mm, 82.5 mm travel, 200 MN/m solid): one standard-linear
-gear of 17 MN/m with a 165 mm stroke, 100 MN/m solid, 0.25 MN·s/m of gear damping and
-400 MN/m of series (coupler and car-end) stiffness. At 2.2 m/s the gears take about
-120 mm and 2 MN — near the rating, short of solid — over a ~0.18 s pulse, so
-ε = (T_wave/T_pulse)² ≈ 0.005.
-
-Accelerometers at the hammer's centre and front, and at the anvil's ends and centre,
-recorded at 1 kHz through a 100 Hz anti-alias filter with 0.05 m/s² of noise; the
-rigid and quasi-rigid inverse estimators read those fem records. The filter keeps the
-cars' first axial modes (≈ 19 Hz) and removes the wave transients of the gear's fast
-initial rise, which the two-term quasi-rigid inverse cannot use: through a 500 Hz
-filter its peak-force error is about 100 %, through 100 Hz about 9 %.
+The accelerometers record at 1 kHz through a 100 Hz anti-alias filter with 0.05 m/s² of noise: the filter keeps
+the cars' first axial modes and removes the wave transients of the gear's fast initial rise, which the two-term
+quasi-rigid inverse cannot use (its peak-force error is about 100 % through 500 Hz, 9 % through 100 Hz).
 """
 
 from __future__ import annotations

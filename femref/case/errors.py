@@ -1,15 +1,10 @@
-"""One error for every bad case file: :class:`CaseError`, naming the file, key path, rule and value.
-
-Validation may find several independent problems; they are all collected as
-:class:`Problem` records and raised once, as one ``CaseError`` with one line per problem::
+"""One error for every bad case file: :class:`CaseError`, naming the file, key path, rule and value::
 
     case.yaml: body.mass_per_length.piecewise.breaks: must lie strictly inside the body (-8.0, 8.0); got [-9.0, 4.0]
 
-Inside the pydantic models a validator that finds problems raises
-:func:`problems_error` (a pydantic custom error carrying the problems, with key
-paths relative to the value being validated); :func:`problems_from` turns a pydantic
-``ValidationError`` back into problems with full key paths, translating pydantic's
-own messages into the rules of the case-file language.
+A validator raises :func:`problems_error` (a pydantic error carrying :class:`Problem` records, key paths
+relative to the value validated); :func:`problems_from` turns the ``ValidationError`` back into problems
+with full key paths, pydantic's own messages translated into the rules of the case-file language.
 """
 
 from __future__ import annotations
@@ -83,11 +78,8 @@ class Problem:
 
 
 class CaseError(ValueError):
-    """A case that cannot be run: bad YAML, unknown or missing keys, non-physical values.
-
-    ``source`` is the file (or ``"<case>"``); ``key_path``, ``rule`` and ``value`` describe
-    the first problem and ``problems`` all of them. ``str(error)`` has one line per problem.
-    """
+    """A case that cannot be run: ``problems`` of file ``source``, one line each; ``key_path``, ``rule`` and
+    ``value`` are those of the first."""
 
     def __init__(self, problems: Sequence[Problem] | Problem, source: str = "<case>") -> None:
         self.problems: tuple[Problem, ...] = (problems,) if isinstance(problems, Problem) else tuple(problems)
@@ -135,10 +127,9 @@ def problems_error(problems: Sequence[Problem]) -> PydanticCustomError:
 def _walk(loc: tuple[str | int, ...], raw: Any, missing: bool) -> KeyPath:
     """Translate a pydantic location into the key path of the case file.
 
-    pydantic's locations also hold union tags (``body.rod.length``); a location part
-    is kept only where the raw input has that key or index, so tags drop out. The last
-    part of a *missing* key is kept though absent. A location that goes on below a
-    scalar (a number standing for a model, like a uniform profile) stops at the scalar.
+    A location part is kept only where the raw input has that key or index, so union tags (``body.rod.length``)
+    drop out; the last part of a *missing* key is kept though absent; below a scalar (a number standing for a
+    model, like a uniform profile) the path stops.
     """
     path: list[str | int] = []
     node = raw
@@ -165,41 +156,37 @@ def _number(text: Any) -> str:
     return str(text)
 
 
+#: pydantic's own error types → the rules of the case-file language (``{…}`` from the error's context).
+_RULES: dict[str, str] = {
+    "missing": "required key is missing",
+    "extra_forbidden": "unknown key",
+    "greater_than": "must be > {gt}",
+    "greater_than_equal": "must be >= {ge}",
+    "less_than": "must be < {lt}",
+    "less_than_equal": "must be <= {le}",
+    "finite_number": "must be a finite number (not NaN or infinity)",
+    **dict.fromkeys(("float_parsing", "float_type"), "must be a number"),
+    **dict.fromkeys(("int_parsing", "int_type", "int_from_float"), "must be an integer"),
+    **dict.fromkeys(("bool_parsing", "bool_type"), "must be true or false"),
+    "string_type": "must be a text string",
+    "literal_error": "must be one of {expected}",
+    "union_tag_invalid": "must be one of {expected_tags}",
+    "union_tag_not_found": "required key is missing",
+    **dict.fromkeys(("model_type", "model_attributes_type"), "must be a mapping of keys"),
+    "dict_type": "must be a mapping",
+    **dict.fromkeys(("list_type", "tuple_type"), "must be a list"),
+    "too_short": "must have at least {min_length} entries",
+    "too_long": "must have at most {max_length} entries",
+    "path_type": "must be a file path",
+}
+
+
 def _rule(error: Mapping[str, Any]) -> str:
     """The case-file rule for one of pydantic's own error records."""
-    kind, ctx = error["type"], error.get("ctx") or {}
-    rules = {
-        "missing": lambda: "required key is missing",
-        "extra_forbidden": lambda: "unknown key",
-        "greater_than": lambda: f"must be > {_number(ctx['gt'])}",
-        "greater_than_equal": lambda: f"must be >= {_number(ctx['ge'])}",
-        "less_than": lambda: f"must be < {_number(ctx['lt'])}",
-        "less_than_equal": lambda: f"must be <= {_number(ctx['le'])}",
-        "finite_number": lambda: "must be a finite number (not NaN or infinity)",
-        "float_parsing": lambda: "must be a number",
-        "float_type": lambda: "must be a number",
-        "int_parsing": lambda: "must be an integer",
-        "int_type": lambda: "must be an integer",
-        "int_from_float": lambda: "must be an integer",
-        "bool_parsing": lambda: "must be true or false",
-        "bool_type": lambda: "must be true or false",
-        "string_type": lambda: "must be a text string",
-        "literal_error": lambda: f"must be one of {ctx['expected']}",
-        "union_tag_invalid": lambda: f"must be one of {ctx['expected_tags']}",
-        "union_tag_not_found": lambda: "required key is missing",
-        "model_type": lambda: "must be a mapping of keys",
-        "model_attributes_type": lambda: "must be a mapping of keys",
-        "dict_type": lambda: "must be a mapping",
-        "list_type": lambda: "must be a list",
-        "tuple_type": lambda: "must be a list",
-        "too_short": lambda: f"must have at least {ctx['min_length']} entries",
-        "too_long": lambda: f"must have at most {ctx['max_length']} entries",
-        "path_type": lambda: "must be a file path",
-    }
-    if kind in rules:
-        return rules[kind]()
-    message = str(error.get("msg", kind))
-    return message.removeprefix("Value error, ")
+    kind = error["type"]
+    if kind in _RULES:
+        return _RULES[kind].format(**{key: _number(value) for key, value in (error.get("ctx") or {}).items()})
+    return str(error.get("msg", kind)).removeprefix("Value error, ")
 
 
 def problems_from(error: ValidationError, raw: Any) -> list[Problem]:

@@ -1,13 +1,8 @@
 """The sensor records of an impact case and what reads them: ``measurement`` and ``estimators``.
 
-``measurement`` (:class:`MeasurementSpec`) makes accelerometer records from the model's
-sensor accelerations. An ``estimators`` entry is an inverse estimator's name
-(``femref.core.catalog.ESTIMATORS``) or a saved network ``{name: ann_<name>, network:
-file.npz}`` — or one network per impact type, ``network: {free_to_roll: a.npz, coupled:
-b.npz}`` — (:class:`AnnEstimatorSpec`, read when the case is loaded). The checks of
-the estimators against the scene — sensors of ``inverse_quasi_rigid``, a network's
-contract against the couplers, probes, ``time.end`` and measurement — are here too;
-the case runs them once the keys they relate are valid.
+An ``estimators`` entry is an inverse estimator's name (``femref.core.catalog.ESTIMATORS``) or a saved
+network (:class:`AnnEstimatorSpec`, read when the case is loaded). The checks of the estimators against
+the scene are here too; the case runs them once the keys they relate are valid.
 """
 
 from __future__ import annotations
@@ -15,15 +10,15 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Annotated, Any, Union
+from typing import Annotated, Any
 
-from pydantic import AfterValidator, BeforeValidator, Discriminator, Field, PrivateAttr, Tag, ValidationInfo, field_validator, model_validator
+from pydantic import AfterValidator, BeforeValidator, Field, PrivateAttr, ValidationInfo, field_validator, model_validator
 from pydantic_core import PydanticCustomError
 
 from femref.case.cars import CarSpec
 from femref.case.couplers import CouplerSpec
 from femref.case.errors import Problem, did_you_mean, problems_error
-from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, name_rule, reject_bool, resolve_case_path
+from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, entry_name, name_or_model, name_rule, reject_bool, resolve_case_path
 from femref.core.catalog import ESTIMATORS as ESTIMATOR_NAMES
 from femref.sensing.network import NetworkContract, NetworkFileError, read_network
 
@@ -31,10 +26,6 @@ __all__ = ["ANY_IMPACT", "QUASI_RIGID_INVERSE_SENSORS", "AnnEstimatorSpec", "Est
 
 #: Minimum sensors on the front car of every coupler that ``inverse_quasi_rigid`` needs.
 QUASI_RIGID_INVERSE_SENSORS = 2
-
-
-# ---------------------------------------------------------------------------------------------
-# Measurement
 
 
 class MeasurementSpec(CaseModel):
@@ -59,10 +50,6 @@ class MeasurementSpec(CaseModel):
             rule = f"must be below the Nyquist frequency rate/2 = {0.5 * self.rate:g} Hz"
             raise problems_error([Problem(("lowpass",), rule, self.lowpass)])
         return self
-
-
-# ---------------------------------------------------------------------------------------------
-# Estimators
 
 
 def _is_network_name(name: str) -> bool:
@@ -96,42 +83,17 @@ class NetworksByImpactType(CaseModel):
         return self
 
 
-def _network_file_kind(value: Any) -> str | None:
-    """The union tag of ``network``: one file, or a mapping by impact type."""
-    if isinstance(value, (str, Path)):
-        return "file"
-    if isinstance(value, (Mapping, NetworksByImpactType)):
-        return "by_type"
-    return None
-
-
-def _network_file_shape(value: Any) -> Any:
-    if _network_file_kind(value) is None:
-        raise PydanticCustomError("network_shape", "must be a network file or {shape}", {"shape": "{free_to_roll: file.npz, coupled: file.npz}"})
-    return value
-
-
-NetworkFiles = Annotated[
-    Union[Annotated[Path, Tag("file")], Annotated[NetworksByImpactType, Tag("by_type")]],  # noqa: UP007
-    Discriminator(_network_file_kind),
-    BeforeValidator(_network_file_shape),
-]
+NetworkFiles = name_or_model(Path, NetworksByImpactType, ("file", "by_type"), ("network_shape", "must be a network file or {shape}",
+                             {"shape": "{free_to_roll: file.npz, coupled: file.npz}"}), names=(str, Path))
 
 #: The key of :attr:`AnnEstimatorSpec.files` of an estimator with one network for every impact type.
 ANY_IMPACT = "any"
 
 
 class AnnEstimatorSpec(CaseModel):
-    """A trained network (an ``ann.storage`` file) that estimates one coupler's peak force from the fem
-    sensor records (:mod:`femref.sensing.network`) — or one network per impact type, each record set
-    read by the network of its type (:class:`femref.sensing.network.ImpactTypeNetworks`).
-
-    Each file is read and its metadata contract checked when the case is loaded; the
-    case then checks the contracts against the scene (coupler, probes, time.end,
-    measurement), and the networks of one estimator must estimate one coupler. A relative path is
-    relative to the case file's directory and is stored resolved (absolute), so the resolved case
-    reads the same files from anywhere.
-    """
+    """A trained network (an ``ann.storage`` file) that estimates one coupler's peak force from the fem sensor
+    records (:mod:`femref.sensing.network`), or one network per impact type. Each file is read and its contract
+    checked when the case is loaded; its path is stored resolved, so the resolved case reads it from anywhere."""
 
     name: Annotated[str, AfterValidator(_network_name)] = Field(description="Result-group name: ann or ann_<name>, unique. Required.")
     network: NetworkFiles = Field(
@@ -179,21 +141,6 @@ class AnnEstimatorSpec(CaseModel):
         return ("network",) if kind == ANY_IMPACT else ("network", kind)
 
 
-def estimator_kind(value: Any) -> str | None:
-    """The union tag of an ``estimators`` entry: an inverse estimator's name or a network mapping."""
-    if isinstance(value, str):
-        return "inverse"
-    if isinstance(value, (Mapping, AnnEstimatorSpec)):
-        return "ann"  # a tag no mapping has as a key: error key paths drop union tags absent from the input
-    return None
-
-
-def estimator_kind_or_network(value: Any) -> Any:
-    if estimator_kind(value) is None:
-        raise PydanticCustomError("estimator_shape", "must be an estimator name or a network {shape}", {"shape": "{name: ann_<name>, network: file.npz}"})
-    return value
-
-
 def estimator_entry(names: tuple[str, ...]) -> Any:
     """The type of one entry of ``estimators``: one of the estimator ``names`` (an unknown name is refused with the
     known ones, or how a network is given) or an :class:`AnnEstimatorSpec`."""
@@ -207,26 +154,18 @@ def estimator_entry(names: tuple[str, ...]) -> Any:
                                       {"hint": hint, "known": ", ".join(names), "network": "{name: ann_<name>, network: file.npz}"})
         return name
 
-    return Annotated[
-        Union[Annotated[Annotated[str, AfterValidator(known)], Tag("inverse")], Annotated[AnnEstimatorSpec, Tag("ann")]],  # noqa: UP007
-        Discriminator(estimator_kind),
-        BeforeValidator(estimator_kind_or_network),
-    ]
+    return name_or_model(Annotated[str, AfterValidator(known)], AnnEstimatorSpec, ("inverse", "ann"),
+                         ("estimator_shape", "must be an estimator name or a network {shape}", {"shape": "{name: ann_<name>, network: file.npz}"}))
 
 
 #: One entry of an impact case's ``estimators``: an inverse estimator's name or an :class:`AnnEstimatorSpec`.
 EstimatorEntry = estimator_entry(ESTIMATOR_NAMES)
 
 
-def estimator_entry_name(entry: str | AnnEstimatorSpec) -> str:
-    """The result-group name of an estimator."""
-    return entry if isinstance(entry, str) else entry.name
-
-
 def estimators_rule(entries: tuple[str | AnnEstimatorSpec, ...]) -> tuple[str | AnnEstimatorSpec, ...]:
     """Each estimator once: names unique (a name listed twice, or two networks of one name)."""
     problems = []
-    names = [estimator_entry_name(entry) for entry in entries]
+    names = [entry_name(entry) for entry in entries]
     for i, (entry, name) in enumerate(zip(entries, names)):
         if name not in names[:i]:
             continue
@@ -237,10 +176,6 @@ def estimators_rule(entries: tuple[str | AnnEstimatorSpec, ...]) -> tuple[str | 
     if problems:
         raise problems_error(problems)
     return entries
-
-
-# ---------------------------------------------------------------------------------------------
-# Estimators against the scene
 
 
 def quasi_rigid_sensor_problems(at: int, cars: tuple[CarSpec, ...], couplers: tuple[CouplerSpec, ...]) -> list[Problem]:
@@ -259,27 +194,12 @@ def quasi_rigid_sensor_problems(at: int, cars: tuple[CarSpec, ...], couplers: tu
 
 
 def network_problems(contract: NetworkContract, cars: tuple[CarSpec, ...], couplers: tuple[CouplerSpec, ...] | None, data: Mapping[str, Any]) -> list[Problem]:
-    """A network's contract against the scene: its coupler and probes exist, its records fit in
-    ``time.end``, and the case measures the records as the training records were measured
-    (same chain rate and low-pass; noise and seed may differ — testing on noisier records is legitimate).
-
-    ``data`` holds the case keys validated so far; a key that failed is not compared.
-    """
-    problems = []
-    coupler_names = [c.name for c in couplers or ()]
-    if couplers is not None and contract.coupler not in coupler_names:
-        rule = f"the network estimates coupler {contract.coupler!r}, which this case does not have; couplers: {', '.join(coupler_names)}"
-        problems.append(Problem((), rule))
+    """A network's contract against the scene (``data``: the case keys validated so far): its coupler, probes and
+    cars exist, its records fit in ``time.end``, and the case measures them as the training records were
+    (same rate and low-pass; noise and seed may differ — testing on noisier records is legitimate)."""
     probes = [f"{car.name}/{sensor}" for car in cars for sensor in car.sensors]
-    missing = [p for p in contract.probes if p not in probes]
-    if missing:
-        rule = f"the network reads probe(s) {', '.join(missing)}, which are not sensors of this case; probes: {', '.join(probes)}"
-        problems.append(Problem((), rule))
-    car_names = [car.name for car in cars]
-    unknown_cars = [car for car in contract.mass_inputs if car not in car_names]
-    if unknown_cars:
-        rule = f"the network takes the mass of car(s) {', '.join(unknown_cars)}, which this case does not have; cars: {', '.join(car_names)}"
-        problems.append(Problem((), rule))
+    coupler_names = None if couplers is None else [c.name for c in couplers]
+    problems = contract_scene_problems(contract, coupler_names, probes, "are not sensors of this case; probes", [car.name for car in cars])
     time = data.get("time")
     if time is not None and contract.record_end > time.end:
         problems.append(Problem((), f"the network reads records over [0, {contract.record_end:g}] s, beyond time.end = {time.end:g} s"))
@@ -288,6 +208,19 @@ def network_problems(contract: NetworkContract, cars: tuple[CarSpec, ...], coupl
         if problem is not None:
             problems.append(Problem((), problem))
     return problems
+
+
+def contract_scene_problems(contract: NetworkContract, couplers: list[str] | None, probes: list[str], absent: str, cars: list[str]) -> list[Problem]:
+    """The network's coupler, probes and mass inputs against the case's ``couplers`` (None: not compared), ``probes``
+    (those it lacks "``absent``: <probes>") and ``cars``."""
+    rules = []
+    if couplers is not None and contract.coupler not in couplers:
+        rules.append(f"the network estimates coupler {contract.coupler!r}, which this case does not have; couplers: {', '.join(couplers)}")
+    if missing := [probe for probe in contract.probes if probe not in probes]:
+        rules.append(f"the network reads probe(s) {', '.join(missing)}, which {absent}: {', '.join(probes)}")
+    if unknown := [car for car in contract.mass_inputs if car not in cars]:
+        rules.append(f"the network takes the mass of car(s) {', '.join(unknown)}, which this case does not have; cars: {', '.join(cars)}")
+    return [Problem((), rule) for rule in rules]
 
 
 def _chain_problem(contract: NetworkContract, measurement: MeasurementSpec | None) -> str | None:

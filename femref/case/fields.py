@@ -1,20 +1,8 @@
 """The building blocks of every case-file model: numbers, names, the base models and tagged specs.
 
-Every model is frozen, forbids unknown keys (with a "did you mean …?" hint, or the
-sibling model a key belongs to) and accepts finite numbers only:
-
-* numbers: :data:`Real`, :data:`PositiveReal`, :data:`NonNegativeReal`, :data:`Count`
-  (YAML ``true``/``false`` refused by :func:`reject_bool`);
-* names: :data:`ProbeName` and :func:`name_rule` (names that become HDF5 path parts),
-  :func:`duplicates` (a problem at each repeat of a name);
-* :class:`CaseModel`, the base of every model, and its unknown-key machinery
-  (:func:`foreign_key_rule`, :func:`validate_collecting`);
-* :class:`TaggedSpec`, a spec written ``{tag: {fields…}}``, and :func:`tagged_union`, the
-  type "one of a registry of tagged specs" (profiles, signals, frequency axes, coupler laws);
-* :func:`resolve_case_path`, the rule for file paths written in a case (CSV loads, networks).
-
-Validators raise :func:`~femref.case.errors.problems_error`; the loader turns the
-pydantic error into one :class:`~femref.case.errors.CaseError`.
+Every model is frozen, forbids unknown keys (with a "did you mean …?" hint, or the sibling model a
+key belongs to) and accepts finite numbers only. :class:`TaggedSpec` is a spec written
+``{tag: {fields…}}``; :func:`tagged_union` is the type "one of a registry of tagged specs".
 """
 
 from collections.abc import Callable, Mapping
@@ -50,10 +38,6 @@ __all__ = [
 ]
 
 
-# ---------------------------------------------------------------------------------------------
-# Numbers
-
-
 def reject_bool(value: Any) -> Any:
     """YAML ``true``/``yes`` would otherwise pass as the number 1."""
     if isinstance(value, bool):
@@ -63,17 +47,13 @@ def reject_bool(value: Any) -> Any:
 
 def is_number(value: Any) -> bool:
     """A number, or text that reads as one (YAML 1.1 reads ``1e9`` as text)."""
-    if isinstance(value, bool):
-        return False
-    if isinstance(value, (int, float)):
-        return True
     if isinstance(value, str):
         try:
             float(value)
         except ValueError:
             return False
         return True
-    return False
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
 #: A finite real number (NaN and ±inf are refused by every model's configuration).
@@ -82,10 +62,6 @@ PositiveReal = Annotated[Real, Field(gt=0)]
 NonNegativeReal = Annotated[Real, Field(ge=0)]
 #: An integer >= 1 (element counts, strides, sample counts).
 Count = Annotated[int, BeforeValidator(reject_bool), Field(ge=1)]
-
-
-# ---------------------------------------------------------------------------------------------
-# Base model: frozen, unknown keys refused with a hint, several problems collected
 
 
 def validate_collecting(handler: Callable[[Any], Any], data: Any, problems: list[Problem]) -> Any:
@@ -140,19 +116,23 @@ def foreign_key_rule(
 
 
 class TaggedSpec(CaseModel):
-    """A spec written ``{tag: {fields…}}`` in the case file (the tag picks the class)."""
+    """A spec written ``{tag: {fields…}}`` in the case file (the tag picks the class), or, with a ``number_field``,
+    as a plain number: the value of that field."""
 
     tag: ClassVar[str]
+    number_field: ClassVar[str | None] = None
 
     @classmethod
     def _shorthand(cls, data: Any) -> Any:
+        if cls.number_field is not None:
+            return {cls.number_field: data} if is_number(data) else data
         if isinstance(data, Mapping) and len(data) == 1 and cls.tag in data:
             return data[cls.tag]
         return data
 
     @model_serializer(mode="wrap")
     def _serialize(self, handler: Callable[[Any], Any]) -> Any:
-        return {self.tag: handler(self)}
+        return {self.tag: handler(self)} if self.number_field is None else getattr(self, self.number_field)
 
 
 def tagged_union(registry: Mapping[str, type[TaggedSpec]], what: str, number_tag: str | None = None) -> Any:
@@ -186,17 +166,25 @@ def tagged_union(registry: Mapping[str, type[TaggedSpec]], what: str, number_tag
     return Annotated[Union[members], Discriminator(tag_of), BeforeValidator(check_shape)]  # noqa: UP007
 
 
-# ---------------------------------------------------------------------------------------------
-# Names
+def name_or_model(name: Any, model: type[CaseModel], tags: tuple[str, str], shape_error: tuple[str, str, dict[str, str]],
+                  names: tuple[type, ...] = (str,)) -> Any:
+    """The type "a name (an instance of ``names``, validated as ``name``) or a mapping validated as ``model``",
+    discriminated by ``tags`` (tags no input has as a key: error key paths drop them); anything else raises
+    the ``PydanticCustomError(*shape_error)``."""
 
+    def tag_of(value: Any) -> str | None:
+        if isinstance(value, names):
+            return tags[0]
+        if isinstance(value, (Mapping, model)):
+            return tags[1]
+        return None
 
-def _probe_name(name: str) -> str:
-    if not name or not all(c.isalnum() or c in "_-." for c in name):
-        raise PydanticCustomError("probe_name", "probe names use letters, digits, '_', '-' and '.' only")
-    return name
+    def check_shape(value: Any) -> Any:
+        if tag_of(value) is None:
+            raise PydanticCustomError(*shape_error)
+        return value
 
-
-ProbeName = Annotated[str, AfterValidator(_probe_name)]
+    return Annotated[Annotated[name, Tag(tags[0])] | Annotated[model, Tag(tags[1])], Discriminator(tag_of), BeforeValidator(check_shape)]
 
 
 def name_rule(what: str) -> Callable[[str], str]:
@@ -210,6 +198,14 @@ def name_rule(what: str) -> Callable[[str], str]:
     return check
 
 
+ProbeName = Annotated[str, AfterValidator(name_rule("probe"))]
+
+
+def entry_name(entry: Any) -> str:
+    """The result-group name of a ``models`` or ``estimators`` entry: a plain name, or a mapping's ``name``."""
+    return entry if isinstance(entry, str) else entry.name
+
+
 def duplicates(names: list[str], what: str, path_of: Callable[[int], tuple[str | int, ...]]) -> list[Problem]:
     """A problem at each repeat of a name, pointing back at its first use."""
     first: dict[str, int] = {}
@@ -221,16 +217,9 @@ def duplicates(names: list[str], what: str, path_of: Callable[[int], tuple[str |
     return problems
 
 
-# ---------------------------------------------------------------------------------------------
-# File paths
-
-
 def resolve_case_path(path: Path, info: ValidationInfo) -> Path:
-    """A file path of a case, absolute: relative paths are relative to the case file's directory.
-
-    The directory comes in the validation context (``base_dir``, set by the loader);
-    without one, the working directory.
-    """
+    """A file path of a case, absolute: a relative path is relative to the validation context's ``base_dir``
+    (the case file's directory, set by the loader; without one, the working directory)."""
     base_dir = Path((info.context or {}).get("base_dir") or Path.cwd())
     path = path.expanduser()
     return path if path.is_absolute() else (base_dir / path).resolve()

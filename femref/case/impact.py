@@ -1,32 +1,9 @@
 """The ``kind: impact`` case (docs/design.md §3): cars in a line joined by couplers.
 
-Layout of an impact case file::
-
-    cars:        >= 2 rods in line order (rear to front): cars[i]'s +l end faces cars[i+1]'s −l end
-    couplers:    >= 1, each between two neighbours [cars[i].name, cars[i+1].name], with a law
-                 (registry :data:`~femref.case.couplers.COUPLER_LAW_SPECS`), contact and slack
-    time, integrator, fem:   as in transient cases (fem.elements is per car; fem.fields and
-                 fem.field_stride are refused: impacts write no field files, they record
-                 sensors at the probes)
-    models:      model runs: a model name (uniform run) or {name, fidelity, cars} (mixed run)
-    modal:       {modes}: elastic modes per modal car
-    measurement: optional accelerometer model (rate, lowpass, noise, seed)
-    estimators:  estimators run on the fem sensor records: an inverse estimator's name, or a
-                 network {name: ann_<name>, network: file.npz} (a saved ann.storage network)
-    tolerance:   optional {value, output} (or a number): choose the cheapest model expected within
-                 it instead of running ``models`` (femref.choice)
-
-The keys are validated by :mod:`femref.case.cars`, :mod:`femref.case.couplers`,
-:mod:`femref.case.runs` and :mod:`femref.case.estimators`; this module holds the case.
-Validation follows the single-body cases (:mod:`femref.case.single`): each key on its
-own first (every failure reported), then the rules that relate keys — sensors against
-the car length, couplers against the car names and line order, car overrides of mixed
-runs against the car names, estimators against the runs, sensors, couplers, time and
-measurement — once the keys they relate are valid. A network file is read when the case
-is loaded (like a CSV load), so a missing or broken file is a case error too.
-
-:func:`femref.scene.build.scene_from_case` turns a validated case into the frozen
-:class:`femref.scene.impact.ImpactScene`.
+The keys are validated by :mod:`femref.case.cars`, :mod:`femref.case.couplers`, :mod:`femref.case.runs` and
+:mod:`femref.case.estimators`; this module holds the case. As in the single-body cases, each key is validated on
+its own first (every failure reported), then the rules that relate keys, once the keys they relate are valid. A
+network file is read when the case is loaded (like a CSV load), so a missing or broken file is a case error too.
 """
 
 from __future__ import annotations
@@ -40,20 +17,19 @@ from femref.case.base import SceneCase, case_classes
 from femref.case.bodies import RodBody
 from femref.case.capabilities import MODELS, refusal
 from femref.case.cars import CarSpec, cars_rule
-from femref.case.couplers import CouplerSpec, coupler_pair_problems
+from femref.case.couplers import CouplerSpec, named_couplers
 from femref.case.errors import Problem, did_you_mean, problems_error
 from femref.case.estimators import (
     AnnEstimatorSpec,
     EstimatorEntry,
     MeasurementSpec,
-    estimator_entry_name,
     estimators_rule,
     network_problems,
     quasi_rigid_sensor_problems,
 )
-from femref.case.fields import duplicates
-from femref.case.runs import DEFAULT_MODELS, ModalSettings, ModelRunEntry, ModelRunSpec, ToleranceSpec, car_fidelities, run_name, runs_rule
-from femref.case.settings import FemSettings, IntegratorSettings, TimeSettings, fem_field
+from femref.case.fields import entry_name
+from femref.case.runs import DEFAULT_MODELS, ModalSettings, ModelRunEntry, ModelRunSpec, ToleranceSpec, car_fidelities, runs_rule
+from femref.case.settings import FemSpec, IntegratorSettings, TimeSettings, fem_field
 from femref.core.catalog import ESTIMATORS as ESTIMATOR_NAMES
 
 __all__ = ["ImpactCase"]
@@ -65,7 +41,7 @@ FIELD_FILES_RULE = (
 )
 
 
-def _field_output_problems(fem: FemSettings) -> list[Problem]:
+def _field_output_problems(fem: FemSpec) -> list[Problem]:
     """``fem.fields: true`` (or a ``fem.field_stride`` other than 1) asks for field files, which impacts
     do not write (:data:`FIELD_FILES_RULE`): a problem at each such key, rather than a silent no-op."""
     problems = []
@@ -80,7 +56,7 @@ class ImpactCase(SceneCase):
     """Cars in a line joined by couplers, moving at given velocities from ``t = 0`` (docs/design.md §3)."""
 
     kind: Literal["impact"] = Field(default="impact", description="impact. Required in the case file.")
-    cars: Annotated[tuple[CarSpec, ...], AfterValidator(cars_rule)] = Field(
+    cars: Annotated[tuple[CarSpec, ...], AfterValidator(cars_rule("an impact"))] = Field(
         description="Two or more cars in line order (rear to front): cars[i]'s +l end faces cars[i+1]'s −l end. Required."
     )
     couplers: tuple[CouplerSpec, ...] = Field(description="One or more couplers between neighbouring cars. Required.")
@@ -94,7 +70,7 @@ class ImpactCase(SceneCase):
             f"Default [{', '.join(DEFAULT_MODELS)}]."
         ),
     )
-    fem: FemSettings = fem_field()
+    fem: FemSpec = fem_field()
     modal: ModalSettings = Field(default_factory=ModalSettings, description="Modal car model. Default: see ModalSettings (4 modes).")
     measurement: MeasurementSpec | None = Field(default=None, description="Accelerometer model. Default null: records on the model's time grid, no filter, no noise.")
     estimators: Annotated[tuple[EstimatorEntry, ...], AfterValidator(estimators_rule)] = Field(
@@ -124,14 +100,7 @@ class ImpactCase(SceneCase):
     def _couplers_join_neighbours(cls, couplers: tuple[CouplerSpec, ...], info: ValidationInfo) -> tuple[CouplerSpec, ...]:
         if not couplers:
             raise PydanticCustomError("couplers_empty", "an impact needs at least one coupler between neighbouring cars")
-        named = tuple(c if c.name is not None else c.model_copy(update={"name": f"c{k + 1}"}) for k, c in enumerate(couplers))
-        problems = duplicates([c.name for c in named], "coupler", lambda k: (k, "name"))  # type: ignore[misc]
-        cars = info.data.get("cars")
-        if cars is not None:
-            problems += coupler_pair_problems(named, [car.name for car in cars])
-        if problems:
-            raise problems_error(problems)
-        return named
+        return named_couplers(couplers, info.data.get("cars"))
 
     @field_validator("models", mode="after")
     @classmethod
@@ -153,7 +122,7 @@ class ImpactCase(SceneCase):
 
     @field_validator("fem", mode="after")
     @classmethod
-    def _rod_order(cls, fem: FemSettings) -> FemSettings:
+    def _rod_order(cls, fem: FemSpec) -> FemSpec:
         problems = _field_output_problems(fem)
         if fem.order is not None and fem.order not in RodBody.element_orders:
             problems.append(Problem(("order",), "impact cars are rods: order 1 (P1) or 2 (P2)", fem.order))
@@ -169,7 +138,7 @@ class ImpactCase(SceneCase):
         cars, couplers, runs = (info.data.get(key) for key in ("cars", "couplers", "models"))
         if not entries or cars is None or runs is None:
             return entries
-        names = [estimator_entry_name(entry) for entry in entries]
+        names = [entry_name(entry) for entry in entries]
         car_names = [car.name for car in cars]
         if not any(set(car_fidelities(run, car_names)) == {"fem"} for run in runs):
             rule = "the estimators run on the fem sensor records; add fem (a uniform fem run) to models"
@@ -220,4 +189,4 @@ class ImpactCase(SceneCase):
 
     def run_fidelities(self) -> dict[str, tuple[str, ...]]:
         """Run name → the fidelity of each car in line order, in the order of ``models``."""
-        return {run_name(run): car_fidelities(run, self.car_names) for run in self.models}
+        return {entry_name(run): car_fidelities(run, self.car_names) for run in self.models}

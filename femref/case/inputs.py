@@ -1,13 +1,7 @@
 """The files a validated case reads: every file path it names, by the key path that names it.
 
-A case names files of its own — a measured case's ``records[i].file`` and ``calibration``, a
-transient load ``loads.F2.csv.path``, a network estimator's ``estimators[i].network`` (or
-``network.free_to_roll`` / ``network.coupled``) — which validation has already resolved against
-the case file's folder (:func:`femref.case.fields.resolve_case_path`) and read. The commands
-protect them as inputs: an output may not overwrite one (``femref.cli.common.check_output``).
-
-:func:`case_inputs` walks the validated model, so a file path field added to the case language
-later is protected without a change here.
+The commands protect them as inputs: an output may not overwrite one (``femref.cli.common.check_output``).
+:func:`case_inputs` walks the validated model, so a file path field added later is protected without a change here.
 """
 
 from __future__ import annotations
@@ -25,13 +19,9 @@ __all__ = ["case_inputs", "field_models"]
 
 
 def case_inputs(case: BaseModel, base_dir: Path | None = None) -> dict[str, Path]:
-    """Every file path of the validated ``case`` (any case model), keyed by its key path in the case file
-    (``records[0].file``, ``loads.F2.csv.path``, ``estimators[3].network``), in the order of the case.
-
-    The paths are those validation stored: absolute, resolved against the case file's folder. A
-    relative path (a model built without a loader) is resolved against ``base_dir`` (default: the
-    working folder).
-    """
+    """Every file path of the validated ``case`` by its key path (``records[0].file``, ``loads.F2.csv.path``), in
+    the order of the case; a relative path (a model built without a loader) resolved against ``base_dir`` (default:
+    the working folder)."""
     found: dict[str, Path] = {}
     _walk(case, (), found)
     base = Path.cwd() if base_dir is None else Path(base_dir)
@@ -56,9 +46,7 @@ def _walk(value: Any, at: KeyPath, found: dict[str, Path]) -> None:
 
 
 def field_models(case: Any) -> list[str]:
-    """The models of the validated ``case`` that write field files beside its result file: ``fem`` when it runs
-    with ``fem.fields: true`` (transient cases; an impact case refuses field files). A command's output check
-    keeps those files off the case's inputs as it does the result file."""
+    """The models of the validated ``case`` that write field files beside its result file: ``fem`` with ``fem.fields: true``."""
     fem = getattr(case, "fem", None)
     models = getattr(case, "models", ()) or ()
     return ["fem"] if getattr(fem, "fields", False) and "fem" in models else []

@@ -1,12 +1,4 @@
-"""The case kinds: the ``kind:`` key of a case file, the one module that knows every kind.
-
-* ``harmonic``, ``transient``: one body under end loads (:mod:`femref.case.single`);
-* ``impact``: cars in a line joined by couplers (:mod:`femref.case.impact`);
-* ``measured``: recorded accelerations of such cars, read by estimators (:mod:`femref.case.measured`).
-
-:data:`Case` is their union, discriminated on ``kind``; the loader validates a case
-file into it.
-"""
+"""The case kinds: the ``kind:`` key of a case file, the one module that knows every kind."""
 
 from collections.abc import Mapping
 from typing import Annotated, Union

@@ -1,29 +1,13 @@
 """Case files: YAML text → validated :data:`~femref.case.kinds.Case`, and back.
 
-``load_case`` and ``parse_case`` raise :class:`~femref.case.errors.CaseError` and
-nothing else for bad input (missing or unreadable file, YAML syntax, a document that
-is not a mapping, any schema rule). ``resolved_yaml`` writes a case with every
-default filled in; loading that text gives an equal case.
+Bad input raises :class:`~femref.case.errors.CaseError` and nothing else. YAML dialect: safe YAML, with
+duplicate keys refused (PyYAML keeps the last) and ``1e9`` read as a number (YAML 1.2; 1.1 reads text).
 
-YAML dialect: safe YAML, with two corrections of PyYAML's YAML 1.1 reading —
-duplicate keys are errors (PyYAML silently keeps the last one), and ``1e9`` is the
-number 10⁹ as in YAML 1.2 (YAML 1.1 reads it as text).
-
-Limits, so that a small hostile file cannot exhaust memory, time or the stack (every
-case, sweep and study file goes through :func:`read_yaml_file`):
-
-* a file is a regular file (:func:`femref.core.files.regular_file`: a FIFO or a device is
-  refused before it is opened, a loop of symbolic links named as such);
-* a file holds at most :data:`MAX_YAML_BYTES` bytes;
-* collections nest at most :data:`MAX_YAML_DEPTH` levels (``[[[…]]]``), counted
-  through aliases: an alias nests its anchor's levels where it is used;
-* a document holds at most :data:`MAX_YAML_NODES` values (scalars and collections),
-  an alias counting every value of its anchor each time it is used — so a few lines
-  of nested aliases ("billion laughs") cannot stand for 10⁹ values;
-* an alias cannot refer to the collection it is inside (a recursive structure).
-
-Anchors, aliases and merge keys (``<<: *defaults``) used within these limits work
-as in any YAML reader.
+Limits, so that a small hostile file cannot exhaust memory, time or the stack (every case, sweep and study
+file goes through :func:`read_yaml_file`): a regular file only (a FIFO would block the open), at most
+:data:`MAX_YAML_BYTES` bytes, collections nested at most :data:`MAX_YAML_DEPTH` levels and at most
+:data:`MAX_YAML_NODES` values — both counted through aliases, so nested aliases ("billion laughs") cannot
+stand for 10⁹ values — and no alias inside its own anchor (a recursive structure).
 """
 
 from __future__ import annotations
@@ -65,10 +49,8 @@ class _YamlLimitError(yaml.YAMLError):
 class _CaseYamlLoader(yaml.SafeLoader):
     """Safe YAML that refuses duplicate keys, reads ``1e9`` as a number and keeps to the size limits.
 
-    The limits are checked while the document is composed, before any Python value is made:
-    each finished node records its nesting height and its value count with aliases expanded
-    (an alias is the node of its anchor, so both come from the children's records), and a
-    node beyond :data:`MAX_YAML_DEPTH` or :data:`MAX_YAML_NODES` stops the composition there.
+    The limits are checked while the document is composed, before any Python value is made: each finished
+    node records its nesting height and value count with aliases expanded (an alias is its anchor's node).
     The open collections are counted too, which bounds the composer's own recursion.
     """
 
@@ -153,23 +135,13 @@ def _yaml_problem(error: yaml.YAMLError) -> str:
 
 
 def load_case(path: str | Path) -> Case:
-    """Read, parse and validate the case file at ``path``.
-
-    Relative CSV paths inside it are relative to the file's directory. Raises
-    :class:`CaseError` for any bad input.
-    """
+    """Read, parse and validate the case file at ``path`` (relative file paths inside it: from its directory)."""
     path = Path(path)
     return parse_case(read_yaml_file(path, "case"), source=str(path), base_dir=path.parent)
 
 
 def read_yaml_file(path: str | Path, what: str) -> Any:
-    """The YAML document of a ``what`` file (case, sweep, study) in this module's dialect.
-
-    Raises :class:`CaseError` (source: the path) for a missing or unreadable file, a path that
-    is not a regular file (a FIFO, a device, a folder, a loop of symbolic links), a file larger
-    than :data:`MAX_YAML_BYTES` or not UTF-8 text, a YAML syntax error, or a document beyond
-    the nesting or size limits (module docstring).
-    """
+    """The YAML document of a ``what`` file (case, sweep, study) in this module's dialect and limits."""
     source = str(path)
     try:
         regular_file(path)  # before opening: a FIFO would block the open until a writer came
@@ -191,10 +163,7 @@ def read_yaml_file(path: str | Path, what: str) -> Any:
 
 
 def load_yaml_text(text: str, source: str = "<yaml>") -> Any:
-    """The YAML document in ``text``, in this module's dialect and within its limits (module docstring).
-
-    Raises :class:`CaseError` (naming ``source``) for a syntax error or a document beyond the limits.
-    """
+    """The YAML document in ``text``, in this module's dialect and limits; ``source`` names it in errors."""
     try:
         return yaml.load(text, Loader=_CaseYamlLoader)  # noqa: S506 - a SafeLoader subclass
     except yaml.YAMLError as error:
@@ -202,11 +171,8 @@ def load_yaml_text(text: str, source: str = "<yaml>") -> Any:
 
 
 def parse_case(data: Any, *, source: str = "<case>", base_dir: Path | None = None) -> Case:
-    """Validate parsed YAML (or any mapping) into a case.
-
-    ``source`` names the input in error messages; ``base_dir`` resolves relative CSV
-    paths (default: the working directory at call time). Raises :class:`CaseError`.
-    """
+    """Validate parsed YAML (or any mapping) into a case; ``source`` names it in errors, ``base_dir`` resolves
+    relative file paths (default: the working directory)."""
     if data is None:
         raise CaseError(Problem((), "the case is empty; a case needs at least kind, body, loads"), source)
     if not isinstance(data, Mapping):

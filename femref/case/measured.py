@@ -1,38 +1,10 @@
 """The ``kind: measured`` case: coupler forces, impact type, gear closure, wear and alarm from recorded accelerations.
 
-Layout of a measured case file::
-
-    records:     one or more CSV (header row) or HDF5 files: per file its time source
-                 ({column | dataset, unit} or {rate, start}), a clock offset (s, added to its
-                 times), a channel map <car>/<sensor>: {column | dataset, unit} and the
-                 recorder's anti-alias low-pass {corner, order} (optional)
-    cars:        >= 2 cars in line order (rear to front), each a rod body (as in impact cases)
-                 or only its mass and length (rigid estimates only), with its sensors' positions
-    couplers:    one between each pair of neighbours that touch: {name, between}
-    events:      {trigger, pre, post, rearm, quiet, max_window}: an event starts where a channel's
-                 |a| first exceeds trigger (m/s²) and rings while one exceeds rearm; it spans
-                 [t − pre, t_last + post], at most max_window long; the trigger re-arms after
-                 quiet s below rearm (femref.sensing.trigger); closing_speed: the speeds the user
-                 has {value, uncertainty, time} (radar, wayside), replacing the estimates
-    estimators:  inverse_rigid, inverse_quasi_rigid, kalman (femref.core.catalog.MEASURED_ESTIMATORS), or a
-                 saved network {name: ann_<name>, network: file.npz} (needs kalman: its contact instant)
-    kalman:      {modes}: elastic modes per car of the kalman estimator's model
-    checks:      {alarm, rated_closure_force, wear_tolerance}: the alarm force limit (N), the
-                 gear's rated closure force (N) and the relative shortfall that counts as worn
-    calibration: the inverse estimators' error bands (a file of femref calibrate)
-
-Every record file is read when the case is loaded (:mod:`femref.sensing.recordings`) and
-what was read is kept for the run, which reads a file again only if it changed since: a
-missing file, channel or unit, a time column that does not increase, a channel that is
-all NaN, a file that is not a regular file, points outside itself (HDF5 external storage,
-external links, virtual datasets) or exceeds the limits of size, samples and rate
-(:mod:`femref.sensing.record_files`) are case errors naming the file, channel and rule;
-so is an event grid (``events.max_window`` × the highest rate × the channels) beyond
-:data:`~femref.sensing.recordings.MAX_EVENT_VALUES`. The relations between keys —
-channels against the cars' sensors, couplers against the cars, estimators against what
-they need (a rod body, two sensors on the front car) — are checked once the keys are valid.
-
-:func:`femref.scene.build.scene_from_case` turns the validated case into a
+Every record file is read when the case is loaded (:mod:`femref.sensing.recordings`) and what was read is kept
+for the run, which reads a file again only if it changed since: a bad file, channel, unit or time column, or a file
+beyond the limits of :mod:`femref.sensing.record_files`, is a case error naming the file, channel and rule; so is an
+event grid beyond :data:`~femref.sensing.recordings.MAX_EVENT_VALUES`. The relations between keys are checked once
+the keys are valid. :func:`femref.scene.build.scene_from_case` turns the case into a
 :class:`femref.scene.measured.MeasuredScene`.
 """
 
@@ -47,11 +19,11 @@ from pydantic_core import PydanticCustomError
 
 from femref.case.base import SceneCase
 from femref.case.bodies import RodBody
-from femref.case.cars import CarName
-from femref.case.couplers import Between, CouplerName, coupler_pair_problems
+from femref.case.cars import CarName, cars_rule
+from femref.case.couplers import Between, CouplerName, named_couplers
 from femref.case.errors import Problem, did_you_mean, problems_error
-from femref.case.estimators import ANY_IMPACT, AnnEstimatorSpec, estimator_entry
-from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, ProbeName, Real, duplicates, name_rule, resolve_case_path
+from femref.case.estimators import ANY_IMPACT, AnnEstimatorSpec, contract_scene_problems, estimator_entry
+from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, ProbeName, Real, duplicates, entry_name, name_rule, resolve_case_path
 from femref.core.catalog import MEASURED_ESTIMATORS
 from femref.sensing import record_files, recordings
 from femref.sensing.measurement import FILTER_ORDER
@@ -319,19 +291,8 @@ class CheckSettings(CaseModel):
 MeasuredEstimatorEntry = estimator_entry(MEASURED_ESTIMATORS)
 
 
-def _calibrated_coupler_problem(path: Path, coupler: str, couplers: tuple[MeasuredCouplerSpec, ...] | None) -> Problem | None:
-    """A calibration of a coupler the case does not have would never give a band: a case error naming both."""
-    if couplers is None:  # the couplers are invalid themselves: their own problem is reported
-        return None
-    names = [spec.name for spec in couplers]
-    if coupler in names:
-        return None
-    return Problem((), f"{path}: attribute coupler: the calibration is of coupler {coupler!r}, which this case does not have; "
-                       f"couplers: {', '.join(str(name) for name in names)}")
-
-
 def _estimators_rule(entries: tuple[str | AnnEstimatorSpec, ...]) -> tuple[str | AnnEstimatorSpec, ...]:
-    names = [entry if isinstance(entry, str) else entry.name for entry in entries]
+    names = [entry_name(entry) for entry in entries]
     problems = duplicates(names, "estimator", lambda i: (i,))
     if not entries:
         problems.append(Problem((), f"name at least one estimator: {', '.join(MEASURED_ESTIMATORS)}"))
@@ -348,7 +309,9 @@ class MeasuredCase(SceneCase):
 
     kind: Literal["measured"] = Field(default="measured", description="measured. Required in the case file.")
     records: tuple[RecordFileSpec, ...] = Field(description="The record files, one per recorder; at least one. Required.")
-    cars: tuple[MeasuredCarSpec, ...] = Field(description="Two or more cars in line order (rear to front). Required.")
+    cars: Annotated[tuple[MeasuredCarSpec, ...], AfterValidator(cars_rule("a measured impact"))] = Field(
+        description="Two or more cars in line order (rear to front). Required."
+    )
     couplers: tuple[MeasuredCouplerSpec, ...] = Field(description="One or more couplers between neighbouring cars. Required.")
     events: EventSettings = Field(description="Event detection: {trigger, pre, post, rearm, quiet, max_window}. Required (trigger at least).")
     estimators: Annotated[tuple[MeasuredEstimatorEntry, ...], AfterValidator(_estimators_rule)] = Field(
@@ -376,9 +339,12 @@ class MeasuredCase(SceneCase):
         if cars is not None and set(calibration.masses) != {car.name for car in cars}:
             rule = f"{path}: attribute masses calibrates cars {', '.join(calibration.masses)}, not this case's {', '.join(car.name for car in cars)}"
             raise problems_error([Problem((), rule)])
-        problem = _calibrated_coupler_problem(path, calibration.coupler, info.data.get("couplers"))
-        if problem is not None:
-            raise problems_error([problem])
+        couplers = info.data.get("couplers")  # None: invalid themselves, their own problem is reported
+        names = [str(spec.name) for spec in couplers or ()]
+        if couplers is not None and calibration.coupler not in names:  # a calibration that would never give a band
+            rule = (f"{path}: attribute coupler: the calibration is of coupler {calibration.coupler!r}, which this case does not have; "
+                    f"couplers: {', '.join(names)}")
+            raise problems_error([Problem((), rule)])
         return path
 
     @field_validator("records", mode="after")
@@ -397,29 +363,12 @@ class MeasuredCase(SceneCase):
             raise problems_error(problems)
         return records
 
-    @field_validator("cars", mode="after")
-    @classmethod
-    def _two_cars(cls, cars: tuple[MeasuredCarSpec, ...]) -> tuple[MeasuredCarSpec, ...]:
-        if len(cars) < 2:
-            raise problems_error([Problem((), f"a measured impact needs at least 2 cars, in line order (rear to front); got {len(cars)}")])
-        problems = duplicates([car.name for car in cars], "car", lambda i: (i, "name"))
-        if problems:
-            raise problems_error(problems)
-        return cars
-
     @field_validator("couplers", mode="after")
     @classmethod
     def _couplers_join_neighbours(cls, couplers: tuple[MeasuredCouplerSpec, ...], info: ValidationInfo) -> tuple[MeasuredCouplerSpec, ...]:
         if not couplers:
             raise problems_error([Problem((), "name at least one coupler between neighbouring cars")])
-        named = tuple(c if c.name is not None else c.model_copy(update={"name": f"c{k + 1}"}) for k, c in enumerate(couplers))
-        problems = duplicates([c.name for c in named], "coupler", lambda k: (k, "name"))  # type: ignore[misc]
-        cars = info.data.get("cars")
-        if cars is not None:
-            problems += coupler_pair_problems(named, [car.name for car in cars])  # type: ignore[arg-type]
-        if problems:
-            raise problems_error(problems)
-        return named
+        return named_couplers(couplers, info.data.get("cars"))
 
     @model_validator(mode="after")
     def _relations(self) -> "MeasuredCase":
@@ -478,22 +427,11 @@ class MeasuredCase(SceneCase):
         return problems
 
     def _network_problems(self, contract: NetworkContract) -> list[Problem]:
-        """A network's contract against this case (:mod:`femref.sensing.network`): its coupler, its probes
-        recorded, its mass inputs declared cars, its records within the event window after contact, the
-        records filtered as its training records were (``kalman`` listed is checked by the caller, once per
-        estimator: the contact instant the network's records start at is read from the kalman force)."""
-        problems: list[Problem] = []
-        couplers = [c.name for c in self.couplers]
-        if contract.coupler not in couplers:
-            problems.append(Problem((), f"the network estimates coupler {contract.coupler!r}, which this case does not have; couplers: {', '.join(couplers)}"))
+        """A network's contract against this case: its coupler, probes recorded, mass inputs declared cars, records
+        within the event window after contact, filtered as its training records were."""
         files = {probe: record for record in self.records for probe in record.channels}
-        missing = [probe for probe in contract.probes if probe not in files]
-        if missing:
-            problems.append(Problem((), f"the network reads probe(s) {', '.join(missing)}, which are not recorded; channels: {', '.join(files)}"))
-        cars = [car.name for car in self.cars]
-        unknown = [car for car in contract.mass_inputs if car not in cars]
-        if unknown:
-            problems.append(Problem((), f"the network takes the mass of car(s) {', '.join(unknown)}, which this case does not have; cars: {', '.join(cars)}"))
+        problems = contract_scene_problems(contract, [str(c.name) for c in self.couplers], list(files), "are not recorded; channels",
+                                           [car.name for car in self.cars])
         if contract.record_end > self.events.post:
             problems.append(Problem((), f"the network reads {contract.record_end:g} s after contact, beyond events.post = {self.events.post:g} s"))
         trained = contract.measurement
@@ -511,9 +449,8 @@ class MeasuredCase(SceneCase):
         return problems
 
     def _record_problems(self) -> list[Problem]:
-        """Each file read as the run will read it (and kept for it): a bad file, channel or unit is the case's error,
-        the files together within :data:`~femref.sensing.record_files.MAX_RECORD_VALUES`; the event settings against
-        the span the files share, an event's grid within :data:`~femref.sensing.recordings.MAX_EVENT_VALUES`."""
+        """Each file read as the run will read it (and kept for it), the files together within
+        :data:`~femref.sensing.record_files.MAX_RECORD_VALUES`; the event settings against the span they share."""
         problems = []
         spans = []
         rates = []
@@ -543,9 +480,8 @@ class MeasuredCase(SceneCase):
         return problems
 
     def _event_grid_problems(self, rate: float, file: str, channels: int) -> list[Problem]:
-        """An event's records on its grid — ``max_window × rate + 1`` samples at the highest ``rate`` (Hz, of
-        ``file``), for each of ``channels`` — within :data:`~femref.sensing.recordings.MAX_EVENT_VALUES`, so no
-        window asks for more before the first one is cut."""
+        """An event's grid, ``(max_window × rate + 1) × channels`` values at the highest ``rate`` (Hz, of ``file``), within
+        :data:`~femref.sensing.recordings.MAX_EVENT_VALUES`, so no window asks for more before the first one is cut."""
         window = self.events.max_window
         values = (math.floor(window * rate) + 1) * channels
         if values <= recordings.MAX_EVENT_VALUES:

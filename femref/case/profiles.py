@@ -1,19 +1,17 @@
 """Profiles of the case file: a section property along the body, ``x ∈ [−l, l]`` (docs/design.md §3).
 
-A profile is a number or ``{piecewise|linear|table: …}`` (registry :data:`PROFILES`),
-each with ``build(half_length) -> femref.core.profiles`` object. :data:`PositiveProfile`
-and :data:`NonNegativeProfile` add the sign rule of the property; whether breaks and
-positions fit on the body is checked by the body (:meth:`ProfileSpec.range_problems`).
+A profile is a number or ``{piecewise|linear|table: …}`` (registry :data:`PROFILES`); whether its
+breaks and positions fit on the body is checked by the body (:meth:`ProfileSpec.range_problems`).
 """
 
 from collections.abc import Callable, Mapping
-from typing import Annotated, Any, ClassVar
+from typing import Annotated, ClassVar
 
 import numpy as np
-from pydantic import AfterValidator, Field, model_serializer, model_validator
+from pydantic import AfterValidator, Field, model_validator
 
 from femref.case.errors import Problem, problems_error
-from femref.case.fields import Real, TaggedSpec, is_number, tagged_union
+from femref.case.fields import Real, TaggedSpec, tagged_union
 from femref.core import profiles
 
 __all__ = [
@@ -49,15 +47,8 @@ class UniformProfile(ProfileSpec):
     """The same value everywhere; written as a plain number."""
 
     tag: ClassVar[str] = "uniform"
+    number_field: ClassVar[str | None] = "value"
     value: Real = Field(description="The value everywhere (units of the property). Required.")
-
-    @classmethod
-    def _shorthand(cls, data: Any) -> Any:
-        return {"value": data} if is_number(data) else data
-
-    @model_serializer(mode="wrap")
-    def _serialize(self, handler: Callable[[Any], Any]) -> Any:
-        return self.value
 
     def build(self, half_length: float) -> profiles.Profile:
         return profiles.Uniform(self.value)
@@ -79,13 +70,8 @@ class PiecewiseProfile(ProfileSpec):
         if any(a >= b for a, b in zip(self.breaks, self.breaks[1:])):
             problems.append(Problem(("breaks",), "must increase strictly", list(self.breaks)))
         if len(self.values) != len(self.breaks) + 1:
-            problems.append(
-                Problem(
-                    ("values",),
-                    f"must have one value per piece: len(breaks) + 1 = {len(self.breaks) + 1} entries, not {len(self.values)}",
-                    list(self.values),
-                )
-            )
+            rule = f"must have one value per piece: len(breaks) + 1 = {len(self.breaks) + 1} entries, not {len(self.values)}"
+            problems.append(Problem(("values",), rule, list(self.values)))
         if problems:
             raise problems_error(problems)
         return self
@@ -176,11 +162,8 @@ NonNegativeProfile = Annotated[_AnyProfile, AfterValidator(_values_at_least(0.0,
 
 
 def length_average(profile: profiles.Profile, half_length: float) -> float:
-    """``(1/2l) ∫_{−l}^{l} p(x) dx``.
-
-    Exact for every profile kind here: each is linear between its jumps and kinks, and
-    the midpoint rule on those segments integrates a linear function exactly.
-    """
+    """``(1/2l) ∫_{−l}^{l} p(x) dx``, exact: every profile kind is linear between its jumps and kinks, where the
+    midpoint rule integrates it exactly."""
     inner = sorted({p for p in (*profile.jumps, *profile.kinks) if -half_length < p < half_length})
     edges = np.array([-half_length, *inner, half_length], dtype=float)
     mids = 0.5 * (edges[:-1] + edges[1:])

@@ -1,23 +1,21 @@
 """The model runs of an impact case: ``models``, ``modal`` and ``tolerance``.
 
-A ``models`` entry is a model name (a uniform run: every car at that fidelity) or a
-mixed-fidelity run ``{name, fidelity, cars: {car: fidelity}}`` (:class:`ModelRunSpec`);
-the fidelities are the models that serve impacts (``femref.core.catalog.FIDELITIES``).
-``modal`` sets the modal car model; ``tolerance`` (:class:`ToleranceSpec`) asks for the
-cheapest model expected within it instead of the ``models`` list (femref.choice).
+A ``models`` entry is a model name (a uniform run: every car at that fidelity) or a mixed-fidelity run
+``{name, fidelity, cars: {car: fidelity}}`` (:class:`ModelRunSpec`); ``tolerance`` asks for the cheapest
+model expected within it instead (femref.choice).
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from typing import Annotated, Any, Literal, Union
+from collections.abc import Callable
+from typing import Annotated, Any, Literal
 
-from pydantic import AfterValidator, BeforeValidator, Discriminator, Field, Tag, model_validator
+from pydantic import AfterValidator, BeforeValidator, Field, model_validator
 from pydantic_core import PydanticCustomError
 
 from femref.case.capabilities import MODELS
 from femref.case.errors import Problem, did_you_mean, problems_error
-from femref.case.fields import CaseModel, duplicates, name_rule, reject_bool
+from femref.case.fields import CaseModel, duplicates, entry_name, name_or_model, name_rule, reject_bool
 from femref.core.catalog import ESTIMATORS as ESTIMATOR_NAMES
 from femref.core.catalog import CHOICE_GROUP, FIDELITIES, SCENE_GROUP, SCORES_GROUP
 
@@ -41,21 +39,19 @@ RESERVED_RUN_NAMES: tuple[str, ...] = (*MODELS, *ESTIMATOR_NAMES, SCORES_GROUP, 
 RunName = Annotated[str, AfterValidator(name_rule("run"))]
 
 
-def _fidelity(name: str) -> str:
-    """A per-car fidelity, with a hint for misspellings."""
-    if name not in FIDELITIES:
-        raise PydanticCustomError(
-            "fidelity", "unknown fidelity{hint}; a car is one of {known}", {"hint": did_you_mean(name, FIDELITIES), "known": ", ".join(FIDELITIES)}
-        )
-    return name
+def _one_of(names: tuple[str, ...], error: str, template: str) -> Callable[[str], str]:
+    """A validator: one of ``names``, else the ``error`` with a hint for misspellings and the known names."""
+
+    def check(name: str) -> str:
+        if name not in names:
+            raise PydanticCustomError(error, template, {"hint": did_you_mean(name, names), "known": ", ".join(names)})
+        return name
+
+    return check
 
 
 #: How one car is modelled within a run: one of ``femref.core.catalog.FIDELITIES``.
-Fidelity = Annotated[str, AfterValidator(_fidelity)]
-
-
-# ---------------------------------------------------------------------------------------------
-# Model runs
+Fidelity = Annotated[str, AfterValidator(_one_of(FIDELITIES, "fidelity", "unknown fidelity{hint}; a car is one of {known}"))]
 
 
 class ModelRunSpec(CaseModel):
@@ -67,7 +63,8 @@ class ModelRunSpec(CaseModel):
 
     @model_validator(mode="after")
     def _not_a_reserved_name(self) -> "ModelRunSpec":
-        if self.name in RESERVED_RUN_NAMES and not self._is_uniform_run_of(self.name):
+        uniform = self.fidelity == self.name and all(f == self.name for f in self.cars.values())
+        if self.name in RESERVED_RUN_NAMES and not uniform:
             if self.name in FIDELITIES:
                 rule = f"{self.name!r} names the uniform {self.name} run; give a mixed run another name (e.g. {self.fidelity}_with_...)"
             else:
@@ -77,57 +74,23 @@ class ModelRunSpec(CaseModel):
             raise problems_error([Problem(("name",), "names starting with 'ann_' are reserved for network estimators (ann_<name>)", self.name)])
         return self
 
-    def _is_uniform_run_of(self, fidelity: str) -> bool:
-        return self.fidelity == fidelity and all(f == fidelity for f in self.cars.values())
-
     def fidelities(self, car_names: list[str]) -> tuple[str, ...]:
         """The fidelity of each car, in line order."""
         return tuple(self.cars.get(name, self.fidelity) for name in car_names)
 
 
-def _known_model(name: str) -> str:
-    """A plain ``models`` entry names a registered model (whether it can serve is checked on the whole case)."""
-    if name not in MODELS:
-        raise PydanticCustomError(
-            "model_name", "unknown model{hint}; known models: {known}", {"hint": did_you_mean(name, MODELS), "known": ", ".join(MODELS)}
-        )
-    return name
-
-
-def _run_kind(value: Any) -> str | None:
-    """The union tag of a ``models`` entry: a plain model name or a mixed-run mapping."""
-    if isinstance(value, str):
-        return "plain"
-    if isinstance(value, (Mapping, ModelRunSpec)):
-        return "mixed"
-    return None
-
-
-def _run_shape(value: Any) -> Any:
-    """Refuse an entry that is neither (pydantic would report a missing tag instead)."""
-    if _run_kind(value) is None:
-        raise PydanticCustomError("run_shape", "must be a model name or a mapping {shape}", {"shape": "{name, fidelity, cars}"})
-    return value
-
-
+#: A registered model (whether it can serve is checked on the whole case).
+ModelName = Annotated[str, AfterValidator(_one_of(MODELS, "model_name", "unknown model{hint}; known models: {known}"))]
 #: One entry of ``models``: a model name (a uniform run) or a :class:`ModelRunSpec`.
-ModelRunEntry = Annotated[
-    Union[Annotated[Annotated[str, AfterValidator(_known_model)], Tag("plain")], Annotated[ModelRunSpec, Tag("mixed")]],  # noqa: UP007
-    Discriminator(_run_kind),
-    BeforeValidator(_run_shape),
-]
-
-
-def run_name(entry: str | ModelRunSpec) -> str:
-    """The result-group name of a run: the model name of a uniform run, the given name of a mixed one."""
-    return entry if isinstance(entry, str) else entry.name
+ModelRunEntry = name_or_model(ModelName, ModelRunSpec, ("plain", "mixed"),
+                              ("run_shape", "must be a model name or a mapping {shape}", {"shape": "{name, fidelity, cars}"}))
 
 
 def runs_rule(runs: tuple[str | ModelRunSpec, ...]) -> tuple[str | ModelRunSpec, ...]:
     """At least one run; run names unique."""
     if not runs:
         raise PydanticCustomError("models_empty", "must list at least one model run ({known})", {"known": ", ".join(FIDELITIES)})
-    problems = duplicates([run_name(run) for run in runs], "run", lambda i: (i,))
+    problems = duplicates([entry_name(run) for run in runs], "run", lambda i: (i,))
     if problems:
         raise problems_error(problems)
     return runs
@@ -136,10 +99,6 @@ def runs_rule(runs: tuple[str | ModelRunSpec, ...]) -> tuple[str | ModelRunSpec,
 def car_fidelities(run: str | ModelRunSpec, car_names: list[str]) -> tuple[str, ...]:
     """Per-car fidelities of a run; a plain model name models every car alike."""
     return (run,) * len(car_names) if isinstance(run, str) else run.fidelities(car_names)
-
-
-# ---------------------------------------------------------------------------------------------
-# Modal settings, tolerance
 
 
 class ModalSettings(CaseModel):

@@ -1,9 +1,5 @@
 """The settings of a case: the frequency axis (harmonic), time and integrator (transient,
-impact), and the finite-element discretisation (every kind).
-
-Registries: :data:`FREQUENCY_AXES` (``omega``, ``hz``, ``lambda``) and
-:data:`INTEGRATORS` (``newmark``, ``generalized_alpha``).
-"""
+impact), and the finite-element discretisation (every kind)."""
 
 from collections.abc import Mapping
 from typing import Annotated, Any, ClassVar, Literal
@@ -13,7 +9,7 @@ from numpy.typing import NDArray
 from pydantic import Field, ValidationInfo, field_validator, model_validator
 from pydantic_core import PydanticCustomError
 
-from femref.case.bodies import Body
+from femref.case.bodies import BodySchema
 from femref.case.errors import Problem, problems_error
 from femref.case.fields import CaseModel, Count, PositiveReal, Real, TaggedSpec, tagged_union
 from femref.case.plausibility import plausible
@@ -22,7 +18,7 @@ __all__ = [
     "DEFAULT_RHO_INF",
     "FREQUENCY_AXES",
     "INTEGRATORS",
-    "FemSettings",
+    "FemSpec",
     "FrequencyRange",
     "FrequencySpec",
     "HzRange",
@@ -31,10 +27,6 @@ __all__ = [
     "OmegaRange",
     "TimeSettings",
 ]
-
-
-# ---------------------------------------------------------------------------------------------
-# Frequency axis (harmonic)
 
 
 #: Most frequencies of one axis (the harmonic models' work is also budgeted, femref.run.budget).
@@ -67,7 +59,7 @@ class FrequencyRange(TaggedSpec):
         spaced = np.geomspace if self.spacing == "log" else np.linspace
         return spaced(self.start, self.stop, self.num)
 
-    def omega(self, body: Body) -> NDArray[np.float64]:
+    def omega(self, body: BodySchema) -> NDArray[np.float64]:
         """Circular frequencies ω (rad/s) for ``body``."""
         raise NotImplementedError
 
@@ -77,7 +69,7 @@ class OmegaRange(FrequencyRange):
 
     tag: ClassVar[str] = "omega"
 
-    def omega(self, body: Body) -> NDArray[np.float64]:
+    def omega(self, body: BodySchema) -> NDArray[np.float64]:
         return self.values()
 
 
@@ -86,7 +78,7 @@ class HzRange(FrequencyRange):
 
     tag: ClassVar[str] = "hz"
 
-    def omega(self, body: Body) -> NDArray[np.float64]:
+    def omega(self, body: BodySchema) -> NDArray[np.float64]:
         return 2.0 * np.pi * self.values()
 
 
@@ -96,7 +88,7 @@ class LambdaRange(FrequencyRange):
 
     tag: ClassVar[str] = "lambda"
 
-    def omega(self, body: Body) -> NDArray[np.float64]:
+    def omega(self, body: BodySchema) -> NDArray[np.float64]:
         return self.values() / body.wave_time()
 
 
@@ -104,10 +96,6 @@ class LambdaRange(FrequencyRange):
 FREQUENCY_AXES: Mapping[str, type[FrequencyRange]] = {"omega": OmegaRange, "hz": HzRange, "lambda": LambdaRange}
 
 FrequencySpec = tagged_union(FREQUENCY_AXES, "frequency axis")
-
-
-# ---------------------------------------------------------------------------------------------
-# Time, integrator, finite elements
 
 
 class TimeSettings(CaseModel):
@@ -164,7 +152,7 @@ class IntegratorSettings(CaseModel):
         return value
 
 
-class FemSettings(CaseModel):
+class FemSpec(CaseModel):
     """Finite-element discretisation (scikit-fem)."""
 
     elements: Count = Field(default=64, description="Number of elements, an integer >= 1. Default 64.")
@@ -181,4 +169,4 @@ class FemSettings(CaseModel):
 
 
 def fem_field() -> Any:
-    return Field(default_factory=FemSettings, validate_default=True, description="Finite-element settings. Default: see FemSettings.")
+    return Field(default_factory=FemSpec, validate_default=True, description="Finite-element settings. Default: see FemSpec.")

@@ -1,33 +1,23 @@
-"""End-load histories of a transient case: a number or ``{half_sine|ramp_step|csv: …}``.
+"""End-load histories of a transient case: a number or ``{half_sine|ramp_step|csv: …}`` (registry :data:`SIGNALS`).
 
-Registry :data:`SIGNALS`; each spec has ``build(base_dir) -> femref.core.signals``
-object. A CSV file is read and checked when the case is loaded, so a missing or broken
-file is a case error; its relative path resolves against the case file's directory
-(:func:`~femref.case.fields.resolve_case_path`). Its size is checked before it is read
-(:func:`femref.core.signals.check_csv_size`: at most
-:data:`~femref.core.signals.MAX_CSV_BYTES` bytes by ``os.stat``, at most
-:data:`~femref.core.signals.MAX_CSV_ROWS` samples estimated from the bytes per row), so
-a huge record is refused at ``loads.<name>.csv.path`` in milliseconds. The samples read then
-are kept with the validated spec: :meth:`CsvSignal.build` makes the signal from them and reads
-the file again only when its size or modification time (``st_mtime_ns``) changed since.
-
-Plausibility (:mod:`femref.case.plausibility`): pulse durations and rise times lie within
-``BOUNDS["load_time"]``; the load levels — a constant, an amplitude, a record's largest
-``|value|`` — are offered by :meth:`SignalSpec.level_problems` to the loads model, which
-knows whether the load is a force or a moment (:mod:`femref.case.single`).
+A CSV file is read and checked when the case is loaded, so a missing or broken file is a case error; its size is
+checked first (:func:`femref.core.signals.check_csv_size`), so a huge record is refused in milliseconds. The
+samples read are kept with the validated spec: :meth:`CsvSignal.build` reads the file again only when its size or
+``st_mtime_ns`` changed since. The load levels are offered by :meth:`SignalSpec.level_problems` to the loads
+model, which knows whether the load is a force or a moment (:mod:`femref.case.single`).
 """
 
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, ClassVar
 
 import numpy as np
-from pydantic import Field, PlainValidator, PrivateAttr, ValidationInfo, field_validator, model_serializer, model_validator
+from pydantic import Field, PlainValidator, PrivateAttr, ValidationInfo, field_validator, model_validator
 from pydantic_core import PydanticCustomError
 
 from femref.case.errors import Problem, problems_error
-from femref.case.fields import NonNegativeReal, PositiveReal, Real, TaggedSpec, is_number, tagged_union, resolve_case_path
+from femref.case.fields import NonNegativeReal, PositiveReal, Real, TaggedSpec, tagged_union, resolve_case_path
 from femref.case.plausibility import Bound, plausible
 from femref.core import signals
 
@@ -75,15 +65,8 @@ class ConstantSignal(SignalSpec):
     """A constant load switched on at ``t = 0`` (a step); written as a plain number."""
 
     tag: ClassVar[str] = "constant"
+    number_field: ClassVar[str | None] = "value"
     value: Real = Field(description="Load after t = 0 (N or N·m). Required.")
-
-    @classmethod
-    def _shorthand(cls, data: Any) -> Any:
-        return {"value": data} if is_number(data) else data
-
-    @model_serializer(mode="wrap")
-    def _serialize(self, handler: Callable[[Any], Any]) -> Any:
-        return self.value
 
     def build(self, base_dir: Path | None = None) -> signals.Signal:
         return signals.Constant(self.value)
@@ -96,7 +79,20 @@ class ConstantSignal(SignalSpec):
         return _level_problem((), bound, self.value)
 
 
-class HalfSineSignal(SignalSpec):
+class PulseSignal(SignalSpec):
+    """A history of level ``amplitude`` (N or N·m), zero before its ``start``."""
+
+    amplitude: Real
+
+    @property
+    def is_zero(self) -> bool:
+        return self.amplitude == 0.0
+
+    def level_problems(self, bound: Bound) -> list[Problem]:
+        return _level_problem((self.tag, "amplitude"), bound, self.amplitude)
+
+
+class HalfSineSignal(PulseSignal):
     """``A sin(π (t − start)/duration)`` during the pulse, zero elsewhere."""
 
     tag: ClassVar[str] = "half_sine"
@@ -107,15 +103,8 @@ class HalfSineSignal(SignalSpec):
     def build(self, base_dir: Path | None = None) -> signals.Signal:
         return signals.HalfSine(self.amplitude, self.duration, self.start)
 
-    @property
-    def is_zero(self) -> bool:
-        return self.amplitude == 0.0
 
-    def level_problems(self, bound: Bound) -> list[Problem]:
-        return _level_problem((self.tag, "amplitude"), bound, self.amplitude)
-
-
-class RampStepSignal(SignalSpec):
+class RampStepSignal(PulseSignal):
     """A linear rise from 0 at ``start`` to ``amplitude`` at ``start + rise``, then held."""
 
     tag: ClassVar[str] = "ramp_step"
@@ -125,13 +114,6 @@ class RampStepSignal(SignalSpec):
 
     def build(self, base_dir: Path | None = None) -> signals.Signal:
         return signals.RampStep(self.amplitude, self.rise, self.start)
-
-    @property
-    def is_zero(self) -> bool:
-        return self.amplitude == 0.0
-
-    def level_problems(self, bound: Bound) -> list[Problem]:
-        return _level_problem((self.tag, "amplitude"), bound, self.amplitude)
 
 
 def _csv_column(value: Any) -> int | str:
@@ -147,9 +129,8 @@ CsvColumn = Annotated[int | str, PlainValidator(_csv_column)]
 
 @dataclass(frozen=True, eq=False)
 class _CsvRead:
-    """What :class:`CsvSignal` validation read: the file (absolute), its :func:`_stamp` before reading, the two columns.
-
-    Equal when the file, the stamp and the samples are (pydantic compares private attributes in ``==`` of cases)."""
+    """What :class:`CsvSignal` validation read: the file (absolute), its :func:`_stamp` before reading, the two columns;
+    equal when all are (pydantic compares private attributes in ``==`` of cases)."""
 
     path: Path
     stamp: tuple[int, int] | None
@@ -175,15 +156,9 @@ def _stamp(path: Path) -> tuple[int, int] | None:
 
 
 class CsvSignal(SignalSpec):
-    """Samples from a CSV file, interpolated linearly, zero outside the recorded times.
-
-    The file is read and checked when the case is loaded, its size first, before it is
-    read (module docstring). A relative ``path`` is relative to the case file's directory
-    and is stored resolved (absolute), so the resolved case reads the same file from
-    anywhere. The largest ``|value|`` and its data row are kept for :meth:`level_problems`,
-    and the samples read for :meth:`build` (private: not a field of the case, not in the
-    resolved case), so a run reads the file once unless it changed since it was validated.
-    """
+    """Samples from a CSV file, interpolated linearly, zero outside the recorded times. ``path`` is stored resolved,
+    so the resolved case reads the same file from anywhere; the largest ``|value|`` and the samples read are kept
+    private (not in the resolved case) for :meth:`level_problems` and :meth:`build`."""
 
     tag: ClassVar[str] = "csv"
     path: Path = Field(description="CSV file, relative to the case file's directory. Required.")

@@ -1,18 +1,9 @@
 """The single-body cases, ``kind: harmonic`` and ``kind: transient`` (docs/design.md §3):
 one body under end loads, observed at probes.
 
-* ``loads``: :class:`HarmonicLoads` (amplitudes) or :class:`TransientLoads` (histories,
-  :mod:`femref.case.signals`); the body's loads not given are 0, other bodies' loads are
-  refused;
-* ``models``: registered names (``femref.case.capabilities.MODELS``), each able to serve
-  the scene;
-* rules that relate keys — probes and element order against the body, loads against the
-  body type — run once the keys they relate are valid themselves;
-* plausibility (:mod:`femref.case.plausibility`): every load level (a harmonic amplitude, a
-  constant, a pulse amplitude, a ramp's level, a CSV record's largest ``|value|``) within
-  ``BOUNDS["end_force"]`` (F, N) or ``BOUNDS["end_moment"]`` (G), and the harmonic axis's
-  ``start`` and ``stop`` within ``BOUNDS["frequency"]`` (hz) or ``BOUNDS["circular_frequency"]``
-  (omega, and lambda as ω = λ/T on the body).
+The body's loads not given are 0, other bodies' loads are refused; every load level lies within
+``BOUNDS["end_force"]`` (F, N) or ``BOUNDS["end_moment"]`` (G, N·m), the harmonic axis within
+``BOUNDS["frequency"]`` (hz) or ``BOUNDS["circular_frequency"]`` (omega; lambda as ω = λ/T on the body).
 """
 
 from collections.abc import Callable, Mapping
@@ -30,15 +21,11 @@ from femref.case.capabilities import MODELS
 from femref.case.errors import Problem, did_you_mean, problems_error
 from femref.case.fields import CaseModel, ProbeName, Real, validate_collecting
 from femref.case.plausibility import BOUNDS, Bound, format_number
-from femref.case.settings import FemSettings, FrequencyRange, FrequencySpec, IntegratorSettings, TimeSettings, fem_field
+from femref.case.settings import FemSpec, FrequencyRange, FrequencySpec, IntegratorSettings, TimeSettings, fem_field
 from femref.case.signals import AnySignal
 from femref.core import signals
 
 __all__ = ["HarmonicCase", "HarmonicLoads", "Loads", "ModelList", "SingleBodyCase", "TransientCase", "TransientLoads", "load_bound"]
-
-
-# ---------------------------------------------------------------------------------------------
-# End loads
 
 
 _LOAD_DOC = {
@@ -63,12 +50,8 @@ def _load_field(name: str, what: str) -> Any:
 
 
 class Loads(CaseModel):
-    """End loads (docs/design.md §2; tension positive): rod ``F1, F2``; beam ``N1, N2, G1, G2``.
-
-    The case fills the body's loads that are not given with 0 and refuses the loads of
-    other body types; at least one load must be non-zero. Loads that do not apply are
-    ``None`` and are left out of the resolved case.
-    """
+    """End loads (docs/design.md §2; tension positive): rod ``F1, F2``; beam ``N1, N2, G1, G2``; at least one
+    non-zero. Loads of other body types are ``None`` and left out of the resolved case."""
 
     def items(self) -> list[tuple[str, Any]]:
         """``(name, load)`` for every load that applies, in field order."""
@@ -144,10 +127,6 @@ class TransientLoads(Loads):
         return load.level_problems(bound)
 
 
-# ---------------------------------------------------------------------------------------------
-# Models
-
-
 def _model_names(names: tuple[str, ...]) -> tuple[str, ...]:
     if not names:
         raise PydanticCustomError("models_empty", "must list at least one model ({known})", {"known": ", ".join(MODELS)})
@@ -171,10 +150,6 @@ def _models_field() -> Any:
         default=("fem",),
         description=f"Models to run and compare, unique names out of {', '.join(MODELS)}; each must be able to serve the scene. Default [fem].",
     )
-
-
-# ---------------------------------------------------------------------------------------------
-# Cases
 
 
 class SingleBodyCase(SceneCase):
@@ -224,17 +199,15 @@ class SingleBodyCase(SceneCase):
 
     @field_validator("fem", mode="after", check_fields=False)
     @classmethod
-    def _order_for_the_body(cls, fem: FemSettings, info: ValidationInfo) -> FemSettings:
+    def _order_for_the_body(cls, fem: FemSpec, info: ValidationInfo) -> FemSpec:
         body = info.data.get("body")
         if body is None:
             return fem
         if fem.order is None:
             return fem.model_copy(update={"order": body.default_order})
         if fem.order not in body.element_orders:
-            rule = {
-                "rod": "a rod uses order 1 (P1) or 2 (P2)",
-                "beam": "a beam always uses Hermite cubic elements (order 3); leave order out",
-            }.get(body.type, f"must be one of {body.element_orders}")
+            rod = "a rod uses order 1 (P1) or 2 (P2)"
+            rule = rod if body.type == "rod" else "a beam always uses Hermite cubic elements (order 3); leave order out"
             raise problems_error([Problem(("order",), rule, fem.order)])
         return fem
 
@@ -245,7 +218,7 @@ class HarmonicCase(SingleBodyCase):
     kind: Literal["harmonic"] = Field(default="harmonic", description="harmonic. Required in the case file.")
     loads: HarmonicLoads = Field(description="Harmonic load amplitudes (N or N·m); the body's loads not given are 0; at least one non-zero. Required.")
     frequency: FrequencySpec = Field(description="Frequency axis: exactly one of omega (rad/s), hz, lambda (nondimensional). Required.")
-    fem: FemSettings = fem_field()
+    fem: FemSpec = fem_field()
     models: ModelList = _models_field()
 
     @field_validator("frequency", mode="after")
@@ -289,7 +262,7 @@ class TransientCase(SingleBodyCase):
     loads: TransientLoads = Field(description="End-load histories; the body's loads not given are 0; at least one non-zero. Required.")
     time: TimeSettings = Field(description="Simulated interval and step. Required (time.end at least).")
     integrator: IntegratorSettings = Field(default_factory=IntegratorSettings, description="Time integrator. Default generalized_alpha with rho_inf 0.8.")
-    fem: FemSettings = fem_field()
+    fem: FemSpec = fem_field()
     models: ModelList = _models_field()
 
     def load_signals(self, base_dir: Path | None = None) -> dict[str, signals.Signal]:

@@ -1,27 +1,24 @@
 """From a validated case (:mod:`femref.case`) to the resolved scene: the one case → scene builder.
 
-Single-body cases (harmonic, transient) become a :class:`femref.scene.single.Scene`, impact
-cases a :class:`femref.scene.impact.ImpactScene`, measured cases a
-:class:`femref.scene.measured.MeasuredScene`. The case has already checked every rule;
-this module only converts: body specs to :class:`femref.core.body.Body` (the same way
-for a single body and for a car), coupler specs to :class:`reduced.couplers.Coupling`,
-runs to per-car fidelity tuples in line order, network estimator specs to loaded
-:class:`femref.sensing.network.AnnEstimator` networks (or :class:`~femref.sensing.network.ImpactTypeNetworks`).
+The case has already checked every rule; this module only converts (body specs to
+:class:`femref.core.body.Body` alike for a single body and for a car, coupler specs to
+:class:`reduced.couplers.Coupling`, network specs to loaded networks).
 """
 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from femref.case import Case, CaseError, ImpactCase
 from femref.case.measured import MeasuredCase
-from femref.case.bodies import Body as BodySpec
+from femref.case.bodies import BodySchema
 from femref.case.cars import CarSpec
 from femref.case.couplers import CouplerSpec
 from femref.case.estimators import ANY_IMPACT, AnnEstimatorSpec, MeasurementSpec
-from femref.case.settings import FemSettings as FemSpec
+from femref.case.settings import FemSpec
 from femref.core.body import Body
 from femref.fem.build import FemSettings
 from femref.scene.impact import Car, Coupler, ImpactScene, ModelRun
@@ -45,19 +42,17 @@ def scene_from_case(case: Case, base_dir: Path | None = None) -> Scene | ImpactS
     if case.kind == "harmonic":
         loads = {name: complex(value) for name, value in case.load_amplitudes().items() if value != 0}
         return Scene(kind="harmonic", loads=loads, omega=np.asarray(case.omega(), dtype=float), **common)
-    return Scene(
-        kind="transient",
-        loads=case.load_signals(base_dir),
-        end=case.time.end,
-        dt=case.time.dt,
-        output_stride=case.time.output_stride,
-        integrator=case.integrator.scheme,
-        rho_inf=case.integrator.rho_inf if case.integrator.rho_inf is not None else 1.0,
-        **common,
-    )
+    return Scene(kind="transient", loads=case.load_signals(base_dir), **_time_of(case), **common)
 
 
-def body_from_spec(spec: BodySpec) -> Body:
+def _time_of(case: Case) -> dict[str, Any]:
+    """The time settings of a transient or impact case (``rho_inf`` 1 for newmark, which has no numerical damping)."""
+    time, integrator = case.time, case.integrator  # type: ignore[union-attr]
+    rho_inf = integrator.rho_inf if integrator.rho_inf is not None else 1.0
+    return dict(end=time.end, dt=time.dt, output_stride=time.output_stride, integrator=integrator.scheme, rho_inf=rho_inf)
+
+
+def body_from_spec(spec: BodySchema) -> Body:
     """The resolved body of a body spec: built profiles and the wave travel time."""
     built = spec.profiles()
     return Body(
@@ -76,24 +71,14 @@ def fem_settings_of(fem: FemSpec) -> FemSettings:
 
 
 def impact_scene_from_case(case: ImpactCase) -> ImpactScene:
-    """Resolve the cars, couplers, model runs and settings of an impact case.
-
-    The network files of ``estimators`` were resolved (absolute) when the case was loaded.
-    Raises :class:`CaseError` when :mod:`reduced.couplers` refuses a law's parameters by a
-    rule the schema does not check, or when a network file
-    can no longer be read as it was at validation.
-    """
+    """Resolve the cars, couplers, model runs and settings of an impact case; :class:`CaseError` when
+    :mod:`reduced.couplers` refuses a law by a rule the schema does not check, or a network file changed."""
     index = {name: i for i, name in enumerate(case.car_names)}
-    integrator = case.integrator
     return ImpactScene(
         cars=tuple(_car_of(spec, _coupler_slopes(case, i)) for i, spec in enumerate(case.cars)),
         couplers=tuple(_coupler_of(k, spec, index) for k, spec in enumerate(case.couplers)),
         runs=tuple(ModelRun(name, fidelity) for name, fidelity in case.run_fidelities().items()),
-        end=case.time.end,
-        dt=case.time.dt,
-        output_stride=case.time.output_stride,
-        integrator=integrator.scheme,
-        rho_inf=integrator.rho_inf if integrator.rho_inf is not None else 1.0,
+        **_time_of(case),
         fem=fem_settings_of(case.fem),
         modal_modes=case.modal.modes,
         measurement=_measurement_of(case.measurement),

@@ -1,15 +1,9 @@
 """A resolved impact scene: cars in a line, couplers between neighbours, model runs.
 
-The case schema (:mod:`femref.case`) validates what the user wrote;
-:func:`femref.scene.build_impact.impact_scene_from_case` turns it into these frozen objects,
-so the solver never sees YAML or pydantic.
-
-Geometry and signs (docs/design.md §2, §3): cars are listed in line order; coupler ``j``
-joins the front (``x = +l``) of car ``rear`` to the back (``x = −l``) of car
-``rear + 1``. Its closure ``δ = u_rear(+l) − u_front(−l)`` is positive when the
-coupler is compressed, and its force ``P`` is positive in compression (buff): the
-rear car carries the end load ``F2 = −P``, the front car ``F1 = −P`` (internal axial
-force at the end, tension positive).
+Geometry and signs (docs/design.md §2, §3): coupler ``j`` joins the front (``x = +l``) of car ``rear`` to
+the back (``x = −l``) of car ``rear + 1``. Its closure ``δ = u_rear(+l) − u_front(−l)`` is positive when the
+coupler is compressed, and its force ``P`` is positive in compression (buff): the rear car carries the end
+load ``F2 = −P``, the front car ``F1 = −P`` (internal axial force at the end, tension positive).
 """
 
 from __future__ import annotations
@@ -99,14 +93,8 @@ class ModelRun:
 
 @dataclass(frozen=True, eq=False)
 class ImpactScene:
-    """A resolved impact scene (``kind == "impact"``).
-
-    ``dt`` is None when the runner is to choose it. ``modal_modes`` is the number of
-    elastic modes per car a ``modal`` car keeps (plus its rigid mode and a static
-    correction). ``estimators`` are the inverse estimators run on the fem sensor records
-    (names of :data:`femref.core.catalog.ESTIMATORS`), ``networks`` the network estimators
-    (:class:`femref.sensing.network.AnnEstimator` or one per impact type, loaded) run on the same records.
-    """
+    """A resolved impact scene: ``dt`` None when the runner is to choose it; ``modal_modes`` elastic modes per modal
+    car; the inverse ``estimators`` (by name) and loaded ``networks`` run on the fem sensor records."""
 
     cars: tuple[Car, ...]
     couplers: tuple[Coupler, ...]
@@ -139,12 +127,8 @@ class ImpactScene:
         return tuple(channel for car in self.cars for channel in car.channels)
 
     def contact_time(self) -> float:
-        """Shortest rigid-body contact half-period ``π √(M_eff / k)`` over the couplers (s).
-
-        ``M_eff = M_rear M_front / (M_rear + M_front)`` and ``k`` the coupler law's reference
-        stiffness: the time scale of the coupler force pulse, used for ε and for the
-        automatic time step.
-        """
+        """Shortest rigid-body contact half-period ``π √(M_eff / k)`` over the couplers (s), ``M_eff = M_rear M_front /
+        (M_rear + M_front)``, ``k`` the law's reference stiffness: the pulse's time scale, for ε and the time step."""
         times = []
         for c in self.couplers:
             m1, m2 = self.cars[c.rear].mass, self.cars[c.front].mass
@@ -164,9 +148,7 @@ class ImpactScene:
         return (self.wave_travel_time / self.contact_time()) ** 2
 
     def facts(self) -> dict[str, float | str]:
-        """What the result file records of the scene (``/scene`` attributes, docs/design.md §4): the kind,
-        ``epsilon``, the softest car's ``wave_travel_time`` and the ``load_time`` (s) it is divided by,
-        the couplers' shortest rigid-body contact time."""
+        """The ``/scene`` attributes of the result file (docs/design.md §4); ``load_time`` is the contact time (s)."""
         return {
             "kind": self.kind,
             "epsilon": float(self.epsilon),

@@ -1,9 +1,6 @@
 """A resolved measured scene: recorded cars in a line, the couplers whose forces are sought, the estimators.
 
-:func:`femref.scene.build.measured_scene_from_case` makes it from a validated
-:class:`femref.case.measured.MeasuredCase`. Geometry and signs are those of impact scenes
-(docs/design.md §2, §3): cars in line order, coupler ``j`` between the front (+l) of car
-``rear`` and the back (−l) of car ``rear + 1``, its force positive in compression.
+Geometry and signs are those of impact scenes (:mod:`femref.scene.impact`).
 """
 
 from __future__ import annotations

@@ -1,9 +1,4 @@
-"""A resolved scene: everything a model needs, as plain numbers, profiles and signals.
-
-The case schema (:mod:`femref.case`) validates what the user wrote; :func:`scene_from_case`
-(:mod:`femref.scene.build`) turns it into this frozen object so that the models never see
-YAML or pydantic.
-"""
+"""A resolved single-body scene: everything a model needs, as plain numbers, profiles and signals."""
 
 from __future__ import annotations
 
@@ -20,12 +15,8 @@ from femref.fem.build import FemSettings
 
 @dataclass(frozen=True, eq=False)
 class Scene:
-    """One resolved harmonic or transient scene of one body.
-
-    ``loads`` maps load names (F1, F2 / N1, N2, G1, G2) to complex amplitudes (harmonic)
-    or :mod:`femref.core.signals` objects (transient). ``dt`` is None when the runner is to
-    choose it.
-    """
+    """One resolved harmonic or transient scene of one body: ``loads`` by name as complex amplitudes (harmonic) or
+    :mod:`femref.core.signals` objects (transient); ``dt`` None when the runner is to choose it."""
 
     kind: str
     body: Body
@@ -59,9 +50,8 @@ class Scene:
         return (self.body.wave_travel_time / t_load) ** 2 if math.isfinite(t_load) else 0.0
 
     def facts(self) -> dict[str, float | str]:
-        """What the result file records of the scene (``/scene`` attributes, docs/design.md §4): the kind,
-        ``epsilon``, and the two times it is made of, ``wave_travel_time`` and ``load_time`` (s; the pulse
-        time scale, or ``1/ω_max`` for a harmonic scene; ∞ for steps)."""
+        """The ``/scene`` attributes of the result file (docs/design.md §4); ``load_time`` (s) is the pulse time
+        scale, ``1/ω_max`` for a harmonic scene, ∞ for steps."""
         load_time = 1.0 / float(np.max(self.omega)) if self.kind == "harmonic" else self.load_time_scale
         return {"kind": self.kind, "epsilon": float(self.epsilon), "wave_travel_time": self.body.wave_travel_time, "load_time": load_time}
 
