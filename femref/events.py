@@ -171,10 +171,9 @@ COMPLETE, EVENTS_WRITTEN = "complete", "events_written"
 
 
 class EventWriter:
-    """Adds events to the event file at ``path`` (a temporary while the run lasts), each opened, written and closed
-    again as it finishes (module docstring); :attr:`count` the events written. The file is written through
-    :func:`femref.core.hdf5_writing.hdf5_writer` (a full disk: one ``OSError``), which takes no HDF5 file lock: a
-    reader looking at the events written so far does not stop the run (between events the file is closed and whole)."""
+    """Adds events to the event file at ``path`` as they finish (module docstring); :attr:`count` the events written.
+    :func:`femref.core.hdf5_writing.hdf5_writer` takes no HDF5 file lock: a reader looking at the events written so far
+    does not stop the run (between events the file is closed and whole)."""
 
     def __init__(self, path: Path, scene_facts: dict[str, Any], case_yaml: str = "") -> None:
         self.path = Path(path)
@@ -220,17 +219,8 @@ def event_file(path: str | Path, scene_facts: dict[str, Any], case_yaml: str = "
         writer.finish()
 
 
-def write_events(path: str | Path, scene_facts: dict[str, Any], events: list[EventResult], case_yaml: str = "") -> Path:
-    """Write the event results to ``path`` (atomically, :func:`event_file`) and return the path."""
-    with event_file(path, scene_facts, case_yaml) as write:
-        for event in events:
-            write(event)
-    return Path(path)
-
-
 def _write_event(group: h5py.Group, event: EventResult) -> None:
-    for key in ("start", "end", "trigger_time", "closing_speed", "closing_speed_lower", "closing_speed_upper", "epsilon", "zero_harmonic_ratio",
-                "classification_confidence"):
+    for key in EVENT_UNITS:
         group.attrs[key] = float(getattr(event, key))
     group.attrs["units"] = json.dumps(EVENT_UNITS)
     for key in ("trigger_probe", "impact_type", "closing_speed_source", "closing_speed_basis", "alarm", "alarm_basis", "wear", "wear_basis"):
@@ -248,10 +238,8 @@ def _write_event(group: h5py.Group, event: EventResult) -> None:
         peak, lower, upper = estimate.peak
         sub.attrs.update(peak_force=peak, peak_lower=lower, peak_upper=upper, bound=estimate.bound, status=estimate.status,
                          message=estimate.message, wall_time_s=estimate.wall_time_s, settings=json.dumps(estimate.settings))
-        if estimate.in_calibrated_range is None:
-            sub.attrs["in_calibrated_range"] = "n/a"  # no calibration covers this estimate: no range it holds in
-        else:
-            sub.attrs["in_calibrated_range"] = str(bool(estimate.in_calibrated_range)).lower()
+        in_range = estimate.in_calibrated_range  # None: no calibration covers this estimate, no range it holds in
+        sub.attrs["in_calibrated_range"] = "n/a" if in_range is None else str(bool(in_range)).lower()
         sub.attrs["units"] = json.dumps({"peak_force": "N", "peak_lower": "N", "peak_upper": "N", "wall_time_s": "s"})
     closures = group.create_group("closure")
     for closure in event.closures:
@@ -269,4 +257,4 @@ def _dataset(group: h5py.Group, name: str, data: NDArray, units: str) -> None:
 
 
 __all__ = ["BOUNDS", "COMPLETE", "EVENTS_GROUP", "EVENTS_WRITTEN", "ClosureResult", "EventResult", "EventWriter", "ForceEstimate", "event_file",
-           "without_histories", "write_events"]
+           "without_histories"]

@@ -86,14 +86,7 @@ UNITS = {
     "peak_force": "N (compression positive)",
     "x": "m",
     "u": "m",
-    "kinetic": "J",
-    "strain": "J",
-    "dissipated": "J",
-    "external_work": "J",
-    "body_dissipated": "J",
-    "coupler_stored": "J",
-    "coupler_dissipated": "J",
-    "total": "J",
+    **dict.fromkeys(("kinetic", "strain", "dissipated", "external_work", "body_dissipated", "coupler_stored", "coupler_dissipated", "total"), "J"),
     "closure": "m (compression positive)",
 }
 
@@ -151,10 +144,9 @@ def field_file_paths(output: str | Path, models: Sequence[str]) -> list[Path]:
 
 def result_field_files(results: str | Path, name: str = "RESULTS.h5") -> dict[str, Path]:
     """The field files of the result file ``results`` as inputs for :func:`check_output_path`, keyed
-    ``XDMF field file of model <model> of <name>`` (``HDF5 field file …``): the names it records (attribute
-    ``field_files`` of ``/<model>/fields``) and, for a model with fields that records none (a file written before
-    the names were recorded), the names femref gives them (:func:`field_file_paths`). Empty for a file without
-    fields. Raises ``OSError`` when ``results`` is not a readable HDF5 file."""
+    ``XDMF field file of model <model> of <name>`` (``HDF5 field file …``): the names it records, or for a file
+    written before they were, the names femref gives them (:func:`field_file_paths`). ``OSError`` when ``results``
+    is not a readable HDF5 file."""
     results = Path(results)
     found: dict[str, Path] = {}
     with h5py.File(results, "r") as h5:
@@ -179,14 +171,10 @@ def write_results(
     extra: Callable[[h5py.File], None] | None = None,
     scene: dict[str, Any] | None = None,
 ) -> list[Path]:
-    """Write the result file (and XDMF field files) atomically; return the paths written.
+    """Write the result file and its field files (module docstring: publishing); return the paths written.
 
-    The field files are written first under temporary names, their SHA-256 recorded in the
-    result, and renamed into place before the result file is (module docstring).
-
-    ``scene`` holds the facts of the resolved scene the report shows (kind, ε and the times it
-    is made of: ``Scene.facts()``), written as attributes of ``/scene`` with units. ``extra(h5)``
-    adds groups of its own (e.g. ``/choice``) before the file is renamed.
+    ``scene``: the resolved scene's facts (``Scene.facts()``), attributes of ``/scene``; ``extra(h5)`` adds groups of
+    its own (e.g. ``/choice``) before the file is renamed.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -233,13 +221,8 @@ def field_file_name(path: str | Path, model: str) -> str:
 
 
 def field_files_match(path: str | Path) -> list[str]:
-    """Problems of the field files recorded in the result file ``path``: missing, or not the ones it was written with.
-
-    Empty when every recorded file is beside ``path`` with its recorded SHA-256 (and for a
-    file that records none, written before issue 18). A field file that does not match was
-    left by another run (e.g. the next run killed between publishing its field files and its
-    result): the result's own ``/<model>/fields`` stays right, the ParaView files do not.
-    """
+    """Problems of the field files recorded in the result file ``path``: missing, or not the ones it was written with
+    (left by another run, module docstring); empty when all match (or none is recorded, a file before issue 18)."""
     path = Path(path)
     problems = []
     with h5py.File(path, "r") as h5:
@@ -280,12 +263,9 @@ def _test_pause() -> None:
 
 def _publish(files: list[Path], folder: Path) -> list[Path]:
     """Rename each of ``files`` (in a staging folder on the same file system) into ``folder``."""
-    moved = []
     for file in files:
-        target = folder / file.name
-        os.replace(file, target)
-        moved.append(target)
-    return moved
+        os.replace(file, folder / file.name)
+    return [folder / file.name for file in files]
 
 
 def _dataset(group: h5py.Group, name: str, data: NDArray) -> h5py.Dataset:
@@ -302,21 +282,15 @@ def _write_model(group: h5py.Group, result: ModelResult) -> None:
     group.attrs["settings"] = json.dumps(result.settings, default=_json_default, sort_keys=True)
     for name, axis in result.axes.items():
         _dataset(group, name, axis)
+    items = [*(("probes/" + p, out) for p, out in result.probes.items()), *(("couplers/" + c, out) for c, out in result.couplers.items()),
+             *([("energy", result.energy)] if result.energy else [])]
     histories = []
-    for probe, outputs in result.probes.items():
-        histories.append(sub := group.require_group(f"probes/{probe}"))
+    for path, outputs in items:
+        histories.append(sub := group.require_group(path))
         for name, data in outputs.items():
             _dataset(sub, name, data)
-    for coupler, outputs in result.couplers.items():
-        histories.append(sub := group.require_group(f"couplers/{coupler}"))
-        for name, data in outputs.items():
-            _dataset(sub, name, data)
-    if result.energy:
-        histories.append(sub := group.create_group("energy"))
-        for name, data in result.energy.items():
-            _dataset(sub, name, data)
-        if "energy_balance_error" in result.settings:
-            sub.attrs["balance_error"] = float(result.settings["energy_balance_error"])
+    if result.energy and "energy_balance_error" in result.settings:
+        group["energy"].attrs["balance_error"] = float(result.settings["energy_balance_error"])
     axis = next((name for name in ("time", "omega") if name in result.axes), None)
     if axis is not None:
         extra = {"lambda": result.axes["lambda"]} if axis == "omega" and "lambda" in result.axes else {}
@@ -346,12 +320,8 @@ def _write_model(group: h5py.Group, result: ModelResult) -> None:
 
 def _link_axis(groups: list[h5py.Group], name: str, values, extra: dict[str, NDArray], scale: h5py.Dataset | None = None) -> None:
     """Make ``values`` the dimension scale ``name`` of the first axis of every dataset in ``groups`` that runs along
-    it, and link it (and the ``extra`` coordinates, e.g. ``lambda`` beside ``omega``) into each such group.
-
-    One scale object, hard-linked under ``name`` into every group: xarray (h5netcdf, netCDF4) opens
-    any one group with the axis as its coordinate, and the data is stored once. ``scale`` is an
-    existing dataset to use (the measured ``time``); else the first group gets a new one.
-    """
+    it, one scale object hard-linked into each such group with the ``extra`` coordinates (module docstring: time
+    axes). ``scale`` is an existing dataset to use (the measured ``time``); else the first group gets a new one."""
     size = len(values)
     coordinates: dict[str, h5py.Dataset] = {}
     for group in groups:

@@ -66,8 +66,7 @@ LOWPASS_RULE = "measurement low-pass: 1/(4 corner × output_stride)"
 
 def smallest_candidate(candidates: dict[str, float]) -> tuple[float, str]:
     """The smallest finite candidate step and its rule."""
-    value, rule = min((v, k) for k, v in candidates.items() if math.isfinite(v))
-    return value, rule
+    return min((v, k) for k, v in candidates.items() if math.isfinite(v))
 
 
 def _wave_speed(body: Body, fem: FemSettings) -> float:

@@ -77,7 +77,28 @@ Chunk = tuple[NDArray[np.float64], dict[str, NDArray[np.float64]]]
 
 
 @dataclass
-class RunningBaseline:
+class _Buffered:
+    """A stream fed in chunks: its channels, first time (s), and the samples not yet used (``(channels, samples)``)."""
+
+    _names: list[str] | None = field(default=None, init=False)
+    _t0: float = field(default=math.nan, init=False)
+    _time: NDArray[np.float64] = field(default_factory=lambda: np.empty(0), init=False)
+    _values: NDArray[np.float64] = field(default_factory=lambda: np.empty((0, 0)), init=False)
+
+    def _append(self, t: NDArray[np.float64], channels: Mapping[str, ArrayLike]) -> None:
+        names = list(channels)
+        if self._names is None:
+            self._names, self._t0 = names, float(t[0])
+            self._values = np.empty((len(names), 0))
+        if names != self._names:
+            raise ValueError(f"every chunk needs the channels {self._names}, got {names}")
+        values = np.array([np.asarray(channels[name], dtype=float) for name in names]).reshape(len(names), t.size)
+        self._time = np.concatenate([self._time, t])
+        self._values = np.concatenate([self._values, values], axis=1)
+
+
+@dataclass
+class RunningBaseline(_Buffered):
     """The baseline as a state machine over chunks of a stream (module docstring): :meth:`feed` each chunk in time
     order, then :meth:`finish`; each returns ``(t, {channel: a − b})`` for the samples decided (possibly none)."""
 
@@ -85,10 +106,6 @@ class RunningBaseline:
     longest_contact: float = LONGEST_CONTACT
     half: int = field(default=0, init=False)
     """``H``: block medians on each side of a block's own (:func:`half_blocks`)."""
-    _names: list[str] | None = field(default=None, init=False)
-    _t0: float = field(default=math.nan, init=False)
-    _time: NDArray[np.float64] = field(default_factory=lambda: np.empty(0), init=False)
-    _values: NDArray[np.float64] = field(default_factory=lambda: np.empty((0, 0)), init=False)
     _medians: dict[int, NDArray[np.float64]] = field(default_factory=dict, init=False)
     _complete: int = field(default=0, init=False)  # blocks 0 … _complete − 1 have their medians
     _emitted: int = field(default=0, init=False)  # blocks 0 … _emitted − 1 are returned
@@ -105,16 +122,7 @@ class RunningBaseline:
 
     def feed(self, time: ArrayLike, channels: Mapping[str, ArrayLike]) -> Chunk:
         """The samples of the stream so far whose baseline is now known, less it (m/s²; NaN stays NaN)."""
-        t = np.asarray(time, dtype=float)
-        names = list(channels)
-        if self._names is None:
-            self._names, self._t0 = names, float(t[0])
-            self._values = np.empty((len(names), 0))
-        if names != self._names:
-            raise ValueError(f"every chunk needs the channels {self._names}, got {names}")
-        values = np.array([np.asarray(channels[name], dtype=float) for name in names]).reshape(len(names), t.size)
-        self._time = np.concatenate([self._time, t])
-        self._values = np.concatenate([self._values, values], axis=1)
+        self._append(np.asarray(time, dtype=float), channels)
         self._medians_until(self._block_of(float(self._time[-1])) if self._time.size else self._complete)
         return self._emit(self._complete - self.half - 1)
 
@@ -163,15 +171,11 @@ class RunningBaseline:
 
 
 @dataclass
-class NoiseMeter:
+class NoiseMeter(_Buffered):
     """Each channel's noise in the quiet stretches of a stream fed in chunks (module docstring): :meth:`feed` each chunk
     in time order, :meth:`noise` at the end (any cutting into chunks gives the same counts)."""
 
     block: float = NOISE_BLOCK
-    _names: list[str] | None = field(default=None, init=False)
-    _t0: float = field(default=math.nan, init=False)
-    _time: NDArray[np.float64] = field(default_factory=lambda: np.empty(0), init=False)
-    _values: NDArray[np.float64] = field(default_factory=lambda: np.empty((0, 0)), init=False)
     _counts: NDArray[np.int64] = field(default_factory=lambda: np.zeros((0, 0), dtype=np.int64), init=False)
 
     def feed(self, time: ArrayLike, channels: Mapping[str, ArrayLike]) -> None:
@@ -179,14 +183,9 @@ class NoiseMeter:
         t = np.asarray(time, dtype=float)
         if t.size == 0:
             return
-        names = list(channels)
         if self._names is None:
-            self._names, self._t0 = names, float(t[0])
-            self._values = np.empty((len(names), 0))
-            self._counts = np.zeros((len(names), NOISE_BINS * (_NOISE_DECADES[1] - _NOISE_DECADES[0])), dtype=np.int64)
-        values = np.array([np.asarray(channels[name], dtype=float) for name in self._names]).reshape(len(self._names), t.size)
-        self._time = np.concatenate([self._time, t])
-        self._values = np.concatenate([self._values, values], axis=1)
+            self._counts = np.zeros((len(channels), NOISE_BINS * (_NOISE_DECADES[1] - _NOISE_DECADES[0])), dtype=np.int64)
+        self._append(t, channels)
         blocks = np.floor((self._time - self._t0) / self.block)
         done = int(np.searchsorted(blocks, blocks[-1], side="left"))  # samples of the blocks before the last one's
         self._count(blocks[:done], self._values[:, :done])

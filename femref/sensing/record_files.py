@@ -7,15 +7,10 @@ or dataset and the rule):
 * **Regular files only** (:func:`femref.core.files.regular_file`): a FIFO, a device
   (``/dev/zero``), a socket or a folder is refused before it is opened, a loop of symbolic
   links named as such.
-* **Nothing from outside the file** the case names (an HDF5 file can point elsewhere): a
-  dataset whose raw data is stored in other files (*external storage*), an *external link*
-  and a *virtual dataset* (its data in other files; a missing source reads as fill values,
-  silently) are refused — never followed, not even into the case's folder, so what a result
-  holds is exactly what the named file holds. Soft links inside the file are followed, at most
-  :data:`MAX_SOFT_LINKS` in a row (a loop is named). Chunks go through HDF5's built-in filters
-  only: a plugin filter (Blosc, Zstd, Bitshuffle) would load code found through the environment,
-  and an unavailable one fails mid-read (the dataset checks every HDF5 reader shares,
-  :func:`femref.sensing.hdf5_checks.check_plain_dataset`).
+* **Nothing from outside the file** the case names: external storage, external links and virtual datasets are
+  refused, never followed, and chunks go through HDF5's built-in filters only
+  (:func:`femref.sensing.hdf5_checks.check_plain_dataset`, the checks every HDF5 reader shares). Soft links inside
+  the file are followed, at most :data:`MAX_SOFT_LINKS` in a row (a loop is named).
 * **Bounded before allocation**: a CSV file holds at most :data:`MAX_RECORD_BYTES` bytes (by
   ``stat``, before it is opened); a file at most :data:`MAX_RECORD_SAMPLES` samples per channel,
   and the record files read together (a case's) at most :data:`MAX_RECORD_VALUES` values in all,
@@ -51,10 +46,8 @@ from numpy.typing import NDArray
 from femref.core.files import NotRegularFile, regular_file
 from femref.sensing.hdf5_checks import HDF5ObjectError, check_plain_dataset
 
-__all__ = [
-    "HDF5_SUFFIXES", "MAX_RECORD_BYTES", "MAX_RECORD_SAMPLES", "MAX_RECORD_VALUES",
-    "MAX_SOFT_LINKS", "RecordError", "SampleLimit", "read_columns",
-]
+__all__ = ["HDF5_SUFFIXES", "MAX_RECORD_BYTES", "MAX_RECORD_SAMPLES", "MAX_RECORD_VALUES", "MAX_SOFT_LINKS", "RecordError", "SampleLimit",
+           "read_columns"]
 
 HDF5_SUFFIXES = (".h5", ".hdf5", ".hdf")
 """File name endings read as HDF5; any other file is CSV."""
@@ -109,9 +102,8 @@ Request = tuple[str | int | None, str]
 
 
 def read_columns(path: Path, requests: Sequence[Request], limit: SampleLimit) -> list[NDArray[np.float64]]:
-    """Each requested column of the record file at ``path`` as floats, within the module's rules (module docstring).
-
-    No two of the arrays share memory (a column requested twice is copied), so the caller may scale them in place."""
+    """Each requested column of the record file at ``path`` as floats (module docstring); no two of the arrays share
+    memory (a column requested twice is copied), so the caller may scale them in place."""
     name = path.name
     try:
         status = regular_file(path)

@@ -196,9 +196,7 @@ class Recordings:
 
 def read_records(files: Sequence[RecordFile]) -> Recordings:
     """Every channel of every file in SI units on its own time axis (module docstring); RecordError for a bad file.
-
-    A file whose ``kept`` read is current (:meth:`RecordRead.current`) is not read again. The files together hold at
-    most :data:`~femref.sensing.record_files.MAX_RECORD_VALUES` values."""
+    A file whose ``kept`` read is current (:meth:`RecordRead.current`) is not read again."""
     channels: dict[str, Channel] = {}
     where: dict[str, str] = {}
     values_left = record_files.MAX_RECORD_VALUES
@@ -277,21 +275,16 @@ def _check_time(name: str, time: NDArray[np.float64]) -> None:
 def _quality(time: NDArray[np.float64], a: NDArray[np.float64]) -> tuple[QualityInterval, ...]:
     """Gaps (NaN runs, long steps), saturated stretches (flat tops at the channel's extreme) and implausible ones
     (|a| > :data:`PLAUSIBLE_ACCELERATION`) of one channel."""
-    intervals = []
-    missing = ~np.isfinite(a)
-    for first, last in _runs(missing):
-        intervals.append(QualityInterval(float(time[max(first - 1, 0)]), float(time[min(last + 1, time.size - 1)]), "gap"))
+    intervals = [QualityInterval(float(time[max(first - 1, 0)]), float(time[min(last + 1, time.size - 1)]), "gap")
+                 for first, last in _runs(~np.isfinite(a))]
     steps = np.diff(time)
-    for k in np.flatnonzero(steps > GAP_STEP * np.median(steps)):
-        intervals.append(QualityInterval(float(time[k]), float(time[k + 1]), "gap"))
+    intervals += [QualityInterval(float(time[k]), float(time[k + 1]), "gap") for k in np.flatnonzero(steps > GAP_STEP * np.median(steps))]
     magnitude = np.abs(a)
     extreme = np.nanmax(magnitude)
     if extreme > 0.0:
-        for first, last in _runs(magnitude == extreme):
-            if last - first + 1 >= SATURATED_RUN:
-                intervals.append(QualityInterval(float(time[first]), float(time[last]), "saturated"))
-    for first, last in _runs(magnitude > PLAUSIBLE_ACCELERATION):
-        intervals.append(QualityInterval(float(time[first]), float(time[last]), "implausible"))
+        intervals += [QualityInterval(float(time[first]), float(time[last]), "saturated")
+                      for first, last in _runs(magnitude == extreme) if last - first + 1 >= SATURATED_RUN]
+    intervals += [QualityInterval(float(time[first]), float(time[last]), "implausible") for first, last in _runs(magnitude > PLAUSIBLE_ACCELERATION)]
     return tuple(sorted(intervals, key=lambda q: q.start))
 
 
@@ -301,9 +294,6 @@ def _runs(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:
     return list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1))
 
 
-__all__ = [
-    "AntiAlias",
-    "ACCELERATION_UNITS", "HDF5_SUFFIXES", "MAX_EVENT_VALUES", "MAX_RECORD_RATE", "PLAUSIBLE_ACCELERATION", "TIME_UNITS", "Channel", "ChannelSource",
-    "QualityInterval", "RecordError", "RecordFile", "RecordRead", "Recordings", "Stamp", "TimeSource", "file_stamp", "read_record_file",
-    "read_records",
-]
+__all__ = ["AntiAlias", "ACCELERATION_UNITS", "HDF5_SUFFIXES", "MAX_EVENT_VALUES", "MAX_RECORD_RATE", "PLAUSIBLE_ACCELERATION", "TIME_UNITS",
+           "Channel", "ChannelSource", "QualityInterval", "RecordError", "RecordFile", "RecordRead", "Recordings", "Stamp", "TimeSource",
+           "file_stamp", "read_record_file", "read_records"]
