@@ -1,37 +1,14 @@
-"""Event results of a measured case and their HDF5 groups (docs/design.md §4.5), written atomically.
+"""Event results of a measured case and their HDF5 groups (layout: docs/design.md §4.5), written atomically.
 
-Layout (every quantity carries its unit as the attribute ``units``)::
+Bands are 95 % (lower, upper); an estimator without a bound stores NaN bands and ``bound = none``.
 
-    /                                     attrs: femref_version, case_yaml, created, complete (false while
-                                          written), events_written
-    /scene                                attrs: kind = measured, cars, couplers (JSON)
-    /events/<k>/                          attrs: start, end, trigger_time (s), trigger_probe, flags (JSON),
-                                          impact_type, zero_harmonic_ratio, classification_confidence,
-                                          closing_speed, closing_speed_lower, closing_speed_upper (m/s: the
-                                          speed and its interval), closing_speed_source (records | given |
-                                          none), closing_speed_basis, epsilon, alarm, alarm_basis, wear, wear_basis
-    /events/<k>/records/time, <car>/<sensor>          the event's records on one grid (s, m/s²)
-    /events/<k>/<estimator>/<coupler>/time, force, force_lower, force_upper
-                                          attrs: peak_force, peak_lower, peak_upper (N), bound
-                                          (covariance | calibrated | none), in_calibrated_range, status, message
-    /events/<k>/closure/<coupler>         attrs: status (closed | not closed | ambiguous), closure_force (N),
-                                          closure_time (s), estimator, message
-
-Bands are 95 % (lower, upper); an estimator without a bound stores NaN bands and
-``bound = none``.
-
-**Written as the events finish** (:func:`event_file`, :class:`EventWriter`). The file is made under a
-temporary name beside the final one (:func:`femref.core.publishing.atomic_path`) with the root attributes
-``complete = false`` and ``events_written = 0``; each event is added as soon as it is found, the file
-opened, the event's group written, ``events_written`` raised and the file closed (flushed) again; when the
-last event is in, ``complete = true`` and the temporary is renamed to the final name. A run never holds
-more than the event in hand, and a run killed (``kill -9``, a power cut) loses at most that event: its
-temporary ``.<name>.femref-<pid>.tmp`` is an event file of the ``events_written`` events finished before the
-kill, readable as it is (``femref report`` reads it; ``complete = false`` says it is a part), while the
-previous file under the final name stays as it was. The next run into the same output removes that
-temporary (a leftover, :func:`femref.core.publishing.remove_leftovers`): copy it first to keep those events.
-A kill in the milliseconds while an event's group is written may leave that group partial; only the first
-``events_written`` groups are complete.
+**Written as the events finish** (:func:`event_file`, :class:`EventWriter`). The file is made under a temporary
+name beside the final one (:func:`femref.core.publishing.atomic_path`) with the root attributes ``complete = false``
+and ``events_written = 0``; each event is added as soon as it is found (the file opened, the event's group written,
+``events_written`` raised, the file closed again); when the last event is in, ``complete = true`` and the temporary
+is renamed to the final name. A run killed loses at most the event in hand: its temporary is an event file of the
+``events_written`` events finished before the kill, readable as it is (``femref report`` reads it), and the next run
+into the same output removes it as a leftover (:func:`femref.core.publishing.remove_leftovers`).
 """
 
 from __future__ import annotations

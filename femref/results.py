@@ -1,49 +1,18 @@
-"""Model results and the HDF5 result file of docs/design.md §4, written atomically.
+"""Model results and the HDF5 result file (layout: docs/design.md §4.1), written atomically.
 
-Layout::
+Publishing (issue 18). Every temporary is named ``.<final name>.femref-<pid>.tmp`` (a folder of field files
+``.<result name>.femref-<pid>.fields.tmp``) in the target folder, so a later write of the same final name removes
+the leftovers of a killed run (:func:`femref.core.publishing.remove_leftovers`). The field files are written first,
+their names and SHA-256 recorded in the result (attribute ``field_files`` of ``/<model>/fields``), then renamed
+into place, and the result file is renamed last: a kill leaves either the previous pair or new field files beside
+the previous result, which :func:`field_files_match` reports. ``FEMREF_TEST_PAUSE_BEFORE_PUBLISH`` (seconds) is a
+test hook only: it sleeps between writing the temporaries and the renames, so a test can kill a run there.
 
-    /                                attrs: femref_version, case_yaml, created
-    /scene                           attrs: kind, epsilon, wave_travel_time, load_time (s), units (JSON)
-    /<model>/                        attrs: status, message, wall_time_s, settings (JSON); a failed impact
-                                     run keeps its histories up to the failing step (NaN after)
-    /<model>/time | omega, lambda
-    /<model>/probes/<probe>/acceleration, displacement (, axial_force; impacts: velocity, and on cars that
-                                     bend vertical_* and pitch_* with pitch_rate)
-    /<model>/couplers/<coupler>/force
-    /<model>/couplers/<coupler>/peak_force   () N, network estimators (ann_<name>): the estimated peak, no time axis
-    /<model>/energy/kinetic, strain, dissipated, external_work   (+ attr balance_error)
-                                     impacts: kinetic, strain, body_dissipated, coupler_stored,
-                                     coupler_dissipated, total
-    /<model>/measured/time, /<model>/measured/<probe>/acceleration   (measurement chain)
-    /<model>/measured/<probe>/vertical_acceleration, pitch_rate      (measurement chain, cars that bend)
-    /<model>/fields/x, /<model>/fields/u   attrs: field_files (JSON: the XDMF + HDF5 field files' names → SHA-256)
-    /<model>/<history group>/time    (omega, lambda) the model's axis, linked in as the group's coordinate
-    /scores/<model>/                 attrs: reference, one per metric
-    /choice/                         a model choice (femref run --tolerance; femref.choice.output)
-
-The file is written under a temporary name in the target folder and renamed when
-complete, so a crash never leaves a truncated file under the final name. Fields are
-also written as an XDMF + HDF5 time series (meshio) that ParaView opens directly.
-
-Publishing (issue 18). Every temporary is named ``.<final name>.femref-<pid>.tmp`` (a folder of
-field files ``.<result name>.femref-<pid>.fields.tmp``) in the target folder, so a later write
-of the same final name recognises the leftovers of a killed run and removes them
-(:func:`femref.core.publishing.remove_leftovers`; never those of a process still alive). The field files are written
-first, their names and SHA-256 recorded in the result (attribute ``field_files`` of
-``/<model>/fields``), then renamed into place, and the result file is renamed last: a kill
-leaves either the previous pair or new field files beside the previous result, which
-:func:`field_files_match` reports as not matching. The environment variable
-``FEMREF_TEST_PAUSE_BEFORE_PUBLISH`` (seconds) is a test hook only: it sleeps between writing
-the temporaries and the renames, so a test can kill a run there.
-
-Time axes as dimension scales, for xarray (``xarray.open_dataset(path, group="fem/probes/left",
-engine="h5netcdf")`` gives ``time`` as the coordinate). Each history group (a probe's, a
-coupler's, ``energy``) holds its model's axis as a hard link named ``time`` (harmonic runs:
-``omega``, plus ``lambda`` as a second coordinate) to one HDF5 dimension scale attached to
-its datasets; ``/<model>/measured/time`` is the measured histories' own scale, linked the
-same way into ``/<model>/measured/<probe>``. The model-level ``/<model>/time`` stays a plain
-copy: a scale there would be visible (netCDF-4 rules) in ``fields/`` and ``measured/``, whose
-own differently sized ``time`` would then be misread and break ``xarray.open_datatree``.
+Time axes as dimension scales, for xarray: each history group (a probe's, a coupler's, ``energy``) holds its model's
+axis as a hard link named ``time`` (harmonic runs: ``omega``, plus ``lambda`` as a second coordinate) to one HDF5
+dimension scale attached to its datasets; ``/<model>/measured/time`` is the measured histories' own scale. The
+model-level ``/<model>/time`` stays a plain copy: a scale there would be visible (netCDF-4 rules) in ``fields/``
+and ``measured/``, whose own differently sized ``time`` would then be misread and break ``xarray.open_datatree``.
 """
 
 from __future__ import annotations

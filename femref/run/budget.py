@@ -13,17 +13,9 @@ the rest are measured costs, rounded up:
     exact transient        6e-5 s per output time and probe; a CSV record of n > 64 samples adds
                            n × 385 transform values × (log2 Nt + 1) windows × 5e-8 s
 
-Everything a command will run is counted, before any of it runs:
-
-* the scene's model runs (:func:`predict`);
-* the fem reference's **self-check** (:func:`self_check_levels`): when the case's own ``time.dt`` or
-  ``fem.elements`` under-resolves the reference (:func:`resolution_warnings`) or ``FEMREF_SELF_CHECK=1``
-  asks, the fem run is repeated at ``dt/2`` and ``dt/4`` (and ``2×``, ``4×`` the elements when the mesh is the
-  coarse part) — predicted like the fem run at those settings, the worst case (both levels) always;
-* for ``femref run --tolerance``, every rung of the model ladder, the worst case of a climb: the choice layer lays
-  the ladder out without a mesh and prices each rung as an impact run at its step and resolution
-  (:func:`impact_run_cost`), then refuses by the same rule (:func:`check_costs`;
-  :func:`femref.choice.ladder.check_ladder_budget`).
+Everything a command will run is counted, before any of it runs: the scene's model runs, the fem reference's
+**self-check** (:func:`self_check_levels`, both levels always) and, for ``femref run --tolerance``, every rung of the
+model ladder (priced by :func:`impact_run_cost`, :func:`femref.choice.ladder.check_ladder_budget`).
 
 A scene over the limits is refused by the rule of :mod:`femref.run.costs` (:func:`check_costs`: the limits,
 ``FEMREF_BUDGET``, the message naming the key that drives the largest part, one of ``fem.elements``, ``time.end``,
@@ -168,13 +160,10 @@ def coupler_line_cost(scene: ImpactScene) -> tuple[float, float, float]:
         bytes    = 8 [N (2 n_c² + 12 n_c) + 2 n_c² + 2 m²]
         per step = 6e-10 s × m³,   set-up = 1e-8 s × N n_c²
 
-    Each car keeps its share ``Cc G Bc`` of the gains ``∂δ/∂P`` and ``∂δ̇/∂P`` as two dense ``n_c × n_c`` matrices
-    (its prepared form), the line their sum; each car's coupler maps ``Bc`` (2 × n_c) and ``Cc`` (n_c × 2) are held
-    three times (line plan, prepared car, packed pool); the Newton Jacobian (m × m) once in the line plan and once
-    in the run. A step solves that Jacobian by dense LU (≈ m³/3 multiply-adds per iteration, about three iterations
-    a step). Measured on rigid consists of 100, 200 and 400 cars (Kelvin-Voigt couplers, 20 steps): peak memory
-    0.33, 0.44, 1.33 GB, of which the line's 0.02, 0.13, 1.04 GB predicted here; stepping 0.4, 3.4, 30 ms a step
-    (4.7e-10 s × n_c³ at 400 cars); set-up 0.02, 0.10, 0.56 s. Negligible for a few cars; 16 GB for 1000."""
+    Each car keeps its share ``Cc G Bc`` of the gains ``∂δ/∂P`` and ``∂δ̇/∂P`` as two dense ``n_c × n_c`` matrices,
+    the line their sum; each car's coupler maps are held three times (line plan, prepared car, packed pool); the
+    Newton Jacobian (m × m) twice, solved by dense LU (about three iterations a step). Measured on rigid consists of
+    100, 200 and 400 cars (docs/design.md §3.5, "Consists"; tests/run/test_budget.py)."""
     cars, n_c = len(scene.cars), len(scene.couplers)
     m = n_c + sum(int(c.coupling.law.state_size) for c in scene.couplers)
     memory = _BYTES * (cars * (2.0 * n_c**2 + 12.0 * n_c) + 2.0 * n_c**2 + 2.0 * m**2)

@@ -6,22 +6,12 @@ resampled onto one grid at the fastest channel's rate (:func:`femref.sensing.tri
     work   = Σ over events of the event's grid samples × the per-sample cost of every estimator (:func:`event_cost`)
     memory = the records held + the largest event (events are written as they finish and not kept)
 
-The number of events is unknown before the trigger runs, so the budget is checked twice:
-
-* **before any work** (:func:`measured_costs`, through :func:`femref.run.budget.predict` and ``femref run``'s
-  check): one event at its largest — a window of ``events.max_window`` on the fastest record's grid, every
-  channel — from the case and the records as validation read them (:func:`record_size`: their samples and rates);
-  an event grid that alone is over the budget is refused, naming ``events.post``,
-  ``events.max_window``, the record that sets the rate or ``kalman.modes``, whichever lies furthest beyond a
-  typical case;
-* **once the trigger has run** (:func:`check_events`, by :func:`femref.run.measured.run_measured` before the first
-  event's estimators): the work of the events found, each on its own window, summed. Detection streams the records
-  in chunks and costs little beside the estimators, so the total is counted exactly rather than bounded by the
-  stream's length over the shortest event spacing (``quiet``): that bound, 14 400 events for two hours of records
-  at the default 0.5 s, would refuse every long stream for events it does not hold.
-
-Both raise :class:`~femref.case.CaseError` (exit 2) as :func:`femref.run.budget.check_costs` does, and
-``FEMREF_BUDGET`` raises both limits.
+The number of events is unknown before the trigger runs, so the budget is checked twice (docs/design.md §3.5,
+"Measured scenes"): **before any work**, one event at its largest, a window of ``events.max_window`` on the fastest
+record's grid (:func:`measured_costs`); **once the trigger has run**, before the first event's estimators, the events
+found, each on its own window (:func:`check_events`: counted exactly, where a bound from the stream's length over
+the shortest event spacing would refuse every long stream for events it does not hold). Both refuse as
+:func:`femref.run.costs.check_costs` does.
 """
 
 from __future__ import annotations

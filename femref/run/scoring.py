@@ -10,7 +10,7 @@ Names are ``<quantity>_<statistic>_error_<item>`` (floats; they become HDF5 attr
                  acceleration: magnitudes)
     peak_time    t(max q) − t(max q_ref)  (s, signed)                  impact: coupler force
 
-**Single body** (:func:`score_single_body`; reference ``exact`` where it ran, else ``fem``).
+**Single body** (:func:`score_results`; reference ``exact`` where it ran, else ``fem``).
 
 **Impact** (:func:`score_impact`; reference ``fem``): both results carry ``axes["time"]``
 (s), ``couplers[c]["force"]`` (N, compression positive) and
@@ -197,45 +197,36 @@ def _series(outputs: dict[str, NDArray], key: str, model: str, what: str, sample
 
 
 def score_results(kind: str, results: list[ModelResult]) -> dict[str, dict[str, Any]]:
-    """Scores of every ok result of a scene of ``kind`` against its reference (``femref.core.catalog.REFERENCES``)."""
-    if kind == "impact":
-        return score_impact_results(results)
-    return score_single_body(kind, results)
+    """Scores of every ok result of a scene of ``kind`` against its reference (``femref.core.catalog.REFERENCES``),
+    with wall time and speed-up (:func:`_with_context`)."""
+    ok = {r.model: r for r in results if r.ok}
+    reference = next((ok[name] for name in REFERENCES[kind] if name in ok), None)
+    if reference is None:
+        return {}
+    metrics_of = _impact_metrics if kind == "impact" else _single_body_metrics
+    return {r.model: _with_context(metrics_of(reference, r), reference, r) for r in ok.values() if r is not reference}
 
 
-def score_single_body(kind: str, results: list[ModelResult]) -> dict[str, dict[str, Any]]:
-    """Relative errors of each single-body model against the reference, per probe and overall.
-
-    For ``q`` the acceleration and, on rods, the axial force, over the axis (time or
-    frequency; complex amplitudes by modulus)::
+def _single_body_metrics(reference: ModelResult, result: ModelResult) -> Metrics:
+    """For ``q`` the acceleration and, on rods, the axial force, over the axis (time or frequency; complex amplitudes
+    by modulus)::
 
         <q>_max_error_<probe> = max|q − q_ref| / max_probes max|q_ref|   (normalised by the reference's
                                                                           peak over all probes: a free
                                                                           end's force is zero)
         <q>_rms_error_<probe> = rms(q − q_ref) / rms(q_ref)
 
-    and the aggregates ``acceleration_max_error_max``, ``acceleration_rms_error_max``.
-    A vanishing reference scale gives NaN with a reason (module docstring).
-    """
-    by_name = {r.model: r for r in results if r.ok}
-    reference = next((by_name[name] for name in REFERENCES[kind] if name in by_name), None)
-    if reference is None:
-        return {}
-    scores: dict[str, dict[str, Any]] = {}
-    for result in by_name.values():
-        if result is reference:
-            continue
-        metrics: Metrics = {}
-        for quantity in ("acceleration", "axial_force"):
-            scale = max((float(np.max(np.abs(out[quantity]))) for out in reference.probes.values() if quantity in out), default=0.0)
-            for probe, outputs in reference.probes.items():
-                if quantity in outputs and quantity in result.probes.get(probe, {}):
-                    ref, mine = outputs[quantity], result.probes[probe][quantity]
-                    worst = float(np.max(np.abs(mine - ref)))
-                    metrics[f"{quantity}_max_error_{probe}"] = worst / scale if scale > 0.0 else math.nan
-                    metrics[f"{quantity}_rms_error_{probe}"] = _relative_rms(mine, ref)
-        scores[result.model] = _with_context({**metrics, **_aggregates(metrics)}, reference, result)
-    return scores
+    and their aggregates."""
+    metrics: Metrics = {}
+    for quantity in ("acceleration", "axial_force"):
+        scale = max((float(np.max(np.abs(out[quantity]))) for out in reference.probes.values() if quantity in out), default=0.0)
+        for probe, outputs in reference.probes.items():
+            if quantity in outputs and quantity in result.probes.get(probe, {}):
+                ref, mine = outputs[quantity], result.probes[probe][quantity]
+                worst = float(np.max(np.abs(mine - ref)))
+                metrics[f"{quantity}_max_error_{probe}"] = worst / scale if scale > 0.0 else math.nan
+                metrics[f"{quantity}_rms_error_{probe}"] = _relative_rms(mine, ref)
+    return {**metrics, **_aggregates(metrics)}
 
 
 def _measured_view(result: ModelResult) -> ModelResult:
@@ -245,23 +236,14 @@ def _measured_view(result: ModelResult) -> ModelResult:
     return ModelResult(result.model, axes={"time": result.measured["time"]}, probes=probes)
 
 
-def score_impact_results(results: list[ModelResult]) -> dict[str, dict[str, Any]]:
-    """Scores of every ok result against the ``fem`` run, with wall time and speed-up; with a measurement chain also
-    on the measured records (``measured_…``: the band the records keep, where the cheaper models are compared)."""
-    reference = next((r for r in results if r.model == REFERENCES["impact"][0] and r.ok), None)
-    if reference is None:
-        return {}
-    scores: dict[str, dict[str, Any]] = {}
-    for result in results:
-        if result is reference or not result.ok:
-            continue
-        metrics = score_impact(reference, result)
-        metrics.update(in_range_errors(reference, result))
-        if reference.measured and result.measured:
-            measured = score_impact(_measured_view(reference), _measured_view(result))
-            metrics.update({f"measured_{name}": value for name, value in measured.items()})
-        scores[result.model] = _with_context(metrics, reference, result)
-    return scores
+def _impact_metrics(reference: ModelResult, result: ModelResult) -> dict[str, Any]:
+    """:func:`score_impact` and :func:`in_range_errors`; with a measurement chain also on the measured records
+    (``measured_…``: the band the records keep, where the cheaper models are compared)."""
+    metrics: dict[str, Any] = {**score_impact(reference, result), **in_range_errors(reference, result)}
+    if reference.measured and result.measured:
+        measured = score_impact(_measured_view(reference), _measured_view(result))
+        metrics.update({f"measured_{name}": value for name, value in measured.items()})
+    return metrics
 
 
 IN_RANGE_DEGENERATE = "in_range_degenerate"

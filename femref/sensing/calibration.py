@@ -21,20 +21,9 @@ interval that straddles an edge is said (:meth:`Calibration.edge_notes`). Masses
 compared with the relative tolerance :data:`RANGE_RTOL` (a sweep that held a car's mass fixed
 calibrates a zero-width range, which the case's own mass must meet to rounding, not bit for bit).
 
-File (written atomically)::
-
-    /  attrs: femref_version, created, sweep_yaml, coupler, samples, quantiles (JSON),
-              closing_speed (JSON [lo, hi], m/s), masses (JSON {car: [lo, hi]}, kg),
-              lowpass (JSON, Hz or null: the chain's anti-alias corner), noise (JSON [lo, hi], m/s²),
-              impact_type (free_to_roll | coupled: the coupler's contact in the sweep)
-    /errors/<estimator>   (samples,) relative peak errors
-
-:func:`read_calibration` checks a file as femref checks a network file, before anything large is
-read: a regular file of bounded size; hard links only, no external or virtual storage, no unknown
-filter (:mod:`femref.sensing.hdf5_checks`); exactly these attributes and members, each of its type;
-JSON that parses (not nested past the reader's stack); ranges of finite numbers ``lo <= hi``; error
-datasets 1-D, real, finite, of bounded declared size. The case checks the cars and the coupler the
-calibration is of against its own (:mod:`femref.case.measured`).
+The file (written atomically) and what :func:`read_calibration` checks before anything large is read:
+docs/design.md §4.5 (hard links and plain datasets only: :mod:`femref.sensing.hdf5_checks`). The case checks the
+cars and the coupler the calibration is of against its own (:mod:`femref.case.measured`).
 """
 
 from __future__ import annotations

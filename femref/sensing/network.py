@@ -12,23 +12,9 @@ else its own sensor accelerations (:func:`femref.sensing.records.acceleration_hi
 and ``P̂`` in N, compression positive: an estimate of ``max_t P(t)`` of coupler
 ``coupler``. It gives no force history.
 
-The network file is an ``ann.storage`` ``.npz`` whose JSON metadata holds the contract
-this module reads (:class:`NetworkContract`)::
-
-    target:        "peak_coupler_force"
-    coupler:       the coupler name (c1, …)
-    probes:        ["<car>/<sensor>", …]       channel order of the records
-    record_length, record_end                  samples per record, record span [0, record_end] (s)
-    record_source: "measured" | "model"        the fem run's measurement-chain records or its own accelerations
-    measurement:   {rate, lowpass, noise, seed} | null   the chain the training records went through
-    training:      free-form (optional here)   source model, samples, errors, …
-
-and the pipeline's sampling rate must be ``(record_length − 1)/record_end``. A pipeline
-may also take known scalar inputs (``ann.features.FeatureSettings.extras``); femref
-supplies ``car_mass/<car>``, the car's total mass in kg (:attr:`Car.mass`, the mass a
-railroad knows from the waybill), and refuses networks asking for anything else.
-:func:`read_network` checks all of this for any scene; the case schema
-(:mod:`femref.case.estimators`) checks it against the scene (coupler, probes, time, measurement).
+The file's JSON metadata is the contract (:class:`NetworkContract`, docs/design.md §6.3); the only scalar inputs
+femref supplies are ``car_mass/<car>`` (kg, the mass a railroad knows from the waybill). :func:`read_network`
+checks the contract for any scene; the case schema (:mod:`femref.case.estimators`) checks it against the scene.
 ``ann`` is imported only when a network is read: ``femref`` imports ``ann``, never the
 reverse.
 """

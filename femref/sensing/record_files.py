@@ -1,26 +1,12 @@
 """Record files read as hostile input: regular files only, nothing read from outside the file named, bounded before allocation.
 
-:mod:`femref.sensing.recordings` reads a recorder's columns through :func:`read_columns`,
-which keeps to these rules (each refusal a :class:`RecordError` naming the file, the column
-or dataset and the rule):
-
-* **Regular files only** (:func:`femref.core.files.regular_file`): a FIFO, a device
-  (``/dev/zero``), a socket or a folder is refused before it is opened, a loop of symbolic
-  links named as such.
-* **Nothing from outside the file** the case names: external storage, external links and virtual datasets are
-  refused, never followed, and chunks go through HDF5's built-in filters only
-  (:func:`femref.sensing.hdf5_checks.check_plain_dataset`, the checks every HDF5 reader shares). Soft links inside
-  the file are followed, at most :data:`MAX_SOFT_LINKS` in a row (a loop is named).
-* **Bounded before allocation**: a CSV file holds at most :data:`MAX_RECORD_BYTES` bytes (by
-  ``stat``, before it is opened); a file at most :data:`MAX_RECORD_SAMPLES` samples per channel,
-  and the record files read together (a case's) at most :data:`MAX_RECORD_VALUES` values in all,
-  time columns included — an HDF5 dataset's shape is checked before a byte of it is read, a CSV
-  file is read no further than one row past the limit. An HDF5 chunk unpacks to at most
-  :data:`femref.sensing.hdf5_checks.MAX_CHUNK_BYTES`. The bytes a dataset unpacks to are bounded by its shape and its
-  chunks whatever its compression ratio, so no ratio is checked (a constant channel compresses
-  1000:1 and is a fine record).
-* **Unambiguous columns**: a CSV column read by name that the header names twice is refused
-  (reading the first would be a guess).
+:mod:`femref.sensing.recordings` reads a recorder's columns through :func:`read_columns`, which keeps to the rules of
+docs/design.md §3.7, each refusal a :class:`RecordError` naming the file, the column or dataset and the rule: regular
+files only (:func:`femref.core.files.regular_file`); nothing read from outside the file the case names
+(:func:`femref.sensing.hdf5_checks.check_plain_dataset`; soft links inside it followed, at most :data:`MAX_SOFT_LINKS`
+in a row); sizes bounded before allocation (:data:`MAX_RECORD_BYTES` by ``stat``, :data:`MAX_RECORD_SAMPLES`,
+:data:`MAX_RECORD_VALUES`: an HDF5 dataset's shape is checked before a byte of it is read, a CSV file is read no
+further than one row past the limit); a CSV column read by a name the header gives twice is refused.
 
 A CSV file is parsed by numpy's C reader (``numpy.loadtxt``, only the columns read, a chunk of
 lines at a time) into one array allocated for the file's line count, so reading holds the columns

@@ -11,21 +11,13 @@ Each probe (``<car>/<sensor>``) keeps its own time axis: two recorders may sampl
 different rates and their clocks may differ by a known offset. A channel's rate is the
 declared rate, or 1 / the median time step.
 
-**Errors** (:class:`RecordError`, naming the file, the channel or time source and the
-rule): a missing or unreadable file; a file that is not a regular file, or points outside
-itself, or is larger than the limits (:mod:`femref.sensing.record_files`); a missing column
-or dataset, a column the header names twice; an unknown unit; a cell that is not a number;
-fewer than two samples; a time that is not finite, or does not increase (duplicated or going
-back: the first offending row is named); a rate above :data:`MAX_RECORD_RATE`; a channel
-whose length differs from its time axis; a channel with no finite value; the same probe in
-two places.
+**Errors** (:class:`RecordError`, naming the file, the channel or time source and the rule; docs/design.md §3.7):
+what :mod:`femref.sensing.record_files` refuses, an unknown unit, fewer than two samples, a time that is not
+finite or does not increase, a rate above :data:`MAX_RECORD_RATE`, a channel with no finite value or not one per
+time, the same probe in two places.
 
-**Quality, not errors**: NaN runs inside a channel and time steps longer than 1.5 × the
-median step are *gaps*; runs of three or more samples at a channel's extreme value (the
-largest |a| it records, reached by a flat top) are *saturated*; samples with
-|a| > :data:`PLAUSIBLE_ACCELERATION` are *implausible* (no car body moves so). All are kept
-per probe as :class:`QualityInterval` (start, end in s, reason) for the events they fall in
-to carry.
+**Quality, not errors** (:func:`_quality`): *gaps*, *saturated* and *implausible* stretches, kept per probe as
+:class:`QualityInterval` for the events they fall in to carry.
 
 What validation read is kept (:class:`RecordRead`, with the file's :func:`file_stamp`):
 :func:`read_records` takes a file's channels from its ``kept`` read while the file is
