@@ -163,7 +163,8 @@ def _inversion_of(car: Car, span: tuple[float, float]) -> CoupledImpactInversion
     if body.kind != "rod":
         raise ValueError(f"car {car.name!r} is a {body.kind!r}: the quasi-rigid estimator needs an axial rod body")
     l = body.half_length
-    return CoupledImpactInversion.from_profiles(body.mass_per_length, body.stiffness, l, breakpoints=tuple(j for j in body.jumps if -l < j < l), span=span)
+    breakpoints = tuple(j for j in body.jumps if -l < j < l)
+    return CoupledImpactInversion.from_profiles(body.mass_per_length, body.stiffness, l, breakpoints=breakpoints, span=span)
 
 
 def _record(records: dict[str, ArrayLike], car: Car, sensor: str, samples: int) -> NDArray[np.float64]:
