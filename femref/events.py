@@ -1,37 +1,14 @@
-"""Event results of a measured case and their HDF5 groups (docs/design.md §4.5), written atomically.
+"""Event results of a measured case and their HDF5 groups (layout: docs/design.md §4.5), written atomically.
 
-Layout (every quantity carries its unit as the attribute ``units``)::
+Bands are 95 % (lower, upper); an estimator without a bound stores NaN bands and ``bound = none``.
 
-    /                                     attrs: femref_version, case_yaml, created, complete (false while
-                                          written), events_written
-    /scene                                attrs: kind = measured, cars, couplers (JSON)
-    /events/<k>/                          attrs: start, end, trigger_time (s), trigger_probe, flags (JSON),
-                                          impact_type, zero_harmonic_ratio, classification_confidence,
-                                          closing_speed, closing_speed_lower, closing_speed_upper (m/s: the
-                                          speed and its interval), closing_speed_source (records | given |
-                                          none), closing_speed_basis, epsilon, alarm, alarm_basis, wear, wear_basis
-    /events/<k>/records/time, <car>/<sensor>          the event's records on one grid (s, m/s²)
-    /events/<k>/<estimator>/<coupler>/time, force, force_lower, force_upper
-                                          attrs: peak_force, peak_lower, peak_upper (N), bound
-                                          (covariance | calibrated | none), in_calibrated_range, status, message
-    /events/<k>/closure/<coupler>         attrs: status (closed | not closed | ambiguous), closure_force (N),
-                                          closure_time (s), estimator, message
-
-Bands are 95 % (lower, upper); an estimator without a bound stores NaN bands and
-``bound = none``.
-
-**Written as the events finish** (:func:`event_file`, :class:`EventWriter`). The file is made under a
-temporary name beside the final one (:func:`femref.core.publishing.atomic_path`) with the root attributes
-``complete = false`` and ``events_written = 0``; each event is added as soon as it is found, the file
-opened, the event's group written, ``events_written`` raised and the file closed (flushed) again; when the
-last event is in, ``complete = true`` and the temporary is renamed to the final name. A run never holds
-more than the event in hand, and a run killed (``kill -9``, a power cut) loses at most that event: its
-temporary ``.<name>.femref-<pid>.tmp`` is an event file of the ``events_written`` events finished before the
-kill, readable as it is (``femref report`` reads it; ``complete = false`` says it is a part), while the
-previous file under the final name stays as it was. The next run into the same output removes that
-temporary (a leftover, :func:`femref.core.publishing.remove_leftovers`): copy it first to keep those events.
-A kill in the milliseconds while an event's group is written may leave that group partial; only the first
-``events_written`` groups are complete.
+**Written as the events finish** (:func:`event_file`, :class:`EventWriter`). The file is made under a temporary
+name beside the final one (:func:`femref.core.publishing.atomic_path`) with the root attributes ``complete = false``
+and ``events_written = 0``; each event is added as soon as it is found (the file opened, the event's group written,
+``events_written`` raised, the file closed again); when the last event is in, ``complete = true`` and the temporary
+is renamed to the final name. A run killed loses at most the event in hand: its temporary is an event file of the
+``events_written`` events finished before the kill, readable as it is (``femref report`` reads it), and the next run
+into the same output removes it as a leftover (:func:`femref.core.publishing.remove_leftovers`).
 """
 
 from __future__ import annotations
@@ -171,10 +148,9 @@ COMPLETE, EVENTS_WRITTEN = "complete", "events_written"
 
 
 class EventWriter:
-    """Adds events to the event file at ``path`` (a temporary while the run lasts), each opened, written and closed
-    again as it finishes (module docstring); :attr:`count` the events written. The file is written through
-    :func:`femref.core.hdf5_writing.hdf5_writer` (a full disk: one ``OSError``), which takes no HDF5 file lock: a
-    reader looking at the events written so far does not stop the run (between events the file is closed and whole)."""
+    """Adds events to the event file at ``path`` as they finish (module docstring); :attr:`count` the events written.
+    :func:`femref.core.hdf5_writing.hdf5_writer` takes no HDF5 file lock: a reader looking at the events written so far
+    does not stop the run (between events the file is closed and whole)."""
 
     def __init__(self, path: Path, scene_facts: dict[str, Any], case_yaml: str = "") -> None:
         self.path = Path(path)
@@ -220,17 +196,8 @@ def event_file(path: str | Path, scene_facts: dict[str, Any], case_yaml: str = "
         writer.finish()
 
 
-def write_events(path: str | Path, scene_facts: dict[str, Any], events: list[EventResult], case_yaml: str = "") -> Path:
-    """Write the event results to ``path`` (atomically, :func:`event_file`) and return the path."""
-    with event_file(path, scene_facts, case_yaml) as write:
-        for event in events:
-            write(event)
-    return Path(path)
-
-
 def _write_event(group: h5py.Group, event: EventResult) -> None:
-    for key in ("start", "end", "trigger_time", "closing_speed", "closing_speed_lower", "closing_speed_upper", "epsilon", "zero_harmonic_ratio",
-                "classification_confidence"):
+    for key in EVENT_UNITS:
         group.attrs[key] = float(getattr(event, key))
     group.attrs["units"] = json.dumps(EVENT_UNITS)
     for key in ("trigger_probe", "impact_type", "closing_speed_source", "closing_speed_basis", "alarm", "alarm_basis", "wear", "wear_basis"):
@@ -248,10 +215,8 @@ def _write_event(group: h5py.Group, event: EventResult) -> None:
         peak, lower, upper = estimate.peak
         sub.attrs.update(peak_force=peak, peak_lower=lower, peak_upper=upper, bound=estimate.bound, status=estimate.status,
                          message=estimate.message, wall_time_s=estimate.wall_time_s, settings=json.dumps(estimate.settings))
-        if estimate.in_calibrated_range is None:
-            sub.attrs["in_calibrated_range"] = "n/a"  # no calibration covers this estimate: no range it holds in
-        else:
-            sub.attrs["in_calibrated_range"] = str(bool(estimate.in_calibrated_range)).lower()
+        in_range = estimate.in_calibrated_range  # None: no calibration covers this estimate, no range it holds in
+        sub.attrs["in_calibrated_range"] = "n/a" if in_range is None else str(bool(in_range)).lower()
         sub.attrs["units"] = json.dumps({"peak_force": "N", "peak_lower": "N", "peak_upper": "N", "wall_time_s": "s"})
     closures = group.create_group("closure")
     for closure in event.closures:
@@ -269,4 +234,4 @@ def _dataset(group: h5py.Group, name: str, data: NDArray, units: str) -> None:
 
 
 __all__ = ["BOUNDS", "COMPLETE", "EVENTS_GROUP", "EVENTS_WRITTEN", "ClosureResult", "EventResult", "EventWriter", "ForceEstimate", "event_file",
-           "without_histories", "write_events"]
+           "without_histories"]

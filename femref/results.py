@@ -1,49 +1,18 @@
-"""Model results and the HDF5 result file of docs/design.md §4, written atomically.
+"""Model results and the HDF5 result file (layout: docs/design.md §4.1), written atomically.
 
-Layout::
+Publishing (issue 18). Every temporary is named ``.<final name>.femref-<pid>.tmp`` (a folder of field files
+``.<result name>.femref-<pid>.fields.tmp``) in the target folder, so a later write of the same final name removes
+the leftovers of a killed run (:func:`femref.core.publishing.remove_leftovers`). The field files are written first,
+their names and SHA-256 recorded in the result (attribute ``field_files`` of ``/<model>/fields``), then renamed
+into place, and the result file is renamed last: a kill leaves either the previous pair or new field files beside
+the previous result, which :func:`field_files_match` reports. ``FEMREF_TEST_PAUSE_BEFORE_PUBLISH`` (seconds) is a
+test hook only: it sleeps between writing the temporaries and the renames, so a test can kill a run there.
 
-    /                                attrs: femref_version, case_yaml, created
-    /scene                           attrs: kind, epsilon, wave_travel_time, load_time (s), units (JSON)
-    /<model>/                        attrs: status, message, wall_time_s, settings (JSON); a failed impact
-                                     run keeps its histories up to the failing step (NaN after)
-    /<model>/time | omega, lambda
-    /<model>/probes/<probe>/acceleration, displacement (, axial_force; impacts: velocity, and on cars that
-                                     bend vertical_* and pitch_* with pitch_rate)
-    /<model>/couplers/<coupler>/force
-    /<model>/couplers/<coupler>/peak_force   () N, network estimators (ann_<name>): the estimated peak, no time axis
-    /<model>/energy/kinetic, strain, dissipated, external_work   (+ attr balance_error)
-                                     impacts: kinetic, strain, body_dissipated, coupler_stored,
-                                     coupler_dissipated, total
-    /<model>/measured/time, /<model>/measured/<probe>/acceleration   (measurement chain)
-    /<model>/measured/<probe>/vertical_acceleration, pitch_rate      (measurement chain, cars that bend)
-    /<model>/fields/x, /<model>/fields/u   attrs: field_files (JSON: the XDMF + HDF5 field files' names → SHA-256)
-    /<model>/<history group>/time    (omega, lambda) the model's axis, linked in as the group's coordinate
-    /scores/<model>/                 attrs: reference, one per metric
-    /choice/                         a model choice (femref run --tolerance; femref.choice.output)
-
-The file is written under a temporary name in the target folder and renamed when
-complete, so a crash never leaves a truncated file under the final name. Fields are
-also written as an XDMF + HDF5 time series (meshio) that ParaView opens directly.
-
-Publishing (issue 18). Every temporary is named ``.<final name>.femref-<pid>.tmp`` (a folder of
-field files ``.<result name>.femref-<pid>.fields.tmp``) in the target folder, so a later write
-of the same final name recognises the leftovers of a killed run and removes them
-(:func:`femref.core.publishing.remove_leftovers`; never those of a process still alive). The field files are written
-first, their names and SHA-256 recorded in the result (attribute ``field_files`` of
-``/<model>/fields``), then renamed into place, and the result file is renamed last: a kill
-leaves either the previous pair or new field files beside the previous result, which
-:func:`field_files_match` reports as not matching. The environment variable
-``FEMREF_TEST_PAUSE_BEFORE_PUBLISH`` (seconds) is a test hook only: it sleeps between writing
-the temporaries and the renames, so a test can kill a run there.
-
-Time axes as dimension scales, for xarray (``xarray.open_dataset(path, group="fem/probes/left",
-engine="h5netcdf")`` gives ``time`` as the coordinate). Each history group (a probe's, a
-coupler's, ``energy``) holds its model's axis as a hard link named ``time`` (harmonic runs:
-``omega``, plus ``lambda`` as a second coordinate) to one HDF5 dimension scale attached to
-its datasets; ``/<model>/measured/time`` is the measured histories' own scale, linked the
-same way into ``/<model>/measured/<probe>``. The model-level ``/<model>/time`` stays a plain
-copy: a scale there would be visible (netCDF-4 rules) in ``fields/`` and ``measured/``, whose
-own differently sized ``time`` would then be misread and break ``xarray.open_datatree``.
+Time axes as dimension scales, for xarray: each history group (a probe's, a coupler's, ``energy``) holds its model's
+axis as a hard link named ``time`` (harmonic runs: ``omega``, plus ``lambda`` as a second coordinate) to one HDF5
+dimension scale attached to its datasets; ``/<model>/measured/time`` is the measured histories' own scale. The
+model-level ``/<model>/time`` stays a plain copy: a scale there would be visible (netCDF-4 rules) in ``fields/``
+and ``measured/``, whose own differently sized ``time`` would then be misread and break ``xarray.open_datatree``.
 """
 
 from __future__ import annotations
@@ -86,14 +55,7 @@ UNITS = {
     "peak_force": "N (compression positive)",
     "x": "m",
     "u": "m",
-    "kinetic": "J",
-    "strain": "J",
-    "dissipated": "J",
-    "external_work": "J",
-    "body_dissipated": "J",
-    "coupler_stored": "J",
-    "coupler_dissipated": "J",
-    "total": "J",
+    **dict.fromkeys(("kinetic", "strain", "dissipated", "external_work", "body_dissipated", "coupler_stored", "coupler_dissipated", "total"), "J"),
     "closure": "m (compression positive)",
 }
 
@@ -151,10 +113,9 @@ def field_file_paths(output: str | Path, models: Sequence[str]) -> list[Path]:
 
 def result_field_files(results: str | Path, name: str = "RESULTS.h5") -> dict[str, Path]:
     """The field files of the result file ``results`` as inputs for :func:`check_output_path`, keyed
-    ``XDMF field file of model <model> of <name>`` (``HDF5 field file …``): the names it records (attribute
-    ``field_files`` of ``/<model>/fields``) and, for a model with fields that records none (a file written before
-    the names were recorded), the names femref gives them (:func:`field_file_paths`). Empty for a file without
-    fields. Raises ``OSError`` when ``results`` is not a readable HDF5 file."""
+    ``XDMF field file of model <model> of <name>`` (``HDF5 field file …``): the names it records, or for a file
+    written before they were, the names femref gives them (:func:`field_file_paths`). ``OSError`` when ``results``
+    is not a readable HDF5 file."""
     results = Path(results)
     found: dict[str, Path] = {}
     with h5py.File(results, "r") as h5:
@@ -179,14 +140,10 @@ def write_results(
     extra: Callable[[h5py.File], None] | None = None,
     scene: dict[str, Any] | None = None,
 ) -> list[Path]:
-    """Write the result file (and XDMF field files) atomically; return the paths written.
+    """Write the result file and its field files (module docstring: publishing); return the paths written.
 
-    The field files are written first under temporary names, their SHA-256 recorded in the
-    result, and renamed into place before the result file is (module docstring).
-
-    ``scene`` holds the facts of the resolved scene the report shows (kind, ε and the times it
-    is made of: ``Scene.facts()``), written as attributes of ``/scene`` with units. ``extra(h5)``
-    adds groups of its own (e.g. ``/choice``) before the file is renamed.
+    ``scene``: the resolved scene's facts (``Scene.facts()``), attributes of ``/scene``; ``extra(h5)`` adds groups of
+    its own (e.g. ``/choice``) before the file is renamed.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -233,13 +190,8 @@ def field_file_name(path: str | Path, model: str) -> str:
 
 
 def field_files_match(path: str | Path) -> list[str]:
-    """Problems of the field files recorded in the result file ``path``: missing, or not the ones it was written with.
-
-    Empty when every recorded file is beside ``path`` with its recorded SHA-256 (and for a
-    file that records none, written before issue 18). A field file that does not match was
-    left by another run (e.g. the next run killed between publishing its field files and its
-    result): the result's own ``/<model>/fields`` stays right, the ParaView files do not.
-    """
+    """Problems of the field files recorded in the result file ``path``: missing, or not the ones it was written with
+    (left by another run, module docstring); empty when all match (or none is recorded, a file before issue 18)."""
     path = Path(path)
     problems = []
     with h5py.File(path, "r") as h5:
@@ -280,12 +232,9 @@ def _test_pause() -> None:
 
 def _publish(files: list[Path], folder: Path) -> list[Path]:
     """Rename each of ``files`` (in a staging folder on the same file system) into ``folder``."""
-    moved = []
     for file in files:
-        target = folder / file.name
-        os.replace(file, target)
-        moved.append(target)
-    return moved
+        os.replace(file, folder / file.name)
+    return [folder / file.name for file in files]
 
 
 def _dataset(group: h5py.Group, name: str, data: NDArray) -> h5py.Dataset:
@@ -302,21 +251,15 @@ def _write_model(group: h5py.Group, result: ModelResult) -> None:
     group.attrs["settings"] = json.dumps(result.settings, default=_json_default, sort_keys=True)
     for name, axis in result.axes.items():
         _dataset(group, name, axis)
+    items = [*(("probes/" + p, out) for p, out in result.probes.items()), *(("couplers/" + c, out) for c, out in result.couplers.items()),
+             *([("energy", result.energy)] if result.energy else [])]
     histories = []
-    for probe, outputs in result.probes.items():
-        histories.append(sub := group.require_group(f"probes/{probe}"))
+    for path, outputs in items:
+        histories.append(sub := group.require_group(path))
         for name, data in outputs.items():
             _dataset(sub, name, data)
-    for coupler, outputs in result.couplers.items():
-        histories.append(sub := group.require_group(f"couplers/{coupler}"))
-        for name, data in outputs.items():
-            _dataset(sub, name, data)
-    if result.energy:
-        histories.append(sub := group.create_group("energy"))
-        for name, data in result.energy.items():
-            _dataset(sub, name, data)
-        if "energy_balance_error" in result.settings:
-            sub.attrs["balance_error"] = float(result.settings["energy_balance_error"])
+    if result.energy and "energy_balance_error" in result.settings:
+        group["energy"].attrs["balance_error"] = float(result.settings["energy_balance_error"])
     axis = next((name for name in ("time", "omega") if name in result.axes), None)
     if axis is not None:
         extra = {"lambda": result.axes["lambda"]} if axis == "omega" and "lambda" in result.axes else {}
@@ -346,12 +289,8 @@ def _write_model(group: h5py.Group, result: ModelResult) -> None:
 
 def _link_axis(groups: list[h5py.Group], name: str, values, extra: dict[str, NDArray], scale: h5py.Dataset | None = None) -> None:
     """Make ``values`` the dimension scale ``name`` of the first axis of every dataset in ``groups`` that runs along
-    it, and link it (and the ``extra`` coordinates, e.g. ``lambda`` beside ``omega``) into each such group.
-
-    One scale object, hard-linked under ``name`` into every group: xarray (h5netcdf, netCDF4) opens
-    any one group with the axis as its coordinate, and the data is stored once. ``scale`` is an
-    existing dataset to use (the measured ``time``); else the first group gets a new one.
-    """
+    it, one scale object hard-linked into each such group with the ``extra`` coordinates (module docstring: time
+    axes). ``scale`` is an existing dataset to use (the measured ``time``); else the first group gets a new one."""
     size = len(values)
     coordinates: dict[str, h5py.Dataset] = {}
     for group in groups:

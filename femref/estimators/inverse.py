@@ -61,9 +61,7 @@ def inverse_rigid(scene: Any, time: ArrayLike, records: dict[str, ArrayLike]) ->
     """
     t = _time_axis(time)
     ahead = {c.rear: c for c in scene.couplers}
-    inertia = [
-        rigid_coupler_force(car.mass, _record(records, car, _central_sensor(car), t.size), "left") for car in scene.cars
-    ]
+    inertia = [rigid_coupler_force(car.mass, _record(records, car, _central_sensor(car), t.size), "left") for car in scene.cars]
     forces: Records = {}
     for coupler in scene.couplers:
         total = np.zeros(t.size)
@@ -89,22 +87,14 @@ def inverse_quasi_rigid(scene: Any, time: ArrayLike, records: dict[str, ArrayLik
         μ(x) = ∫_{−l}^{x} m,   integrated twice from rest:
         P_j = −F1(t) = −[k1 ∬₀ᵗ (a2 − a1) + k2 a1(t)]
 
-    with ``k1``, ``k2`` from the car's profiles (:meth:`CoupledImpactInversion.from_profiles`,
-    jumps as quadrature breakpoints). The car's own front coupler (its ``F2``) is not
-    needed: ``(F2 − F1)'' = M a1''`` to the order kept. ``a1`` is the record of the car's
-    sensor with the smallest x, ``a2`` of the one with the largest x (at least two
-    sensors), and ``k1``, ``k2`` are integrated over the span between them
-    (``CoupledImpactInversion.from_profiles(span=...)``): with the end coefficients,
-    sensors at ``±0.9 l`` on a 17 m car gave a force ≈ 5 % low (0.6 s pulse, against the
-    two-term quasi-rigid car), with the span coefficients 0.6 %. The records must start at rest
-    before the impact (zero force, zero relative motion), and ``time`` must be uniform.
-    Its truncation error is O(ε) of the pulse (a few per cent for yard-impact pulses on
-    17 m cars, :mod:`reduced.inverse`): against a two-term quasi-rigid 17 m, 119 t car
-    (linearly varying density) driven at its −l end by a sin² pulse of length T it
-    recovers the force to 2.7 % (T = 0.3 s), 0.70 % (0.6 s) and 0.19 % (1.2 s) of the
-    peak, falling like ``T⁻²``, also with a second pulse at its +l end
-    (``tests/models/test_inverse.py``). Fed rigid records (``a1 = a2``) it returns
-    ``−k2 a`` — half the rigid ``M a`` for an even car: it needs elastic records.
+    with ``k1``, ``k2`` from the car's profiles (jumps as quadrature breakpoints), integrated over the span between
+    the sensors with the smallest and the largest x that stand in for ``a1`` and ``a2`` (with the end coefficients,
+    sensors at ``±0.9 l`` on a 17 m car gave a force ≈ 5 % low, with the span's 0.6 %). The car's own front coupler
+    is not needed: ``(F2 − F1)'' = M a1''`` to the order kept. The records must start at rest before the impact, and
+    ``time`` must be uniform. Its truncation error is O(ε) of the pulse (:mod:`reduced.inverse`): on a two-term
+    quasi-rigid 17 m, 119 t car driven by a sin² pulse of length T, 2.7 % (T = 0.3 s), 0.70 % (0.6 s) and 0.19 %
+    (1.2 s) of the peak (``tests/models/test_inverse.py``). Fed rigid records (``a1 = a2``) it returns ``−k2 a`` —
+    half the rigid ``M a`` for an even car: it needs elastic records.
     """
     t = _time_axis(time)
     forces: Records = {}
@@ -118,10 +108,7 @@ def inverse_quasi_rigid(scene: Any, time: ArrayLike, records: dict[str, ArrayLik
     return forces
 
 
-ESTIMATORS: dict[str, InverseForces] = {
-    "inverse_rigid": inverse_rigid,
-    "inverse_quasi_rigid": inverse_quasi_rigid,
-}
+ESTIMATORS: dict[str, InverseForces] = {"inverse_rigid": inverse_rigid, "inverse_quasi_rigid": inverse_quasi_rigid}
 """Estimator name → function; the names are :data:`femref.core.catalog.ESTIMATORS`."""
 
 assert tuple(ESTIMATORS) == catalog.ESTIMATORS  # internal contract: one registry, one list of names
@@ -143,9 +130,6 @@ class InverseEstimator:
                 for coupler, force in forces.items()]
 
 
-# ------------------------------------------------------------------------ helpers
-
-
 def _time_axis(time: ArrayLike) -> NDArray[np.float64]:
     t = np.asarray(time, dtype=float)
     if t.ndim != 1 or t.size < 2:
@@ -165,10 +149,8 @@ def _central_sensor(car: Car) -> str:
 def _end_sensors(car: Car) -> tuple[str, str]:
     """The sensors with the smallest and the largest x (standing in for ``a(−l)`` and ``a(+l)``)."""
     if len(car.sensors) < 2:
-        raise ValueError(
-            f"car {car.name!r} has {len(car.sensors)} sensor(s): the quasi-rigid estimator needs two, "
-            "near its ends (the smallest and the largest x are used)"
-        )
+        raise ValueError(f"car {car.name!r} has {len(car.sensors)} sensor(s): the quasi-rigid estimator needs two, "
+                         "near its ends (the smallest and the largest x are used)")
     rear = min(car.sensors, key=lambda name: car.sensors[name])
     front = max(car.sensors, key=lambda name: car.sensors[name])
     if car.sensors[rear] == car.sensors[front]:
@@ -181,9 +163,8 @@ def _inversion_of(car: Car, span: tuple[float, float]) -> CoupledImpactInversion
     if body.kind != "rod":
         raise ValueError(f"car {car.name!r} is a {body.kind!r}: the quasi-rigid estimator needs an axial rod body")
     l = body.half_length
-    return CoupledImpactInversion.from_profiles(
-        body.mass_per_length, body.stiffness, l, breakpoints=tuple(j for j in body.jumps if -l < j < l), span=span
-    )
+    breakpoints = tuple(j for j in body.jumps if -l < j < l)
+    return CoupledImpactInversion.from_profiles(body.mass_per_length, body.stiffness, l, breakpoints=breakpoints, span=span)
 
 
 def _record(records: dict[str, ArrayLike], car: Car, sensor: str, samples: int) -> NDArray[np.float64]:

@@ -84,13 +84,10 @@ class KalmanEstimator:
         return [ForceEstimate(self.name, coupler, t, found.force, found.lower, found.upper, bound="covariance", settings=settings)]
 
     def contact(self, recorded: Recorded, estimate: ForceEstimate) -> ContactEstimate:
-        """The contact instant in this estimator's force ``estimate`` (:func:`femref.sensing.contact.onset_time`).
-
-        The smoother spreads a sharp start of the force over a few samples both ways, so the chain the rise is
-        fitted through is the smoother itself: its responses to a unit step and a unit ramp of the force, starting
-        mid-record, are the model's forced response (:func:`reduced.kalman.forced_response`) estimated back at the
-        event's force-rate level (the smoothed mean is linear in the records, and time-invariant away from the ends).
-        """
+        """The contact instant in this estimator's force ``estimate`` (:func:`femref.sensing.contact.onset_time`,
+        docs/formulas.md §K2): the chain the rise is fitted through is the smoother itself, its responses to a unit
+        step and ramp of the force the model's forced response (:func:`reduced.kalman.forced_response`) estimated back
+        at the event's force-rate level (the smoothed mean is linear in the records)."""
         t = recorded.time
         cars, probes = self.cars(recorded)
         noise = _noise(recorded, probes)

@@ -13,27 +13,15 @@ the rest are measured costs, rounded up:
     exact transient        6e-5 s per output time and probe; a CSV record of n > 64 samples adds
                            n × 385 transform values × (log2 Nt + 1) windows × 5e-8 s
 
-Everything a command will run is counted, before any of it runs:
+Everything a command will run is counted, before any of it runs: the scene's model runs, the fem reference's
+**self-check** (:func:`self_check_levels`, both levels always) and, for ``femref run --tolerance``, every rung of the
+model ladder (priced by :func:`impact_run_cost`, :func:`femref.choice.ladder.check_ladder_budget`).
 
-* the scene's model runs (:func:`predict`);
-* the fem reference's **self-check** (:func:`self_check_levels`): when the case's own ``time.dt`` or
-  ``fem.elements`` under-resolves the reference (:func:`resolution_warnings`) or ``FEMREF_SELF_CHECK=1``
-  asks, the fem run is repeated at ``dt/2`` and ``dt/4`` (and ``2×``, ``4×`` the elements when the mesh is the
-  coarse part) — predicted like the fem run at those settings, the worst case (both levels) always;
-* for ``femref run --tolerance``, every rung of the model ladder, the worst case of a climb: the choice layer lays
-  the ladder out without a mesh and prices each rung as an impact run at its step and resolution
-  (:func:`impact_run_cost`), then refuses by the same rule (:func:`check_costs`;
-  :func:`femref.choice.ladder.check_ladder_budget`).
-
-A scene is refused (:class:`~femref.case.CaseError`, exit 2) when its total work exceeds
-:data:`WORK_BUDGET` work units or the memory it holds exceeds :data:`MEMORY_BUDGET` bytes; the
-message names the key that drives the largest part (``fem.elements``, ``time.end``, ``time.dt``,
-``frequency.num``, ``loads.<name>.csv.path``, ``cars``) and the predicted size. A measured scene is priced by
-:mod:`femref.run.event_budget` (events × estimators × the event grid); the limits, :class:`Cost` and the rule
-live in :mod:`femref.run.costs`. The environment variable
-``FEMREF_BUDGET=<factor>`` multiplies both limits, on purpose (``FEMREF_BUDGET=10`` allows ten
-times as much). The budget is checked once per command: ``femref run`` checks before its output check
-and tells :func:`femref.run.run_scene` (or :func:`femref.choice.choose_model`) so; every other caller of
+A scene over the limits is refused by the rule of :mod:`femref.run.costs` (:func:`check_costs`: the limits,
+``FEMREF_BUDGET``, the message naming the key that drives the largest part, one of ``fem.elements``, ``time.end``,
+``time.dt``, ``frequency.num``, ``loads.<name>.csv.path``, ``cars``). A measured scene is priced by
+:mod:`femref.run.event_budget`. The budget is checked once per command: ``femref run`` checks before its output
+check and tells :func:`femref.run.run_scene` (or :func:`femref.choice.choose_model`) so; every other caller of
 those (sweeps, studies, :func:`femref.api.run_case`) is checked by them.
 """
 
@@ -71,9 +59,8 @@ _TYPICAL_CARS = 10  # a consist; the coupler line's cost grows as the cube of it
 
 
 def check_budget(scene: Scene | ImpactScene, source: str = "<case>") -> list[Cost]:
-    """Refuse ``scene`` when its runs — the models' and the reference's self-check (:func:`predict`) — exceed the
-    budget (:func:`check_costs`); return the prediction otherwise. A measured scene: its largest event
-    (:func:`femref.run.event_budget.measured_costs`; the events' total is checked once they are found)."""
+    """Refuse ``scene`` when its runs (:func:`predict`) exceed the budget (:func:`check_costs`); return the prediction
+    otherwise."""
     try:
         costs = predict(scene)
     except CaseError as error:  # a record the prediction could not size
@@ -99,10 +86,6 @@ def predict(scene: Scene | ImpactScene) -> list[Cost]:
     return []
 
 
-# ---------------------------------------------------------------------------------------------
-# Sizes without assembly
-
-
 def wave_speed(body: Body) -> float:
     """``max √(stiffness/m)`` over ~500 points and both sides of every jump (m/s rod, m²/s beam)."""
     l = body.half_length
@@ -121,10 +104,6 @@ def _time_factors(scene, dt: float, auto_dt_default: float) -> dict[str, tuple[f
     if scene.dt is not None:
         factors["time.dt"] = (auto_dt_default / scene.dt, scene.dt)
     return factors
-
-
-# ---------------------------------------------------------------------------------------------
-# Impact runs
 
 
 def approximate_step(scene, run, elements: int | None = None) -> float:
@@ -181,21 +160,14 @@ def coupler_line_cost(scene: ImpactScene) -> tuple[float, float, float]:
         bytes    = 8 [N (2 n_c² + 12 n_c) + 2 n_c² + 2 m²]
         per step = 6e-10 s × m³,   set-up = 1e-8 s × N n_c²
 
-    Each car keeps its share ``Cc G Bc`` of the gains ``∂δ/∂P`` and ``∂δ̇/∂P`` as two dense ``n_c × n_c`` matrices
-    (its prepared form), the line their sum; each car's coupler maps ``Bc`` (2 × n_c) and ``Cc`` (n_c × 2) are held
-    three times (line plan, prepared car, packed pool); the Newton Jacobian (m × m) once in the line plan and once
-    in the run. A step solves that Jacobian by dense LU (≈ m³/3 multiply-adds per iteration, about three iterations
-    a step). Measured on rigid consists of 100, 200 and 400 cars (Kelvin-Voigt couplers, 20 steps): peak memory
-    0.33, 0.44, 1.33 GB, of which the line's 0.02, 0.13, 1.04 GB predicted here; stepping 0.4, 3.4, 30 ms a step
-    (4.7e-10 s × n_c³ at 400 cars); set-up 0.02, 0.10, 0.56 s. Negligible for a few cars; 16 GB for 1000."""
+    Each car keeps its share ``Cc G Bc`` of the gains ``∂δ/∂P`` and ``∂δ̇/∂P`` as two dense ``n_c × n_c`` matrices,
+    the line their sum; each car's coupler maps are held three times (line plan, prepared car, packed pool); the
+    Newton Jacobian (m × m) twice, solved by dense LU (about three iterations a step). Measured on rigid consists of
+    100, 200 and 400 cars (docs/design.md §3.5, "Consists"; tests/run/test_budget.py)."""
     cars, n_c = len(scene.cars), len(scene.couplers)
     m = n_c + sum(int(c.coupling.law.state_size) for c in scene.couplers)
     memory = _BYTES * (cars * (2.0 * n_c**2 + 12.0 * n_c) + 2.0 * n_c**2 + 2.0 * m**2)
     return 6e-10 * float(m) ** 3, 1e-8 * cars * float(n_c) ** 2, memory
-
-
-# ---------------------------------------------------------------------------------------------
-# Single body
 
 
 def _single_step(scene, elements: int | None = None) -> float:
@@ -212,11 +184,6 @@ def _single_dofs(scene) -> int:
     return 2 * mesh_nodes(scene.body, scene.fem.elements)
 
 
-def _records(scene) -> dict[str, int]:
-    """Samples of each tabulated (CSV) load."""
-    return {name: int(s.times.size) for name, s in scene.loads.items() if isinstance(s, Tabulated)}
-
-
 def _transient(scene, model: str) -> Cost:
     dt = _single_step(scene)
     steps = _steps(scene.end, dt)
@@ -224,7 +191,7 @@ def _transient(scene, model: str) -> Cost:
     probes = len(scene.probes)
     histories = outputs * (3 * probes + 5) * _BYTES
     factors = _time_factors(scene, dt, _single_step(scene, _DEFAULT_ELEMENTS))
-    records = _records(scene)
+    records = {name: int(s.times.size) for name, s in scene.loads.items() if isinstance(s, Tabulated)}  # CSV loads' samples
     memory = histories + sum(2 * _BYTES * n for n in records.values())
     size = f"{steps:.3g} steps"
     if model == "fem":
@@ -262,9 +229,6 @@ def _harmonic(scene, model: str) -> Cost:
     return Cost(model, 1e-5 * num, memory, f"{num:.3g} frequencies", factors)
 
 
-# ---------------------------------------------------------------------------------------------
-# Does the case's discretisation resolve the reference?
-
 #: A step above this fraction of the shortest wave travel time, or of the coupler contact time (impact) or the
 #: loads' shortest time scale (transient), under-resolves the fem reference; so does an element longer than this
 #: fraction of the pulse's wavelength.
@@ -274,16 +238,11 @@ STEP_PER_LOAD_TIME = STEP_PER_CONTACT_TIME
 
 def resolution_warnings(scene) -> list[str]:
     """Why the case's own ``time.dt`` or ``fem.elements`` under-resolves the fem reference (empty when they resolve
-    it, or when the runner chooses the step); each text starts with the key.
-
-    * Impact: a step above a tenth of the shortest wave travel time ``l√(m/EA)`` of the cars or a twentieth of the
-      coupler contact time, or — on cars whose couplers bend them — above the shortest bending mesh transit time ``h²/c_b,max``
-      (the automatic rule's own, :data:`femref.run.timestep.BENDING_MESH_RULE`: a coupler force that jumps at
-      contact drives every bending mode of the mesh, docs/formulas.md §X8), or fewer elements than twenty per
-      wavelength of the contact pulse, ``2l/h < 40 T_wave/T_contact``.
-    * Transient (:func:`transient_resolution_warnings`): the same rules with the body's wave travel time and the
-      loads' shortest time scale ``T_load`` in place of the contact time.
-    """
+    it, or when the runner chooses the step); each text starts with the key. Impact: a step above a tenth of the
+    shortest wave travel time ``l√(m/EA)`` of the cars or a twentieth of the coupler contact time, or on cars that
+    bend above the shortest bending mesh transit time ``h²/c_b,max`` (docs/formulas.md §X8), or fewer elements than
+    twenty per wavelength of the contact pulse, ``2l/h < 40 T_wave/T_contact``. Transient:
+    :func:`transient_resolution_warnings`."""
     kind = getattr(scene, "kind", None)
     if kind == "transient":
         return transient_resolution_warnings(scene)
@@ -354,9 +313,6 @@ def transient_resolution_warnings(scene: Scene) -> list[str]:
     return warnings
 
 
-# ---------------------------------------------------------------------------------------------
-# The reference's self-check: the runs it adds
-
 #: Most levels the self-check refines to: the fem run again at dt/2, then at dt/4.
 SELF_CHECK_LEVELS = 2
 
@@ -369,11 +325,8 @@ def self_check_asked() -> bool:
 def self_check_levels(scene: Scene | ImpactScene, warnings: list[str] | None = None) -> list[tuple[int, int]]:
     """The finer fem runs the reference's self-check may make, as ``(d, e)``: step ``dt/d``, ``e ×`` the elements —
     ``d = 2^k`` for ``k = 1 … SELF_CHECK_LEVELS`` and ``e = d`` when a warning names ``fem.elements`` (the mesh is the
-    coarse part), else 1. Empty when the scene has no fem reference to check (an impact run named ``fem``, or
-    ``fem`` among a transient scene's models) or neither ``warnings`` (default :func:`resolution_warnings` of
-    the scene as the case gives it) nor ``FEMREF_SELF_CHECK`` asks. The runner makes the second level when a
-    warning fired or the first says the error is large (:func:`femref.run.runner.check_reference`); the budget
-    always counts both."""
+    coarse part), else 1. Empty without a fem reference, or when neither ``warnings`` (default
+    :func:`resolution_warnings`) nor ``FEMREF_SELF_CHECK`` asks. The budget counts both levels."""
     kind = getattr(scene, "kind", None)
     if kind == "impact":
         has_fem = any(run.name == "fem" for run in scene.runs)
@@ -390,8 +343,7 @@ def self_check_levels(scene: Scene | ImpactScene, warnings: list[str] | None = N
 
 def _self_check_costs(scene: Scene | ImpactScene) -> list[Cost]:
     """The self-check's finer fem runs (:func:`self_check_levels`), each predicted like the fem run at its step and
-    mesh (without fields: the check keeps none); their factors are the fem run's own (the keys and values as the case
-    gives them)."""
+    mesh (without fields); their factors are the fem run's own."""
     warnings = resolution_warnings(scene)
     levels = self_check_levels(scene, warnings)
     if not levels:

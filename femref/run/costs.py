@@ -81,18 +81,18 @@ def check_costs(costs: list[Cost], source: str = "<case>", whole: str = "the sce
 
 def duration_text(seconds: float) -> str:
     """``5400`` s as ``1.5 h``."""
-    for unit, size in (("days", 86400.0), ("h", 3600.0), ("min", 60.0)):
-        if seconds >= size:
-            return f"{seconds / size:.3g} {unit}"
-    return f"{seconds:.3g} s"
+    return _in_units(seconds, (("days", 86400.0), ("h", 3600.0), ("min", 60.0), ("s", 1.0)))
 
 
 def bytes_text(n: float) -> str:
     """``1.6e10`` bytes as ``16 GB``."""
-    for unit, size in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
-        if n >= size:
-            return f"{n / size:.3g} {unit}"
-    return f"{n:.3g} B"
+    return _in_units(n, (("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3), ("B", 1.0)))
+
+
+def _in_units(value: float, units: tuple[tuple[str, float], ...]) -> str:
+    """``value`` in the first (largest) of ``units`` it reaches, else the last."""
+    unit, size = next(((unit, size) for unit, size in units if value >= size), units[-1])
+    return f"{value / size:.3g} {unit}"
 
 
 __all__ = ["BUDGET_VARIABLE", "MEMORY_BUDGET", "WORK_BUDGET", "Cost", "budget_factor", "bytes_text", "check_costs", "duration_text"]

@@ -6,22 +6,12 @@ resampled onto one grid at the fastest channel's rate (:func:`femref.sensing.tri
     work   = Σ over events of the event's grid samples × the per-sample cost of every estimator (:func:`event_cost`)
     memory = the records held + the largest event (events are written as they finish and not kept)
 
-The number of events is unknown before the trigger runs, so the budget is checked twice:
-
-* **before any work** (:func:`measured_costs`, through :func:`femref.run.budget.predict` and ``femref run``'s
-  check): one event at its largest — a window of ``events.max_window`` on the fastest record's grid, every
-  channel — from the case and the records as validation read them (:func:`record_size`: their samples and rates);
-  an event grid that alone is over the budget is refused, naming ``events.post``,
-  ``events.max_window``, the record that sets the rate or ``kalman.modes``, whichever lies furthest beyond a
-  typical case;
-* **once the trigger has run** (:func:`check_events`, by :func:`femref.run.measured.run_measured` before the first
-  event's estimators): the work of the events found, each on its own window, summed. Detection streams the records
-  in chunks and costs little beside the estimators, so the total is counted exactly rather than bounded by the
-  stream's length over the shortest event spacing (``quiet``): that bound, 14 400 events for two hours of records
-  at the default 0.5 s, would refuse every long stream for events it does not hold.
-
-Both raise :class:`~femref.case.CaseError` (exit 2) as :func:`femref.run.budget.check_costs` does, and
-``FEMREF_BUDGET`` raises both limits.
+The number of events is unknown before the trigger runs, so the budget is checked twice (docs/design.md §3.5,
+"Measured scenes"): **before any work**, one event at its largest, a window of ``events.max_window`` on the fastest
+record's grid (:func:`measured_costs`); **once the trigger has run**, before the first event's estimators, the events
+found, each on its own window (:func:`check_events`: counted exactly, where a bound from the stream's length over
+the shortest event spacing would refuse every long stream for events it does not hold). Both refuse as
+:func:`femref.run.costs.check_costs` does.
 """
 
 from __future__ import annotations
@@ -72,16 +62,15 @@ def kalman_states(scene: MeasuredScene) -> int:
     """The kalman filter's state size: ``2 × modes`` (each elastic mode's displacement and rate) for each car of the
     first coupler, the force, and the anti-alias filter's ``order`` states of each of their recorded channels that
     declares one (:mod:`reduced.kalman`)."""
-    coupler = scene.couplers[0]
-    cars = {scene.cars[coupler.rear].name, scene.cars[coupler.front].name}
-    filters = sum(f.order for probe, f in scene.anti_alias.items() if f is not None and probe.split("/")[0] in cars)
+    filters = sum(f.order for probe, f in _kalman_filters(scene).items() if f is not None)
     return 2 * 2 * scene.kalman.modes + 1 + filters
 
 
-def _kalman_channels(scene: MeasuredScene) -> int:
+def _kalman_filters(scene: MeasuredScene) -> dict:
+    """The anti-alias filter (or None) of each recorded channel of the first coupler's two cars."""
     coupler = scene.couplers[0]
     cars = {scene.cars[coupler.rear].name, scene.cars[coupler.front].name}
-    return sum(1 for probe in scene.anti_alias if probe.split("/")[0] in cars)
+    return {probe: f for probe, f in scene.anti_alias.items() if probe.split("/")[0] in cars}
 
 
 def event_cost(scene: MeasuredScene, samples: int, channels: int, rate: float, what: str = "") -> Cost:
@@ -107,7 +96,7 @@ def event_cost(scene: MeasuredScene, samples: int, channels: int, rate: float, w
         elif name == "inverse_quasi_rigid":
             work += 2e-6 * samples + 0.05
         elif name == "kalman":
-            n, m = kalman_states(scene), _kalman_channels(scene)
+            n, m = kalman_states(scene), len(_kalman_filters(scene))
             corners = len({1.0 - scene.kalman.frequency_tolerance, 1.0 + scene.kalman.frequency_tolerance}) * len(set(scene.kalman.damping_factors))
             work += samples * (1e-4 + 5e-8 * n**2 + (1 + corners) * 2e-5)
             memory += _BYTES * samples * (_KALMAN_BATCH * (3 * n + 4 * m) + 4 * n)
@@ -125,16 +114,9 @@ def event_cost(scene: MeasuredScene, samples: int, channels: int, rate: float, w
     return Cost("event", work, memory, size, factors, what=what or "one event")
 
 
-def _records_memory(sizes: list[RecordSize]) -> float:
-    """The records as read: each file's times and channels (the trigger's chunks of the merged stream are bounded)."""
-    return sum(_BYTES * s.samples * (s.channels + 1) for s in sizes)
-
-
 def measured_costs(scene: MeasuredScene) -> list[Cost]:
-    """What ``femref run`` of a measured ``scene`` costs at most per event, before any work: the largest event grid —
-    a window of ``max_window`` on the grid of the fastest channel, every channel (:func:`event_cost`) — with the
-    records it reads (:func:`record_size`). The number of events is not known before the trigger
-    runs: :func:`check_events` checks their total once it has (before the first event's estimators)."""
+    """What ``femref run`` of a measured ``scene`` costs at most per event, before any work (module docstring): the
+    largest event grid (:func:`event_cost`) with the records it reads (:func:`record_size`)."""
     sizes = []
     for i, record in enumerate(scene.records):
         try:
@@ -145,16 +127,14 @@ def measured_costs(scene: MeasuredScene) -> list[Cost]:
     samples = int(scene.max_window * fastest.rate) + 1
     cost = event_cost(scene, samples, sum(s.channels for s in sizes), fastest.rate,
                       what=f"one event (a window of events.max_window = {scene.max_window:g} s at the records' {fastest.rate:.4g} Hz)")
-    cost.memory += _records_memory(sizes)
+    cost.memory += sum(_BYTES * s.samples * (s.channels + 1) for s in sizes)  # the records as read: times and channels
     cost.factors[fastest.key] = (fastest.rate / _TYPICAL_RATE, f"{fastest.rate:.4g} Hz")
     return [cost]
 
 
 def check_events(scene: MeasuredScene, recordings: Recordings, events: list[Event], source: str = "<case>") -> Cost:
-    """Refuse the events the trigger found when their total exceeds the budget (:func:`check_costs`): the work of every
-    event on its own window's grid, summed, and the memory of the largest (events are written as they finish and
-    not kept: memory does not add up) with the records held. Raises :class:`CaseError` naming ``records`` (the stream
-    that holds so many events) or, when one event alone is over, the key driving it; returns the total."""
+    """Refuse the events the trigger found when their total exceeds the budget (module docstring): raises
+    :class:`CaseError` naming ``records`` or, when one event alone is over, the key driving it; returns the total."""
     fastest = max(recordings.channels.values(), key=lambda c: c.rate)
     rate, channels = fastest.rate, len(recordings.channels)
     index = next((i for i, record in enumerate(scene.records) if record.path.name == fastest.file), 0)

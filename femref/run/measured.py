@@ -43,11 +43,9 @@ class MeasuredOutcome:
     recordings: Recordings
     events: list[EventResult]
     search: trigger.EventSearch
-    """How the events were found: spikes ignored, triggers outside the recorders' common span
-    (:class:`femref.sensing.trigger.EventSearch`; its notes are the run's warnings)."""
+    """How the events were found (its notes are the run's warnings)."""
     streamed: bool = False
-    """True when a sink took each event as it finished: ``events`` are then what it returned (``femref run``'s
-    writer: summaries without their histories, :func:`femref.events.without_histories`)."""
+    """True when a sink took each event as it finished: ``events`` are then what it returned."""
 
 
 #: The progress label while the record files are read.
@@ -58,16 +56,11 @@ def run_measured(scene: MeasuredScene, progress_for: ProgressFor | None = None, 
                  source: str = "<case>") -> MeasuredOutcome:
     """Every event of the scene's records (module docstring).
 
-    ``progress_for(label)``, if given, is called when a stage starts — :data:`READ_LABEL` while the
-    record files are read, then ``event <k>/<n> at <t> s`` for each event (:func:`event_label`) — and
-    the callback it may return gets ``(done, total)`` after each step of that stage: the records read;
-    the event's classification and each estimator (the saved networks last).
-
-    ``sink(event)``, if given, takes each event's full result as soon as it is done and returns what the outcome
-    keeps: ``femref run``'s :class:`femref.events.EventWriter` writes it and returns its summary (without
-    histories), so memory does not grow with the events' histories. Once the trigger has found the events, before the first event's estimators run, their total
-    cost is checked against the work budget (:func:`femref.run.event_budget.check_events`: a
-    :class:`~femref.case.CaseError` at ``source``).
+    ``progress_for(label)``, if given, is called when a stage starts — :data:`READ_LABEL`, then
+    :func:`event_label` for each event — and the callback it may return gets ``(done, total)`` after each step
+    of that stage. ``sink(event)``, if given, takes each event's full result as soon as it is done and returns what
+    the outcome keeps (``femref run``'s :class:`femref.events.EventWriter`: its summary, so memory does not grow with
+    the events' histories). Over the work budget: a :class:`~femref.case.CaseError` at ``source``.
     """
     settings = trigger.TriggerSettings(scene.trigger, scene.pre, scene.post, scene.rearm, scene.quiet, scene.max_window)
     estimators = plug_ins(scene)

@@ -11,12 +11,8 @@ status with its message, and the other models still run.
 * **Impact**: each run's cars are built by their models (:func:`femref.models.model_form`)
   and stepped together (:func:`femref.impact.solve_impact`), each run at the step its own
   cars need (:func:`femref.run.timestep.impact_time_step`); a run whose coupler iteration
-  fails keeps its histories up to the failing step and is recorded as failed with the time.
-  Sensor records go through the measurement chain (:mod:`femref.sensing.measurement`) when
-  the scene has one; the estimators read the fem run's records — measured if so — as a
-  railroad's accelerometers would deliver them, through the estimator protocol a measured run uses too
-  (:mod:`femref.estimators`): the inverse estimators give coupler force histories, the network
-  estimators the peak force of one coupler.
+  fails keeps its histories up to the failing step. The estimators (:mod:`femref.estimators`)
+  read the fem run's records, through the measurement chain when the scene has one.
 """
 
 from __future__ import annotations
@@ -129,22 +125,13 @@ THIRD_LEVEL_ABOVE = 0.01
 
 def check_reference(scene: Scene | ImpactScene, reference: ModelResult, warnings: list[str] | None = None) -> dict[str, dict[str, Any]]:
     """The fem run checks itself when the case's ``time.dt`` or ``fem.elements`` under-resolves it (``warnings``,
-    default :func:`femref.run.budget.resolution_warnings` of ``scene``) or ``FEMREF_SELF_CHECK=1`` asks: the fem
-    run again at ``dt/2`` and, when a warning fired or the two-level estimate exceeds :data:`THIRD_LEVEL_ABOVE`,
-    at ``dt/4`` (each with twice the elements of the last when the mesh is the coarse part;
-    :func:`femref.run.budget.self_check_levels`, which the budget counts). The estimate of its own relative peak
-    error (:func:`femref.run.scoring.reference_error_estimate`: coupler peak force of an impact, probe peak
-    |acceleration| of a transient) is Richardson's (order 2) while the three levels show the asymptotic order, else
-    a lower bound, marked ``reference_error_bound = "lower"``.
-
-    ``scene`` is the scene the reference ran on (a transient one with its step resolved: pass the ``warnings`` of
-    the scene as the case gave it). Returns ``{"fem": scores}`` — ``reference`` (the check's runs),
-    ``reference_warning``, ``reference_error_estimate`` (the worst item, signed), ``reference_error_basis``,
-    ``reference_observed_order`` (three levels), ``reference_error_bound`` ("lower" when the worst item, or any
-    item, is only a lower bound), ``reference_error_estimate_<item>``, ``reference_observed_order_<item>``,
-    ``self_check_wall_time_s`` and ``wall_time_s`` (the check's runs) — and records them in the fem result's
-    settings (``reference_check``); ``self_check`` names the check's runs too (a model scored against another
-    reference keeps that ``reference``: :func:`merge_scores`). ``{}`` when there is nothing to check. Never raises."""
+    default :func:`femref.run.budget.resolution_warnings` of ``scene``, the scene as the case gave it) or
+    ``FEMREF_SELF_CHECK=1`` asks: the fem run again at ``dt/2`` and, when a warning fired or the two-level estimate
+    exceeds :data:`THIRD_LEVEL_ABOVE`, at ``dt/4`` (:func:`femref.run.budget.self_check_levels`), giving
+    :func:`femref.run.scoring.reference_error_estimate` (a lower bound outside the asymptotic range:
+    ``reference_error_bound = "lower"``). Returns ``{"fem": scores}`` — the worst item's estimate, basis and observed
+    order, each item's, the check's runs (``reference``, ``self_check``) and wall time — and records them in the fem
+    result's settings (``reference_check``). ``{}`` when there is nothing to check. Never raises."""
     warnings = resolution_warnings(scene) if warnings is None else warnings
     levels = self_check_levels(scene, warnings)
     if not levels:
@@ -181,8 +168,7 @@ def check_reference(scene: Scene | ImpactScene, reference: ModelResult, warnings
     if lower:
         scores["reference_error_bound"] = "lower"
     scores.update({f"reference_error_estimate_{item}": e.estimate for item, e in estimates.items()})
-    if len(finer) > 1:
-        scores.update({f"reference_observed_order_{item}": e.order for item, e in estimates.items()})
+    scores.update({f"reference_observed_order_{item}": e.order for item, e in estimates.items() if len(finer) > 1})
     reference.settings["reference_check"] = {
         "warning": text,
         "refined": [{"dt": r.settings["dt"], "elements": scene.fem.elements * factor, "wall_time_s": r.wall_time_s}
@@ -215,7 +201,7 @@ def merge_scores(scores: dict[str, dict[str, Any]], checked: dict[str, dict[str,
 
 def _run_single_body(scene: Scene, progress: ProgressFor) -> RunOutcome:
     """Every model on one axis: a transient scene's step is resolved once and recorded with its rule; then its fem
-    run checks itself when the case's step or mesh under-resolves it (:func:`check_reference`)."""
+    run checks itself (:func:`check_reference`)."""
     dt_rule = None
     warnings = resolution_warnings(scene)  # of the scene as the case gives it, before its step is resolved
     if scene.kind == "transient":
@@ -303,14 +289,8 @@ def model_result(scene: ImpactScene, run: ModelRun, response: ImpactResponse, dt
         "car_energy_balance_error": response.car_energy_balance_error,
         "cars": {car.name: _public(s) for car, s in zip(scene.cars, response.car_settings)},
     }
-    result = ModelResult(run.name, settings=settings)
-    if not response.ok:
-        result.status, result.message = "failed", response.message
-    result.axes = {"time": response.time}
-    result.probes = response.sensors
-    result.couplers = response.couplers
-    result.energy = response.energy
-    return result
+    return ModelResult(run.name, "ok" if response.ok else "failed", "" if response.ok else response.message, settings=settings,
+                       axes={"time": response.time}, probes=response.sensors, couplers=response.couplers, energy=response.energy)
 
 
 def _public(settings: dict[str, Any]) -> dict[str, Any]:
@@ -336,7 +316,7 @@ def add_measured_records(scene: ImpactScene, result: ModelResult) -> None:
 
 
 def run_estimators(scene: ImpactScene, reference: ModelResult) -> list[ModelResult]:
-    """Each estimator of a force history (the inverse ones) on the fem run's (measured) records: coupler forces only."""
+    """Each estimator of a force history (the inverse ones) on the fem run's (measured) records."""
     return _estimated(scene, reference, history=True)
 
 
@@ -348,8 +328,7 @@ def run_networks(scene: ImpactScene, reference: ModelResult) -> list[ModelResult
 
 def _estimated(scene: ImpactScene, reference: ModelResult, history: bool) -> list[ModelResult]:
     """The scene's estimators that give a force ``history`` (or a peak) through :func:`femref.estimators.capture`, each
-    as a result: one that raised or could not read the records failed with its message, one with a non-finite force
-    (:func:`femref.estimators.fail_if_not_finite`) failed saying where."""
+    as a result (failed with the message of the estimate that failed)."""
     t, records = acceleration_histories(reference)
     recorded = Recorded(t, records, scene.cars, scene.couplers)
     results = []

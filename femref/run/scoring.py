@@ -10,12 +10,7 @@ Names are ``<quantity>_<statistic>_error_<item>`` (floats; they become HDF5 attr
                  acceleration: magnitudes)
     peak_time    t(max q) − t(max q_ref)  (s, signed)                  impact: coupler force
 
-**Single body** (:func:`score_single_body`; reference ``exact`` where it ran, else ``fem``;
-every model on the reference's axis, frequencies or times): per probe
-``acceleration_max_error_<p>``, ``acceleration_rms_error_<p>`` and, on rods, the same for
-``axial_force``; the ``max`` statistic is normalised by the reference's peak over all
-probes (a free end's force is zero); aggregates ``acceleration_max_error_max``,
-``acceleration_rms_error_max``.
+**Single body** (:func:`score_results`; reference ``exact`` where it ran, else ``fem``).
 
 **Impact** (:func:`score_impact`; reference ``fem``): both results carry ``axes["time"]``
 (s), ``couplers[c]["force"]`` (N, compression positive) and
@@ -23,19 +18,10 @@ probes (a free end's force is zero); aggregates ``acceleration_max_error_max``,
 steps at its own step; an estimator reads records at another rate): the comparison runs
 on the result's samples inside the common interval ``[max(t0, t0_ref), min(t1, t1_ref)]``,
 with the reference linearly interpolated there (``np.interp``); a peak the result's grid
-does not sample is missed by both alike. Per coupler ``coupler_force_peak_error_<c>``,
-``coupler_force_peak_time_error_<c>``, ``coupler_force_rms_error_<c>``; per probe
-``acceleration_rms_error_<p>``, ``acceleration_peak_error_<p>`` — and on cars that bend the same for
-``vertical_acceleration`` and ``pitch_rate`` — ; aggregates ``coupler_force_peak_error_max``,
-``coupler_force_rms_error_max``, ``acceleration_rms_error_max``, ``vertical_acceleration_rms_error_max``,
-``pitch_rate_rms_error_max``; with a measurement chain the same again on the measured
-records, prefixed ``measured_``. A run whose quasi-rigid cars leave their range somewhere
-(``settings["quasi_rigid_range"]``, :mod:`femref.run.validity`) is also scored where they are
-inside it: ``<quantity>_rms_in_range_error_<item>`` and ``outside_range_fraction``
-(:func:`in_range_errors`) — NaN, with ``in_range_degenerate`` saying why, when that part holds
-less than a quarter of the reference's contact (only the ringing after separation, or a
-sliver: :func:`in_range_degeneracy`). A result of peak estimates only — a network estimator,
-``couplers[c]["peak_force"]`` and no time axis — is scored on those peaks alone
+does not sample is missed by both alike. Per coupler and per probe (:data:`SCORED_SENSOR_QUANTITIES`), with the
+aggregates of :data:`AGGREGATES`; with a measurement chain the same again on the measured records, prefixed
+``measured_``. A run whose quasi-rigid cars leave their range somewhere is also scored where they are inside it
+(:func:`in_range_errors`). A result of peak estimates only (a network estimator) is scored on those peaks alone
 (:func:`score_peak_estimates`).
 
 **A vanishing reference** — a peak, rms or overall scale of zero, or a coupler that never
@@ -68,12 +54,8 @@ SCORED_SENSOR_QUANTITIES: tuple[str, ...] = ("acceleration", "vertical_accelerat
 
 
 def score_impact(reference: ModelResult, result: ModelResult) -> Metrics:
-    """Coupler-force and acceleration errors of ``result`` against ``reference`` (module docstring).
-
-    A result of peak estimates only (no time axis) goes to :func:`score_peak_estimates`.
-    Raises ValueError when either result failed, lacks a time axis, or the two time
-    axes have fewer than two of the result's samples in common.
-    """
+    """Coupler-force and acceleration errors of ``result`` against ``reference`` (module docstring); ValueError
+    when either result failed, lacks a time axis, or the axes share fewer than two of the result's samples."""
     if _peaks_only(result):
         return score_peak_estimates(reference, result)
     t_ref, t = _time_axis(reference), _time_axis(result)
@@ -85,7 +67,7 @@ def score_impact(reference: ModelResult, result: ModelResult) -> Metrics:
         mine = _series(result.couplers[name], "force", result.model, f"coupler {name}", t.size)[window]
         metrics.update(coupler_force_errors(name, tw, mine, ref))
     for quantity in SCORED_SENSOR_QUANTITIES:
-        for name in sorted(p for p in set(reference.probes) & set(result.probes) if _has(reference, result, p, quantity)):
+        for name in sorted(p for p in set(reference.probes) & set(result.probes) if quantity in reference.probes[p] and quantity in result.probes[p]):
             ref = np.interp(tw, t_ref, _series(reference.probes[name], quantity, reference.model, f"probe {name}", t_ref.size))
             mine = _series(result.probes[name], quantity, result.model, f"probe {name}", t.size)[window]
             metrics.update(sensor_errors(name, mine, ref, quantity))
@@ -94,16 +76,11 @@ def score_impact(reference: ModelResult, result: ModelResult) -> Metrics:
 
 
 def score_peak_estimates(reference: ModelResult, result: ModelResult) -> Metrics:
-    """Peak coupler-force errors of a result that holds peak estimates ``couplers[c]["peak_force"]`` only.
-
-    ``coupler_force_peak_error_<c> = |P̂ − max P_ref| / max P_ref`` (NaN when the reference
-    never compresses, ``max P_ref ≤ 0``) for every coupler in both results, and the
-    aggregate ``coupler_force_peak_error_max``. Raises ValueError when either result failed,
-    the reference lacks a time axis or a force history, or a peak is not one value.
-    """
+    """``coupler_force_peak_error_<c> = |P̂ − max P_ref| / max P_ref`` (NaN when ``max P_ref ≤ 0``) of a result of peak
+    estimates ``couplers[c]["peak_force"]`` only, and their maximum; ValueError when either result failed, the
+    reference lacks a time axis or a force history, or a peak is not one value."""
     t_ref = _time_axis(reference)
-    if not result.ok:
-        raise ValueError(f"cannot score model {result.model!r}: its status is {result.status!r} ({result.message})")
+    _check_ok(result)
     metrics: Metrics = {}
     for name in sorted(set(reference.couplers) & set(result.couplers)):
         ref = _series(reference.couplers[name], "force", reference.model, f"coupler {name}", t_ref.size)
@@ -147,11 +124,9 @@ def coupler_force_errors(name: str, time: NDArray[np.float64], force: NDArray[np
 def sensor_errors(name: str, values: NDArray[np.float64], reference: NDArray[np.float64], quantity: str = "acceleration") -> Metrics:
     """Rms and peak-magnitude errors of one probe's ``quantity`` (:data:`SCORED_SENSOR_QUANTITIES`; NaN
     where the reference is zero)."""
-    peak_ref = float(np.max(np.abs(reference)))
-    peak = float(np.max(np.abs(values)))
     return {
         f"{quantity}_rms_error_{name}": _relative_rms(values, reference),
-        f"{quantity}_peak_error_{name}": abs(peak - peak_ref) / peak_ref if peak_ref > 0.0 else math.nan,
+        f"{quantity}_peak_error_{name}": _peak_error(float(np.max(np.abs(values))), float(np.max(np.abs(reference)))),
     }
 
 
@@ -180,17 +155,17 @@ AGGREGATES: dict[str, str] = {
 
 
 def _aggregates(metrics: Metrics) -> Metrics:
-    out: Metrics = {}
-    for name, prefix in AGGREGATES.items():
-        values = [v for k, v in metrics.items() if k.startswith(prefix) and math.isfinite(v)]
-        if values:
-            out[name] = max(values)
-    return out
+    found = {name: [v for k, v in metrics.items() if k.startswith(prefix) and math.isfinite(v)] for name, prefix in AGGREGATES.items()}
+    return {name: max(values) for name, values in found.items() if values}
+
+
+def _check_ok(result: ModelResult) -> None:
+    if not result.ok:
+        raise ValueError(f"cannot score model {result.model!r}: its status is {result.status!r} ({result.message})")
 
 
 def _time_axis(result: ModelResult) -> NDArray[np.float64]:
-    if not result.ok:
-        raise ValueError(f"cannot score model {result.model!r}: its status is {result.status!r} ({result.message})")
+    _check_ok(result)
     if "time" not in result.axes:
         raise ValueError(f"model {result.model!r} has no time axis (axes: {', '.join(result.axes) or 'none'})")
     t = np.asarray(result.axes["time"], dtype=float)
@@ -221,84 +196,54 @@ def _series(outputs: dict[str, NDArray], key: str, model: str, what: str, sample
     return values
 
 
-def _has(reference: ModelResult, result: ModelResult, probe: str, quantity: str) -> bool:
-    return quantity in reference.probes[probe] and quantity in result.probes[probe]
-
-
 def score_results(kind: str, results: list[ModelResult]) -> dict[str, dict[str, Any]]:
-    """Scores of every ok result of a scene of ``kind`` against its reference (``femref.core.catalog.REFERENCES``)."""
-    if kind == "impact":
-        return score_impact_results(results)
-    return score_single_body(kind, results)
+    """Scores of every ok result of a scene of ``kind`` against its reference (``femref.core.catalog.REFERENCES``),
+    with wall time and speed-up (:func:`_with_context`)."""
+    ok = {r.model: r for r in results if r.ok}
+    reference = next((ok[name] for name in REFERENCES[kind] if name in ok), None)
+    if reference is None:
+        return {}
+    metrics_of = _impact_metrics if kind == "impact" else _single_body_metrics
+    return {r.model: _with_context(metrics_of(reference, r), reference, r) for r in ok.values() if r is not reference}
 
 
-def score_single_body(kind: str, results: list[ModelResult]) -> dict[str, dict[str, Any]]:
-    """Relative errors of each single-body model against the reference, per probe and overall.
-
-    For ``q`` the acceleration and, on rods, the axial force, over the axis (time or
-    frequency; complex amplitudes by modulus)::
+def _single_body_metrics(reference: ModelResult, result: ModelResult) -> Metrics:
+    """For ``q`` the acceleration and, on rods, the axial force, over the axis (time or frequency; complex amplitudes
+    by modulus)::
 
         <q>_max_error_<probe> = max|q − q_ref| / max_probes max|q_ref|   (normalised by the reference's
                                                                           peak over all probes: a free
                                                                           end's force is zero)
         <q>_rms_error_<probe> = rms(q − q_ref) / rms(q_ref)
 
-    and the aggregates ``acceleration_max_error_max``, ``acceleration_rms_error_max``.
-    A vanishing reference scale gives NaN with a reason (module docstring).
-    """
-    by_name = {r.model: r for r in results if r.ok}
-    reference = next((by_name[name] for name in REFERENCES[kind] if name in by_name), None)
-    if reference is None:
-        return {}
-    scores: dict[str, dict[str, Any]] = {}
-    for result in by_name.values():
-        if result is reference:
-            continue
-        metrics: Metrics = {}
-        for quantity in ("acceleration", "axial_force"):
-            scale = max((float(np.max(np.abs(out[quantity]))) for out in reference.probes.values() if quantity in out), default=0.0)
-            for probe, outputs in reference.probes.items():
-                if quantity in outputs and quantity in result.probes.get(probe, {}):
-                    ref, mine = outputs[quantity], result.probes[probe][quantity]
-                    worst = float(np.max(np.abs(mine - ref)))
-                    metrics[f"{quantity}_max_error_{probe}"] = worst / scale if scale > 0.0 else math.nan
-                    metrics[f"{quantity}_rms_error_{probe}"] = _relative_rms(mine, ref)
-        scores[result.model] = _with_context({**metrics, **_aggregates(metrics)}, reference, result)
-    return scores
+    and their aggregates."""
+    metrics: Metrics = {}
+    for quantity in ("acceleration", "axial_force"):
+        scale = max((float(np.max(np.abs(out[quantity]))) for out in reference.probes.values() if quantity in out), default=0.0)
+        for probe, outputs in reference.probes.items():
+            if quantity in outputs and quantity in result.probes.get(probe, {}):
+                ref, mine = outputs[quantity], result.probes[probe][quantity]
+                worst = float(np.max(np.abs(mine - ref)))
+                metrics[f"{quantity}_max_error_{probe}"] = worst / scale if scale > 0.0 else math.nan
+                metrics[f"{quantity}_rms_error_{probe}"] = _relative_rms(mine, ref)
+    return {**metrics, **_aggregates(metrics)}
 
 
 def _measured_view(result: ModelResult) -> ModelResult:
     """The measured records of a result as a result of their own (time axis, probe accelerations, vertical ones
     on cars that bend)."""
-    view = ModelResult(result.model)
-    view.axes = {"time": result.measured["time"]}
-    view.probes = {p: {"acceleration": a} for p, a in result.measured.items() if p != "time"}
-    for p, outputs in result.measured_bending.items():
-        view.probes[p].update(outputs)
-    return view
+    probes = {p: {"acceleration": a, **result.measured_bending.get(p, {})} for p, a in result.measured.items() if p != "time"}
+    return ModelResult(result.model, axes={"time": result.measured["time"]}, probes=probes)
 
 
-def score_impact_results(results: list[ModelResult]) -> dict[str, dict[str, Any]]:
-    """Scores of every ok result against the ``fem`` run, with wall time and speed-up.
-
-    With a measurement chain the sensor accelerations are also scored as measured
-    (``measured_acceleration_rms_error_<probe>`` …): in the band the records keep, where
-    the cheaper models are meant to be compared.
-    """
-    reference = next((r for r in results if r.model == REFERENCES["impact"][0] and r.ok), None)
-    if reference is None:
-        return {}
-    scores: dict[str, dict[str, Any]] = {}
-    for result in results:
-        if result is reference or not result.ok:
-            continue
-        metrics = score_impact(reference, result)
-        metrics.update(in_range_errors(reference, result))
-        if reference.measured and result.measured:
-            measured = score_impact(_measured_view(reference), _measured_view(result))
-            metrics.update({f"measured_{name}": value for name, value in measured.items()})
-        scores[result.model] = _with_context(metrics, reference, result)
-    return scores
+def _impact_metrics(reference: ModelResult, result: ModelResult) -> dict[str, Any]:
+    """:func:`score_impact` and :func:`in_range_errors`; with a measurement chain also on the measured records
+    (``measured_…``: the band the records keep, where the cheaper models are compared)."""
+    metrics: dict[str, Any] = {**score_impact(reference, result), **in_range_errors(reference, result)}
+    if reference.measured and result.measured:
+        measured = score_impact(_measured_view(reference), _measured_view(result))
+        metrics.update({f"measured_{name}": value for name, value in measured.items()})
+    return metrics
 
 
 IN_RANGE_DEGENERATE = "in_range_degenerate"
@@ -316,20 +261,12 @@ IN_RANGE_MIN_SAMPLES = 10
 
 
 def in_range_errors(reference: ModelResult, result: ModelResult) -> dict[str, Any]:
-    """Errors of a run with quasi-rigid cars where they are inside their range (:mod:`femref.run.validity`).
-
-    With ``I`` the result's samples outside every interval of ``settings["quasi_rigid_range"]["outside"]``
-    (within one wave travel time of a force kink or jump, where the expansion has no wave to give)::
-
-        <q>_rms_in_range_error_<item> = rms_I(q − q_ref) / rms_I(q_ref)
-
-    for the coupler forces and every scored sensor quantity, their maxima ``<q>_rms_in_range_error_max``, and
-    ``outside_range_fraction`` = the share of the result's samples outside. When ``I`` does not hold the impact
-    (:func:`in_range_degeneracy`: less than a quarter of the reference's contact, e.g. only the ringing after
-    separation) ``in_range_degenerate`` says why in words and every in-range score is **NaN** (no aggregate): over
-    a post-separation tail the reference force is ≈ 0 and the acceleration error measures the cars' free
-    ringing, not the model on the impact, and a number there would be read as one. Empty when nothing is marked
-    (the whole-record scores then say it all)."""
+    """``<q>_rms_in_range_error_<item> = rms_I(q − q_ref) / rms_I(q_ref)``, ``I`` the result's samples outside every
+    interval of ``settings["quasi_rigid_range"]["outside"]`` (:mod:`femref.run.validity`), for the coupler forces and
+    every scored sensor quantity, their maxima, and ``outside_range_fraction``. When ``I`` does not hold the impact
+    (:func:`in_range_degeneracy`) ``in_range_degenerate`` says why and every in-range score is **NaN**: over a
+    post-separation tail the reference force is ≈ 0 and the error measures the cars' free ringing, not the model on
+    the impact. Empty when nothing is marked."""
     marked = result.settings.get("quasi_rigid_range") or {}
     if not marked.get("outside") or "time" not in result.axes:
         return {}
@@ -348,12 +285,10 @@ def in_range_errors(reference: ModelResult, result: ModelResult) -> dict[str, An
     view.couplers = {c: {"force": np.asarray(out["force"])[inside]} for c, out in result.couplers.items() if "force" in out}
     view.probes = {p: {q: np.asarray(out[q])[inside] for q in SCORED_SENSOR_QUANTITIES if q in out} for p, out in result.probes.items()}
     whole = score_impact(reference, view)
-    rms = "_rms_error_"
-    in_range: Metrics = {}
-    for name, value in whole.items():
-        if rms in name and not name.endswith("_error_max"):
-            quantity, item = name.split(rms, 1)
-            in_range[f"{quantity}_{IN_RANGE_STATISTIC}_error_{item}"] = math.nan if reason else value
+    in_range: Metrics = {
+        name.replace("_rms_error_", f"_{IN_RANGE_STATISTIC}_error_", 1): math.nan if reason else value
+        for name, value in whole.items() if "_rms_error_" in name and not name.endswith("_error_max")
+    }
     metrics.update(in_range)
     metrics.update(_aggregates(in_range))
     return metrics
@@ -471,12 +406,10 @@ def reference_peaks(result: ModelResult) -> dict[str, float]:
 
 
 def reference_error_estimate(reference: ModelResult, *finer: ModelResult, order: float = 2.0) -> dict[str, PeakError]:
-    """The reference's own relative peak error per item (:func:`reference_peaks`: a coupler's peak force, or a probe's
-    peak |acceleration|), from one or two finer runs of it (each halving the step, and/or doubling the elements):
-    :func:`peak_error` of ``(P_h, P_h/2)`` — ``P* = P_h/2 + (P_h/2 − P_h)/(2^p − 1)``, ``e = (P_h − P*)/P*`` (signed;
-    ``p`` the order, 2 for generalized-α and Newmark) — or of ``(P_h, P_h/2, P_h/4)`` with the observed order and a
-    lower bound outside the asymptotic range. Checked against runs at a hundredth of the step (tests/run/test_budget.py,
-    tests/run/test_self_check.py). NaN for an item that never compresses (or never moves)."""
+    """:func:`peak_error` of ``(P_h, P_h/2[, P_h/4])`` per item of :func:`reference_peaks`: the reference's own relative
+    peak error from one or two finer runs of it (each halving the step, and/or doubling the elements; ``order`` 2 for
+    generalized-α and Newmark). Checked against runs at a hundredth of the step (tests/run/test_budget.py,
+    tests/run/test_self_check.py)."""
     levels = [reference_peaks(reference), *(reference_peaks(run) for run in finer)]
     names = sorted(set.intersection(*(set(level) for level in levels)))
     return {name: peak_error([level[name] for level in levels], order) for name in names}

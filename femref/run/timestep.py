@@ -1,48 +1,24 @@
-"""Every automatic time-step rule: the step a run takes when the case leaves ``time.dt`` open.
+"""Every automatic time-step rule: the step a run takes when the case leaves ``time.dt`` open (docs/design.md §4.1,
+"Time steps": the reasons and measurements behind each rule).
 
-One mesh rule serves both: ``T_h``, the wave transit time of an average element
-(:func:`mesh_transit_time`), ``h/c_max`` for a rod (``c = √(EA/m)``) and ``h²/c_max`` for a
-beam (``c = √(EI/m)``, so ``h²·√(m/EI)``), with ``h = 2l/elements`` and ``c_max`` the
-largest wave speed at the mesh nodes. An element shortened to put a node on a profile
-jump, or by grading toward the ends, resolves no shorter waves than its neighbours: the
-shortest element would only cost steps.
+One mesh rule serves both: ``T_h``, the wave transit time of an average element (:func:`mesh_transit_time`),
+``h/c_max`` for a rod (``c = √(EA/m)``) and ``h²/c_max`` for a beam (``c = √(EI/m)``), with ``h = 2l/elements``
+and ``c_max`` the largest wave speed at the mesh nodes (a shorter element resolves no shorter waves).
 
-Single body (harmonic scenes have no step): every model of a transient scene runs on
-the same grid, so the step is the fem mesh's,
+Single body (every model of a transient scene on one grid; ``T_load`` the loads' shortest time scale)::
 
-    dt = min(T_load/100, T_h, end/20),
+    dt = min(T_load/100, T_h, end/20)
 
-``T_load`` the loads' shortest time scale.
+Impact (each model run at what its own cars need)::
 
-Impact: each model run steps at what its own cars need,
+    dt = min(T_contact/100, end/20, 1/(4 f_c s), the candidates of each car's fidelity)
 
-    dt = min(T_contact/100, end/20, 1/(4 f_c s) (a measurement low-pass), the candidates of each car's fidelity),
-
-``T_contact`` the shortest rigid-body contact time of the couplers
-(:meth:`femref.scene.ImpactScene.contact_time`): all a run of cars without a step of their own needs.
-A fidelity's candidates are its module's (:meth:`femref.models.base.CarFidelity.step_candidates`): a fem car's
-``T_h`` and, when its couplers bend it, ``T_h,b`` (below); a modal car's ``4l/(k c_max)/20`` of ``k`` modes.
-The scores interpolate the reference onto each run's axis.
-
-A measurement chain's anti-alias low-pass (corner ``f_c``) runs on the model's stored samples, every
-``s = time.output_stride``-th step (:func:`femref.sensing.measurement.measure`), and needs ``f_c``
-below their Nyquist frequency ``1/(2 dt s)``; the rule keeps it an octave below (:data:`LOWPASS_RULE`).
-A soft coupler (a contact time of seconds) otherwise gives a rigid run ``end/20`` — 25 ms for a 0.5 s
-impact, a Nyquist frequency of 20 Hz under a 100 Hz filter. A step the case gives must keep ``f_c`` below
-that Nyquist frequency (a case error otherwise: ``femref.case.impact``).
-
-A fem car that bends also steps within its Hermite mesh's bending transit time
-``T_h,b = h²/c_b,max`` (``c_b = √(EI/m)``: :data:`femref.models.fem.BENDING_MESH_RULE`) when its couplers load the
-beam (an offset or a slope: :func:`femref.models.fem.loaded_bending`). A coupler force that jumps
-at contact (a damper met at the closing speed) puts a step end moment ``h ΔP`` on the beam, whose
-modal force ``h ΔP φ_n'(±l)`` grows with the mode number: every mode of the mesh is driven. The
-generalized-α error of that response grows with the mesh's highest bending frequency
-(``ω_max ∝ c_b/h²``): measured on two bending cars against their exact modal solution it is
-``≈ C N³ dt²`` on ``N`` elements (peak coupler force and centre vertical acceleration alike;
-the force's constant within 25 % over a hundredfold Voigt viscosity), so the axial rule ``dt ∝ h`` lets it grow like ``N`` — doubling at
-each refinement — while ``dt ∝ h²`` makes it fall like ``1/N`` (docs/formulas.md §X8).
-
-The returned rule names the candidate that won (it is recorded in the result file).
+``T_contact`` the couplers' shortest rigid-body contact time (:meth:`femref.scene.ImpactScene.contact_time`);
+``1/(4 f_c s)`` keeps a measurement low-pass of corner ``f_c`` an octave below the Nyquist frequency of the stored
+samples, every ``s = time.output_stride``-th step (:data:`LOWPASS_RULE`); a fidelity's candidates are its module's
+(:meth:`femref.models.base.CarFidelity.step_candidates`: a fem car's ``T_h`` and, when its couplers bend it, its
+Hermite mesh's bending transit time ``T_h,b = h²/c_b,max``, docs/formulas.md §X8; a modal car's ``4l/(k c_max)/20``
+of ``k`` modes). The returned rule names the candidate that won (it is recorded in the result file).
 """
 
 from __future__ import annotations
@@ -66,8 +42,7 @@ LOWPASS_RULE = "measurement low-pass: 1/(4 corner × output_stride)"
 
 def smallest_candidate(candidates: dict[str, float]) -> tuple[float, str]:
     """The smallest finite candidate step and its rule."""
-    value, rule = min((v, k) for k, v in candidates.items() if math.isfinite(v))
-    return value, rule
+    return min((v, k) for k, v in candidates.items() if math.isfinite(v))
 
 
 def _wave_speed(body: Body, fem: FemSettings) -> float:

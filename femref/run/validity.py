@@ -1,28 +1,19 @@
 """Where the cars of an impact run whose fidelity has a range (``range_limit``,
 :class:`femref.models.base.CarFidelity`: the quasi-rigid cars) are inside it: the end loads must change slope
-slowly against the car's wave travel time.
+slowly against the car's wave travel time (docs/design.md §4.2, "Where the quasi-rigid cars hold").
 
-The quasi-rigid car is the rigid motion plus the first correction of an expansion in ``ε = (T/T_load)²``
-(docs/formulas.md §D, T the car's wave travel time). It carries no stress wave: its correction is the creep
-response to the second derivative of the end loads. Where an end force changes slope within one wave travel
-time — a jump at contact (a gear dashpot engaged at the closing speed), a kink (a stiff coupler on compression-only
-contact), the gear going solid — a real car answers with a wave spread over about T, the quasi-rigid car with a
-spike of order ``ΔṖ/dt`` at the sensors: the onset spikes of its accelerations are this, not physics. The local
-parameter of an end force P (N) sampled on the run's time axis::
+The quasi-rigid car carries no stress wave: where an end force changes slope within one wave travel time ``T`` (a
+jump at contact, a kink, the gear going solid) a real car answers with a wave spread over about T, the quasi-rigid
+car with a spike of order ``ΔṖ/dt`` at the sensors. The local parameter of an end force P (N) on the run's time axis::
 
     ε_loc(t) = |P(t + T) − 2 P(t) + P(t − T)| / max|P|,     P = 0 before the first sample (before contact),
                                                           held at its last value after the last
 
-is the force's departure from a straight line across one wave travel time each side, relative to the peak —
-a second difference over the car's own time scale, centred (the run is over when it is read), with no
-derivative of the samples, so it does not grow as the step shrinks. For a smooth load it is
-``T² |P̈| / max|P| ≈ ε`` (a sin² pulse of duration T_p: ``2π² (T/T_p)²`` at most, checked in
-``tests/run/test_validity.py``); a jump ΔP gives ``ΔP/max|P|`` within one wave travel time either side of it, a
-kink of slope change ΔṖ up to ``T ΔṖ/max|P|`` at the kink, falling to zero one wave travel time either side. A car
-answers a sharp change within about T, so samples within one wave travel time of any sample where
-``ε_loc`` above the fidelity's ``range_limit`` (0.1 for the quasi-rigid car) on an end force of
-such a car are outside the model's range; the runner records their intervals with the result
-(``settings["quasi_rigid_range"]``) and the report shades them.
+is a second difference over the car's own time scale, with no derivative of the samples, so it does not grow as
+the step shrinks: ``T² |P̈| / max|P| ≈ ε`` for a smooth load (a sin² pulse of duration T_p: ``2π² (T/T_p)²`` at most,
+``tests/run/test_validity.py``), ``ΔP/max|P|`` within T of a jump. Samples within T of any sample where ``ε_loc``
+exceeds the fidelity's ``range_limit`` on an end force of such a car are outside the model's range; the runner
+records their intervals (``settings["quasi_rigid_range"]``) and the report shades them.
 """
 
 from __future__ import annotations

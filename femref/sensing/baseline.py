@@ -1,42 +1,31 @@
-"""A channel's slowly varying offset (a sensor bias, a drift) and its noise, followed chunk by chunk through a stream.
+"""A channel's slowly varying offset (a sensor bias, a drift) and its noise, followed chunk by chunk through a stream
+(docs/design.md §3.7: what they do to the trigger, measured).
 
-**The baseline.** The stream's time is cut into blocks of ``B`` = :data:`BLOCK` s from its first sample
-(block ``j`` holds ``t_0 + jB ≤ t < t_0 + (j + 1)B``). Per channel, ``m_j`` is the median of the block's
-samples (NaN with none), and the baseline at the block's centre ``c_j = t_0 + (j + ½)B`` is the median of
-the block medians around it,
+**The baseline.** The stream's time is cut into blocks of ``B`` = :data:`BLOCK` s from its first sample. Per channel,
+``m_j`` is the median of block ``j``'s samples, and the baseline at the block's centre ``c_j = t_0 + (j + ½)B`` is
 
     b_j = median{ m_i : |i − j| ≤ H }        (m/s², blocks without samples left out)
 
-linearly interpolated in time between the centres: ``a(t) − b(t)`` is what the trigger sees. A constant
-bias is ``b`` exactly; a drift at a rate ``r`` is followed (a centred median of a linear trend is the
-trend at the centre; the interpolation leaves ``O(r B)`` only where the trend bends), except within ``H``
-blocks of the stream's ends, where the window is one-sided and lags the trend by up to about ``H B r``
-(2 s × r: 0.2 m/s² for a drift of 0.1 m/s² per s).
+linearly interpolated in time between the centres: ``a(t) − b(t)`` is what the trigger sees. A constant bias is ``b``
+exactly; a drift is followed (a centred median of a linear trend is the trend at the centre), except within ``H``
+blocks of the stream's ends, where the window is one-sided and lags the trend by up to about ``H B r``.
 
-**The window from the contact.** An impact pushes the acceleration to one side for its contact time
-``T``: the samples of at most ``⌈T/B⌉ + 1`` blocks move, and the median of ``2H + 1`` block medians stays
-a median of quiet blocks while fewer than ``H + 1`` of them move. ``H = ⌈T_max/B⌉ + 1`` with ``T_max`` =
-:data:`LONGEST_CONTACT` therefore leaves every impact up to ``T_max`` long in ``a − b`` (the median moves by
-at most the spread of the quiet blocks' medians, ``≈ 1.25 σ/√(samples per block)``): ``H = 4``, a window
-of ``9 B = 4.5`` s at ``B = 0.5`` s. ``T_max = 1.2`` s is the half period ``π √(m*/k)`` of a 130 t car
-against a long consist (``m* → 130`` t) on the softest plausible gear (``k = 1e6`` N/m,
-:mod:`femref.case.plausibility`: ``1.13`` s). Measured on fem impacts of the default scene and the
+**The window from the contact.** An impact's contact of length ``T`` moves the samples of at most ``⌈T/B⌉ + 1``
+blocks, and the median of ``2H + 1`` block medians stays a median of quiet blocks while fewer than ``H + 1`` of them
+move: ``H = ⌈T_max/B⌉ + 1`` (:func:`half_blocks`) with ``T_max`` = :data:`LONGEST_CONTACT` leaves every impact up to
+``T_max`` long in ``a − b``. ``T_max = 1.2`` s is the half period ``π √(m*/k)`` of a 130 t car against a long consist
+on the softest plausible gear (``k = 1e6`` N/m: ``1.13`` s). Measured on fem impacts of the default scene and the
 pulses of tests/measured/test_phantom_impacts.py.
 
 **The noise** (:class:`NoiseMeter`, of ``a − b``). Per block of :data:`NOISE_BLOCK` s,
-``σ_j = 1.4826 · median |a − median a|`` (the block's median absolute deviation as a Gaussian std, from at
-least :data:`MIN_NOISE_SAMPLES` samples); the channel's noise is the :data:`NOISE_QUANTILE` quantile of
-``σ_j`` over the stream (the ``⌊n/10⌋``-th smallest of ``n``, at least the smallest), the noise of its quiet stretches: an impact rises for tens of milliseconds before a
-weak one crosses the trigger and its cars may ring for most of a stream, and a tenth of its blocks quiet is
-enough (a record of 1.1 s with 0.1 s of noise before a coupled impact: 0.05 m/s², where the 50 samples
-before the trigger read up to 1.09 m/s² and the median block 2.0). For blocks of ``n`` samples of one noise the quantile reads
-about ``1 − 1.28 · 1.166/√n`` of it (the MAD's spread, :mod:`femref.sensing.noise_gate`): 15 % low at 100
-samples. The ``σ_j`` are counted in a histogram of :data:`NOISE_BINS` bins per decade from 1e-6 to 1e6 m/s²,
-so memory stays bounded for a stream of any length (the quantile to ``10^(1/NOISE_BINS)``, 2.3 %).
+``σ_j = 1.4826 · median |a − median a|`` (from at least :data:`MIN_NOISE_SAMPLES` samples); the channel's noise is
+the :data:`NOISE_QUANTILE` quantile of ``σ_j`` over the stream (the ``⌊n/10⌋``-th smallest of ``n``, at least the
+smallest), the noise of its quiet stretches: an impact rises for tens of milliseconds before a weak one crosses the
+trigger and its cars may ring for most of a stream. The ``σ_j`` are counted in a histogram of :data:`NOISE_BINS`
+bins per decade from 1e-6 to 1e6 m/s², so memory stays bounded for a stream of any length.
 
-:class:`RunningBaseline` takes the stream in chunks ``(time, {channel: values})`` (NaN: no sample) and
-returns each sample less its baseline once the blocks ``H + 1`` beyond its own are complete (a delay of
-about ``(H + 1.5) B``), the rest at :meth:`RunningBaseline.finish`: any cutting of the stream into chunks
+:class:`RunningBaseline` returns each sample less its baseline once the blocks ``H + 1`` beyond its own are complete
+(a delay of about ``(H + 1.5) B``), the rest at :meth:`RunningBaseline.finish`: any cutting of the stream into chunks
 gives the same samples, to the bit.
 """
 
@@ -77,7 +66,28 @@ Chunk = tuple[NDArray[np.float64], dict[str, NDArray[np.float64]]]
 
 
 @dataclass
-class RunningBaseline:
+class _Buffered:
+    """A stream fed in chunks: its channels, first time (s), and the samples not yet used (``(channels, samples)``)."""
+
+    _names: list[str] | None = field(default=None, init=False)
+    _t0: float = field(default=math.nan, init=False)
+    _time: NDArray[np.float64] = field(default_factory=lambda: np.empty(0), init=False)
+    _values: NDArray[np.float64] = field(default_factory=lambda: np.empty((0, 0)), init=False)
+
+    def _append(self, t: NDArray[np.float64], channels: Mapping[str, ArrayLike]) -> None:
+        names = list(channels)
+        if self._names is None:
+            self._names, self._t0 = names, float(t[0])
+            self._values = np.empty((len(names), 0))
+        if names != self._names:
+            raise ValueError(f"every chunk needs the channels {self._names}, got {names}")
+        values = np.array([np.asarray(channels[name], dtype=float) for name in names]).reshape(len(names), t.size)
+        self._time = np.concatenate([self._time, t])
+        self._values = np.concatenate([self._values, values], axis=1)
+
+
+@dataclass
+class RunningBaseline(_Buffered):
     """The baseline as a state machine over chunks of a stream (module docstring): :meth:`feed` each chunk in time
     order, then :meth:`finish`; each returns ``(t, {channel: a − b})`` for the samples decided (possibly none)."""
 
@@ -85,10 +95,6 @@ class RunningBaseline:
     longest_contact: float = LONGEST_CONTACT
     half: int = field(default=0, init=False)
     """``H``: block medians on each side of a block's own (:func:`half_blocks`)."""
-    _names: list[str] | None = field(default=None, init=False)
-    _t0: float = field(default=math.nan, init=False)
-    _time: NDArray[np.float64] = field(default_factory=lambda: np.empty(0), init=False)
-    _values: NDArray[np.float64] = field(default_factory=lambda: np.empty((0, 0)), init=False)
     _medians: dict[int, NDArray[np.float64]] = field(default_factory=dict, init=False)
     _complete: int = field(default=0, init=False)  # blocks 0 … _complete − 1 have their medians
     _emitted: int = field(default=0, init=False)  # blocks 0 … _emitted − 1 are returned
@@ -105,16 +111,7 @@ class RunningBaseline:
 
     def feed(self, time: ArrayLike, channels: Mapping[str, ArrayLike]) -> Chunk:
         """The samples of the stream so far whose baseline is now known, less it (m/s²; NaN stays NaN)."""
-        t = np.asarray(time, dtype=float)
-        names = list(channels)
-        if self._names is None:
-            self._names, self._t0 = names, float(t[0])
-            self._values = np.empty((len(names), 0))
-        if names != self._names:
-            raise ValueError(f"every chunk needs the channels {self._names}, got {names}")
-        values = np.array([np.asarray(channels[name], dtype=float) for name in names]).reshape(len(names), t.size)
-        self._time = np.concatenate([self._time, t])
-        self._values = np.concatenate([self._values, values], axis=1)
+        self._append(np.asarray(time, dtype=float), channels)
         self._medians_until(self._block_of(float(self._time[-1])) if self._time.size else self._complete)
         return self._emit(self._complete - self.half - 1)
 
@@ -163,15 +160,11 @@ class RunningBaseline:
 
 
 @dataclass
-class NoiseMeter:
+class NoiseMeter(_Buffered):
     """Each channel's noise in the quiet stretches of a stream fed in chunks (module docstring): :meth:`feed` each chunk
     in time order, :meth:`noise` at the end (any cutting into chunks gives the same counts)."""
 
     block: float = NOISE_BLOCK
-    _names: list[str] | None = field(default=None, init=False)
-    _t0: float = field(default=math.nan, init=False)
-    _time: NDArray[np.float64] = field(default_factory=lambda: np.empty(0), init=False)
-    _values: NDArray[np.float64] = field(default_factory=lambda: np.empty((0, 0)), init=False)
     _counts: NDArray[np.int64] = field(default_factory=lambda: np.zeros((0, 0), dtype=np.int64), init=False)
 
     def feed(self, time: ArrayLike, channels: Mapping[str, ArrayLike]) -> None:
@@ -179,14 +172,9 @@ class NoiseMeter:
         t = np.asarray(time, dtype=float)
         if t.size == 0:
             return
-        names = list(channels)
         if self._names is None:
-            self._names, self._t0 = names, float(t[0])
-            self._values = np.empty((len(names), 0))
-            self._counts = np.zeros((len(names), NOISE_BINS * (_NOISE_DECADES[1] - _NOISE_DECADES[0])), dtype=np.int64)
-        values = np.array([np.asarray(channels[name], dtype=float) for name in self._names]).reshape(len(self._names), t.size)
-        self._time = np.concatenate([self._time, t])
-        self._values = np.concatenate([self._values, values], axis=1)
+            self._counts = np.zeros((len(channels), NOISE_BINS * (_NOISE_DECADES[1] - _NOISE_DECADES[0])), dtype=np.int64)
+        self._append(t, channels)
         blocks = np.floor((self._time - self._t0) / self.block)
         done = int(np.searchsorted(blocks, blocks[-1], side="left"))  # samples of the blocks before the last one's
         self._count(blocks[:done], self._values[:, :done])

@@ -21,20 +21,9 @@ interval that straddles an edge is said (:meth:`Calibration.edge_notes`). Masses
 compared with the relative tolerance :data:`RANGE_RTOL` (a sweep that held a car's mass fixed
 calibrates a zero-width range, which the case's own mass must meet to rounding, not bit for bit).
 
-File (written atomically)::
-
-    /  attrs: femref_version, created, sweep_yaml, coupler, samples, quantiles (JSON),
-              closing_speed (JSON [lo, hi], m/s), masses (JSON {car: [lo, hi]}, kg),
-              lowpass (JSON, Hz or null: the chain's anti-alias corner), noise (JSON [lo, hi], m/s²),
-              impact_type (free_to_roll | coupled: the coupler's contact in the sweep)
-    /errors/<estimator>   (samples,) relative peak errors
-
-:func:`read_calibration` checks a file as femref checks a network file, before anything large is
-read: a regular file of bounded size; hard links only, no external or virtual storage, no unknown
-filter (:mod:`femref.sensing.hdf5_checks`); exactly these attributes and members, each of its type;
-JSON that parses (not nested past the reader's stack); ranges of finite numbers ``lo <= hi``; error
-datasets 1-D, real, finite, of bounded declared size. The case checks the cars and the coupler the
-calibration is of against its own (:mod:`femref.case.measured`).
+The file (written atomically) and what :func:`read_calibration` checks before anything large is read:
+docs/design.md §4.5 (hard links and plain datasets only: :mod:`femref.sensing.hdf5_checks`). The case checks the
+cars and the coupler the calibration is of against its own (:mod:`femref.case.measured`).
 """
 
 from __future__ import annotations
@@ -75,7 +64,7 @@ class CalibrationFileError(ValueError):
 
 @dataclass(frozen=True, eq=False)
 class Calibration:
-    """Per estimator the relative peak errors of the calibration samples, and the ranges they covered."""
+    """Per estimator the relative peak errors of the calibration samples, and the ranges they covered (module docstring)."""
 
     coupler: str
     errors: dict[str, NDArray[np.float64]]
@@ -93,11 +82,9 @@ class Calibration:
 
     def outside(self, closing_speed: tuple[float, float], masses: dict[str, float], lowpass: dict[str, float | None] | None = None,
                 noise: dict[str, QuietNoise] | None = None, impact_type: str | None = None) -> list[str]:
-        """Why an event is outside the calibrated ranges (empty when inside): its closing-speed interval
-        ``(lower, upper)`` (m/s; outside only when it lies wholly outside the calibrated speeds), car masses
-        (kg), and — when given — each channel's anti-alias corner (Hz, None: unfiltered) against the
-        calibration's chain, each channel's quiet-stretch noise against the largest calibrated one
-        (:meth:`noise_outside`), and its impact type against the calibration's."""
+        """Why an event is outside the calibrated ranges (module docstring; empty when inside): its closing-speed
+        interval ``(lower, upper)`` (m/s), car masses (kg), and when given each channel's anti-alias corner (Hz, None:
+        unfiltered), quiet-stretch noise (:meth:`noise_outside`) and the impact type."""
         reasons = []
         if impact_type is not None and impact_type != self.impact_type:
             reasons.append(f"a {impact_type} impact; the calibration's impacts were {self.impact_type}")
@@ -210,17 +197,8 @@ IMPACT_TYPES = ("free_to_roll", "coupled")
 
 
 def read_calibration(path: str | Path) -> Calibration:
-    """The calibration in ``path``, checked before anything large is read (the file format in the module docstring).
-
-    Raises :class:`CalibrationFileError` naming the file, the attribute or dataset and the rule for: a path that is
-    not a regular file of at most :data:`MAX_FILE_BYTES` (a FIFO or directory is refused unopened); a file HDF5
-    cannot open; a link that is not a hard link or a dataset that is virtual, stored outside the file or through a
-    filter femref does not decode (:mod:`femref.sensing.hdf5_checks`); a member or attribute the format does not
-    have; an attribute of the wrong type, JSON that does not parse or nests too deeply, a range that is not two
-    finite numbers ``lo <= hi`` (speeds and noise >= 0, masses > 0); an ``/errors`` dataset that is not a 1-D real
-    array, declares more than :data:`MAX_ERRORS` values in all, or holds fewer than :data:`MIN_ERRORS` values or a
-    non-finite one.
-    """
+    """The calibration in ``path``, checked before anything large is read (module docstring); a
+    :class:`CalibrationFileError` naming the file, the attribute or dataset and the rule otherwise."""
     path = Path(path)
     try:
         check_regular_file(path, MAX_FILE_BYTES)
@@ -229,9 +207,7 @@ def read_calibration(path: str | Path) -> Calibration:
     try:
         with h5py.File(path, "r") as h5:
             return _calibration_of(h5)
-    except CalibrationFileError as error:
-        raise CalibrationFileError(f"{path}: {error}") from None
-    except HDF5ObjectError as error:
+    except (CalibrationFileError, HDF5ObjectError) as error:
         raise CalibrationFileError(f"{path}: {error}") from None
     except (OSError, KeyError, ValueError, TypeError, RuntimeError) as error:
         raise CalibrationFileError(f"{path}: not a readable femref calibration file ({type(error).__name__}: {error})") from None
@@ -357,9 +333,7 @@ def _range(value: object, where: str, unit: str, lowest: float, *, positive: boo
     units = f" ({unit})" if unit else ""
     bound = f"{'>' if positive else '>='} {lowest:g}" + (f", hi <= {upper:g}" if math.isfinite(upper) else "")
     rule = f"must be [lo, hi]{units}: two finite numbers, lo {bound}, lo <= hi"
-    if not (isinstance(value, list) and len(value) == 2 and all(_number(v) for v in value)):
-        raise CalibrationFileError(f"{where} {rule}; got {_shown(value)}")
-    lo, hi = float(value[0]), float(value[1])
+    lo, hi = (float(value[0]), float(value[1])) if isinstance(value, list) and len(value) == 2 and all(_number(v) for v in value) else (math.nan,) * 2
     if not (math.isfinite(lo) and math.isfinite(hi) and (lo > lowest if positive else lo >= lowest) and lo <= hi <= upper):
         raise CalibrationFileError(f"{where} {rule}; got {_shown(value)}")
     return lo, hi

@@ -1,20 +1,14 @@
-"""The instant two cars touch, from a record of the impact's rise.
+"""The instant two cars touch, from a record of the impact's rise (docs/formulas.md §K2: the why and the checks).
 
-A network estimator reads records that start at contact, as the fem records it was trained
-on do; a recorder's clock knows only when the records rose above a trigger. What reaches a
-record is the contact's force through a linear chain (a recorder's anti-alias filter, a
-smoother's blur), so the rise is fitted with that chain's responses to the two ways a
-coupler force can start — a jump (the stiff series springs of a draft gear take the first
-few hundred kN within a millisecond) and a ramp::
+A network reads records that start at contact; a recorder's clock knows only when the records rose above a
+trigger. The rise, the contact's force through a linear chain (a recorder's filter, a smoother's blur), is fitted
+with that chain's responses ``g``, ``r`` to a unit step and a unit ramp starting at lag 0 (given on a lag grid,
+cubic between its points; a non-causal chain has responses before lag 0)::
 
-    d(t) ≈ J g(t − t0) + s r(t − t0)
+    d(t) ≈ J g(t − t0) + s r(t − t0)          (J, s linear; t0 scanned at a tenth of the step, refined at 1/200)
 
-``g``, ``r`` the chain's responses to a unit step and a unit ramp starting at lag 0 (given on
-a lag grid, cubic between its points; a non-causal chain, such as a smoother, has
-responses before lag 0). ``J``, ``s`` are linear; ``t0`` is scanned at a tenth of the record's
-step, then refined at a two-hundredth. The fit runs over the flank from 30 samples before
-the record's last crossing of 5 % of its peak to 5 samples past its first crossing of 50 %
-(at most to the peak).
+over the flank from :data:`QUIET_SAMPLES` before the record's last crossing of ``RISE[0]`` of its peak to
+:data:`AFTER_HALF` samples past its first crossing of ``RISE[1]`` (at most to the peak).
 """
 
 from __future__ import annotations

@@ -6,78 +6,29 @@ relative velocity for good, so the relative acceleration ``a_front − a_rear`` 
 zero-frequency component; a coupled impact (cars coupled before and after) returns it, and the zero harmonic
 vanishes. :func:`reduced.signal_tools.classify_impact` decides on the ratio ``ρ = |A(0)|/max_f |A(f)|``; each car's
 acceleration is read at its sensor nearest the centre (the rigid-body motion: a node of its first axial mode).
-Measured events and the network estimator with one network per impact type
-(:class:`femref.estimators.NetworkPeak`) both classify this way.
 
-**The closing speed** of a coupler's two cars at contact, with an interval, from an estimated coupler force
-(:func:`from_force`). Accelerometers see no constant velocity: the speed at which the cars met is read from how the
-coupler's stroke moves while it carries the force. Each car's centre of mass moves by the coupler
-force alone (the rails' forces are negligible over an impact), so the relative velocity gained
-since contact is, whatever the cars' elasticity,
+**The closing speed** (:func:`from_force`; docs/formulas.md §K3: the derivation, the assumption's numbers, the
+checks) from an estimated coupler force ``P`` (N, compression positive) and ``m* = m_rear m_front/(m_rear + m_front)``:
 
-    V(t) = ∫_{t_c}^{t} P(s) / m* ds,   m* = m_rear m_front / (m_rear + m_front)      (m/s)
+    V(t) = ∫_{t_c}^{t} P(s) / m* ds,    v₀ = v̂ + x_s / T,    v̂ = (1/T) ∫_{t_c}^{t_s} V(t) dt      (m/s)
 
-with ``P`` the estimated force (N, compression positive) — an estimator's force is proportional to the
-declared masses it assumed, so ``P/m*`` is what the accelerations say. The stroke is
-``x(t) = v₀ (t − t_c) − ∫_{t_c}^{t} V``. Over the contact ``[t_c, t_s]`` (``T = t_s − t_c``) it goes
-from 0 to the stroke ``x_s`` left when the cars part, so
+with ``0 ≤ x_s ≤ β v₀ T`` (β = :data:`RESIDUAL_STROKE`), hence ``v₀ ∈ [v̂, v̂/(1 − β)]``; ``t_c``, ``t_s`` the force's
+crossings of each of :data:`EDGE_FRACTIONS` of its peak (the interval the envelope over them), widened by ``2 sd(v̂)``,
+``sd(v̂) = σ_rel √(dt T/3)`` for white noise ``σ_rel`` on the relative acceleration; the speed is its middle. A
+**coupled** event's interval reaches down to ``V(t_p)`` at the force peak (the stroke at the start is not known).
+A speed the user has (:class:`StatedSpeed`) replaces the estimate.
 
-    v₀ = v̂ + x_s / T,   v̂ = (1/T) ∫_{t_c}^{t_s} V(t) dt                                   (m/s)
-
-The **model assumption**: ``0 ≤ x_s ≤ β v₀ T`` with β = :data:`RESIDUAL_STROKE` — the stroke never
-opens into tension during a compression contact, and the gear has returned to within ``β v₀ T`` of
-closed when the force ends. For a Kelvin-Voigt coupler (``P = c x + μ ẋ``, parting where ``P = 0``)
-``x_s/(v₀ T)`` is 0.05, 0.08, 0.12, 0.13 at damping ratios 0.1, 0.2, 0.5, 0.7 (derived in
-tests/measured/test_closing_speed.py); a gear with more rate-dependence than that, or one that
-stays set after the impact, breaks it. Hence ``v₀ ∈ [v̂, v̂/(1 − β)]``.
-
-**Timing.** ``t_c`` and ``t_s`` are where the force crosses a fraction ``f`` of its peak on either side
-of it (linear interpolation between samples), for each ``f`` in :data:`EDGE_FRACTIONS`; the interval
-is the envelope over them (a window late by δ moves ``v̂`` by about ``v̂ δ/T``). Starting the window
-at the contact instant fitted in the kalman force (:meth:`femref.estimators.kalman.KalmanEstimator.contact`) instead
-moved the estimates by +0.6 % on a Kelvin-Voigt coupler and up to +5 % on a friction gear going
-solid: the crossings are kept.
-
-**Noise.** White record noise ``σ_rel`` on the relative acceleration (m/s², sample step ``dt``)
-gives ``sd(v̂) = σ_rel √(dt T/3)`` (the weights ``(t_s − t)/T`` of ``v̂ = (1/T)∫ (t_s − t) a_rel dt``);
-the interval adds ``2 sd`` on either side. At 0.05 m/s² per channel, 1 kHz and ``T = 0.2`` s the sd is
-6e-4 m/s: the noise is the smallest of the three parts.
-
-The reported speed is the middle of ``[v̂, v̂/(1 − β)]`` (with the timing and noise). A **coupled**
-event (bilateral coupler, cars coupled before the impact) may begin with the gear already closed or
-the draft slack taken up, so ``x(t_c) = 0`` is not known: its interval reaches down to ``V(t_p)`` at
-the force peak ``t_p`` — the peak comes no later than the largest closure, where the relative
-velocity is zero, for any gear whose force grows with the stroke and its rate (the lower bound
-the old estimate was; −40 % on a Kelvin-Voigt coupler with ζ ≈ 0.2) — and the speed is the
-free-to-roll one.
-
-A user who has the speed (radar, a wayside detector) gives it with its uncertainty (:class:`StatedSpeed`):
-it replaces the estimate, and the result says which was used.
-
-**The largest coupler force a closing speed allows** (:func:`peak_force_bound`): an estimate far beyond it is
-no impact of these cars. Two groups of cars meet at closing speed ``v`` (m/s): the cars behind the coupler and those ahead
-of it, of masses ``M_r`` and ``M_f`` (kg), each moving as one before contact. In their centre of
-mass frame they carry the kinetic energy ``½ m* v²``, ``m* = M_r M_f/(M_r + M_f)``, and nothing adds
-to it during the impact. A coupler whose force is ``P = f(x) + g(ẋ)`` — a spring part of the stroke
-``x`` with ``0 ≤ f′ ≤ k_max`` and a rate part ``0 ≤ g(ẋ) ≤ c_max ẋ`` (friction and viscous gears,
-series springs: the gear's loading curve is ``f``) — stores at least ``f²/(2 k_max)`` at stroke
-``x``, which the energy bounds, and closes at no more than ``v`` (the force only slows the closing),
-so
+**The largest coupler force a closing speed allows** (:func:`peak_force_bound`, docs/design.md §3.7): cars of reduced
+mass ``m*`` meeting at ``v`` carry ``½ m* v²``, and a coupler ``P = f(x) + g(ẋ)`` with ``0 ≤ f′ ≤ k_max`` and
+``0 ≤ g(ẋ) ≤ c_max ẋ`` stores at least ``f²/(2 k_max)`` and closes no faster than ``v``, so
 
     P_max ≤ v (√(k_max m*) + c_max)                (N)
 
-with equality for a linear spring of stiffness ``k_max`` and no damping. ``k_max`` =
-:data:`STIFFEST_COUPLER` and ``c_max`` = :data:`MOST_DAMPED_COUPLER` are the top of the typical
-ranges of :mod:`femref.case.plausibility` (draft gears and couplers 1e6–1e9 N/m, 1e4–1e6 N·s/m),
-ten times the default scene's stiffest series element (``4e8`` N/m) and four times its gear
-damping: on the yard's two cars (``m* = 54.5`` t) the bound is ``8.4`` MN per m/s. Elastic cars
-store some of the energy in their bodies and lower the force: the bound holds for them too.
-Checked in tests/measured/test_phantom_impacts.py against rigid two-mass impacts through
-Kelvin–Voigt couplers (the bound reached within 0.1 % by the undamped stiffest one) and fem
-impacts of the default scene through the measurement chain (every estimate far below it).
-
-An estimate whose peak exceeds the bound at the upper end of the event's closing speed interval
-is ``implausible`` (:func:`implausible`): a bias, a glitch or a wrong unit made it, not the cars.
+with equality for a linear spring of stiffness ``k_max`` and no damping (elastic cars lower the force). ``k_max`` =
+:data:`STIFFEST_COUPLER` and ``c_max`` = :data:`MOST_DAMPED_COUPLER`, the top of the plausible ranges of
+:mod:`femref.case.plausibility`: 8.4 MN per m/s on the yard's two cars (``m* = 54.5`` t). Checked in
+tests/measured/test_phantom_impacts.py. An estimate whose peak exceeds the bound at the upper end of the event's
+closing-speed interval is ``implausible`` (:func:`implausible`): a bias, a glitch or a wrong unit made it, not the cars.
 
 From the **primary** estimates (:func:`primary`): the closing speed (:func:`checked_closing_speed`), ε
 (:func:`epsilon`), the gear's closure on each coupler (:func:`closure`), wear (:func:`wear`) and alarm (:func:`alarm`).

@@ -55,12 +55,8 @@ class HDF5ObjectError(ValueError):
 
 
 def check_regular_file(path: str | os.PathLike, max_bytes: int | None = None) -> int:
-    """The size (bytes) of ``path``, a regular file (symlinks followed) of at most ``max_bytes``.
-
-    Raises :class:`HDF5ObjectError` for a missing file, a symlink loop, a FIFO, socket, device or
-    directory (refused unopened by :func:`femref.core.files.regular_file`, the one rule every reader
-    applies), or a file over ``max_bytes``.
-    """
+    """The size (bytes) of ``path``, a regular file (symlinks followed, :func:`femref.core.files.regular_file`) of at
+    most ``max_bytes``; :class:`HDF5ObjectError` otherwise."""
     try:
         found = regular_file(path)
     except FileNotFoundError:
@@ -75,11 +71,8 @@ def check_regular_file(path: str | os.PathLike, max_bytes: int | None = None) ->
 
 
 def hard_link(group: h5py.Group, name: str) -> h5py.Group | h5py.Dataset:
-    """The object ``group[name]`` when ``name`` is a hard link (an object stored in this file).
-
-    Raises :class:`HDF5ObjectError` for a missing member, a soft link (it may loop or lead anywhere
-    in the file) or an external link (it opens another file), each unfollowed.
-    """
+    """The object ``group[name]`` when ``name`` is a hard link (an object stored in this file); :class:`HDF5ObjectError`
+    for a missing member, a soft or an external link (unfollowed)."""
     path = f"{group.name.rstrip('/')}/{name}"
     link = group.get(name, getlink=True)
     if link is None:

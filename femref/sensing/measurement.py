@@ -36,13 +36,8 @@ from numpy.typing import ArrayLike, NDArray
 
 @dataclass(frozen=True)
 class Measurement:
-    """How the accelerometer records are made from the model's sensor accelerations.
-
-    ``lowpass`` (Hz) anti-alias filter corner (None: no filter); ``rate`` (Hz) the sampling
-    rate of the records (None: the model's time grid); ``noise`` (m/s², standard deviation
-    of white noise added after filtering) with ``seed``; ``pitch_rate_noise`` (rad/s) the
-    gyroscopes' (cars that bend).
-    """
+    """How the accelerometer records are made from the model's sensor accelerations (module docstring): ``rate`` and
+    ``lowpass`` in Hz, ``noise`` in m/s², ``pitch_rate_noise`` in rad/s."""
 
     rate: float | None = None
     lowpass: float | None = None
@@ -55,18 +50,10 @@ FILTER_ORDER = 4
 """Order of the anti-alias Butterworth low-pass."""
 
 
-def measure(
-    time: ArrayLike, acceleration: ArrayLike, measurement: Measurement, stream: int = 0,
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Records ``(t_meas (Nm,), a_meas (Nm, S))`` from sensor accelerations ``(Nt, S)`` on a uniform ``time`` (s).
-
-    Low-pass (at the model's rate), resample, add noise — module docstring. ``stream = 1`` makes
-    the gyroscopes' records: noise ``pitch_rate_noise`` (rad/s) from ``default_rng((seed, 1))``. A 1-D
-    ``acceleration`` (one sensor) gives a 1-D record. With every step skipped the
-    input comes back (as a copy). Raises ValueError for a non-uniform or
-    non-increasing time axis, mismatched shapes, non-finite values, a low-pass at or
-    above the model's Nyquist frequency, or settings out of range.
-    """
+def measure(time: ArrayLike, acceleration: ArrayLike, measurement: Measurement, stream: int = 0) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Records ``(t_meas (Nm,), a_meas (Nm, S))`` from sensor accelerations ``(Nt, S)`` (or one sensor's ``(Nt,)``) on a
+    uniform ``time`` (s): low-pass, resample, add noise (module docstring; ``stream = 1``: the gyroscopes'). A copy
+    with every step skipped. ValueError for a bad time axis, shapes or values, or settings out of range."""
     t, a, dt = _checked_input(time, acceleration)
     lowpass, rate, noise = _checked_settings(measurement, dt, stream)
     if lowpass is not None:
@@ -80,11 +67,8 @@ def measure(
 
 
 def lowpass_filter(acceleration: NDArray[np.float64], dt: float, corner: float) -> NDArray[np.float64]:
-    """Causal order-4 Butterworth low-pass with corner ``corner`` (Hz) along axis 0, from rest.
-
-    ``|H(f)| = 1/√(1 + (tan(πf dt)/tan(π f_c dt))^8)`` (checked against the steady-state
-    amplitude of filtered tones in ``tests/sensing/test_measurement.py``).
-    """
+    """``|H(f)| = 1/√(1 + (tan(πf dt)/tan(π f_c dt))^8)``: causal order-4 Butterworth low-pass at ``corner`` (Hz) along
+    axis 0, from rest (checked on filtered tones in ``tests/sensing/test_measurement.py``)."""
     from scipy.signal import sosfilt  # scipy.signal costs ~1 s to import: only where a record is filtered
 
     return sosfilt(np.array(_butterworth(corner, 1.0 / dt)), acceleration, axis=0)
@@ -100,17 +84,12 @@ def _butterworth(corner: float, rate: float) -> tuple[tuple[float, ...], ...]:
 
 
 def resample(time: NDArray[np.float64], values: NDArray[np.float64], rate: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Samples at ``t_k = k/rate`` within ``[time[0], time[-1]]`` by linear interpolation along axis 0.
-
-    Instants within 1e-9 of a sample period outside the record (rounding of ``k/rate``)
-    are kept and clipped to its ends. Needs at least two samples.
-    """
+    """Samples at ``t_k = k/rate`` within ``[time[0], time[-1]]`` (within 1e-9 of a period outside: clipped to its
+    ends) by linear interpolation along axis 0; at least two."""
     first = math.ceil(time[0] * rate - 1e-9)
     last = math.floor(time[-1] * rate + 1e-9)
     if last - first + 1 < 2:
-        raise ValueError(
-            f"rate {rate!r} Hz gives fewer than 2 samples within the record [{time[0]!r}, {time[-1]!r}] s"
-        )
+        raise ValueError(f"rate {rate!r} Hz gives fewer than 2 samples within the record [{time[0]!r}, {time[-1]!r}] s")
     t_new = np.clip(np.arange(first, last + 1) / rate, time[0], time[-1])
     if values.ndim == 1:
         return t_new, np.interp(t_new, time, values)
@@ -132,9 +111,7 @@ def _checked_input(time: ArrayLike, acceleration: ArrayLike) -> tuple[NDArray[np
         raise ValueError("time must increase strictly")
     dt = float(steps.mean())
     if np.max(np.abs(steps - dt)) > 1e-6 * dt:
-        raise ValueError(
-            f"time must be uniformly sampled for the measurement chain (steps between {steps.min():.6g} and {steps.max():.6g} s)"
-        )
+        raise ValueError(f"time must be uniformly sampled for the measurement chain (steps between {steps.min():.6g} and {steps.max():.6g} s)")
     return t, a, dt
 
 
@@ -150,10 +127,8 @@ def _checked_settings(measurement: Measurement, dt: float, stream: int = 0) -> t
         raise ValueError(f"measurement seed must be an integer, got {measurement.seed!r}")
     nyquist = 0.5 / dt
     if lowpass is not None and lowpass >= nyquist:
-        raise ValueError(
-            f"measurement lowpass {lowpass:g} Hz must be below the model's Nyquist frequency 1/(2 dt) = {nyquist:g} Hz "
-            "(the filter runs at the model's sampling rate): lower it or refine the time step"
-        )
+        raise ValueError(f"measurement lowpass {lowpass:g} Hz must be below the model's Nyquist frequency 1/(2 dt) = {nyquist:g} Hz "
+                         "(the filter runs at the model's sampling rate): lower it or refine the time step")
     return lowpass, rate, noise
 
 

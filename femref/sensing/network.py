@@ -12,23 +12,9 @@ else its own sensor accelerations (:func:`femref.sensing.records.acceleration_hi
 and ``P̂`` in N, compression positive: an estimate of ``max_t P(t)`` of coupler
 ``coupler``. It gives no force history.
 
-The network file is an ``ann.storage`` ``.npz`` whose JSON metadata holds the contract
-this module reads (:class:`NetworkContract`)::
-
-    target:        "peak_coupler_force"
-    coupler:       the coupler name (c1, …)
-    probes:        ["<car>/<sensor>", …]       channel order of the records
-    record_length, record_end                  samples per record, record span [0, record_end] (s)
-    record_source: "measured" | "model"        the fem run's measurement-chain records or its own accelerations
-    measurement:   {rate, lowpass, noise, seed} | null   the chain the training records went through
-    training:      free-form (optional here)   source model, samples, errors, …
-
-and the pipeline's sampling rate must be ``(record_length − 1)/record_end``. A pipeline
-may also take known scalar inputs (``ann.features.FeatureSettings.extras``); femref
-supplies ``car_mass/<car>``, the car's total mass in kg (:attr:`Car.mass`, the mass a
-railroad knows from the waybill), and refuses networks asking for anything else.
-:func:`read_network` checks all of this for any scene; the case schema
-(:mod:`femref.case.estimators`) checks it against the scene (coupler, probes, time, measurement).
+The file's JSON metadata is the contract (:class:`NetworkContract`, docs/design.md §6.3); the only scalar inputs
+femref supplies are ``car_mass/<car>`` (kg, the mass a railroad knows from the waybill). :func:`read_network`
+checks the contract for any scene; the case schema (:mod:`femref.case.estimators`) checks it against the scene.
 ``ann`` is imported only when a network is read: ``femref`` imports ``ann``, never the
 reverse.
 """
@@ -72,12 +58,8 @@ class NetworkFileError(ValueError):
 
 @dataclass(frozen=True)
 class NetworkContract:
-    """What a network file promises (module docstring): its input records and its output.
-
-    ``measurement`` is the chain the training records went through (None: the model's
-    own accelerations); ``kind`` the network kind (``mlp``, ``rbf``); ``training`` the
-    free-form training summary of the file.
-    """
+    """What a network file promises (module docstring): its input records and its output; ``kind`` the network kind
+    (``mlp``, ``rbf``)."""
 
     target: str
     coupler: str
@@ -118,7 +100,7 @@ class NetworkContract:
             raise NetworkFileError(f"metadata probes must be a non-empty list of distinct probe names <car>/<sensor>, got {probes!r}")
         if isinstance(length, bool) or not isinstance(length, int) or length < 2:
             raise NetworkFileError(f"metadata record_length must be an integer >= 2, got {length!r}")
-        if isinstance(end, bool) or not isinstance(end, (int, float)) or not (math.isfinite(end) and end > 0.0):
+        if not (_real(end) and end > 0.0):
             raise NetworkFileError(f"metadata record_end must be a positive time in s, got {end!r}")
         if source not in RECORD_SOURCES:
             raise NetworkFileError(f"metadata record_source must be one of {', '.join(RECORD_SOURCES)}, got {source!r}")
@@ -140,28 +122,26 @@ def _measurement_of(chain: Any, source: str) -> Measurement | None:
     values = {}
     for key in ("rate", "lowpass"):
         value = chain.get(key)
-        if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value > 0.0)):
+        if value is not None and not (_real(value) and value > 0.0):
             raise NetworkFileError(f"metadata measurement.{key} must be null or a positive number of Hz, got {value!r}")
         values[key] = None if value is None else float(value)
     noise, seed = chain.get("noise", 0.0), chain.get("seed", 0)
-    if isinstance(noise, bool) or not isinstance(noise, (int, float)) or not (math.isfinite(noise) and noise >= 0.0):
+    if not (_real(noise) and noise >= 0.0):
         raise NetworkFileError(f"metadata measurement.noise must be a number >= 0 (m/s²), got {noise!r}")
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise NetworkFileError(f"metadata measurement.seed must be an integer >= 0, got {seed!r}")
     return Measurement(rate=values["rate"], lowpass=values["lowpass"], noise=float(noise), seed=seed)
 
 
-def read_network(path: str | os.PathLike) -> tuple["Estimator", NetworkContract]:
-    """The estimator and contract of the network file at ``path``.
+def _real(value: Any) -> bool:
+    """A finite int or float (not a bool)."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
-    Raises :class:`NetworkFileError` (a ValueError) for a missing or unreadable file, a
-    file that is not an ``ann.storage`` model file (or of another format version), a
-    metadata contract that is broken (module docstring), or a pipeline that does not
-    read the records the contract describes (rate, channels, samples). ``ann.storage``
-    checks the file before allocating its arrays — unknown or oversize members, array
-    headers that ask for more than the file holds, shapes that do not fit together,
-    NaN or infinite weights — and each of those is a ``NetworkFileError`` here too.
-    """
+
+def read_network(path: str | os.PathLike) -> tuple["Estimator", NetworkContract]:
+    """The estimator and contract of the network file at ``path``; :class:`NetworkFileError` (a ValueError) for a
+    missing or unreadable file, one that is not an ``ann.storage`` model file (whose own checks run before its arrays
+    are allocated), a broken contract (module docstring), or a pipeline that does not read the records it describes."""
     from ann.storage import load_estimator
 
     path = Path(path)
@@ -245,10 +225,8 @@ class AnnEstimator:
 
     @property
     def settings(self) -> dict[str, Any]:
-        """What the result file records of the estimator: file, network kind, contract, training summary.
-
-        The training summary keeps the scalar entries of the file's free-form ``training``.
-        """
+        """What the result file records of the estimator: file, network kind, contract, the scalar entries of the
+        training summary."""
         c = self.contract
         chain = None if c.measurement is None else {"rate": c.measurement.rate, "lowpass": c.measurement.lowpass, "noise": c.measurement.noise, "seed": c.measurement.seed}
         return {
@@ -269,15 +247,10 @@ class AnnEstimator:
 
 @dataclass(frozen=True, eq=False)
 class ImpactTypeNetworks:
-    """One network per impact type under one estimator ``name``: a record set goes to the network of its
-    impact type, ``P̂ = P̂_k(records)`` with ``k`` = free_to_roll or coupled from the zero harmonic of the
-    relative acceleration (:func:`femref.sensing.findings.classify_records`).
-
-    The source study trained its networks on one kind of impact at a time; a network trained on
-    free-to-roll impacts has never seen the rebound of a coupled one. ``by_type`` maps impact types
-    (``reduced.signal_tools.IMPACT_KINDS``) to networks of one coupler; an impact of a type without a
-    network gets no estimate, with the reason.
-    """
+    """One network per impact type under one estimator ``name``: ``P̂ = P̂_k(records)`` with ``k`` = free_to_roll or
+    coupled from the zero harmonic of the relative acceleration (:func:`femref.sensing.findings.classify_records`).
+    The source study trained its networks on one kind of impact at a time: a network trained on free-to-roll
+    impacts has never seen the rebound of a coupled one. An impact of a type without a network gets no estimate."""
 
     name: str
     by_type: Mapping[str, AnnEstimator]

@@ -1,45 +1,27 @@
-"""A channel's noise before the trigger, and a noise gate that allows for the estimate's own sampling error.
+"""A channel's noise before the trigger, and a noise gate that allows for the estimate's own sampling error
+(docs/formulas.md §K3: the derivation, its measured checks, tests/measured/test_noise_gate.py).
 
-**The estimate** (:func:`quiet_noise`, what a measured run weighs the channels by): over the ``n``
-quiet samples ``y_i`` before the trigger,
+**The estimate** (:func:`quiet_noise`, what a measured run weighs the channels by): over the ``n`` quiet samples
+``y_i`` before the trigger, the median absolute deviation scaled to a Gaussian's standard deviation (robust to the
+impact's first rise, which a channel near the coupler records before the trigger fires),
 
-    σ̂ = 1.4826 · median_i |y_i − median y|        (m/s²)
+    σ̂ = 1.4826 · median_i |y_i − median y|        (m/s²;  1.4826 = 1/z,  z = Φ⁻¹(3/4))
 
-the median absolute deviation scaled to a Gaussian's standard deviation (``1.4826 = 1/z``,
-``z = Φ⁻¹(3/4) = 0.6745``); robust to the impact's first rise, which a channel near the coupler
-records before the trigger fires.
+For ``n`` independent Gaussian samples ``G(q̂) ~ Beta((n + 1)/2, (n + 1)/2)`` (``G`` the half-normal CDF of ``|y|``,
+``q̂`` the sample median), so
 
-**Its sampling distribution.** For ``n`` independent Gaussian samples of std σ, ``|y_i|`` has the
-half-normal CDF ``G(c) = 2Φ(c/σ) − 1``, and the sample median ``q̂`` of ``n`` such values has
-``G(q̂) ~ Beta((n + 1)/2, (n + 1)/2)`` (exact for odd ``n``: the ``(n + 1)/2``-th of ``n`` uniform order
-statistics; the even-``n`` median, the mean of two neighbours, lies between them). With ``σ̂ = q̂/z``:
+    P(σ̂ > r σ) = 1 − I_{2Φ(r z) − 1}(a, a),   a = (n + 1)/2,    sd(σ̂/σ) ≈ 1.166/√n
 
-    P(σ̂ > r σ) = 1 − I_{G(r z σ)}(a, a),   a = (n + 1)/2,   G(r z σ) = 2Φ(r z) − 1
-
-(``I`` the regularised incomplete beta function), whose spread is ``sd(σ̂/σ) ≈ 1.166/√n`` (16.5 % at
-``n = 50``: the MAD's 37 % efficiency). Centring on the sample median instead of the true zero
-lowers the exceedance (at ``n = 51``: 5 % → 4.0 %, 1 % → 0.8 %): the law is conservative for it.
-
-**Correlated samples.** Noise that passed through the recorder's anti-alias filter is correlated
-from sample to sample, and ``n`` correlated samples carry the information of fewer. The count
-used is ``n_eff = n / τ̂``, ``τ̂ = 1 + 2 Σ_{k=1}^{K} ρ̂_k²``: the variance inflation of a Gaussian
-series' second moment (``Var s² = (2σ⁴/n) Σ_k ρ_k²``), ``ρ̂_k`` the quiet samples' autocorrelation at
-lag ``k``, summed while ``|ρ̂_k| ≥ 2/√n`` (beyond, ``ρ̂_k`` is indistinguishable from white noise's
-scatter, and white noise keeps ``τ̂ ≈ 1``). Measured (tests/measured/test_noise_gate.py): white
-noise gives ``n_eff ≈ n``; noise that went through the chain's 100 Hz filter at 1 kHz gives
-``n_eff ≈ 14`` of 50, conservative against the spread the MAD actually has there (≈ 18).
+**Correlated samples** (noise through the recorder's anti-alias filter): the count used is ``n_eff = n / τ̂``,
+``τ̂ = 1 + 2 Σ_{k=1}^{K} ρ̂_k²`` (:func:`correlation_time`).
 
 **The gate** (:func:`noise_limit`): a one-sided test of ``σ ≤ σ_cal`` per channel at level
-``α_ch = 1 − (1 − α)^{1/m}`` for ``m`` channels (Šidák: an event at the calibrated noise on every
-channel is refused with probability ``α``), refusing when
+``α_ch = 1 − (1 − α)^{1/m}`` for ``m`` channels (Šidák: an event at the calibrated noise on every channel is refused
+with probability ``α`` = :data:`FALSE_REJECT`), refusing when
 
     σ̂ > r σ_cal,   r = Φ⁻¹((1 + B⁻¹(1 − α_ch; a, a))/2) / z,   a = (n_eff + 1)/2
 
-``α`` is :data:`FALSE_REJECT`. At ``n_eff = 50`` and five channels ``r = 1.52`` (one channel: 1.41; at
-``n_eff = 14``, five channels: 2.03). Measured on the yard's five channels through the measurement chain
-(tests/measured/test_noise_gate.py, 2000 events at the calibrated noise): 0.3 % refused with white noise,
-0.15 % with noise that went through the filter (the fixed 1.25 × limit refused 26 % and 49 %); at twice the
-calibrated noise on every channel 100 % and 88 % are refused, on one channel alone 92 % (white).
+(``r = 1.52`` at ``n_eff = 50`` and five channels).
 """
 
 from __future__ import annotations

@@ -1,31 +1,12 @@
 """Record files read as hostile input: regular files only, nothing read from outside the file named, bounded before allocation.
 
-:mod:`femref.sensing.recordings` reads a recorder's columns through :func:`read_columns`,
-which keeps to these rules (each refusal a :class:`RecordError` naming the file, the column
-or dataset and the rule):
-
-* **Regular files only** (:func:`femref.core.files.regular_file`): a FIFO, a device
-  (``/dev/zero``), a socket or a folder is refused before it is opened, a loop of symbolic
-  links named as such.
-* **Nothing from outside the file** the case names (an HDF5 file can point elsewhere): a
-  dataset whose raw data is stored in other files (*external storage*), an *external link*
-  and a *virtual dataset* (its data in other files; a missing source reads as fill values,
-  silently) are refused — never followed, not even into the case's folder, so what a result
-  holds is exactly what the named file holds. Soft links inside the file are followed, at most
-  :data:`MAX_SOFT_LINKS` in a row (a loop is named). Chunks go through HDF5's built-in filters
-  only: a plugin filter (Blosc, Zstd, Bitshuffle) would load code found through the environment,
-  and an unavailable one fails mid-read (the dataset checks every HDF5 reader shares,
-  :func:`femref.sensing.hdf5_checks.check_plain_dataset`).
-* **Bounded before allocation**: a CSV file holds at most :data:`MAX_RECORD_BYTES` bytes (by
-  ``stat``, before it is opened); a file at most :data:`MAX_RECORD_SAMPLES` samples per channel,
-  and the record files read together (a case's) at most :data:`MAX_RECORD_VALUES` values in all,
-  time columns included — an HDF5 dataset's shape is checked before a byte of it is read, a CSV
-  file is read no further than one row past the limit. An HDF5 chunk unpacks to at most
-  :data:`femref.sensing.hdf5_checks.MAX_CHUNK_BYTES`. The bytes a dataset unpacks to are bounded by its shape and its
-  chunks whatever its compression ratio, so no ratio is checked (a constant channel compresses
-  1000:1 and is a fine record).
-* **Unambiguous columns**: a CSV column read by name that the header names twice is refused
-  (reading the first would be a guess).
+:mod:`femref.sensing.recordings` reads a recorder's columns through :func:`read_columns`, which keeps to the rules of
+docs/design.md §3.7, each refusal a :class:`RecordError` naming the file, the column or dataset and the rule: regular
+files only (:func:`femref.core.files.regular_file`); nothing read from outside the file the case names
+(:func:`femref.sensing.hdf5_checks.check_plain_dataset`; soft links inside it followed, at most :data:`MAX_SOFT_LINKS`
+in a row); sizes bounded before allocation (:data:`MAX_RECORD_BYTES` by ``stat``, :data:`MAX_RECORD_SAMPLES`,
+:data:`MAX_RECORD_VALUES`: an HDF5 dataset's shape is checked before a byte of it is read, a CSV file is read no
+further than one row past the limit); a CSV column read by a name the header gives twice is refused.
 
 A CSV file is parsed by numpy's C reader (``numpy.loadtxt``, only the columns read, a chunk of
 lines at a time) into one array allocated for the file's line count, so reading holds the columns
@@ -51,10 +32,8 @@ from numpy.typing import NDArray
 from femref.core.files import NotRegularFile, regular_file
 from femref.sensing.hdf5_checks import HDF5ObjectError, check_plain_dataset
 
-__all__ = [
-    "HDF5_SUFFIXES", "MAX_RECORD_BYTES", "MAX_RECORD_SAMPLES", "MAX_RECORD_VALUES",
-    "MAX_SOFT_LINKS", "RecordError", "SampleLimit", "read_columns",
-]
+__all__ = ["HDF5_SUFFIXES", "MAX_RECORD_BYTES", "MAX_RECORD_SAMPLES", "MAX_RECORD_VALUES", "MAX_SOFT_LINKS", "RecordError", "SampleLimit",
+           "read_columns"]
 
 HDF5_SUFFIXES = (".h5", ".hdf5", ".hdf")
 """File name endings read as HDF5; any other file is CSV."""
@@ -109,9 +88,8 @@ Request = tuple[str | int | None, str]
 
 
 def read_columns(path: Path, requests: Sequence[Request], limit: SampleLimit) -> list[NDArray[np.float64]]:
-    """Each requested column of the record file at ``path`` as floats, within the module's rules (module docstring).
-
-    No two of the arrays share memory (a column requested twice is copied), so the caller may scale them in place."""
+    """Each requested column of the record file at ``path`` as floats (module docstring); no two of the arrays share
+    memory (a column requested twice is copied), so the caller may scale them in place."""
     name = path.name
     try:
         status = regular_file(path)

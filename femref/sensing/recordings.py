@@ -11,21 +11,13 @@ Each probe (``<car>/<sensor>``) keeps its own time axis: two recorders may sampl
 different rates and their clocks may differ by a known offset. A channel's rate is the
 declared rate, or 1 / the median time step.
 
-**Errors** (:class:`RecordError`, naming the file, the channel or time source and the
-rule): a missing or unreadable file; a file that is not a regular file, or points outside
-itself, or is larger than the limits (:mod:`femref.sensing.record_files`); a missing column
-or dataset, a column the header names twice; an unknown unit; a cell that is not a number;
-fewer than two samples; a time that is not finite, or does not increase (duplicated or going
-back: the first offending row is named); a rate above :data:`MAX_RECORD_RATE`; a channel
-whose length differs from its time axis; a channel with no finite value; the same probe in
-two places.
+**Errors** (:class:`RecordError`, naming the file, the channel or time source and the rule; docs/design.md §3.7):
+what :mod:`femref.sensing.record_files` refuses, an unknown unit, fewer than two samples, a time that is not
+finite or does not increase, a rate above :data:`MAX_RECORD_RATE`, a channel with no finite value or not one per
+time, the same probe in two places.
 
-**Quality, not errors**: NaN runs inside a channel and time steps longer than 1.5 × the
-median step are *gaps*; runs of three or more samples at a channel's extreme value (the
-largest |a| it records, reached by a flat top) are *saturated*; samples with
-|a| > :data:`PLAUSIBLE_ACCELERATION` are *implausible* (no car body moves so). All are kept
-per probe as :class:`QualityInterval` (start, end in s, reason) for the events they fall in
-to carry.
+**Quality, not errors** (:func:`_quality`): *gaps*, *saturated* and *implausible* stretches, kept per probe as
+:class:`QualityInterval` for the events they fall in to carry.
 
 What validation read is kept (:class:`RecordRead`, with the file's :func:`file_stamp`):
 :func:`read_records` takes a file's channels from its ``kept`` read while the file is
@@ -196,9 +188,7 @@ class Recordings:
 
 def read_records(files: Sequence[RecordFile]) -> Recordings:
     """Every channel of every file in SI units on its own time axis (module docstring); RecordError for a bad file.
-
-    A file whose ``kept`` read is current (:meth:`RecordRead.current`) is not read again. The files together hold at
-    most :data:`~femref.sensing.record_files.MAX_RECORD_VALUES` values."""
+    A file whose ``kept`` read is current (:meth:`RecordRead.current`) is not read again."""
     channels: dict[str, Channel] = {}
     where: dict[str, str] = {}
     values_left = record_files.MAX_RECORD_VALUES
@@ -277,21 +267,16 @@ def _check_time(name: str, time: NDArray[np.float64]) -> None:
 def _quality(time: NDArray[np.float64], a: NDArray[np.float64]) -> tuple[QualityInterval, ...]:
     """Gaps (NaN runs, long steps), saturated stretches (flat tops at the channel's extreme) and implausible ones
     (|a| > :data:`PLAUSIBLE_ACCELERATION`) of one channel."""
-    intervals = []
-    missing = ~np.isfinite(a)
-    for first, last in _runs(missing):
-        intervals.append(QualityInterval(float(time[max(first - 1, 0)]), float(time[min(last + 1, time.size - 1)]), "gap"))
+    intervals = [QualityInterval(float(time[max(first - 1, 0)]), float(time[min(last + 1, time.size - 1)]), "gap")
+                 for first, last in _runs(~np.isfinite(a))]
     steps = np.diff(time)
-    for k in np.flatnonzero(steps > GAP_STEP * np.median(steps)):
-        intervals.append(QualityInterval(float(time[k]), float(time[k + 1]), "gap"))
+    intervals += [QualityInterval(float(time[k]), float(time[k + 1]), "gap") for k in np.flatnonzero(steps > GAP_STEP * np.median(steps))]
     magnitude = np.abs(a)
     extreme = np.nanmax(magnitude)
     if extreme > 0.0:
-        for first, last in _runs(magnitude == extreme):
-            if last - first + 1 >= SATURATED_RUN:
-                intervals.append(QualityInterval(float(time[first]), float(time[last]), "saturated"))
-    for first, last in _runs(magnitude > PLAUSIBLE_ACCELERATION):
-        intervals.append(QualityInterval(float(time[first]), float(time[last]), "implausible"))
+        intervals += [QualityInterval(float(time[first]), float(time[last]), "saturated")
+                      for first, last in _runs(magnitude == extreme) if last - first + 1 >= SATURATED_RUN]
+    intervals += [QualityInterval(float(time[first]), float(time[last]), "implausible") for first, last in _runs(magnitude > PLAUSIBLE_ACCELERATION)]
     return tuple(sorted(intervals, key=lambda q: q.start))
 
 
@@ -301,9 +286,6 @@ def _runs(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:
     return list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1))
 
 
-__all__ = [
-    "AntiAlias",
-    "ACCELERATION_UNITS", "HDF5_SUFFIXES", "MAX_EVENT_VALUES", "MAX_RECORD_RATE", "PLAUSIBLE_ACCELERATION", "TIME_UNITS", "Channel", "ChannelSource",
-    "QualityInterval", "RecordError", "RecordFile", "RecordRead", "Recordings", "Stamp", "TimeSource", "file_stamp", "read_record_file",
-    "read_records",
-]
+__all__ = ["AntiAlias", "ACCELERATION_UNITS", "HDF5_SUFFIXES", "MAX_EVENT_VALUES", "MAX_RECORD_RATE", "PLAUSIBLE_ACCELERATION", "TIME_UNITS",
+           "Channel", "ChannelSource", "QualityInterval", "RecordError", "RecordFile", "RecordRead", "Recordings", "Stamp", "TimeSource",
+           "file_stamp", "read_record_file", "read_records"]

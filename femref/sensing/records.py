@@ -38,15 +38,9 @@ def record_rate(length: int, end: float) -> float:
     return (int(length) - 1) / float(end)
 
 
-def fixed_length_records(
-    time: ArrayLike, histories: Mapping[str, ArrayLike], probes: Sequence[str], length: int, end: float
-) -> NDArray[np.float64]:
-    """Records ``(len(probes), length)`` of the named ``histories`` on :func:`record_times`.
-
-    ``time`` (s, strictly increasing) is the histories' common axis; ``probes`` fixes the
-    channel order. Raises ValueError for a missing probe, a history of another length than
-    ``time``, or non-finite values.
-    """
+def fixed_length_records(time: ArrayLike, histories: Mapping[str, ArrayLike], probes: Sequence[str], length: int, end: float) -> NDArray[np.float64]:
+    """Records ``(len(probes), length)`` of the named ``histories`` on their common axis ``time`` (s), on
+    :func:`record_times`; ValueError for a missing probe, a history of another length than ``time``, or non-finite values."""
     t = np.asarray(time, dtype=float)
     if t.ndim != 1 or t.size < 2 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0.0):
         raise ValueError("time must be a 1-D, finite, strictly increasing axis of at least 2 samples")
@@ -65,10 +59,8 @@ def fixed_length_records(
 
 
 def acceleration_histories(result) -> tuple[NDArray[np.float64], dict[str, NDArray[np.float64]]]:
-    """``(time, {probe: acceleration})`` of a model result: its measured records if it has them.
-
-    ``result`` is a :class:`femref.results.ModelResult` of an impact run.
-    """
+    """``(time, {probe: acceleration})`` of an impact run's :class:`femref.results.ModelResult`: its measured records
+    if it has them."""
     if result.measured:
         return result.measured["time"], {p: a for p, a in result.measured.items() if p != "time"}
     return result.axes["time"], {p: out["acceleration"] for p, out in result.probes.items()}

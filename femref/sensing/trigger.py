@@ -23,28 +23,20 @@ does not count):
   window ends (flagged ``cut short``): an impact more than ``quiet`` after the previous one's ringing
   fell below ``rearm`` is an event of its own, a sooner one is part of the previous event.
 
-The trigger takes the stream in chunks ``(time, {channel: values})`` in time order (channels
-without a sample at a time hold NaN there) and keeps its state between them: it returns each
-window as soon as no later sample can change it, and the same windows for any cutting of the
-same stream into chunks (a trigger whose hold time runs past a chunk's end waits for the next).
-Each chunk is searched with numpy for the few samples where the state changes (the first trigger,
-the first gap of ``quiet`` between ringing samples); Python loops only over triggers that do not hold.
+The trigger takes the stream in chunks ``(time, {channel: values})`` in time order (NaN: no sample) and returns
+each window as soon as no later sample can change it: the same windows for any cutting of the stream into chunks.
+Each chunk is searched with numpy for the few samples where the state changes; Python loops only over triggers
+that do not hold.
 
-:func:`search_events`: every channel of a :class:`Recordings` merged onto the union of their
-sample times (:func:`stream_chunks`), each less its baseline — a running median that follows a
-sensor's bias or drift and leaves an impact's contact whole (:mod:`femref.sensing.baseline`), so
-a bias never opens an event — and fed to the trigger, chunk by chunk. Each window is clipped to the
-span every channel covers (then the event is flagged ``truncated``; a window wholly outside it is
-no event, and :class:`EventSearch` says so with each recorder's span), and every gap or saturated
-stretch of any channel that overlaps it is named in its flags (``"saturated: hammer/front
-1.2031–1.2050 s"``): the estimates of such an event are not to be trusted silently.
-Each channel's noise is measured in the stream's quiet stretches on the way
-(:class:`femref.sensing.baseline.NoiseMeter`); with the trigger within :data:`NOISE_MARGIN` σ of a
-channel's, every event is flagged (:func:`trigger_in_noise`). :func:`find_events`: the trigger on the records as they are.
+:func:`search_events`: every channel merged onto the union of their sample times (:func:`stream_chunks`), each
+less its baseline (:mod:`femref.sensing.baseline`: a bias never opens an event), through the trigger. Each window
+is clipped to the span every channel covers (flagged ``truncated``; a window wholly outside it is no event), and
+every gap or saturated stretch of a channel that overlaps it is named in its flags (``"saturated: hammer/front
+1.2031–1.2050 s"``): the estimates of such an event are not to be trusted silently. With the trigger within
+:data:`NOISE_MARGIN` σ of a channel's noise in the quiet stretches, every event is flagged (:func:`trigger_in_noise`).
 
-:func:`window`: the event's records resampled by linear interpolation onto one uniform grid
-``t_k = start + k / rate`` over the window (absolute times, s), ``rate`` the highest rate of
-the channels by default — the estimators need one grid for all cars.
+:func:`window`: the event's records linearly interpolated onto one uniform grid (the estimators need one grid for
+all cars).
 """
 
 from __future__ import annotations
@@ -68,7 +60,7 @@ impacts, tests/measured/test_event_trigger.py), and a burst after a lull of 0.18
 MAX_WINDOW = 5.0
 """The default longest event window (s), from its start ``t_trigger − pre`` to its end."""
 CHUNK_SAMPLES = 1 << 18
-"""Samples of the merged stream per chunk fed to the trigger by :func:`find_events`."""
+"""Samples of the merged stream per chunk fed to the trigger by :func:`search_events`."""
 HOLD = 0.003
 """The default hold time (s): a single channel opens an event only if its samples stay above the trigger this long
 (module docstring). A third of the shortest plausible contact, ``π √(m*/k) ≈ 10`` ms for 20 t cars (``m* = 10`` t) on the
@@ -83,10 +75,8 @@ GLITCHES_NAMED = 5
 
 @dataclass(frozen=True)
 class TriggerSettings:
-    """How events are cut from a stream: the trigger ``level`` and the re-arm level ``rearm`` (m/s², None:
-    ``REARM_FRACTION × level``), the window ``pre`` the trigger and ``post`` the last ringing sample (s),
-    the ``quiet`` time before re-arming (s) and the longest window ``max_window`` (s) (module docstring).
-    ValueError names the setting and its rule."""
+    """How events are cut from a stream (module docstring): levels in m/s² (``rearm`` None: ``REARM_FRACTION × level``),
+    times in s. ValueError names the setting and its rule."""
 
     level: float
     pre: float
@@ -200,10 +190,8 @@ class EventTrigger:
         return decided
 
     def finish(self) -> list[EventWindow]:
-        """The windows still open at the stream's end (their ends may lie beyond it). When a capped window's
-        ringing never went quiet to the end of a stream that ran on for more than another ``max_window`` after
-        the cap, :attr:`never_rearmed_after` names it. A trigger still within its hold time at the end is
-        decided on the samples there are."""
+        """The windows still open at the stream's end (their ends may lie beyond it; :attr:`never_rearmed_after` set);
+        a trigger still within its hold time is decided on the samples there are."""
         decided: list[EventWindow] = []
         if self._carry is not None:
             decided += self._process(*self._carry, final=True)
@@ -344,9 +332,8 @@ def stream_chunks(recordings: Recordings, samples: int = CHUNK_SAMPLES) -> Itera
 
 @dataclass(frozen=True)
 class EventSearch:
-    """What :func:`search_events` found: the events, each channel's noise in the quiet stretches (m/s²,
-    :class:`femref.sensing.baseline.NoiseMeter`), the loudest channel and its largest ``|a − b|`` (m/s²), the spikes
-    ignored (counted, the first named), and the triggers whose windows fell wholly outside the span every recorder
+    """What :func:`search_events` found: the events, each channel's noise in the quiet stretches (m/s²), the loudest
+    channel and its largest ``|a − b|`` (m/s²), the spikes ignored, and the triggers outside the span every recorder
     covers, with that span and each file's (s)."""
 
     settings: TriggerSettings
@@ -423,9 +410,7 @@ def search_events(recordings: Recordings, settings: TriggerSettings, *, remove_b
             continue
         flags = (["truncated"] if start > found.start or end < found.end else []) + list(found.flags) + _quality_flags(recordings, start, end)
         events.append(Event(len(events), start, end, found.trigger_time, found.trigger_probe, tuple(flags)))
-    files: dict[str, tuple[float, float]] = {}
-    for channel in recordings.channels.values():
-        files[channel.file] = (float(channel.time[0]), float(channel.time[-1]))
+    files = {channel.file: (float(channel.time[0]), float(channel.time[-1])) for channel in recordings.channels.values()}
     noise = meter.noise()
     in_noise = trigger_in_noise(settings.level, noise)
     if in_noise is not None:
@@ -443,13 +428,6 @@ def trigger_in_noise(level: float, noise: Mapping[str, float]) -> str | None:
     named = ", ".join(f"{probe} σ = {sigma:.3g} m/s²" for probe, sigma in noisy.items())
     return (f"trigger in the noise: trigger = {level:g} m/s² is below {NOISE_MARGIN:g} σ of the noise in the quiet stretches "
             f"({named}); noise alone crosses it, the event may be noise")
-
-
-def find_events(recordings: Recordings, trigger: float, pre: float, post: float, *, rearm: float | None = None,
-                quiet: float = QUIET, max_window: float = MAX_WINDOW, hold: float = HOLD) -> list[Event]:
-    """The trigger's events on the records as they are, no baseline removed (:func:`search_events`; a measured run
-    removes it); ValueError for settings out of their range (:class:`TriggerSettings`)."""
-    return search_events(recordings, TriggerSettings(trigger, pre, post, rearm, quiet, max_window, hold), remove_baseline=False).events
 
 
 def window(recordings: Recordings, event: Event, rate: float | None = None) -> tuple[NDArray[np.float64], dict[str, NDArray[np.float64]]]:
@@ -472,4 +450,4 @@ def _quality_flags(recordings: Recordings, start: float, end: float) -> list[str
 
 
 __all__ = ["CHUNK_SAMPLES", "HOLD", "MAX_WINDOW", "NOISE_MARGIN", "QUIET", "REARM_FRACTION", "Event", "EventSearch", "EventTrigger", "EventWindow",
-           "TriggerSettings", "find_events", "search_events", "stream_chunks", "trigger_in_noise", "window"]
+           "TriggerSettings", "search_events", "stream_chunks", "trigger_in_noise", "window"]

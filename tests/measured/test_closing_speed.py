@@ -15,7 +15,7 @@ import yaml
 
 from femref.case import CaseError, load_case
 from femref.case.defaults import default_scene_data
-from femref.events import write_events
+from support.measured import write_events
 from femref.run.measured import run_measured
 from femref.scene.build import scene_from_case
 from femref.sensing.calibration import Calibration

@@ -13,10 +13,9 @@ import pytest
 
 from femref.case import load_case
 from femref.case.defaults import default_scene_data
-from femref.events import write_events
 from femref.run.measured import run_measured
 from femref.scene.build import scene_from_case
-from support.measured import simulated_event
+from support.measured import simulated_event, write_events
 
 NETWORKS = Path(__file__).parents[2] / "cases" / "networks"
 

@@ -25,10 +25,11 @@ from click.testing import CliRunner
 
 from femref.case import load_case
 from femref.cli import main
-from femref.events import COMPLETE, EVENTS_WRITTEN, EventResult, ForceEstimate, event_file, write_events
+from femref.events import COMPLETE, EVENTS_WRITTEN, EventResult, ForceEstimate, event_file
 from femref.run.costs import BUDGET_VARIABLE
 from femref.run.measured import run_measured
 from femref.scene.build import scene_from_case
+from support.measured import find_events, write_events
 
 ROD = {"type": "rod", "length": 17.0, "mass_per_length": 7000.0, "axial_stiffness": 3.0e9, "axial_viscosity": 2.0e6}
 MASS = 7000.0 * 17.0  # kg
@@ -292,7 +293,7 @@ def test_the_kalman_state_size_and_event_memory_are_what_the_filter_builds_and_a
     case = _stream(tmp_path, 2, rate=5000.0, estimators=("kalman",), kalman={"modes": 3})
     scene = scene_from_case(load_case(case))
     recordings = read_records(scene.records)
-    event = finder.find_events(recordings, scene.trigger, scene.pre, scene.post, quiet=scene.quiet, max_window=scene.max_window)[0]
+    event = find_events(recordings, scene.trigger, scene.pre, scene.post, quiet=scene.quiet, max_window=scene.max_window)[0]
     t, raw = finder.window(recordings, event)
     records, noise, _ = quiet_corrected(t, raw, event.trigger_time)
     cars, probes = KalmanEstimator(scene.kalman, scene.anti_alias).cars(Recorded(t, records, scene.cars, scene.couplers))

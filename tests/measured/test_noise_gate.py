@@ -13,7 +13,7 @@ import yaml
 from scipy.special import ndtri
 
 from femref.case import load_case
-from femref.events import write_events
+from support.measured import write_events
 from femref.run.measured import run_measured
 from femref.scene.build import scene_from_case
 from femref.sensing.calibration import Calibration, write_calibration

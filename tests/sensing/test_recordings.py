@@ -8,7 +8,8 @@ import h5py
 import numpy as np
 import pytest
 
-from femref.sensing.trigger import find_events, window
+from femref.sensing.trigger import window
+from support.measured import find_events
 from femref.sensing.recordings import ChannelSource, RecordError, RecordFile, TimeSource, read_records
 
 G = 9.80665

@@ -17,8 +17,11 @@ import numpy as np
 import yaml
 
 from femref.case import parse_case
+from femref.events import EventResult, event_file
 from femref.run.runner import run_scene
 from femref.scene.build import scene_from_case
+from femref.sensing.recordings import Recordings
+from femref.sensing.trigger import HOLD, MAX_WINDOW, QUIET, Event, TriggerSettings, search_events
 
 G = 9.80665
 
@@ -121,3 +124,18 @@ def run_calibration_sweep(folder: Path, samples: int, record_length: int, force_
         summary = run_sweep(folder / "cal.yaml", folder / "cal.h5", client=client)
     assert summary.complete and summary.failed == 0
     return folder / "cal.yaml", folder / "cal.h5"
+
+
+def find_events(recordings: Recordings, trigger: float, pre: float, post: float, *, rearm: float | None = None,
+                quiet: float = QUIET, max_window: float = MAX_WINDOW, hold: float = HOLD) -> list[Event]:
+    """The trigger's events on the records as they are, no baseline removed (:func:`femref.sensing.trigger.search_events`;
+    a measured run removes it); ValueError for settings out of their range (:class:`TriggerSettings`)."""
+    return search_events(recordings, TriggerSettings(trigger, pre, post, rearm, quiet, max_window, hold), remove_baseline=False).events
+
+
+def write_events(path: str | Path, scene_facts: dict[str, Any], events: list[EventResult], case_yaml: str = "") -> Path:
+    """Write the event results to ``path`` (atomically, :func:`femref.events.event_file`) and return the path."""
+    with event_file(path, scene_facts, case_yaml) as write:
+        for event in events:
+            write(event)
+    return Path(path)
