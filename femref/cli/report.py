@@ -31,7 +31,7 @@ def write_atomically(path: Path, text: str) -> None:
 
 
 def _write_event_pages(results: Path, output: Path) -> None:
-    """The pages of an event file of many events beside the index ``output`` (femref.report.events), each written
+    """The pages of an event file of many events beside the index ``output`` (femref.report.measured), each written
     atomically, with progress per event (a bar per page on a terminal, status lines with femref --progress)."""
     from rich.console import Console
 
