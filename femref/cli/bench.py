@@ -16,13 +16,12 @@ records which and why) or the reference failed (nothing written), 0 otherwise.
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import click
 from rich.console import Console
 
-from femref.cli.common import EXIT_BAD_INPUT, EXIT_RUN_FAILURE, case_input_files, check_output, configuration_progress, finish, load_case_or_default, print_table
+from femref.cli.common import EXIT_RUN_FAILURE, case_input_files, check_output, configuration_progress, fail, finish, load_case_or_default, print_table
 from femref.cli.tables import bench_table
 
 IMPACT_ONLY = "femref bench serves impact cases"
@@ -55,8 +54,7 @@ def bench_command(case_path: Path | None, output: Path | None, repeats: int, plo
             raise CaseError.at("kind", f"{IMPACT_ONLY}; this is a {case.kind} case", source=str(case_path))
         scene = scene_from_case(case, base_dir)
     except CaseError as error:
-        click.echo(f"error: {error}", err=True)
-        sys.exit(EXIT_BAD_INPUT)
+        fail(error)
     defaulted = output is None
     output = output or Path(f"{case_path.stem if case_path else 'default'}_bench.h5")
     inputs = {"CASE": case_path, **case_input_files(case)}
@@ -68,8 +66,7 @@ def bench_command(case_path: Path | None, output: Path | None, repeats: int, plo
         with configuration_progress(Console(stderr=True)) as progress:
             outcome = run_bench(scene, repeats, progress)
     except ReferenceFailed as error:
-        click.echo(f"error: {error}", err=True)
-        sys.exit(EXIT_RUN_FAILURE)
+        fail(error, EXIT_RUN_FAILURE)
     written = [write_bench_table(output, resolved_yaml(case), outcome)]
     if plot_path is not None:
         name = case_path.name if case_path else DEFAULT_SCENE_SOURCE

@@ -29,7 +29,7 @@ import threading
 from contextlib import contextmanager
 from pathlib import Path
 from types import FrameType
-from typing import Iterable, Iterator
+from typing import Iterable, Iterator, NoReturn
 
 import click
 from rich.console import Console
@@ -69,11 +69,16 @@ def faults_end_cleanly() -> Iterator[None]:
     except OSError as error:
         if error.errno == errno.EPIPE:  # stdout closed early (``femref run | head``): click's own quiet handling
             raise
-        click.echo(f"error: {os_error_message(error)}", err=True)
-        sys.exit(EXIT_RUN_FAILURE)
+        fail(os_error_message(error), EXIT_RUN_FAILURE)
     finally:
         for signum, handler in previous.items():
             signal.signal(signum, handler)
+
+
+def fail(message: object, code: int = EXIT_BAD_INPUT) -> NoReturn:
+    """``error: <message>`` on stderr, then exit ``code``."""
+    click.echo(f"error: {message}", err=True)
+    sys.exit(code)
 
 
 def os_error_message(error: OSError) -> str:
@@ -125,8 +130,7 @@ def check_output(
     try:
         check_output_path(path, option, inputs, folder=folder, default=default, writes=writes)
     except OutputPathError as error:
-        click.echo(f"error: {error}", err=True)
-        sys.exit(EXIT_BAD_INPUT)
+        fail(error)
     if not folder:
         clean_leftovers(path)
 

@@ -9,12 +9,11 @@ final name.
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import click
 
-from femref.cli.common import EXIT_BAD_INPUT, check_output
+from femref.cli.common import check_output, fail
 
 
 def default_output(results: Path) -> Path:
@@ -69,8 +68,7 @@ def report_command(results: Path, output: Path | None) -> None:
             raise ReportInputError(f"{output}: the report would overwrite the result file; choose another -o")
         page = build_report(results, output.name)
     except ReportInputError as error:
-        click.echo(f"error: {error}", err=True)
-        sys.exit(EXIT_BAD_INPUT)
+        fail(error)
     # After the input's own errors. The result's field files are inputs too (the page reads them; an -o onto one would
     # replace a ParaView file of the run with HTML): those it records, or femref's names for them.
     check_output(output, "-o", {"RESULTS.h5": results, **result_field_files(results)}, default=defaulted)

@@ -11,13 +11,12 @@ and the exit codes.
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import click
 from rich.console import Console
 
-from femref.cli.common import EXIT_BAD_INPUT, EXIT_RUN_FAILURE, check_output, finish, load_case_or_default, model_progress, print_table, source_name
+from femref.cli.common import EXIT_RUN_FAILURE, check_output, fail, finish, load_case_or_default, model_progress, print_table, source_name
 from femref.cli.tables import run_table
 
 
@@ -35,8 +34,7 @@ def validate_command(case_path: Path | None) -> None:
     try:
         case, _ = load_case_or_default(case_path)
     except CaseError as error:
-        click.echo(f"error: {error}", err=True)
-        sys.exit(EXIT_BAD_INPUT)
+        fail(error)
     click.echo(resolved_yaml(case), nl=False)
 
 
@@ -76,8 +74,7 @@ def run_command(case_path: Path | None, output: Path | None, tolerance: float | 
         # FEMREF_BUDGET raises it): the runs and the reference's self-check, or with a tolerance every rung of the ladder.
         plan = plan_case(case, base_dir, source_name(case_path), tolerance)
     except CaseError as error:
-        click.echo(f"error: {error}", err=True)
-        sys.exit(EXIT_BAD_INPUT)
+        fail(error)
     defaulted = output is None
     output = output or Path(f"{case_path.stem if case_path else 'default'}.h5")
     check_output(output, "-o", _inputs(plan.case, case_path), default=defaulted, writes=field_file_paths(output, field_models(plan.case)))
@@ -110,8 +107,7 @@ def _run_choice(plan, output: Path) -> None:
         try:
             choice = run_plan(plan, output, progress_for)
         except RuntimeError as error:
-            click.echo(f"error: {error}", err=True)
-            sys.exit(EXIT_RUN_FAILURE)
+            fail(error, EXIT_RUN_FAILURE)
     print_table(choice_table(choice.choice))
     if not choice.choice.met:
         click.echo(f"warning: no model on the ladder is expected within {choice.choice.tolerance:g}; kept {choice.choice.chosen}, the most accurate",
@@ -143,8 +139,7 @@ def _run_measured(plan, output: Path) -> None:
         with model_progress(Console(stderr=True), keep_finished=False) as progress_for:
             outcome = run_plan(plan, output, progress_for).measured
     except (RecordError, CaseError) as error:  # a record file changed since the case was validated; the events over the budget
-        click.echo(f"error: {error}", err=True)
-        sys.exit(EXIT_BAD_INPUT)
+        fail(error)
     print_table(event_table(outcome))
     noisy = {event.index: flag for event in outcome.events for flag in event.flags if flag.startswith("trigger in the noise")}
     if noisy:  # the first event's flag names the channels; every such event is flagged in the table and the file

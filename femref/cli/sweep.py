@@ -18,16 +18,7 @@ from pathlib import Path
 import click
 from rich.console import Console
 
-from femref.cli.common import (
-    EXIT_BAD_INPUT,
-    EXIT_INTERRUPTED,
-    EXIT_RUN_FAILURE,
-    case_input_files,
-    check_output,
-    model_progress,
-    print_table,
-    sample_progress,
-)
+from femref.cli.common import EXIT_INTERRUPTED, EXIT_RUN_FAILURE, case_input_files, check_output, fail, model_progress, print_table, sample_progress
 from femref.cli.tables import study_table
 
 #: Failed samples listed after a sweep (the file holds every error).
@@ -107,15 +98,13 @@ def sweep_command(sweep_path: Path, scheduler: str | None, workers: int | None, 
         with sample_progress(console) as progress:
             summary = run_sweep(loaded, output, scheduler=scheduler, workers=workers, limit=limit, retry_failed=retry_failed, progress=progress)
     except CaseError as error:
-        click.echo(f"error: {error}", err=True)
-        sys.exit(EXIT_BAD_INPUT)
+        fail(error)
     except SweepInterrupted as interrupted:
         _sweep_report(interrupted.summary)
         click.echo(f"interrupted: {interrupted.summary.run} samples stored in this call; run again to resume", err=True)
         sys.exit(EXIT_INTERRUPTED)
     except Exception as error:  # the sweep machinery (scheduler, workers, file system), not a sample
-        click.echo(f"error: sweep failed: {type(error).__name__}: {error}", err=True)
-        sys.exit(EXIT_RUN_FAILURE)
+        fail(f"sweep failed: {type(error).__name__}: {error}", EXIT_RUN_FAILURE)
     _sweep_report(summary)
 
 
@@ -175,8 +164,7 @@ def study_command(study_path: Path, out_dir: Path | None, scheduler: str | None,
         with sample_progress(console) as progress:
             outcome = run_study(spec, study_dir, out_dir, source=str(study_path), scheduler=scheduler, workers=workers, progress=progress)
     except CaseError as error:
-        click.echo(f"error: {error}", err=True)
-        sys.exit(EXIT_BAD_INPUT)
+        fail(error)
     except (SweepInterrupted, KeyboardInterrupt):
         click.echo("interrupted: the sweeps keep what they stored; run again to resume", err=True)
         sys.exit(EXIT_INTERRUPTED)
@@ -216,18 +204,15 @@ def calibrate_command(sweep_path: Path, results: Path, output: Path | None, coup
     for entry in networks:
         name, _, file = entry.partition("=")
         if not file or not (name == "ann" or name.startswith("ann_")):
-            click.echo(f"error: --network {entry}: give NAME=FILE with NAME ann or ann_<name>", err=True)
-            sys.exit(EXIT_BAD_INPUT)
+            fail(f"--network {entry}: give NAME=FILE with NAME ann or ann_<name>")
         try:
             loaded.append(AnnEstimator.load(name, file))
         except NetworkFileError as error:
-            click.echo(f"error: --network {entry}: {error}", err=True)
-            sys.exit(EXIT_BAD_INPUT)
+            fail(f"--network {entry}: {error}")
     try:
         sweep = load_sweep(sweep_path)
     except CaseError as error:
-        click.echo(f"error: {error}", err=True)
-        sys.exit(EXIT_BAD_INPUT)
+        fail(error)
     inputs = {**sweep_inputs(sweep_path, sweep), "SWEEP_FILE": results, **{f"--network {entry}": Path(entry.partition("=")[2]) for entry in networks}}
     defaulted = output is None
     output = output or Path(f"{sweep_path.stem}.calibration.h5")
@@ -236,11 +221,9 @@ def calibrate_command(sweep_path: Path, results: Path, output: Path | None, coup
         with model_progress(Console(stderr=True)) as progress_for:
             calibration = calibrate(sweep, results, coupler, loaded, progress_for=progress_for)
     except CaseError as error:
-        click.echo(f"error: {error}", err=True)
-        sys.exit(EXIT_BAD_INPUT)
+        fail(error)
     except (ValueError, OSError, KeyError, StopIteration) as error:
-        click.echo(f"error: {results}: {error}", err=True)
-        sys.exit(EXIT_BAD_INPUT)
+        fail(f"{results}: {error}")
     written = write_calibration(calibration, output)
     lo, hi = calibration.closing_speed
     for name in calibration.errors:

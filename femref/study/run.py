@@ -119,20 +119,12 @@ class StudyOutcome:
 
     def table_rows(self) -> list[dict[str, Any]]:
         """One row per estimator: source, network, own-source validation error, then mean/p95 per evaluation set."""
-        rows = []
-        for trained in self.networks:
-            row = {"estimator": trained.name, "trained on": trained.source, "network": trained.network, "own source": trained.validation}
-            row.update({name: scores.summaries[trained.name] for name, scores in self.sets.items() if trained.name in scores.summaries})
-            rows.append(row)
-        for label, (source, network) in _routed_labels(self.networks).items():
-            row = {"estimator": label, "trained on": source, "network": f"{network} by impact type", "own source": None}
-            row.update({name: scores.summaries[label] for name, scores in self.sets.items() if label in scores.summaries})
-            rows.append(row)
-        for name in INVERSE_ESTIMATORS:
-            row = {"estimator": name, "trained on": "—", "network": "inverse", "own source": None}
-            row.update({s: scores.summaries[name] for s, scores in self.sets.items() if name in scores.summaries})
-            rows.append(row)
-        return rows
+        heads = [(t.name, t.source, t.network, t.validation) for t in self.networks]
+        heads += [(label, source, f"{network} by impact type", None) for label, (source, network) in _routed_labels(self.networks).items()]
+        heads += [(name, "—", "inverse", None) for name in INVERSE_ESTIMATORS]
+        return [{"estimator": name, "trained on": source, "network": network, "own source": own,
+                 **{s: scores.summaries[name] for s, scores in self.sets.items() if name in scores.summaries}}
+                for name, source, network, own in heads]
 
     def markdown(self) -> str:
         sets = list(self.sets)
@@ -144,9 +136,6 @@ class StudyOutcome:
             cells += [f"{row[s].mean:.2%} / {row[s].p95:.2%}" if s in row else "—" for s in sets]
             lines.append("| " + " | ".join(cells) + " |")
         return "\n".join(lines) + "\n"
-
-
-# ------------------------------------------------------------------------------------ sweeps
 
 
 def base_case_data(study: StudyFile, study_dir: Path, source: str) -> dict[str, Any]:
@@ -188,9 +177,6 @@ def prepare_sweeps(study: StudyFile, study_dir: Path, out_dir: Path, source: str
     return sweeps
 
 
-# ------------------------------------------------------------------------------------ data
-
-
 @dataclass(frozen=True)
 class SetData:
     """The usable samples of one set: records, peak forces per model, and each sample's scene."""
@@ -227,16 +213,11 @@ def read_set(sweep: Sweep, path: Path) -> SetData:
     return SetData(sweep, data, index, scenes)
 
 
-# ------------------------------------------------------------------------------------ training
-
-
 def feature_settings(study: StudyFile, train: SetData) -> Any:
     """The study's :class:`ann.features.FeatureSettings` for the set's records (rate) and cars (mass inputs)."""
     from ann.features import FeatureSettings
 
-    extras = tuple(f"car_mass/{car}" for car in train.car_names) if study.car_masses else ()
-    f = study.features
-    return FeatureSettings(length=f.length, rate=train.data.record_rate, lowpass=f.lowpass, spectrum=f.spectrum, normalise=f.normalise, extras=extras)
+    return FeatureSettings(rate=train.data.record_rate, **_feature_fields(study, list(train.car_names)))
 
 
 @dataclass(frozen=True)
@@ -451,9 +432,6 @@ def _rows(masses: NDArray[np.float64] | None, rows: NDArray[np.int64]) -> NDArra
     return None if masses is None else masses[rows]
 
 
-# ------------------------------------------------------------------------------------ evaluation
-
-
 def evaluate_set(study: StudyFile, name: str, data: SetData, networks: list[TrainedNetwork], probes: list[str]) -> SetScores:
     """Every network and inverse estimator on the set's fem records, against its fem peak force; networks trained
     per impact type as one estimate ``<source>_<network>``, each record read by the network of its classified type
@@ -493,9 +471,6 @@ def inverse_estimates(study: StudyFile, data: SetData) -> dict[str, NDArray[np.f
         for name in INVERSE_ESTIMATORS:
             out[name][row] = float(np.max(ESTIMATORS[name](scene, t, records)[study.coupler]))
     return out
-
-
-# ------------------------------------------------------------------------------------ the study
 
 
 def run_study(

@@ -51,6 +51,12 @@ _ARRAYS = {  # per-model dataset → (shape after N from the layout, units)
     "peak_coupler_force": (lambda lay: (len(lay.couplers),), UNITS["force"]),
     "wall_time_s": (lambda lay: (), "s"),
 }
+#: The root attributes :func:`read_sweep` reads (but ``models``) and how each is read.
+_ATTRS = {
+    "femref_version": str, "created": str, "sweep_yaml": str, "base_case_yaml": str, "spec_hash": str, "seed": int,
+    "probes": json.loads, "couplers": json.loads, "record_length": int, "force_length": int, "record_end": float,
+    "record_rate": float, "record_source": str, "measurement": json.loads,
+}
 
 
 def partial_path(output: str | Path) -> Path:
@@ -104,8 +110,6 @@ class SweepStore:
 
     def __init__(self, h5: h5py.File, output: Path, sweep: Sweep, layout: SweepLayout) -> None:
         self.h5, self.output, self.sweep, self.layout = h5, output, sweep, layout
-
-    # -- opening -------------------------------------------------------------------------------
 
     @classmethod
     def open(cls, output: str | Path, sweep: Sweep, layout: SweepLayout) -> "SweepStore":
@@ -225,8 +229,6 @@ class SweepStore:
         self.h5.visititems(grow)
         self.h5.flush()
 
-    # -- state ---------------------------------------------------------------------------------
-
     @property
     def size(self) -> int:
         return int(self.h5["samples/status"].shape[0])
@@ -240,8 +242,6 @@ class SweepStore:
         status = self.status
         todo = status == NOT_RUN if not retry_failed else status != OK
         return [int(i) for i in np.flatnonzero(todo)]
-
-    # -- storing -------------------------------------------------------------------------------
 
     def store_batch(self, indices: list[int], stored_parameters: list[dict[str, float | int]], records: list[dict[str, Any]]) -> list[str]:
         """Store the samples ``indices`` (increasing) with their parameters and records (worker records, or
@@ -275,10 +275,6 @@ class SweepStore:
         if complete:
             os.replace(partial_path(self.output), self.output)
         return complete
-
-
-# ---------------------------------------------------------------------------------------------
-# Reading
 
 
 @dataclass(frozen=True)
@@ -345,28 +341,6 @@ def read_sweep(path: str | Path) -> SweepData:
                 parameters[name] = ds[...]
         arrays = {name: {model: h5[f"{model}/{name}"][...] for model in models} for name in _ARRAYS}
         return SweepData(
-            path=path,
-            femref_version=str(attrs["femref_version"]),
-            created=str(attrs["created"]),
-            sweep_yaml=str(attrs["sweep_yaml"]),
-            base_case_yaml=str(attrs["base_case_yaml"]),
-            spec_hash=str(attrs["spec_hash"]),
-            seed=int(attrs["seed"]),
-            models=models,
-            probes=json.loads(attrs["probes"]),
-            couplers=json.loads(attrs["couplers"]),
-            record_length=int(attrs["record_length"]),
-            force_length=int(attrs["force_length"]),
-            record_end=float(attrs["record_end"]),
-            record_rate=float(attrs["record_rate"]),
-            record_source=str(attrs["record_source"]),
-            measurement=json.loads(attrs["measurement"]),
-            parameters=parameters,
-            distributions=distributions,
-            status=h5["samples/status"][...],
-            error=list(h5["samples/error"].asstr()[...]),
-            records=arrays["records"],
-            coupler_force=arrays["coupler_force"],
-            peak_coupler_force=arrays["peak_coupler_force"],
-            wall_time_s=arrays["wall_time_s"],
+            path=path, models=models, parameters=parameters, distributions=distributions, status=h5["samples/status"][...],
+            error=list(h5["samples/error"].asstr()[...]), **{key: read(attrs[key]) for key, read in _ATTRS.items()}, **arrays,
         )
