@@ -57,13 +57,8 @@ class Configuration:
     @property
     def label(self) -> str:
         """Short name for tables and plots, e.g. ``fem N=32``, ``fem dt×2``, ``modal k=4``, ``rigid``."""
-        if self.setting == "elements":
-            return f"{self.family} N={self.value:g}"
-        if self.setting == "dt_factor":
-            return f"{self.family} dt×{self.value:g}"
-        if self.setting == "modes":
-            return f"{self.family} k={self.value:g}"
-        return self.family
+        prefix = {"elements": "N=", "dt_factor": "dt×", "modes": "k="}.get(self.setting)
+        return f"{self.family} {prefix}{self.value:g}" if prefix else self.family
 
 
 @dataclass(frozen=True)

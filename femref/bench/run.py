@@ -152,19 +152,8 @@ def _solve_row(configuration: Configuration, reference: ModelResult, repeats: in
     result, times = _solve(configuration, repeats)
     if not result.ok:  # kept as a failed row; the other configurations still run
         return BenchRow(configuration, status="failed", message=result.message), None
-    try:
-        metrics = score_impact(reference, result)
-    except ValueError as error:
-        return BenchRow(configuration, status="failed", message=f"cannot score: {error}"), None
-    row = BenchRow(
-        configuration,
-        steps=int(result.settings["steps"]),
-        wall_times_s=times,
-        peak_error=float(metrics.get(PRIMARY_ERROR, math.nan)),
-        rms_error=float(metrics.get(SECONDARY_ERROR, math.nan)),
-        vertical_error=float(metrics.get(VERTICAL_ERROR, math.nan)),
-    )
-    return row, result
+    row = _scored_row(configuration, reference, result, times, int(result.settings["steps"]))
+    return row, result if row.ok else None
 
 
 def _estimator_row(
@@ -183,16 +172,20 @@ def _estimator_row(
         if not result.ok:
             return BenchRow(configuration, status="failed", message=result.message)
         times.append(result.wall_time_s)
+    return _scored_row(configuration, reference, result, tuple(times), vertical=False)
+
+
+def _scored_row(configuration: Configuration, reference: ModelResult, result: ModelResult, times: tuple[float, ...], steps: int = 0,
+                vertical: bool = True) -> BenchRow:
+    """The row of a run that went: its errors against ``reference`` (an estimator's: no vertical error), or failed
+    when it cannot be scored."""
     try:
         metrics = score_impact(reference, result)
     except ValueError as error:
         return BenchRow(configuration, status="failed", message=f"cannot score: {error}")
-    return BenchRow(
-        configuration,
-        wall_times_s=tuple(times),
-        peak_error=float(metrics.get(PRIMARY_ERROR, math.nan)),
-        rms_error=float(metrics.get(SECONDARY_ERROR, math.nan)),
-    )
+    return BenchRow(configuration, steps=steps, wall_times_s=times, peak_error=float(metrics.get(PRIMARY_ERROR, math.nan)),
+                    rms_error=float(metrics.get(SECONDARY_ERROR, math.nan)),
+                    vertical_error=float(metrics.get(VERTICAL_ERROR, math.nan)) if vertical else math.nan)
 
 
 def _add_ratios(rows: list[BenchRow]) -> None:

@@ -35,18 +35,8 @@ def write_choice(h5: h5py.File, choice: ModelChoice) -> None:
     """The ``/choice`` group (module docstring)."""
     group = h5.create_group(CHOICE_GROUP)
     chosen = choice.chosen_row
-    group.attrs.update(
-        {
-            "tolerance": choice.tolerance,
-            "output": choice.output,
-            "output_description": OUTPUTS[choice.output],
-            "chosen": choice.chosen,
-            "met": bool(choice.met),
-            "estimate": chosen.estimate,
-            "basis": chosen.basis,
-            "epsilon_load": choice.epsilon_load,
-        }
-    )
+    group.attrs.update(tolerance=choice.tolerance, output=choice.output, output_description=OUTPUTS[choice.output], chosen=choice.chosen,
+                       met=bool(choice.met), estimate=chosen.estimate, basis=chosen.basis, epsilon_load=choice.epsilon_load)
     rows = choice.rows
     strings = {
         "label": [row.rung.label for row in rows],

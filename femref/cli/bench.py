@@ -1,17 +1,7 @@
 """``femref bench [CASE] [-o FILE] [--repeats N] [--plot PNG]``: the speed–accuracy trade of one impact scene.
 
-docs/design.md §7. Runs the configurations of :mod:`femref.bench.configurations` (fem at
-several element counts and steps, modal at several mode counts, quasi-rigid, rigid, the
-case's estimators), times each as the median of ``--repeats`` runs, scores each against
-the finest fem, writes the HDF5 table (:func:`femref.bench.output.write_bench_table`),
-optionally the Pareto plot, and prints the table and the Pareto-optimal configurations.
-No CASE: the built-in default scene, as for ``femref run``.
-
-Impact cases only: a single-body (harmonic or transient) case exits 2 with
-"femref bench serves impact cases" — their cost is one banded solve per step or
-frequency and the trade worth measuring is the impact models'. Exit codes as for
-``femref run``: 2 bad input (nothing written), 1 a configuration failed (the table
-records which and why) or the reference failed (nothing written), 0 otherwise.
+docs/design.md §7 (:mod:`femref.bench`). Impact cases only: a single-body case costs one banded solve per
+step or frequency; the trade worth measuring is the impact models'.
 """
 
 from __future__ import annotations

@@ -1,10 +1,7 @@
 """``femref report RESULTS.h5 [-o REPORT.html]``: one self-contained HTML page of a result file.
 
-Exit codes (docs/design.md §5): 0 written, 2 bad input (missing file, not HDF5, not a femref
-result file, output naming the input or one of its field files ``<stem>_<model>_fields.xdmf/.h5``,
-:func:`femref.results.result_field_files`). The page is assembled in memory and written under
-a temporary name in the target folder, then renamed: a failure leaves nothing under the
-final name.
+The page is assembled in memory and written under a temporary name in the target folder, then
+renamed: a failure leaves nothing under the final name.
 """
 
 from __future__ import annotations

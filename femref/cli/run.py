@@ -1,12 +1,7 @@
 """``femref validate [CASE]`` and ``femref run [CASE] [-o FILE] [--tolerance T]`` (docs/design.md §5).
 
-``run`` runs every model of the case (:func:`femref.run.run_scene`), writes the result
-file atomically with the scene's facts and scores, prints the summary and exits 1 when
-a model failed (its message says where). A measured case runs its estimators on every
-event of its records instead (:func:`femref.run.measured.run_measured`) and writes ``/events``. With a tolerance it climbs the ladder of impact
-models instead (:mod:`femref.choice`) and keeps the cheapest expected within it. Which of the three, and the
-result file, is :mod:`femref.flow`'s (as for :func:`femref.api.run_case`); here the output check, the printing
-and the exit codes.
+Which flow a case runs by (simulate, choose, measure) and its result file are :mod:`femref.flow`'s (as for
+:func:`femref.api.run_case`); here the output check, the printing and the exit codes.
 """
 
 from __future__ import annotations
@@ -70,8 +65,6 @@ def run_command(case_path: Path | None, output: Path | None, tolerance: float | 
 
     try:
         case, base_dir = load_case_or_default(case_path)
-        # Once per command, before any work (femref.flow.plan_case): the flow, and its budget (femref.run.budget;
-        # FEMREF_BUDGET raises it): the runs and the reference's self-check, or with a tolerance every rung of the ladder.
         plan = plan_case(case, base_dir, source_name(case_path), tolerance)
     except CaseError as error:
         fail(error)
@@ -125,11 +118,8 @@ def _inputs(case, case_path: Path | None) -> dict[str, Path | None]:
 def _run_measured(plan, output: Path) -> None:
     """Every event of a measured case (femref.run.measured): write /events as each event finishes, print the event table.
 
-    Progress as for the models of a run (:func:`model_progress`): a stage while the records are read,
-    then one per event (its classification, estimators and networks the steps of its bar). The events go
-    into the output's temporary as they finish (:func:`femref.events.event_file`), renamed to the output when
-    the last is in; the events found over the work budget (exit 2) or a record changed since validation leave
-    nothing under the output name."""
+    Progress: a stage while the records are read, then one per event. The events found over the work budget (exit 2)
+    or a record changed since validation leave nothing under the output name."""
     from femref.case import CaseError
     from femref.cli.tables import event_table
     from femref.flow import run_plan
