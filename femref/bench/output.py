@@ -1,13 +1,7 @@
 """The bench's files: the HDF5 table and the Pareto plot (error against wall time).
 
-HDF5 layout (written under a temporary name in the target folder, then renamed)::
-
-    /                        attrs: femref_version, created
-    /bench                   one row per configuration (compound dataset, :data:`COLUMNS`)
-                             attrs: case_yaml, reference, reference_wall_time_s, reference_steps,
-                                    repeats, primary_error, secondary_error, time_ratio_base,
-                                    pareto_rule, units (JSON: column → unit), notes
-    /bench_wall_times_s      (rows, repeats) every repeat's wall time (s), NaN for a failed row
+The HDF5 layout (written under a temporary name in the target folder, then renamed): docs/design.md §4.4,
+``/bench`` one row per configuration (:data:`COLUMNS`).
 
 The plot is log–log: primary error (y) against median wall time (x, s; the top axis
 gives the same times as ratios to the rigid model's), one marker per model family, the

@@ -1,24 +1,9 @@
 """Time and score every configuration of a bench plan (:mod:`femref.bench.configurations`).
 
-Rules (docs/design.md §7):
-
-* **Time** of a configuration: the median of ``repeats`` wall times. A solve's wall time
-  is :func:`femref.run.run_model`'s (building the cars — mesh, factorisation, modes — and
-  stepping); an estimator's is what ``femref run`` records for it
-  (:func:`femref.run.runner.run_estimators` / ``run_networks``: the estimator on the
-  records already made, not the fem run that made them). Every time is also given as a
-  ratio to the rigid model's median time of the same bench, ``t / t_rigid``: only such
-  ratios compare across machines (absolute seconds are kept, never compared).
-* **Error** of a configuration: :func:`femref.run.scoring.score_impact` against the
-  reference run — the primary error is ``coupler_force_peak_error_max`` (relative error of
-  the peak compression, worst coupler), the secondary ``coupler_force_rms_error_max``
-  (NaN for a network estimator, which gives a peak only). Solves are deterministic, so
-  the last repeat's response is the one scored.
-* **Pareto flag**: :func:`femref.bench.pareto.pareto_mask` over (median time, primary error).
-
-A configuration that raises is kept as a failed row (status, message, NaN time and
-errors) and the others still run; a failed reference leaves nothing to score against
-and raises :class:`ReferenceFailed`.
+The rules (time: the median of ``repeats`` wall times, also as ``t / t_rigid``, since only such ratios
+compare across machines; error against the reference; Pareto flag; failed rows): docs/design.md §7.1.
+An estimator's wall time is what ``femref run`` records for it, the estimator on the records already
+made. Solves are deterministic, so the last repeat's response is the one scored.
 """
 
 from __future__ import annotations

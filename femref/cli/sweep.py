@@ -1,13 +1,8 @@
 """``femref sweep SWEEP``, ``femref study STUDY`` (docs/design.md §5, §6: runs on Dask, resumable) and
 ``femref calibrate SWEEP SWEEP_FILE`` (the inverse estimators' error bands from a sweep's fem records).
 
-``femref sweep`` exits 0 when the sweep ran, even with failed samples (the sweep file
-records them), 1 when the sweep machinery fails, 130 when interrupted (stored samples
-kept; the same command resumes). Every command exits 2 on bad input, before any work and
-writing nothing. An output that would overwrite an input is bad input: the sweep or study
-file, its base case and the files that names, a study's ``initial`` networks, calibrate's
-SWEEP_FILE and ``--network`` files (:func:`sweep_inputs`, :func:`study_inputs`,
-:func:`study_writes`). ``calibrate`` shows progress per estimator (:func:`model_progress`).
+An output that would overwrite an input is bad input (exit 2): :func:`sweep_inputs`, :func:`study_inputs`,
+:func:`study_writes`.
 """
 
 from __future__ import annotations

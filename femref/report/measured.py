@@ -1,13 +1,9 @@
 """The report of a measured case's event file (docs/design.md §4.5): the event table and, per event
 and coupler, every estimator's force with its 95 % band.
 
-Up to :data:`EVENTS_PER_PAGE` events make one page. A file of more makes an index page — the facts, one
-row per event read from its attributes only (no history is read, no figure drawn) with a link to its page,
-the resolved case — and a page per :data:`EVENTS_PER_PAGE` events (:func:`event_pages`, named by
-:func:`page_name`) holding their full table and their figures, drawn one event at a time with progress.
-
-Read with h5py only (the report reads files, never the product's objects); drawn with the
-figures' Agg helpers; assembled like the result-file page (:mod:`femref.report.html`).
+Up to :data:`EVENTS_PER_PAGE` events make one page; a file of more makes an index page (:func:`event_report`)
+and a page per :data:`EVENTS_PER_PAGE` events (:func:`event_pages`; docs/design.md §4.4). Read with h5py only
+(the report reads files, never the product's objects).
 """
 
 from __future__ import annotations

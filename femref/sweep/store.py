@@ -1,20 +1,6 @@
 """The HDF5 sweep file: one row per sample, written as samples finish, resumable.
 
-Layout (the contract the networks read; ``N`` samples, names fixed)::
-
-    /  attrs: femref_version, created, sweep_yaml (resolved sweep), base_case_yaml (resolved base case),
-              spec_hash (resolved sweep without samples, with the base case), seed, models, probes
-              (channel order), couplers (JSON lists), record_length, force_length, record_end (s),
-              record_rate (Hz), record_source ("measured" | "model"), measurement (JSON or null)
-    /parameters/<path>           (N,) float64 — or int64 index into attr values (JSON list) for choice and
-                                 non-numeric grid parameters; attr distribution (JSON)
-    /samples/status              (N,) int8: 0 not run, 1 ok, 2 failed
-    /samples/error               (N,) UTF-8 text, "" unless failed
-    /<model>/records             (N, channels, record_length) float64 m/s^2, NaN where not ok
-    /<model>/coupler_force       (N, couplers, force_length) float64 N, compression positive
-    /<model>/peak_coupler_force  (N, couplers) float64 N
-    /<model>/wall_time_s         (N,) float64 s
-
+Its layout, the contract the networks read: docs/design.md §4.4 (:data:`_ARRAYS` the per-model datasets).
 Only the sweep's client writes. Work goes to ``<output>.partial``, flushed after every
 stored batch of samples; once every sample is stored (ok or failed) it is renamed to ``<output>``.
 Opening again with the same sweep (same ``spec_hash``) resumes: stored samples are
