@@ -202,10 +202,7 @@ def pareto_figure(outcome: BenchOutcome, title: str = "") -> Any:
     if clipped.any():
         ax.plot([], [], ls="none", marker="o", mfc="none", mec="grey", label=f"error 0 or NaN: drawn at floor {floor:.1e}")
         ax.axhline(floor, color="grey", lw=0.6, ls=":")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel(f"wall time, s (median of {outcome.repeats})")
-    ax.set_ylabel("peak coupler force error vs reference")
+    ax.set(xscale="log", yscale="log", xlabel=f"wall time, s (median of {outcome.repeats})", ylabel="peak coupler force error vs reference")
     rigid = next((row.wall_time_s for row in outcome.rows if row.configuration.family == RATIO_BASE and row.ok), math.nan)
     if math.isfinite(rigid) and rigid > 0.0:
         top = ax.secondary_xaxis("top", functions=(lambda x: x / rigid, lambda r: r * rigid))

@@ -204,9 +204,7 @@ def _coupler_force_picture(
             ax.axhline(peak / 1e3, xmin=0.92, xmax=1.0, lw=3, **tick)
         else:
             ax.plot([tick_time], [peak / 1e3], ls="none", marker="_", markersize=40, mew=3, **tick)
-    ax.set_xlabel("time t (s)")
-    ax.set_ylabel("coupler force (kN, compression +)")
-    ax.set_title(f"coupler {coupler}")
+    ax.set(xlabel="time t (s)", ylabel="coupler force (kN, compression +)", title=f"coupler {coupler}")
     figure_legend(ax)
     caption = f"Coupler {coupler}: force against time, every model against the reference"
     if peak_only:
@@ -230,9 +228,7 @@ def _force_closure_picture(coupler: str, models: list[ModelData], styles: dict[s
         ax.plot(closure_mm, force / 1e3, **styles[model.name])
         closures.append(closure_mm)
         in_contact.append(closure_mm[force > 0.0])
-    ax.set_xlabel("closure (mm, compression +)")
-    ax.set_ylabel("coupler force (kN, compression +)")
-    ax.set_title(f"coupler {coupler}: force against closure")
+    ax.set(xlabel="closure (mm, compression +)", ylabel="coupler force (kN, compression +)", title=f"coupler {coupler}: force against closure")
     figure_legend(ax)
     caption = (
         f"Coupler {coupler}: force against closure (hysteresis) — loading up, unloading down; the area of the loop "
@@ -270,10 +266,8 @@ def _energy_picture(models: list[ModelData], reference: ModelData | None, result
             undrawn.append(model.name)
             continue
         drift_ax.plot(model_time, 100.0 * (total - total[0]) / total[0], **styles[model.name])
-    parts_ax.set_ylabel("energy (kJ)")
-    parts_ax.set_title(f"energy balance — {shown.name}")
-    drift_ax.set_ylabel("total − initial (% of initial)")
-    drift_ax.set_xlabel("time t (s)")
+    parts_ax.set(ylabel="energy (kJ)", title=f"energy balance — {shown.name}")
+    drift_ax.set(ylabel="total − initial (% of initial)", xlabel="time t (s)")
     figure_legend(parts_ax)
     figure_legend(drift_ax)
     caption = (
@@ -331,9 +325,8 @@ def _time_acceleration_picture(
         curves.append((f"{reference.name} measured", reference.measured_time, np.asarray(reference.measured[probe], dtype=float), record["color"]))
     limits_note = _limit_and_mark(ax, curves, reference.name if reference is not None else None, "m/s²")
     vertical = quantity == "vertical_acceleration"
-    ax.set_xlabel("time t (s)")
-    ax.set_ylabel("vertical acceleration (m/s², up +)" if vertical else "acceleration (m/s²)")
-    ax.set_title(f"probe {probe}" + (", vertical" if vertical else ""))
+    ax.set(xlabel="time t (s)", ylabel="vertical acceleration (m/s², up +)" if vertical else "acceleration (m/s²)",
+           title=f"probe {probe}" + (", vertical" if vertical else ""))
     figure_legend(ax)
     caption = f"{'Vertical acceleration' if vertical else 'Acceleration'} at probe {probe} against time, models overlaid"
     if outside:
@@ -399,8 +392,7 @@ def _harmonic_picture(probe: str, models: list[ModelData], reference: ModelData 
         re_ax.plot(model.axis, amplitude.real, **style)
         im_ax.plot(model.axis, amplitude.imag, **style)
     re_ax.set_ylabel("Re a (m/s²)")
-    im_ax.set_ylabel("Im a (m/s²)")
-    im_ax.set_xlabel("nondimensional frequency λ = ω T_wave (1)")
+    im_ax.set(ylabel="Im a (m/s²)", xlabel="nondimensional frequency λ = ω T_wave (1)")
     re_ax.set_title(f"probe {probe}")
     figure_legend(re_ax)
     caption = (

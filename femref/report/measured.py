@@ -224,9 +224,7 @@ def _force_pictures(event: EventData) -> list[Picture]:
             if np.any(np.isfinite(estimate.lower)):
                 ax.fill_between(t, estimate.lower / 1e3, estimate.upper / 1e3, color=color, alpha=0.25, lw=0, label=f"{estimate.estimator} 95 % band")
             drawn.append(estimate.estimator)
-        ax.set_xlabel("time after the trigger (s)")
-        ax.set_ylabel("coupler force (kN, compression +)")
-        ax.set_title(f"event {event.index}, coupler {coupler}")
+        ax.set(xlabel="time after the trigger (s)", ylabel="coupler force (kN, compression +)", title=f"event {event.index}, coupler {coupler}")
         figure_legend(ax)
         caption = (f"Event {event.index} ({event.attrs['impact_type']}), coupler {coupler}: each estimator's force, "
                    f"its 95 % band shaded where it has one; drawn: {', '.join(drawn) or 'none'}.")

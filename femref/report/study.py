@@ -86,9 +86,7 @@ def loss_picture(network: NetworkData) -> Picture:
     ax.plot(epochs[positive], curve[positive], color=MODEL_COLORS[1], lw=1.3)
     if np.any(positive):
         ax.set_yscale("log")
-    ax.set_xlabel("epoch")
-    ax.set_ylabel("training loss E (scaled log target)")
-    ax.set_title(network.name)
+    ax.set(xlabel="epoch", ylabel="training loss E (scaled log target)", title=network.name)
     a = network.attrs
     caption = (f"{network.name} (network {a.get('network', '?')}, trained on {a.get('source', '?')} records, "
                f"{a.get('training_samples', '?')} samples): loss per epoch, {curve.size} epochs, last {curve[-1]:.3g}.")

@@ -163,23 +163,12 @@ class SweepStore:
         from femref.case import resolved_yaml
 
         h5.attrs.update(
-            {
-                "femref_version": __version__,
-                "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-                "sweep_yaml": sweep.resolved_yaml(),
-                "base_case_yaml": resolved_yaml(sweep.base_case),
-                "spec_hash": sweep.spec_hash,
-                "seed": sweep.spec.seed,
-                "models": json.dumps(list(layout.models)),
-                "probes": json.dumps(list(layout.probes)),
-                "couplers": json.dumps(list(layout.couplers)),
-                "record_length": layout.record_length,
-                "force_length": layout.force_length,
-                "record_end": layout.record_end,
-                "record_rate": record_rate(layout.record_length, layout.record_end),
-                "record_source": layout.record_source,
-                "measurement": json.dumps(layout.measurement),
-            }
+            femref_version=__version__, created=datetime.now(timezone.utc).isoformat(timespec="seconds"), sweep_yaml=sweep.resolved_yaml(),
+            base_case_yaml=resolved_yaml(sweep.base_case), spec_hash=sweep.spec_hash, seed=sweep.spec.seed,
+            models=json.dumps(list(layout.models)), probes=json.dumps(list(layout.probes)), couplers=json.dumps(list(layout.couplers)),
+            record_length=layout.record_length, force_length=layout.force_length, record_end=layout.record_end,
+            record_rate=record_rate(layout.record_length, layout.record_end), record_source=layout.record_source,
+            measurement=json.dumps(layout.measurement),
         )
         for path, distribution in sweep.spec.parameters.items():
             values = distribution.stored_values()
