@@ -137,24 +137,18 @@ def _choice_section(choice: Choice) -> str:
     rows = []
     for rung in choice.rungs:
         chosen = rung.label == choice.chosen
-        cells = [
-            "→" if chosen else "",
-            rung.label,
-            rung.family,
+        numbers = [
             str(rung.resolution) if rung.resolution else "–",
             f"{rung.predicted_cost_us * 1e-3:.3g} ms" if math.isfinite(rung.predicted_cost_us) else "–",
             _seconds(rung.wall_time_s) if rung.ran else "not run",
             f"{rung.peak_coupler_force / 1e3:.1f}" if math.isfinite(rung.peak_coupler_force) else "–",
             _percent(rung.estimate),
         ]
-        numeric = "".join(f'<td class="num">{escape(c)}</td>' for c in cells[3:])
+        numeric = "".join(f'<td class="num">{escape(c)}</td>' for c in numbers)
         basis = rung.basis if not rung.status or rung.status == "ok" else f"{rung.status}: {rung.basis}"
-        row_class = ' class="chosen"' if chosen else ""
-        rows.append(
-            f'<tr{row_class}><td>{escape(cells[0])}</td><th scope="row">{escape(cells[1])}</th>'
-            f"<td>{escape(cells[2])}</td>{numeric}"
-            f"<td>{escape(basis)}</td></tr>"
-        )
+        row_class, mark = (' class="chosen"', "→") if chosen else ("", "")
+        rows.append(f'<tr{row_class}><td>{mark}</td><th scope="row">{escape(rung.label)}</th><td>{escape(rung.family)}</td>{numeric}'
+                    f"<td>{escape(basis)}</td></tr>")
     note = (
         "<p>The ladder, cheapest predicted cost first (the cost model's time on the machine that fitted it: only "
         "ratios matter); resolution: elements per car (fem) or modes (modal); → marks the chosen rung; not run: the "

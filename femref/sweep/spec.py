@@ -179,10 +179,7 @@ class Sweep:
         values: dict[str, Any] = {}
         stored: dict[str, float | int] = {}
         for path, distribution in self.spec.parameters.items():
-            if isinstance(distribution, Grid):
-                values[path], stored[path] = distribution.point(int(point[path]))
-            else:
-                values[path], stored[path] = distribution.draw(rng)
+            values[path], stored[path] = distribution.point(int(point[path])) if isinstance(distribution, Grid) else distribution.draw(rng)
         data = self.base_data
         for path, value in values.items():
             try:
