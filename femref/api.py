@@ -1,8 +1,6 @@
 """The Python API: run a case and read its result file without the command line.
 
-A thin layer over the flow ``femref run`` drives — :func:`femref.case.load_case` /
-:func:`~femref.case.parse_case`, then :func:`femref.flow.plan_case` and :func:`femref.flow.run_plan`, which
-simulate, choose a model (a tolerance) or measure (a measured case's events) and write the result file —
+A thin layer over the flow ``femref run`` drives (:func:`femref.flow.plan_case`, :func:`femref.flow.run_plan`),
 plus readers of the result file (docs/design.md §4) into labelled arrays.
 
 >>> from femref.api import run_case, open_result
@@ -11,17 +9,8 @@ plus readers of the result file (docs/design.md §4) into labelled arrays.
 >>> fem = open_result("free_roll.h5", "fem")                                   # doctest: +SKIP
 >>> fem["force"].sel(coupler="c1").max()                                      # doctest: +SKIP
 
-:func:`open_result` needs xarray (``pip install 'femref[xarray]'``); :func:`open_frames`
-gives the same histories as pandas DataFrames indexed by time. Both read the datasets by
-their paths with h5py (the time axis ``/<model>/time``), so they read every femref result
-file, with or without HDF5 dimension scales.
-
-Nothing here prints; bad input raises :class:`femref.case.CaseError` (a ``ValueError``), an
-output ``femref run -o`` would refuse raises :class:`femref.core.publishing.OutputPathError` (a
-``ValueError``; the same rule, :func:`femref.core.publishing.check_output_path`), both before any work;
-a model that fails is a result with ``status == "failed"`` and its message, as from the CLI.
-:func:`run_case` returns what the case's flow gives: a :class:`RunOutcome`, a model choice or a
-measured case's events (its docstring).
+:func:`open_result` (xarray) and :func:`open_frames` (pandas) read the datasets by their paths with h5py,
+so they read every femref result file, with or without HDF5 dimension scales. Nothing here prints.
 """
 
 from __future__ import annotations
@@ -52,9 +41,6 @@ AXES = ("time", "omega")
 def run_case(case: str | Path | Mapping[str, Any], output: str | Path | None = None, *, base_dir: str | Path | None = None,
              tolerance: float | None = None, progress_for: ProgressFor | None = None) -> Any:
     """Validate a case and run it as ``femref run`` does, deciding its flow once.
-
-    The flow (:func:`femref.flow.plan_case`, :func:`femref.flow.run_plan`) is the command line's:
-    simulate, choose a model to a tolerance, or measure a recorded case's events.
 
     Parameters
     ----------
@@ -115,10 +101,8 @@ def run_case(case: str | Path | Mapping[str, Any], output: str | Path | None = N
 def check_run_output(output: Path, case: Any, case_path: Path | None = None, base_dir: Path | None = None) -> None:
     """Check a result path as ``femref run -o`` does, before any work, and remove stale temporaries.
 
-    The rule is :func:`femref.core.publishing.check_output_path`'s: the folder must exist and be writable, the
-    path may not be a folder, and neither it nor the field files a run writes beside it
-    (``<stem>_fem_fields.xdmf/.h5`` with ``fem.fields``) may be the case file or a file the case names
-    (records, CSV loads, networks: :func:`femref.case.inputs.case_inputs`).
+    The rule is :func:`femref.core.publishing.check_output_path`'s; the field files a run writes beside
+    ``output`` may not be inputs either.
 
     Parameters
     ----------
@@ -291,9 +275,6 @@ def open_frames(path: str | Path) -> dict[str, "pandas.DataFrame"]:
     return frames
 
 
-# --- reading one model group with h5py ---------------------------------------------------------------
-
-
 def _read_model(path: str | Path, model: str | None) -> dict[str, Any]:
     """The arrays and attributes of ``/<model>`` as plain dicts of ``(values, units)``, by the file's paths.
 
@@ -379,10 +360,7 @@ def _plain(value: Any) -> Any:
 
 def _quantities(members: dict[str, dict[str, tuple[Any, str]]]) -> list[str]:
     """The quantities any member holds, in first-seen order."""
-    seen: dict[str, None] = {}
-    for outputs in members.values():
-        seen.update(dict.fromkeys(outputs))
-    return list(seen)
+    return list(dict.fromkeys(quantity for outputs in members.values() for quantity in outputs))
 
 
 def _stack(members, quantity: str, axis, names: list[str] | None = None):

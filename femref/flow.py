@@ -2,16 +2,9 @@
 
 ``femref run`` and :func:`femref.api.run_case` both go through here, in two steps with the
 output check between them (the caller's: the CLI names ``-o`` and exits 2, the API raises):
-
-* :func:`plan_case` applies a ``--tolerance``, builds the scene, decides the flow — ``measure`` for a
-  measured case, ``choose`` for an impact case with a tolerance (:mod:`femref.choice`), ``simulate``
-  otherwise (:func:`femref.run.run_scene`) — and checks that flow's work budget, once, before any work;
-* :func:`run_plan` runs that flow and writes its result file: the models' results and scores, the
-  ladder's runs and ``/choice``, or ``/events`` streamed as each event finishes (:func:`femref.events.event_file`).
-
-Nothing here prints or exits: notes come back in :attr:`CasePlan.notes`, failures in the outcome
-(a failed model) or as exceptions (a CaseError or RecordError for bad input, a RuntimeError when no
-rung of the ladder ran), and the caller says them.
+:func:`plan_case` decides the flow and checks its work budget, :func:`run_plan` runs it and writes
+its result file. Nothing here prints or exits: notes come back in :attr:`CasePlan.notes`, failures
+in the outcome or as exceptions, and the caller says them.
 """
 
 from __future__ import annotations
@@ -67,16 +60,8 @@ def plan_case(case, base_dir: Path, source: str, tolerance: float | None = None)
 
     case = with_tolerance(case, tolerance, source)
     scene = scene_from_case(case, base_dir)
-    if case.kind == "measured":
-        flow: Flow = "measure"
-    elif case.kind == "impact" and case.tolerance is not None:
-        flow = "choose"
-    else:
-        flow = "simulate"
-    if flow == "choose":
-        check_ladder_budget(scene, source)
-    else:
-        check_budget(scene, source)
+    flow: Flow = "measure" if case.kind == "measured" else "choose" if case.kind == "impact" and case.tolerance is not None else "simulate"
+    (check_ladder_budget if flow == "choose" else check_budget)(scene, source)
     notes = ()
     if flow == "choose" and (scene.estimators or scene.networks):
         notes = ("with a tolerance the estimators are not run (they read the records of the models list's fem run)",)

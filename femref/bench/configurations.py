@@ -1,20 +1,9 @@
 """Which runs ``femref bench`` makes of one impact scene, and the reference they are scored against.
 
-Rules (docs/design.md §7: each model at several resolutions, scored against the finest fem):
-
-* every car fidelity, every car at it, at each resolution its module offers
-  (:meth:`femref.models.base.CarFidelity.bench`: e.g. fem at ``N × {1/4, 1/2, 1, 2}`` elements and at
-  ``N`` with ``dt × {2, 4}``, modal at its mode counts, rigid and quasi-rigid once), each at its own step
-  (:func:`femref.run.timestep.resolution_step`), finest fidelity first;
-* **estimators** the case lists (``estimators:``, inverse and network): one row each,
-  reading the records of the reference model's run at the case's ``fem.elements`` (its own step),
-  measured as the case says — as ``femref run`` feeds them;
-* **reference**: the reference model (:data:`femref.core.catalog.REFERENCES`) at the most elements of its rows,
-  with ``dt = ½ min(dt of every run above)``, so it is finer in space and time than every
-  configuration, and none of them is scored against itself.
-
-Mixed-fidelity runs of the case (``models:`` entries with per-car overrides) are not
-benchmarked: the trade is measured per model family.
+The configurations (docs/design.md §7.1): every car fidelity at each resolution its module offers
+(:meth:`femref.models.base.CarFidelity.bench`), each at its own step; the case's estimators on the records
+of the reference model's run at the case's ``fem.elements``; the reference at the most elements of its
+rows with ``dt = ½ min(dt of every run)``, so that no configuration is scored against itself.
 """
 
 from __future__ import annotations
@@ -57,13 +46,8 @@ class Configuration:
     @property
     def label(self) -> str:
         """Short name for tables and plots, e.g. ``fem N=32``, ``fem dt×2``, ``modal k=4``, ``rigid``."""
-        if self.setting == "elements":
-            return f"{self.family} N={self.value:g}"
-        if self.setting == "dt_factor":
-            return f"{self.family} dt×{self.value:g}"
-        if self.setting == "modes":
-            return f"{self.family} k={self.value:g}"
-        return self.family
+        prefix = {"elements": "N=", "dt_factor": "dt×", "modes": "k="}.get(self.setting)
+        return f"{self.family} {prefix}{self.value:g}" if prefix else self.family
 
 
 @dataclass(frozen=True)

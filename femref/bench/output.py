@@ -1,21 +1,13 @@
 """The bench's files: the HDF5 table and the Pareto plot (error against wall time).
 
-HDF5 layout (written under a temporary name in the target folder, then renamed)::
-
-    /                        attrs: femref_version, created
-    /bench                   one row per configuration (compound dataset, :data:`COLUMNS`)
-                             attrs: case_yaml, reference, reference_wall_time_s, reference_steps,
-                                    repeats, primary_error, secondary_error, time_ratio_base,
-                                    pareto_rule, units (JSON: column → unit), notes
-    /bench_wall_times_s      (rows, repeats) every repeat's wall time (s), NaN for a failed row
+The HDF5 layout (written under a temporary name in the target folder, then renamed): docs/design.md §4.4,
+``/bench`` one row per configuration (:data:`COLUMNS`).
 
 The plot is log–log: primary error (y) against median wall time (x, s; the top axis
 gives the same times as ratios to the rigid model's), one marker per model family, the
-Pareto-optimal configurations ringed, labelled and joined by a step line. Errors that a
-log axis cannot show — 0, or NaN (not scored) — are drawn at a floor a decade below the
-least positive error, with open markers, and the legend says so. Labels are placed
-greedily (:func:`place_labels`) so that no two overlap, and off the markers and the
-legend where there is room; a label moved away from its point gets a thin leader line.
+Pareto-optimal configurations ringed, labelled (:func:`place_labels`) and joined by a step line.
+Errors that a log axis cannot show — 0, or NaN (not scored) — are drawn at :func:`error_floor`,
+with open markers, and the legend says so.
 """
 
 from __future__ import annotations
@@ -78,17 +70,12 @@ def write_bench_table(path: str | Path, case_yaml: str, outcome: BenchOutcome) -
         h5.attrs["femref_version"] = __version__
         h5.attrs["created"] = datetime.now(timezone.utc).isoformat(timespec="seconds")
         bench = h5.create_dataset("bench", data=table)
-        bench.attrs["case_yaml"] = case_yaml
-        bench.attrs["reference"] = outcome.plan.reference_description
-        bench.attrs["reference_wall_time_s"] = outcome.reference_wall_time_s
-        bench.attrs["reference_steps"] = outcome.reference_steps
-        bench.attrs["repeats"] = outcome.repeats
-        bench.attrs["primary_error"] = PRIMARY_ERROR
-        bench.attrs["secondary_error"] = SECONDARY_ERROR
-        bench.attrs["time_ratio_base"] = RATIO_BASE
-        bench.attrs["pareto_rule"] = PARETO_RULE
-        bench.attrs["units"] = json.dumps({name: column[1] for name, column in COLUMNS.items()})
-        bench.attrs["notes"] = "\n".join(outcome.notes)
+        bench.attrs.update(
+            case_yaml=case_yaml, reference=outcome.plan.reference_description, reference_wall_time_s=outcome.reference_wall_time_s,
+            reference_steps=outcome.reference_steps, repeats=outcome.repeats, primary_error=PRIMARY_ERROR,
+            secondary_error=SECONDARY_ERROR, time_ratio_base=RATIO_BASE, pareto_rule=PARETO_RULE,
+            units=json.dumps({name: column[1] for name, column in COLUMNS.items()}), notes="\n".join(outcome.notes),
+        )
         h5.create_dataset("bench_wall_times_s", data=times).attrs["units"] = "s"
     return path
 
@@ -215,10 +202,7 @@ def pareto_figure(outcome: BenchOutcome, title: str = "") -> Any:
     if clipped.any():
         ax.plot([], [], ls="none", marker="o", mfc="none", mec="grey", label=f"error 0 or NaN: drawn at floor {floor:.1e}")
         ax.axhline(floor, color="grey", lw=0.6, ls=":")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel(f"wall time, s (median of {outcome.repeats})")
-    ax.set_ylabel("peak coupler force error vs reference")
+    ax.set(xscale="log", yscale="log", xlabel=f"wall time, s (median of {outcome.repeats})", ylabel="peak coupler force error vs reference")
     rigid = next((row.wall_time_s for row in outcome.rows if row.configuration.family == RATIO_BASE and row.ok), math.nan)
     if math.isfinite(rigid) and rigid > 0.0:
         top = ax.secondary_xaxis("top", functions=(lambda x: x / rigid, lambda r: r * rigid))

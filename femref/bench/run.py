@@ -1,24 +1,9 @@
 """Time and score every configuration of a bench plan (:mod:`femref.bench.configurations`).
 
-Rules (docs/design.md §7):
-
-* **Time** of a configuration: the median of ``repeats`` wall times. A solve's wall time
-  is :func:`femref.run.run_model`'s (building the cars — mesh, factorisation, modes — and
-  stepping); an estimator's is what ``femref run`` records for it
-  (:func:`femref.run.runner.run_estimators` / ``run_networks``: the estimator on the
-  records already made, not the fem run that made them). Every time is also given as a
-  ratio to the rigid model's median time of the same bench, ``t / t_rigid``: only such
-  ratios compare across machines (absolute seconds are kept, never compared).
-* **Error** of a configuration: :func:`femref.run.scoring.score_impact` against the
-  reference run — the primary error is ``coupler_force_peak_error_max`` (relative error of
-  the peak compression, worst coupler), the secondary ``coupler_force_rms_error_max``
-  (NaN for a network estimator, which gives a peak only). Solves are deterministic, so
-  the last repeat's response is the one scored.
-* **Pareto flag**: :func:`femref.bench.pareto.pareto_mask` over (median time, primary error).
-
-A configuration that raises is kept as a failed row (status, message, NaN time and
-errors) and the others still run; a failed reference leaves nothing to score against
-and raises :class:`ReferenceFailed`.
+The rules (time: the median of ``repeats`` wall times, also as ``t / t_rigid``, since only such ratios
+compare across machines; error against the reference; Pareto flag; failed rows): docs/design.md §7.1.
+An estimator's wall time is what ``femref run`` records for it, the estimator on the records already
+made. Solves are deterministic, so the last repeat's response is the one scored.
 """
 
 from __future__ import annotations
@@ -152,19 +137,8 @@ def _solve_row(configuration: Configuration, reference: ModelResult, repeats: in
     result, times = _solve(configuration, repeats)
     if not result.ok:  # kept as a failed row; the other configurations still run
         return BenchRow(configuration, status="failed", message=result.message), None
-    try:
-        metrics = score_impact(reference, result)
-    except ValueError as error:
-        return BenchRow(configuration, status="failed", message=f"cannot score: {error}"), None
-    row = BenchRow(
-        configuration,
-        steps=int(result.settings["steps"]),
-        wall_times_s=times,
-        peak_error=float(metrics.get(PRIMARY_ERROR, math.nan)),
-        rms_error=float(metrics.get(SECONDARY_ERROR, math.nan)),
-        vertical_error=float(metrics.get(VERTICAL_ERROR, math.nan)),
-    )
-    return row, result
+    row = _scored_row(configuration, reference, result, times, int(result.settings["steps"]))
+    return row, result if row.ok else None
 
 
 def _estimator_row(
@@ -183,16 +157,20 @@ def _estimator_row(
         if not result.ok:
             return BenchRow(configuration, status="failed", message=result.message)
         times.append(result.wall_time_s)
+    return _scored_row(configuration, reference, result, tuple(times), vertical=False)
+
+
+def _scored_row(configuration: Configuration, reference: ModelResult, result: ModelResult, times: tuple[float, ...], steps: int = 0,
+                vertical: bool = True) -> BenchRow:
+    """The row of a run that went: its errors against ``reference`` (an estimator's: no vertical error), or failed
+    when it cannot be scored."""
     try:
         metrics = score_impact(reference, result)
     except ValueError as error:
         return BenchRow(configuration, status="failed", message=f"cannot score: {error}")
-    return BenchRow(
-        configuration,
-        wall_times_s=tuple(times),
-        peak_error=float(metrics.get(PRIMARY_ERROR, math.nan)),
-        rms_error=float(metrics.get(SECONDARY_ERROR, math.nan)),
-    )
+    return BenchRow(configuration, steps=steps, wall_times_s=times, peak_error=float(metrics.get(PRIMARY_ERROR, math.nan)),
+                    rms_error=float(metrics.get(SECONDARY_ERROR, math.nan)),
+                    vertical_error=float(metrics.get(VERTICAL_ERROR, math.nan)) if vertical else math.nan)
 
 
 def _add_ratios(rows: list[BenchRow]) -> None:

@@ -1,20 +1,4 @@
-"""A model choice in the result file (``/choice``) and on the terminal.
-
-``/choice`` (attrs): ``tolerance``, ``output`` (and ``output_description``), ``chosen``
-(a run label, also a model group of the file), ``met`` (the chosen run's estimate is
-within the tolerance), ``estimate``, ``basis``, ``epsilon_load`` (NaN when the rigid and
-quasi-rigid runs did not both run). One row per rung of the ladder, cheapest first, as
-datasets of equal length::
-
-    label, family, basis, status      strings ("" status: not run)
-    resolution                        modes (modal) or elements per car (fem), 0 otherwise
-    predicted_cost                    µs on the machine that fitted the model (femref.choice.ladder); only ratios matter
-    dt                                s
-    ran                               bool
-    wall_time_s                       s, NaN when not run
-    peak_coupler_force                N, largest peak compression over the couplers, NaN when not run
-    estimate                          relative error estimate, inf when none
-"""
+"""A model choice in the result file (``/choice``, its layout: docs/design.md §4.3) and on the terminal."""
 
 from __future__ import annotations
 
@@ -35,18 +19,8 @@ def write_choice(h5: h5py.File, choice: ModelChoice) -> None:
     """The ``/choice`` group (module docstring)."""
     group = h5.create_group(CHOICE_GROUP)
     chosen = choice.chosen_row
-    group.attrs.update(
-        {
-            "tolerance": choice.tolerance,
-            "output": choice.output,
-            "output_description": OUTPUTS[choice.output],
-            "chosen": choice.chosen,
-            "met": bool(choice.met),
-            "estimate": chosen.estimate,
-            "basis": chosen.basis,
-            "epsilon_load": choice.epsilon_load,
-        }
-    )
+    group.attrs.update(tolerance=choice.tolerance, output=choice.output, output_description=OUTPUTS[choice.output], chosen=choice.chosen,
+                       met=bool(choice.met), estimate=chosen.estimate, basis=chosen.basis, epsilon_load=choice.epsilon_load)
     rows = choice.rows
     strings = {
         "label": [row.rung.label for row in rows],

@@ -1,28 +1,17 @@
 """``femref bench [CASE] [-o FILE] [--repeats N] [--plot PNG]``: the speed–accuracy trade of one impact scene.
 
-docs/design.md §7. Runs the configurations of :mod:`femref.bench.configurations` (fem at
-several element counts and steps, modal at several mode counts, quasi-rigid, rigid, the
-case's estimators), times each as the median of ``--repeats`` runs, scores each against
-the finest fem, writes the HDF5 table (:func:`femref.bench.output.write_bench_table`),
-optionally the Pareto plot, and prints the table and the Pareto-optimal configurations.
-No CASE: the built-in default scene, as for ``femref run``.
-
-Impact cases only: a single-body (harmonic or transient) case exits 2 with
-"femref bench serves impact cases" — their cost is one banded solve per step or
-frequency and the trade worth measuring is the impact models'. Exit codes as for
-``femref run``: 2 bad input (nothing written), 1 a configuration failed (the table
-records which and why) or the reference failed (nothing written), 0 otherwise.
+docs/design.md §7 (:mod:`femref.bench`). Impact cases only: a single-body case costs one banded solve per
+step or frequency; the trade worth measuring is the impact models'.
 """
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import click
 from rich.console import Console
 
-from femref.cli.common import EXIT_BAD_INPUT, EXIT_RUN_FAILURE, case_input_files, check_output, configuration_progress, finish, load_case_or_default, print_table
+from femref.cli.common import EXIT_RUN_FAILURE, case_input_files, check_output, configuration_progress, fail, finish, load_case_or_default, print_table
 from femref.cli.tables import bench_table
 
 IMPACT_ONLY = "femref bench serves impact cases"
@@ -55,8 +44,7 @@ def bench_command(case_path: Path | None, output: Path | None, repeats: int, plo
             raise CaseError.at("kind", f"{IMPACT_ONLY}; this is a {case.kind} case", source=str(case_path))
         scene = scene_from_case(case, base_dir)
     except CaseError as error:
-        click.echo(f"error: {error}", err=True)
-        sys.exit(EXIT_BAD_INPUT)
+        fail(error)
     defaulted = output is None
     output = output or Path(f"{case_path.stem if case_path else 'default'}_bench.h5")
     inputs = {"CASE": case_path, **case_input_files(case)}
@@ -68,8 +56,7 @@ def bench_command(case_path: Path | None, output: Path | None, repeats: int, plo
         with configuration_progress(Console(stderr=True)) as progress:
             outcome = run_bench(scene, repeats, progress)
     except ReferenceFailed as error:
-        click.echo(f"error: {error}", err=True)
-        sys.exit(EXIT_RUN_FAILURE)
+        fail(error, EXIT_RUN_FAILURE)
     written = [write_bench_table(output, resolved_yaml(case), outcome)]
     if plot_path is not None:
         name = case_path.name if case_path else DEFAULT_SCENE_SOURCE

@@ -3,20 +3,9 @@
 Nothing of femref is imported at module level here or in the command modules: each command
 imports what it drives when it runs, so ``femref --help`` stays light.
 
-Exit codes (docs/design.md §5): 0 success, 2 bad input (the message names the key path and
-the rule; nothing is written), 1 a failure during the run, 130 interrupted (sweeps and studies
-keep what they stored), 143 terminated (SIGTERM, handled as Ctrl-C). Every command runs inside
-:func:`faults_end_cleanly`: an ``OSError`` (a full disk, a quota, an I/O error) ends it with one
-``error:`` line naming the path and exit 1, SIGINT and SIGTERM with one ``interrupted`` line.
-Every command that writes checks its output path before any work
-(:func:`check_output`: exit 2, nothing written): its folder must exist and be writable, and it
-may not be one of the command's inputs — the files given on the command line and every file a
-case names (:func:`case_input_files`: record files, CSV loads, network files, a calibration, a
-sweep's or a study's base case, a study's ``initial`` networks).
-
-Progress (``femref --progress/--no-progress``, env ``FEMREF_PROGRESS``) goes to stderr through
-:func:`model_progress` (a stage per model, per measured event, per calibrated estimator),
-:func:`sample_progress` (samples of a sweep) and :func:`configuration_progress` (bench).
+Exit codes: docs/design.md §5 and ``femref --help``. Every command runs inside :func:`faults_end_cleanly`;
+every command that writes checks its output path before any work (:func:`check_output`). Progress
+(``femref --progress/--no-progress``, env ``FEMREF_PROGRESS``) goes to stderr.
 """
 
 from __future__ import annotations
@@ -29,7 +18,7 @@ import threading
 from contextlib import contextmanager
 from pathlib import Path
 from types import FrameType
-from typing import Iterable, Iterator
+from typing import Iterable, Iterator, NoReturn
 
 import click
 from rich.console import Console
@@ -69,11 +58,16 @@ def faults_end_cleanly() -> Iterator[None]:
     except OSError as error:
         if error.errno == errno.EPIPE:  # stdout closed early (``femref run | head``): click's own quiet handling
             raise
-        click.echo(f"error: {os_error_message(error)}", err=True)
-        sys.exit(EXIT_RUN_FAILURE)
+        fail(os_error_message(error), EXIT_RUN_FAILURE)
     finally:
         for signum, handler in previous.items():
             signal.signal(signum, handler)
+
+
+def fail(message: object, code: int = EXIT_BAD_INPUT) -> NoReturn:
+    """``error: <message>`` on stderr, then exit ``code``."""
+    click.echo(f"error: {message}", err=True)
+    sys.exit(code)
 
 
 def os_error_message(error: OSError) -> str:
@@ -110,33 +104,26 @@ def check_output(
     path: Path, option: str, inputs: dict[str, Path | None] | None = None, folder: bool = False, default: bool = False, writes: Iterable[Path] = ()
 ) -> None:
     """Exit 2, nothing written, unless ``path`` can be written (:func:`femref.core.publishing.check_output_path`: the
-    rule :func:`femref.api.run_case` applies too); then remove the temporaries a killed run left of it
-    (:func:`femref.core.publishing.remove_leftovers`: never a live run's) and those an older femref left
-    (:func:`femref.core.publishing.legacy_leftovers`), each named on stderr.
+    rule :func:`femref.api.run_case` applies too); then :func:`clean_leftovers`. Called before any work, so a bad
+    output path never costs a run.
 
-    Called before any work, so a bad output path never costs a run. ``option`` names the
-    option (``-o``), ``default`` says the path is its default; ``inputs`` the command's input
-    files by name (``CASE``, and :func:`case_input_files` for the files a case names), which the
-    output may not be; ``writes`` the other files the command writes beside the output or in the
-    output folder (a sweep's ``.partial``, a study's sweeps and networks), which may not be inputs either.
+    ``option`` names the option (``-o``), ``default`` says the path is its default; ``inputs`` the command's input
+    files by name, which the output may not be; ``writes`` the other files the command writes beside the output or
+    in the output folder (a sweep's ``.partial``, a study's sweeps and networks), which may not be inputs either.
     """
     from femref.core.publishing import OutputPathError, check_output_path
 
     try:
         check_output_path(path, option, inputs, folder=folder, default=default, writes=writes)
     except OutputPathError as error:
-        click.echo(f"error: {error}", err=True)
-        sys.exit(EXIT_BAD_INPUT)
+        fail(error)
     if not folder:
         clean_leftovers(path)
 
 
 def clean_leftovers(path: Path) -> None:
-    """Remove the temporaries of ``path`` that no running process writes — a killed run's (pid-named) and an older
-    femref's (``tmp*`` field-file folders, ``.<name>.<random>.tmp`` files: :func:`femref.core.publishing.legacy_leftovers`) —
-    and say so on stderr, one line each; name (and keep) an older femref's temporary that is not certainly unused
-    or holds more than femref wrote, and one whose writer runs out of this run's sight (another PID namespace or
-    host: :func:`femref.core.publishing.unseen_temporaries`) (:func:`femref.core.publishing.clean_leftovers`)."""
+    """Remove the temporaries of ``path`` that no running process writes (:func:`femref.core.publishing.clean_leftovers`)
+    and say so on stderr, one line each; name (and keep) those it cannot be sure of."""
     from femref.core.publishing import clean_leftovers as remove
 
     cleanup = remove(path)

@@ -1,9 +1,7 @@
 """``femref figures [-o FOLDER]``: the verification figures (:mod:`femref.verification`).
 
-Each figure takes seconds to compute: progress is shown per figure through
-:func:`~femref.cli.common.model_progress` (a bar per figure on a terminal, ``figure <name>: running``
-… ``done in`` status lines with ``femref --progress``), and each PNG is written (atomically) as soon
-as its figure is made.
+Each figure takes seconds to compute: progress is shown per figure, and each PNG is written
+(atomically) as soon as its figure is made.
 """
 
 from __future__ import annotations

@@ -1,20 +1,16 @@
 """``femref report RESULTS.h5 [-o REPORT.html]``: one self-contained HTML page of a result file.
 
-Exit codes (docs/design.md §5): 0 written, 2 bad input (missing file, not HDF5, not a femref
-result file, output naming the input or one of its field files ``<stem>_<model>_fields.xdmf/.h5``,
-:func:`femref.results.result_field_files`). The page is assembled in memory and written under
-a temporary name in the target folder, then renamed: a failure leaves nothing under the
-final name.
+The page is assembled in memory and written under a temporary name in the target folder, then
+renamed: a failure leaves nothing under the final name.
 """
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import click
 
-from femref.cli.common import EXIT_BAD_INPUT, check_output
+from femref.cli.common import check_output, fail
 
 
 def default_output(results: Path) -> Path:
@@ -31,7 +27,7 @@ def write_atomically(path: Path, text: str) -> None:
 
 
 def _write_event_pages(results: Path, output: Path) -> None:
-    """The pages of an event file of many events beside the index ``output`` (femref.report.events), each written
+    """The pages of an event file of many events beside the index ``output`` (femref.report.measured), each written
     atomically, with progress per event (a bar per page on a terminal, status lines with femref --progress)."""
     from rich.console import Console
 
@@ -69,8 +65,7 @@ def report_command(results: Path, output: Path | None) -> None:
             raise ReportInputError(f"{output}: the report would overwrite the result file; choose another -o")
         page = build_report(results, output.name)
     except ReportInputError as error:
-        click.echo(f"error: {error}", err=True)
-        sys.exit(EXIT_BAD_INPUT)
+        fail(error)
     # After the input's own errors. The result's field files are inputs too (the page reads them; an -o onto one would
     # replace a ParaView file of the run with HTML): those it records, or femref's names for them.
     check_output(output, "-o", {"RESULTS.h5": results, **result_field_files(results)}, default=defaulted)

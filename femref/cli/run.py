@@ -1,23 +1,17 @@
 """``femref validate [CASE]`` and ``femref run [CASE] [-o FILE] [--tolerance T]`` (docs/design.md §5).
 
-``run`` runs every model of the case (:func:`femref.run.run_scene`), writes the result
-file atomically with the scene's facts and scores, prints the summary and exits 1 when
-a model failed (its message says where). A measured case runs its estimators on every
-event of its records instead (:func:`femref.run.measured.run_measured`) and writes ``/events``. With a tolerance it climbs the ladder of impact
-models instead (:mod:`femref.choice`) and keeps the cheapest expected within it. Which of the three, and the
-result file, is :mod:`femref.flow`'s (as for :func:`femref.api.run_case`); here the output check, the printing
-and the exit codes.
+Which flow a case runs by (simulate, choose, measure) and its result file are :mod:`femref.flow`'s (as for
+:func:`femref.api.run_case`); here the output check, the printing and the exit codes.
 """
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import click
 from rich.console import Console
 
-from femref.cli.common import EXIT_BAD_INPUT, EXIT_RUN_FAILURE, check_output, finish, load_case_or_default, model_progress, print_table, source_name
+from femref.cli.common import EXIT_RUN_FAILURE, check_output, fail, finish, load_case_or_default, model_progress, print_table, source_name
 from femref.cli.tables import run_table
 
 
@@ -35,8 +29,7 @@ def validate_command(case_path: Path | None) -> None:
     try:
         case, _ = load_case_or_default(case_path)
     except CaseError as error:
-        click.echo(f"error: {error}", err=True)
-        sys.exit(EXIT_BAD_INPUT)
+        fail(error)
     click.echo(resolved_yaml(case), nl=False)
 
 
@@ -72,12 +65,9 @@ def run_command(case_path: Path | None, output: Path | None, tolerance: float | 
 
     try:
         case, base_dir = load_case_or_default(case_path)
-        # Once per command, before any work (femref.flow.plan_case): the flow, and its budget (femref.run.budget;
-        # FEMREF_BUDGET raises it): the runs and the reference's self-check, or with a tolerance every rung of the ladder.
         plan = plan_case(case, base_dir, source_name(case_path), tolerance)
     except CaseError as error:
-        click.echo(f"error: {error}", err=True)
-        sys.exit(EXIT_BAD_INPUT)
+        fail(error)
     defaulted = output is None
     output = output or Path(f"{case_path.stem if case_path else 'default'}.h5")
     check_output(output, "-o", _inputs(plan.case, case_path), default=defaulted, writes=field_file_paths(output, field_models(plan.case)))
@@ -110,8 +100,7 @@ def _run_choice(plan, output: Path) -> None:
         try:
             choice = run_plan(plan, output, progress_for)
         except RuntimeError as error:
-            click.echo(f"error: {error}", err=True)
-            sys.exit(EXIT_RUN_FAILURE)
+            fail(error, EXIT_RUN_FAILURE)
     print_table(choice_table(choice.choice))
     if not choice.choice.met:
         click.echo(f"warning: no model on the ladder is expected within {choice.choice.tolerance:g}; kept {choice.choice.chosen}, the most accurate",
@@ -129,11 +118,8 @@ def _inputs(case, case_path: Path | None) -> dict[str, Path | None]:
 def _run_measured(plan, output: Path) -> None:
     """Every event of a measured case (femref.run.measured): write /events as each event finishes, print the event table.
 
-    Progress as for the models of a run (:func:`model_progress`): a stage while the records are read,
-    then one per event (its classification, estimators and networks the steps of its bar). The events go
-    into the output's temporary as they finish (:func:`femref.events.event_file`), renamed to the output when
-    the last is in; the events found over the work budget (exit 2) or a record changed since validation leave
-    nothing under the output name."""
+    Progress: a stage while the records are read, then one per event. The events found over the work budget (exit 2)
+    or a record changed since validation leave nothing under the output name."""
     from femref.case import CaseError
     from femref.cli.tables import event_table
     from femref.flow import run_plan
@@ -143,8 +129,7 @@ def _run_measured(plan, output: Path) -> None:
         with model_progress(Console(stderr=True), keep_finished=False) as progress_for:
             outcome = run_plan(plan, output, progress_for).measured
     except (RecordError, CaseError) as error:  # a record file changed since the case was validated; the events over the budget
-        click.echo(f"error: {error}", err=True)
-        sys.exit(EXIT_BAD_INPUT)
+        fail(error)
     print_table(event_table(outcome))
     noisy = {event.index: flag for event in outcome.events for flag in event.flags if flag.startswith("trigger in the noise")}
     if noisy:  # the first event's flag names the channels; every such event is flagged in the table and the file

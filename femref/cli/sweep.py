@@ -1,13 +1,8 @@
 """``femref sweep SWEEP``, ``femref study STUDY`` (docs/design.md §5, §6: runs on Dask, resumable) and
 ``femref calibrate SWEEP SWEEP_FILE`` (the inverse estimators' error bands from a sweep's fem records).
 
-``femref sweep`` exits 0 when the sweep ran, even with failed samples (the sweep file
-records them), 1 when the sweep machinery fails, 130 when interrupted (stored samples
-kept; the same command resumes). Every command exits 2 on bad input, before any work and
-writing nothing. An output that would overwrite an input is bad input: the sweep or study
-file, its base case and the files that names, a study's ``initial`` networks, calibrate's
-SWEEP_FILE and ``--network`` files (:func:`sweep_inputs`, :func:`study_inputs`,
-:func:`study_writes`). ``calibrate`` shows progress per estimator (:func:`model_progress`).
+An output that would overwrite an input is bad input (exit 2): :func:`sweep_inputs`, :func:`study_inputs`,
+:func:`study_writes`.
 """
 
 from __future__ import annotations
@@ -18,16 +13,7 @@ from pathlib import Path
 import click
 from rich.console import Console
 
-from femref.cli.common import (
-    EXIT_BAD_INPUT,
-    EXIT_INTERRUPTED,
-    EXIT_RUN_FAILURE,
-    case_input_files,
-    check_output,
-    model_progress,
-    print_table,
-    sample_progress,
-)
+from femref.cli.common import EXIT_INTERRUPTED, EXIT_RUN_FAILURE, case_input_files, check_output, fail, model_progress, print_table, sample_progress
 from femref.cli.tables import study_table
 
 #: Failed samples listed after a sweep (the file holds every error).
@@ -107,15 +93,13 @@ def sweep_command(sweep_path: Path, scheduler: str | None, workers: int | None, 
         with sample_progress(console) as progress:
             summary = run_sweep(loaded, output, scheduler=scheduler, workers=workers, limit=limit, retry_failed=retry_failed, progress=progress)
     except CaseError as error:
-        click.echo(f"error: {error}", err=True)
-        sys.exit(EXIT_BAD_INPUT)
+        fail(error)
     except SweepInterrupted as interrupted:
         _sweep_report(interrupted.summary)
         click.echo(f"interrupted: {interrupted.summary.run} samples stored in this call; run again to resume", err=True)
         sys.exit(EXIT_INTERRUPTED)
     except Exception as error:  # the sweep machinery (scheduler, workers, file system), not a sample
-        click.echo(f"error: sweep failed: {type(error).__name__}: {error}", err=True)
-        sys.exit(EXIT_RUN_FAILURE)
+        fail(f"sweep failed: {type(error).__name__}: {error}", EXIT_RUN_FAILURE)
     _sweep_report(summary)
 
 
@@ -175,8 +159,7 @@ def study_command(study_path: Path, out_dir: Path | None, scheduler: str | None,
         with sample_progress(console) as progress:
             outcome = run_study(spec, study_dir, out_dir, source=str(study_path), scheduler=scheduler, workers=workers, progress=progress)
     except CaseError as error:
-        click.echo(f"error: {error}", err=True)
-        sys.exit(EXIT_BAD_INPUT)
+        fail(error)
     except (SweepInterrupted, KeyboardInterrupt):
         click.echo("interrupted: the sweeps keep what they stored; run again to resume", err=True)
         sys.exit(EXIT_INTERRUPTED)
@@ -216,18 +199,15 @@ def calibrate_command(sweep_path: Path, results: Path, output: Path | None, coup
     for entry in networks:
         name, _, file = entry.partition("=")
         if not file or not (name == "ann" or name.startswith("ann_")):
-            click.echo(f"error: --network {entry}: give NAME=FILE with NAME ann or ann_<name>", err=True)
-            sys.exit(EXIT_BAD_INPUT)
+            fail(f"--network {entry}: give NAME=FILE with NAME ann or ann_<name>")
         try:
             loaded.append(AnnEstimator.load(name, file))
         except NetworkFileError as error:
-            click.echo(f"error: --network {entry}: {error}", err=True)
-            sys.exit(EXIT_BAD_INPUT)
+            fail(f"--network {entry}: {error}")
     try:
         sweep = load_sweep(sweep_path)
     except CaseError as error:
-        click.echo(f"error: {error}", err=True)
-        sys.exit(EXIT_BAD_INPUT)
+        fail(error)
     inputs = {**sweep_inputs(sweep_path, sweep), "SWEEP_FILE": results, **{f"--network {entry}": Path(entry.partition("=")[2]) for entry in networks}}
     defaulted = output is None
     output = output or Path(f"{sweep_path.stem}.calibration.h5")
@@ -236,11 +216,9 @@ def calibrate_command(sweep_path: Path, results: Path, output: Path | None, coup
         with model_progress(Console(stderr=True)) as progress_for:
             calibration = calibrate(sweep, results, coupler, loaded, progress_for=progress_for)
     except CaseError as error:
-        click.echo(f"error: {error}", err=True)
-        sys.exit(EXIT_BAD_INPUT)
+        fail(error)
     except (ValueError, OSError, KeyError, StopIteration) as error:
-        click.echo(f"error: {results}: {error}", err=True)
-        sys.exit(EXIT_BAD_INPUT)
+        fail(f"{results}: {error}")
     written = write_calibration(calibration, output)
     lo, hi = calibration.closing_speed
     for name in calibration.errors:

@@ -254,22 +254,17 @@ def event_table(outcome) -> Table:
         table.add_column(column, justify="right" if column in ("event", "t trigger s", "ρ0", "v m/s", "peak kN", "band kN") else "left", no_wrap=True)
     for event in outcome.events:
         closure = ", ".join(c.status + (f" at {c.closure_force / 1e3:.0f} kN" if c.status == "closed" else "") for c in event.closures)
+        head = [str(event.index), f"{event.trigger_time:.4f}", event.impact_type, _fmt(event.zero_harmonic_ratio, "{:.2f}"), _closing_speed(event)]
+        tail = [closure, event.wear, event.alarm]
         for k, estimate in enumerate(event.estimates):
             peak, lower, upper = estimate.peak
-            head = k == 0
             table.add_row(
-                str(event.index) if head else "",
-                f"{event.trigger_time:.4f}" if head else "",
-                event.impact_type if head else "",
-                _fmt(event.zero_harmonic_ratio, "{:.2f}") if head else "",
-                _closing_speed(event) if head else "",
+                *(head if k == 0 else [""] * len(head)),
                 estimate.estimator + (f" @{estimate.coupler}" if several else ""),
                 estimate.status,
                 _fmt(peak / 1e3, "{:.1f}"),
                 f"{lower / 1e3:.0f}–{upper / 1e3:.0f}" if math.isfinite(lower) else "",
-                closure if head else "",
-                event.wear if head else "",
-                event.alarm if head else "",
+                *(tail if k == 0 else [""] * len(tail)),
             )
         notes = list(event.flags) + [f"{e.estimator}: {e.message}" for e in event.estimates if not e.ok]
         if event.closing_speed_source == "none":

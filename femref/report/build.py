@@ -1,4 +1,4 @@
-"""Result file → page: read, draw, render the field maps, assemble (an event file: :mod:`femref.report.events`;
+"""Result file → page: read, draw, render the field maps, assemble (an event file: :mod:`femref.report.measured`;
 a network study's ``study.h5``: :mod:`femref.report.study`)."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ from pathlib import Path
 
 import h5py
 
-from femref.report.events import event_pages, event_report, is_event_file
+from femref.report.measured import event_pages, event_report, is_event_file
 from femref.report.field_map import field_map_picture
 from femref.report.figures import Picture, figures_for
 from femref.report.html import render_page
@@ -30,7 +30,7 @@ def build_report(results: str | Path, output: str | None = None) -> str:
 def build_event_pages(results: str | Path, output: str, progress_for: Callable[[str], Callable[[int, int], None] | None] | None = None
                       ) -> Iterator[tuple[str, str]]:
     """``(file name, page)`` of each page of events beside the index ``output`` of an event file of many events
-    (:func:`femref.report.events.event_pages`, with its progress); nothing for any other file."""
+    (:func:`femref.report.measured.event_pages`, with its progress); nothing for any other file."""
     path = Path(results)
     if not (path.is_file() and h5py.is_hdf5(path)):
         return

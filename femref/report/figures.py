@@ -1,22 +1,10 @@
 """Matplotlib figures of a result file, every model against the reference, as PNG bytes.
 
-One registry entry per scene kind turns a :class:`~femref.report.read.ResultFile` into
-a list of :class:`Picture` objects:
-
-* ``impact``: coupler force (kN) against time per coupler — the fem reference heavier,
-  network estimators (a peak only) as a horizontal tick at their peak —, coupler force
-  against closure (the hysteresis loop) per coupler, the energy balance, and sensor
-  acceleration (m/s²) per probe, with fem's measured records thinner;
-* ``transient``: acceleration (m/s²) per probe against time;
-* ``harmonic``: real and imaginary parts of the stored complex acceleration amplitude
-  against λ per probe, the reference solid and the others dashed.
-
-The reference is ``exact`` where it is present and ok, else ``fem`` (impacts: ``fem``; a
-tolerance run's file: the finest fem run of its ladder). Acceleration plots take their
-y-range from the reference and the bulk of the others (:func:`robust_limits`), so that one
-model's spike at contact onset does not flatten the rest; what is cut off is marked.
-Figures are built on :class:`matplotlib.figure.Figure` directly (Agg canvas, no pyplot
-state), so nothing here needs a display.
+One registry entry per scene kind (:data:`FIGURE_BUILDERS`) turns a :class:`~femref.report.read.ResultFile` into
+a list of :class:`Picture` objects, every model drawn against :func:`reference_model`. Acceleration plots take their
+y-range from the reference and the bulk of the others (:func:`robust_limits`), so that one model's spike at contact
+onset does not flatten the rest. Figures are built on :class:`matplotlib.figure.Figure` directly (Agg canvas, no
+pyplot state), so nothing here needs a display.
 """
 
 from __future__ import annotations
@@ -157,9 +145,7 @@ def _time_axis(model: ModelData, samples: int, result: ResultFile, reference: Mo
     A model that stores no axis of its own (e.g. ``exact`` on the runner's common grid)
     shares the time axis of the reference, or of another model, of the same length.
     """
-    if model.axis_name == "time" and model.axis is not None and model.axis.size == samples:
-        return model.axis
-    for other in ([reference] if reference else []) + result.ok_models:
+    for other in [model] + ([reference] if reference else []) + result.ok_models:
         if other.axis_name == "time" and other.axis is not None and other.axis.size == samples:
             return other.axis
     return None
@@ -174,9 +160,6 @@ def figure_legend(ax) -> None:
 def _union(keys: Iterable[Iterable[str]]) -> list[str]:
     """Keys in order of first appearance."""
     return list(dict.fromkeys(k for group in keys for k in group))
-
-
-# --- impacts -----------------------------------------------------------------------
 
 
 def impact_figures(result: ResultFile) -> list[Picture]:
@@ -221,9 +204,7 @@ def _coupler_force_picture(
             ax.axhline(peak / 1e3, xmin=0.92, xmax=1.0, lw=3, **tick)
         else:
             ax.plot([tick_time], [peak / 1e3], ls="none", marker="_", markersize=40, mew=3, **tick)
-    ax.set_xlabel("time t (s)")
-    ax.set_ylabel("coupler force (kN, compression +)")
-    ax.set_title(f"coupler {coupler}")
+    ax.set(xlabel="time t (s)", ylabel="coupler force (kN, compression +)", title=f"coupler {coupler}")
     figure_legend(ax)
     caption = f"Coupler {coupler}: force against time, every model against the reference"
     if peak_only:
@@ -247,9 +228,7 @@ def _force_closure_picture(coupler: str, models: list[ModelData], styles: dict[s
         ax.plot(closure_mm, force / 1e3, **styles[model.name])
         closures.append(closure_mm)
         in_contact.append(closure_mm[force > 0.0])
-    ax.set_xlabel("closure (mm, compression +)")
-    ax.set_ylabel("coupler force (kN, compression +)")
-    ax.set_title(f"coupler {coupler}: force against closure")
+    ax.set(xlabel="closure (mm, compression +)", ylabel="coupler force (kN, compression +)", title=f"coupler {coupler}: force against closure")
     figure_legend(ax)
     caption = (
         f"Coupler {coupler}: force against closure (hysteresis) — loading up, unloading down; the area of the loop "
@@ -287,10 +266,8 @@ def _energy_picture(models: list[ModelData], reference: ModelData | None, result
             undrawn.append(model.name)
             continue
         drift_ax.plot(model_time, 100.0 * (total - total[0]) / total[0], **styles[model.name])
-    parts_ax.set_ylabel("energy (kJ)")
-    parts_ax.set_title(f"energy balance — {shown.name}")
-    drift_ax.set_ylabel("total − initial (% of initial)")
-    drift_ax.set_xlabel("time t (s)")
+    parts_ax.set(ylabel="energy (kJ)", title=f"energy balance — {shown.name}")
+    drift_ax.set(ylabel="total − initial (% of initial)", xlabel="time t (s)")
     figure_legend(parts_ax)
     figure_legend(drift_ax)
     caption = (
@@ -348,9 +325,8 @@ def _time_acceleration_picture(
         curves.append((f"{reference.name} measured", reference.measured_time, np.asarray(reference.measured[probe], dtype=float), record["color"]))
     limits_note = _limit_and_mark(ax, curves, reference.name if reference is not None else None, "m/s²")
     vertical = quantity == "vertical_acceleration"
-    ax.set_xlabel("time t (s)")
-    ax.set_ylabel("vertical acceleration (m/s², up +)" if vertical else "acceleration (m/s²)")
-    ax.set_title(f"probe {probe}" + (", vertical" if vertical else ""))
+    ax.set(xlabel="time t (s)", ylabel="vertical acceleration (m/s², up +)" if vertical else "acceleration (m/s²)",
+           title=f"probe {probe}" + (", vertical" if vertical else ""))
     figure_legend(ax)
     caption = f"{'Vertical acceleration' if vertical else 'Acceleration'} at probe {probe} against time, models overlaid"
     if outside:
@@ -374,13 +350,11 @@ def _limit_and_mark(ax, curves: list[tuple[str, NDArray, NDArray, str]], referen
     ax.set_ylim(lo, hi)
     clipped = []
     for name, time, values, color in curves:
-        above, below = values > hi, values < lo
-        if not (above.any() or below.any()):
-            continue
-        for mask, edge, marker in ((above, hi, "^"), (below, lo, "v")):
-            if mask.any():
-                ax.plot(time[mask], np.full(np.count_nonzero(mask), edge), ls="none", marker=marker, ms=5, color=color, clip_on=False, zorder=5)
-        clipped.append(f"{name} ({np.nanmin(values):.3g} to {np.nanmax(values):.3g} {unit})")
+        marks = [(mask, edge, marker) for mask, edge, marker in ((values > hi, hi, "^"), (values < lo, lo, "v")) if mask.any()]
+        for mask, edge, marker in marks:
+            ax.plot(time[mask], np.full(np.count_nonzero(mask), edge), ls="none", marker=marker, ms=5, color=color, clip_on=False, zorder=5)
+        if marks:
+            clipped.append(f"{name} ({np.nanmin(values):.3g} to {np.nanmax(values):.3g} {unit})")
     note = (
         f"; y-range {lo:.3g} to {hi:.3g} {unit} set by {reference} (its 0.5–99.5 % quantiles) and the others' "
         f"5–95 % quantiles, with a {100 * LIMIT_MARGIN:.0f} % margin"
@@ -388,9 +362,6 @@ def _limit_and_mark(ax, curves: list[tuple[str, NDArray, NDArray, str]], referen
     if clipped:
         note += f"; clipped, marked by triangles on the edge: {', '.join(clipped)}"
     return note
-
-
-# --- one body ------------------------------------------------------------------------
 
 
 def transient_figures(result: ResultFile) -> list[Picture]:
@@ -421,8 +392,7 @@ def _harmonic_picture(probe: str, models: list[ModelData], reference: ModelData 
         re_ax.plot(model.axis, amplitude.real, **style)
         im_ax.plot(model.axis, amplitude.imag, **style)
     re_ax.set_ylabel("Re a (m/s²)")
-    im_ax.set_ylabel("Im a (m/s²)")
-    im_ax.set_xlabel("nondimensional frequency λ = ω T_wave (1)")
+    im_ax.set(ylabel="Im a (m/s²)", xlabel="nondimensional frequency λ = ω T_wave (1)")
     re_ax.set_title(f"probe {probe}")
     figure_legend(re_ax)
     caption = (

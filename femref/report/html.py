@@ -64,9 +64,8 @@ may hold single spaces (``/home/ann smith/yard``), so a folder name with a space
 
 def render_page(result: ResultFile, plots: list[Picture], field_maps: list[Picture]) -> str:
     """The whole page as one string."""
-    title = f"femref report — {result.path.name}"
     folder = result.path.resolve().parent
-    body = [f"<h1>{escape(title)}</h1>", _facts(result, result.epsilon)]
+    body = []
     if result.choice is not None:
         body += ['<h2 id="choice">Model choice</h2>', _choice_section(result.choice)]
     body += [
@@ -80,24 +79,28 @@ def render_page(result: ResultFile, plots: list[Picture], field_maps: list[Pictu
         field_maps = [replace(p, problem=hide_local_paths(p.problem, folder)) for p in field_maps]
         body += ['<h2 id="field">FEM field</h2>', pictures_html(field_maps, "")]
     body += ['<h2 id="case">Resolved case</h2>', f"<pre>{escape(hide_local_paths(result.case_yaml, folder))}</pre>"]
+    return page(f"femref report — {result.path.name}", _facts(result, result.epsilon), body)
+
+
+def page(title: str, facts: list[tuple[str, str]], body: Iterable[str]) -> str:
+    """A whole page: ``title`` as its heading, the ``facts`` table, then ``body`` (empty parts left out)."""
     head = f'<head><meta charset="utf-8"/><title>{escape(title)}</title><style>{STYLE}</style></head>'
-    return "<!DOCTYPE html>\n<html lang=\"en\">\n" + head + "\n<body>\n" + "\n".join(body) + "\n</body>\n</html>\n"
+    parts = [f"<h1>{escape(title)}</h1>", '<table class="facts">' + "".join(table_row((k,), (v,)) for k, v in facts) + "</table>", *body]
+    return "<!DOCTYPE html>\n<html lang=\"en\">\n" + head + "\n<body>\n" + "\n".join(p for p in parts if p) + "\n</body>\n</html>\n"
 
 
-def _facts(result: ResultFile, epsilon: Epsilon) -> str:
+def table_row(heads: Iterable[Any] = (), cells: Iterable[Any] = ()) -> str:
+    """One row of ``<th>`` then ``<td>`` cells, each escaped."""
+    return "<tr>" + "".join(f"<th>{escape(str(c))}</th>" for c in heads) + "".join(f"<td>{escape(str(c))}</td>" for c in cells) + "</tr>"
+
+
+def _facts(result: ResultFile, epsilon: Epsilon) -> list[tuple[str, str]]:
     if epsilon.value is not None:
         eps = f"{epsilon.value:.3g} (ε = (T_wave/T_load)²; the quasi-rigid models need ε ≪ 1)"
     else:
         eps = f"not available: {epsilon.problem}"
-    rows = [
-        ("result file", result.path.name),
-        ("scene", result.kind),
-        ("ε", eps),
-        ("femref version", result.femref_version),
-        ("created", result.created),
-    ]
-    cells = "".join(f"<tr><th>{escape(k)}</th><td>{escape(v)}</td></tr>" for k, v in rows)
-    return f'<table class="facts">{cells}</table>'
+    return [("result file", result.path.name), ("scene", result.kind), ("ε", eps), ("femref version", result.femref_version),
+            ("created", result.created)]
 
 
 def hide_local_paths(text: str, folder: Path) -> str:
@@ -112,9 +115,6 @@ def hide_local_paths(text: str, folder: Path) -> str:
             return path.name
 
     return LOCAL_PATH.sub(shown, text)
-
-
-# --- model choice ------------------------------------------------------------------
 
 
 def _choice_section(choice: Choice) -> str:
@@ -137,24 +137,18 @@ def _choice_section(choice: Choice) -> str:
     rows = []
     for rung in choice.rungs:
         chosen = rung.label == choice.chosen
-        cells = [
-            "→" if chosen else "",
-            rung.label,
-            rung.family,
+        numbers = [
             str(rung.resolution) if rung.resolution else "–",
             f"{rung.predicted_cost_us * 1e-3:.3g} ms" if math.isfinite(rung.predicted_cost_us) else "–",
             _seconds(rung.wall_time_s) if rung.ran else "not run",
             f"{rung.peak_coupler_force / 1e3:.1f}" if math.isfinite(rung.peak_coupler_force) else "–",
             _percent(rung.estimate),
         ]
-        numeric = "".join(f'<td class="num">{escape(c)}</td>' for c in cells[3:])
+        numeric = "".join(f'<td class="num">{escape(c)}</td>' for c in numbers)
         basis = rung.basis if not rung.status or rung.status == "ok" else f"{rung.status}: {rung.basis}"
-        row_class = ' class="chosen"' if chosen else ""
-        rows.append(
-            f'<tr{row_class}><td>{escape(cells[0])}</td><th scope="row">{escape(cells[1])}</th>'
-            f"<td>{escape(cells[2])}</td>{numeric}"
-            f"<td>{escape(basis)}</td></tr>"
-        )
+        row_class, mark = (' class="chosen"', "→") if chosen else ("", "")
+        rows.append(f'<tr{row_class}><td>{mark}</td><th scope="row">{escape(rung.label)}</th><td>{escape(rung.family)}</td>{numeric}'
+                    f"<td>{escape(basis)}</td></tr>")
     note = (
         "<p>The ladder, cheapest predicted cost first (the cost model's time on the machine that fitted it: only "
         "ratios matter); resolution: elements per car (fem) or modes (modal); → marks the chosen rung; not run: the "
@@ -167,9 +161,6 @@ def _choice_section(choice: Choice) -> str:
 
 def _percent(value: float) -> str:
     return f"{100.0 * value:.3g} %" if math.isfinite(value) else "–"
-
-
-# --- scores ------------------------------------------------------------------------
 
 
 @dataclass(frozen=True)

@@ -159,7 +159,7 @@ def _read_open_file(path: Path, h5: h5py.File) -> ResultFile:
         models = dict(sorted(models.items(), key=lambda item: order.get(item[0], len(order))))
     scores = {}
     if SCORES_GROUP in h5:
-        scores = {name: {k: _attr_value(v) for k, v in group.attrs.items()} for name, group in h5[SCORES_GROUP].items()}
+        scores = {name: attrs_of(group.attrs) for name, group in h5[SCORES_GROUP].items()}
     return ResultFile(
         path=path,
         femref_version=_text(h5.attrs.get("femref_version", "unknown")),
@@ -184,8 +184,8 @@ def _read_model(name: str, group: h5py.Group) -> ModelData:
         wall_time_s=float(group.attrs.get("wall_time_s", math.nan)),
         axis_name=axis_name,
         axis=group[axis_name][()] if axis_name else None,
-        probes=_outputs_by_parent(group["probes"]) if "probes" in group else {},
-        couplers=_outputs_by_parent(group["couplers"]) if "couplers" in group else {},
+        probes=_datasets_by_parent(group["probes"]) if "probes" in group else {},
+        couplers=_datasets_by_parent(group["couplers"]) if "couplers" in group else {},
         measured_time=group["measured/time"][()] if "measured/time" in group else None,
         measured={k: v["acceleration"] for k, v in measured.items()},
         fields={k: v[()] for k, v in group["fields"].items()} if "fields" in group else {},
@@ -216,41 +216,27 @@ def _choice(group: h5py.Group) -> Choice:
         values = group[name][()]
         return [_text(v) if isinstance(v, bytes) else v.item() if isinstance(v, np.generic) else v for v in values]
 
-    rungs = [
-        Rung(label, family, int(resolution), float(cost), bool(ran), status, float(wall), float(peak), float(estimate), basis)
-        for label, family, resolution, cost, ran, status, wall, peak, estimate, basis in zip(
-            labels,
-            column("family", ""),
-            column("resolution", 0),
-            column("predicted_cost", math.nan),
-            column("ran", False),
-            column("status", ""),
-            column("wall_time_s", math.nan),
-            column("peak_coupler_force", math.nan),
-            column("estimate", math.inf),
-            column("basis", ""),
-        )
-    ]
-    attrs = {k: _attr_value(v) for k, v in group.attrs.items()}
-    return Choice(
-        tolerance=float(attrs.get("tolerance", math.nan)),
-        output=str(attrs.get("output", "")),
-        output_description=str(attrs.get("output_description", "")),
-        chosen=str(attrs.get("chosen", "")),
-        met=bool(attrs.get("met", False)),
-        estimate=float(attrs.get("estimate", math.inf)),
-        basis=str(attrs.get("basis", "")),
-        epsilon_load=float(attrs.get("epsilon_load", math.nan)),
-        rungs=rungs,
-    )
+    columns = zip(*(column(name, default) for name, default, _ in _RUNG_COLUMNS))
+    rungs = [Rung(label, *(read(value) for (_, _, read), value in zip(_RUNG_COLUMNS, row))) for label, row in zip(labels, columns)]
+    attrs = attrs_of(group.attrs)
+    return Choice(**{name: read(attrs.get(name, default)) for name, default, read in _CHOICE_ATTRS}, rungs=rungs)
 
 
-def _outputs_by_parent(group: h5py.Group) -> dict[str, dict[str, NDArray]]:
-    """Datasets under ``group`` keyed by their parent's path (the probe or coupler name), then their name."""
-    return _datasets_by_parent(group, None)
+def _same(value: Any) -> Any:
+    return value
 
 
-def _datasets_by_parent(group: h5py.Group, only: str | None) -> dict[str, dict[str, NDArray]]:
+#: ``/choice``'s datasets after ``label``, in :class:`Rung`'s order: name, value when missing, how it is read.
+_RUNG_COLUMNS = (("family", "", _same), ("resolution", 0, int), ("predicted_cost", math.nan, float), ("ran", False, bool),
+                 ("status", "", _same), ("wall_time_s", math.nan, float), ("peak_coupler_force", math.nan, float),
+                 ("estimate", math.inf, float), ("basis", "", _same))
+#: ``/choice``'s attributes, in :class:`Choice`'s order.
+_CHOICE_ATTRS = (("tolerance", math.nan, float), ("output", "", str), ("output_description", "", str), ("chosen", "", str),
+                 ("met", False, bool), ("estimate", math.inf, float), ("basis", "", str), ("epsilon_load", math.nan, float))
+
+
+def _datasets_by_parent(group: h5py.Group, only: str | None = None) -> dict[str, dict[str, NDArray]]:
+    """Datasets under ``group`` (named ``only``, or all) keyed by their parent's path (the probe or coupler name), then their name."""
     found: dict[str, dict[str, NDArray]] = {}
 
     def visit(name: str, obj: Any) -> None:
@@ -290,12 +276,15 @@ def _text(value: Any) -> str:
     return value.decode("utf-8", "replace") if isinstance(value, bytes) else str(value)
 
 
-def _attr_value(value: Any) -> Any:
+def attrs_of(attrs: h5py.AttributeManager) -> dict[str, Any]:
+    """HDF5 attributes as Python scalars and strings (:func:`attr_value`)."""
+    return {key: attr_value(value) for key, value in attrs.items()}
+
+
+def attr_value(value: Any) -> Any:
     """An HDF5 attribute as a Python scalar or string."""
     if isinstance(value, bytes):
         return value.decode("utf-8", "replace")
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray) and value.ndim == 0:
+    if isinstance(value, np.generic) or (isinstance(value, np.ndarray) and value.ndim == 0):
         return value.item()
     return value

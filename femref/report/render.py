@@ -10,11 +10,6 @@ import functools
 import os
 import subprocess
 import sys
-from pathlib import Path
-
-import numpy as np
-from numpy.typing import NDArray
-
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 
 _PROBE = """
@@ -48,24 +43,3 @@ def offscreen_status() -> tuple[bool, str]:
         f"pyvista cannot render off-screen ({tail[0]}); install EGL/Mesa "
         "(Debian: apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri) or run scripts/install-offscreen-gl.sh"
     )
-
-
-def render_space_time(x: NDArray, times: NDArray, u: NDArray, path: str | Path, label: str = "u (m)") -> Path:
-    """Save a space–time map of the field ``u[t, x]`` as a PNG (x along, t up, colour = u)."""
-    ok, reason = offscreen_status()
-    if not ok:
-        raise RenderUnavailable(reason)
-    import pyvista as pv
-
-    xx, tt = np.meshgrid(np.asarray(x, dtype=float), np.asarray(times, dtype=float))
-    span = float(np.ptp(x)) or 1.0
-    duration = float(np.ptp(times)) or 1.0
-    grid = pv.StructuredGrid(xx / span, tt / duration, np.zeros_like(xx))
-    grid.point_data[label] = np.asarray(u, dtype=float).ravel(order="F")  # VTK structured points: first axis fastest
-    plotter = pv.Plotter(off_screen=True, window_size=(800, 600))
-    plotter.add_mesh(grid, scalars=label, cmap="coolwarm")
-    plotter.view_xy()
-    path = Path(path)
-    plotter.screenshot(str(path))
-    plotter.close()
-    return path

@@ -20,7 +20,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from femref.report.figures import MODEL_COLORS, Picture, new_figure, figure_png
-from femref.report.html import STYLE, pictures_html, hide_local_paths
+from femref.report.html import hide_local_paths, page, pictures_html, table_row
+from femref.report.read import attr_value, attrs_of
 
 NETWORKS_GROUP = "networks"
 
@@ -51,28 +52,25 @@ def study_report(path: Path, h5: h5py.File) -> str:
     """The whole page of the open study file ``h5`` (read from ``path``): the file by its name, the study's paths
     relative to its folder or by name (:func:`femref.report.html.hide_local_paths`) — a page carries no local path."""
     networks = [_network(name, group) for name, group in h5[NETWORKS_GROUP].items()]
-    sets = [SetErrors(name, {e: _attrs(g.attrs) for e, g in group.items() if isinstance(g, h5py.Group)})
+    sets = [SetErrors(name, {e: attrs_of(g.attrs) for e, g in group.items() if isinstance(g, h5py.Group)})
             for name, group in h5.items() if name != NETWORKS_GROUP and isinstance(group, h5py.Group)]
     title = f"femref report — {path.name}"
     facts = [("study file", path.name), ("networks", str(len(networks))), ("evaluation sets", ", ".join(s.name for s in sets) or "none"),
-             ("femref version", str(_attr(h5.attrs.get("femref_version", "unknown"))))]
+             ("femref version", str(attr_value(h5.attrs.get("femref_version", "unknown"))))]
     body = [
-        f"<h1>{escape(title)}</h1>",
-        '<table class="facts">' + "".join(f"<tr><th>{escape(k)}</th><td>{escape(v)}</td></tr>" for k, v in facts) + "</table>",
         "<h2>Peak-force errors</h2>",
         _error_table(networks, sets),
         "<h2>Training loss</h2>",
         pictures_html([loss_picture(n) for n in networks], "no networks"),
         "<h2>Study</h2>",
-        f"<pre>{escape(hide_local_paths(str(_attr(h5.attrs['study_yaml'])), path.resolve().parent))}</pre>",
+        f"<pre>{escape(hide_local_paths(str(attr_value(h5.attrs['study_yaml'])), path.resolve().parent))}</pre>",
     ]
-    head = f'<head><meta charset="utf-8"/><title>{escape(title)}</title><style>{STYLE}</style></head>'
-    return "<!DOCTYPE html>\n<html lang=\"en\">\n" + head + "\n<body>\n" + "\n".join(body) + "\n</body>\n</html>\n"
+    return page(title, facts, body)
 
 
 def _network(name: str, group: h5py.Group) -> NetworkData:
     curve = np.asarray(group["loss_curve"][()], dtype=float) if "loss_curve" in group else np.empty(0)  # older files have none
-    return NetworkData(name, _attrs(group.attrs), curve)
+    return NetworkData(name, attrs_of(group.attrs), curve)
 
 
 def loss_picture(network: NetworkData) -> Picture:
@@ -88,9 +86,7 @@ def loss_picture(network: NetworkData) -> Picture:
     ax.plot(epochs[positive], curve[positive], color=MODEL_COLORS[1], lw=1.3)
     if np.any(positive):
         ax.set_yscale("log")
-    ax.set_xlabel("epoch")
-    ax.set_ylabel("training loss E (scaled log target)")
-    ax.set_title(network.name)
+    ax.set(xlabel="epoch", ylabel="training loss E (scaled log target)", title=network.name)
     a = network.attrs
     caption = (f"{network.name} (network {a.get('network', '?')}, trained on {a.get('source', '?')} records, "
                f"{a.get('training_samples', '?')} samples): loss per epoch, {curve.size} epochs, last {curve[-1]:.3g}.")
@@ -110,25 +106,12 @@ def _error_table(networks: list[NetworkData], sets: list[SetErrors]) -> str:
         for s in sets:
             summary = s.summaries.get(estimator)
             cells.append(f"{_percent(summary.get('mean'))} / {_percent(summary.get('p95'))}" if summary else "—")
-        rows.append("<tr>" + "".join(f"<td>{escape(str(c))}</td>" for c in cells) + "</tr>")
-    header = "<tr>" + "".join(f"<th>{escape(c)}</th>" for c in head) + "</tr>"
-    return f'<div class="wide"><table>{header}{"".join(rows)}</table></div>'
+        rows.append(table_row((), cells))
+    return f'<div class="wide"><table>{table_row(head)}{"".join(rows)}</table></div>'
 
 
 def _percent(value: Any) -> str:
     return "—" if value is None or not math.isfinite(float(value)) else f"{float(value):.2%}"
-
-
-def _attrs(attrs: h5py.AttributeManager) -> dict[str, Any]:
-    return {key: _attr(value) for key, value in attrs.items()}
-
-
-def _attr(value: Any) -> Any:
-    if isinstance(value, bytes):
-        return value.decode()
-    if isinstance(value, np.generic):
-        return value.item()
-    return value
 
 
 __all__ = ["is_study_file", "loss_picture", "study_report"]

@@ -6,8 +6,6 @@
 >>> outcome = run_study(study.scaled(0.1), where, "quick_study", workers=2)  # doctest: +SKIP
 >>> print(outcome.markdown())                                                # doctest: +SKIP
 
-* :mod:`femref.study.spec` — the study file (base case, distribution, sets, networks);
-* :mod:`femref.study.run` — sweeps, training per source, evaluation, ``study.h5``.
-
-Command line: ``femref study STUDY.yaml [-o DIR] [--workers N | --scheduler ADDR] [--scale F]``.
+The study file: :mod:`femref.study.spec`; sweeps, training, evaluation: :mod:`femref.study.run`;
+the inverse estimators' error bands: :mod:`femref.study.calibration`.
 """

@@ -38,8 +38,6 @@ within 0.5 ms on the default scene at 1–3 m/s). A network is calibrated on eac
 the contact and at ± this, so its band carries that error too."""
 
 
-
-
 def calibrate(sweep: Sweep, results: Path, coupler: str | None = None, networks: Sequence[AnnEstimator] = (),
               progress_for: ProgressFor | None = None) -> Calibration:
     """The calibration of every inverse estimator, and of the saved ``networks``, on the ok samples of

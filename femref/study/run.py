@@ -5,22 +5,14 @@
 1. one sweep per set (:mod:`femref.sweep`, on Dask; resumable): ``<set>.sweep.yaml`` (the
    sweep file, runnable on its own with ``femref sweep``) and ``<set>.h5``;
 2. for each training source ``s`` (a model of the ``train`` set) and each network ``n``:
-   a feature pipeline fitted on ``s``'s records of the training split, the network trained
-   on ``log`` of ``s``'s peak force (:mod:`ann.networks`), scored on the held-out
-   validation split of its own source, saved as ``networks/<s>_<n>.npz`` with the
-   metadata contract of :mod:`femref.sensing.network` (so ``femref run`` can use it) and
-   its loss per epoch; a network with ``initial`` keeps that saved network's feature
-   pipeline and continues training from its weights (checked before the sweeps run:
-   :func:`initial_networks`). With ``impact_types`` each training record is classified
-   (:func:`impact_types`) and a network is trained per type, ``networks/<s>_<n>_<type>.npz``
-   — the pair a case reads as ``network: {free_to_roll: …, coupled: …}``;
-3. on every evaluation set: each network (with ``impact_types``, ``<s>_<n>`` reading each
-   record with the network of its classified type) and each inverse estimator
-   (:mod:`femref.estimators.inverse`, on the same fixed-length fem records) against the fem
-   peak force, ``e = |P̂ − P_fem| / P_fem`` per sample, summarised by its mean and 95th
-   percentile (:func:`error_summary`);
-4. ``study.h5`` (every per-sample estimate and error, each network's loss curve) and
-   ``study.md`` (the table); ``femref report study.h5`` draws them (:mod:`femref.report.study`).
+   a feature pipeline and the network trained on ``log`` of ``s``'s peak force, scored on the
+   held-out validation split of its own source, saved as ``networks/<s>_<n>[_<type>].npz`` with the
+   metadata contract of :mod:`femref.sensing.network` (so ``femref run`` can use it)
+   (:func:`train_networks`);
+3. on every evaluation set: each network and each inverse estimator against the fem peak force,
+   ``e = |P̂ − P_fem| / P_fem`` per sample (:func:`evaluate_set`, :func:`error_summary`);
+4. ``study.h5`` (:func:`write_study`) and ``study.md`` (the table); ``femref report study.h5``
+   draws them (:mod:`femref.report.study`).
 
 Every file of the study folder is written under a temporary name and renamed when complete
 (:func:`femref.core.publishing.atomic_path`; the sweep files by :mod:`femref.sweep`): a step that fails
@@ -115,24 +107,15 @@ class StudyOutcome:
     out_dir: Path
     networks: list[TrainedNetwork]
     sets: dict[str, SetScores]
-    sweeps_wall_time_s: dict[str, float]
 
     def table_rows(self) -> list[dict[str, Any]]:
         """One row per estimator: source, network, own-source validation error, then mean/p95 per evaluation set."""
-        rows = []
-        for trained in self.networks:
-            row = {"estimator": trained.name, "trained on": trained.source, "network": trained.network, "own source": trained.validation}
-            row.update({name: scores.summaries[trained.name] for name, scores in self.sets.items() if trained.name in scores.summaries})
-            rows.append(row)
-        for label, (source, network) in _routed_labels(self.networks).items():
-            row = {"estimator": label, "trained on": source, "network": f"{network} by impact type", "own source": None}
-            row.update({name: scores.summaries[label] for name, scores in self.sets.items() if label in scores.summaries})
-            rows.append(row)
-        for name in INVERSE_ESTIMATORS:
-            row = {"estimator": name, "trained on": "—", "network": "inverse", "own source": None}
-            row.update({s: scores.summaries[name] for s, scores in self.sets.items() if name in scores.summaries})
-            rows.append(row)
-        return rows
+        heads = [(t.name, t.source, t.network, t.validation) for t in self.networks]
+        heads += [(label, source, f"{network} by impact type", None) for label, (source, network) in _routed_labels(self.networks).items()]
+        heads += [(name, "—", "inverse", None) for name in INVERSE_ESTIMATORS]
+        return [{"estimator": name, "trained on": source, "network": network, "own source": own,
+                 **{s: scores.summaries[name] for s, scores in self.sets.items() if name in scores.summaries}}
+                for name, source, network, own in heads]
 
     def markdown(self) -> str:
         sets = list(self.sets)
@@ -144,9 +127,6 @@ class StudyOutcome:
             cells += [f"{row[s].mean:.2%} / {row[s].p95:.2%}" if s in row else "—" for s in sets]
             lines.append("| " + " | ".join(cells) + " |")
         return "\n".join(lines) + "\n"
-
-
-# ------------------------------------------------------------------------------------ sweeps
 
 
 def base_case_data(study: StudyFile, study_dir: Path, source: str) -> dict[str, Any]:
@@ -188,9 +168,6 @@ def prepare_sweeps(study: StudyFile, study_dir: Path, out_dir: Path, source: str
     return sweeps
 
 
-# ------------------------------------------------------------------------------------ data
-
-
 @dataclass(frozen=True)
 class SetData:
     """The usable samples of one set: records, peak forces per model, and each sample's scene."""
@@ -227,16 +204,11 @@ def read_set(sweep: Sweep, path: Path) -> SetData:
     return SetData(sweep, data, index, scenes)
 
 
-# ------------------------------------------------------------------------------------ training
-
-
 def feature_settings(study: StudyFile, train: SetData) -> Any:
     """The study's :class:`ann.features.FeatureSettings` for the set's records (rate) and cars (mass inputs)."""
     from ann.features import FeatureSettings
 
-    extras = tuple(f"car_mass/{car}" for car in train.car_names) if study.car_masses else ()
-    f = study.features
-    return FeatureSettings(length=f.length, rate=train.data.record_rate, lowpass=f.lowpass, spectrum=f.spectrum, normalise=f.normalise, extras=extras)
+    return FeatureSettings(rate=train.data.record_rate, **_feature_fields(study, list(train.car_names)))
 
 
 @dataclass(frozen=True)
@@ -451,9 +423,6 @@ def _rows(masses: NDArray[np.float64] | None, rows: NDArray[np.int64]) -> NDArra
     return None if masses is None else masses[rows]
 
 
-# ------------------------------------------------------------------------------------ evaluation
-
-
 def evaluate_set(study: StudyFile, name: str, data: SetData, networks: list[TrainedNetwork], probes: list[str]) -> SetScores:
     """Every network and inverse estimator on the set's fem records, against its fem peak force; networks trained
     per impact type as one estimate ``<source>_<network>``, each record read by the network of its classified type
@@ -495,9 +464,6 @@ def inverse_estimates(study: StudyFile, data: SetData) -> dict[str, NDArray[np.f
     return out
 
 
-# ------------------------------------------------------------------------------------ the study
-
-
 def run_study(
     study: StudyFile,
     study_dir: Path,
@@ -513,10 +479,8 @@ def run_study(
     out_dir = Path(out_dir)
     initial = initial_networks(study, study_dir, source)  # a bad initial network stops the study before its sweeps
     sweeps = prepare_sweeps(study, study_dir, out_dir, source)
-    wall: dict[str, float] = {}
     for name, sweep in sweeps.items():
-        summary = run_sweep(sweep, out_dir / f"{name}.h5", scheduler=scheduler, workers=workers, client=client, progress=progress)
-        wall[name] = summary.wall_time_s
+        run_sweep(sweep, out_dir / f"{name}.h5", scheduler=scheduler, workers=workers, client=client, progress=progress)
     sets = {name: read_set(sweep, out_dir / f"{name}.h5") for name, sweep in sweeps.items()}
     probes = list(study.probes) if study.probes is not None else list(sets[TRAIN].data.probes)
     unknown = [p for p in probes if p not in sets[TRAIN].data.probes]
@@ -525,7 +489,7 @@ def run_study(
     with one_blas_thread():  # small dense products: BLAS threads only spin against each other (4× the wall time on 2 busy cores)
         networks = train_networks(study, sets[TRAIN], probes, out_dir, initial, source)
     scores = {name: evaluate_set(study, name, sets[name], networks, probes) for name in study.evaluation_sets}
-    outcome = StudyOutcome(study, out_dir, networks, scores, wall)
+    outcome = StudyOutcome(study, out_dir, networks, scores)
     write_study(outcome, out_dir / "study.h5")
     _write_text(out_dir / "study.md", outcome.markdown())
     return outcome
@@ -538,14 +502,8 @@ def _write_text(path: Path, text: str) -> None:
 
 
 def write_study(outcome: StudyOutcome, path: Path) -> None:
-    """``study.h5``: per evaluation set the fem reference and every estimator's estimates and errors.
-
-    ``/<set>/reference`` (N,) N; ``/<set>/<estimator>/estimate`` (N,) N with attrs mean, p95,
-    bias (relative errors) and inference_time_s (per record); ``/networks/<name>`` attrs:
-    source, network, file, training samples and time, own-source validation errors, and its
-    dataset ``loss_curve`` (epochs,): the training loss per epoch (empty for an RBF network and
-    an lbfgs-trained MLP). Written to a temporary name and renamed.
-    """
+    """``study.h5`` (docs/design.md §4.4): per evaluation set the fem reference and every estimator's estimates and
+    errors; per network its facts and ``loss_curve`` (epochs,), empty for an RBF network and an lbfgs-trained MLP."""
     with atomic_path(path) as tmp, hdf5_writer(tmp) as h5:
         h5.attrs["femref_version"] = __version__
         h5.attrs["study_yaml"] = yaml.safe_dump(outcome.study.model_dump(mode="json"), sort_keys=False)

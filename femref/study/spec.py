@@ -4,28 +4,7 @@ A study answers the source study's question with the FEM as ground truth: *can a
 trained on simulated impacts estimate the peak coupler force from acceleration records,
 and does it matter which model generated the training data?* (issue 5, docs/formulas.md §C).
 
-.. code-block:: yaml
-
-    base: impact_free_roll.yaml          # the impact case every sample starts from
-    base_overrides: {fem.elements: 32}   # key path → value, applied to the base once
-    parameters:                          # the shared distribution (sweep syntax, femref.sweep.distributions)
-      cars.0.velocity: {uniform: [0.5, 4.0]}
-    sets:
-      train: {samples: 1500, seed: 11, models: [fem, quasi_rigid, rigid]}
-      test: {samples: 300, seed: 12, models: [fem], parameters: {measurement.noise: {choice: [0.1]}}}
-      out_of_range: {samples: 200, seed: 13, models: [fem], parameters: {cars.0.velocity: {uniform: [4.0, 6.0]}}}
-    coupler: c1                          # the coupler whose peak force the networks estimate
-    probes: [anvil/center, ...]          # record channels (default: every sensor of the scene)
-    car_masses: true                     # the car masses are network inputs (known from the waybill)
-    features: {length: 50, normalise: channel_peak}
-    networks:
-      mlp: {mlp: {hidden: [200, 21], activation: logistic, solver: lbfgs, alpha: 0.1}}
-      rbf: {rbf: {centres: 120, basis: gaussian, width_factor: 8.0}}
-      deep:                              # the source's 300-70-5-1: a unit per layer, the last the output's
-        mlp: {hidden: [70, 5], activation: [tanh, tanh, logistic], solver: momentum,
-              learning_rate: 0.05, momentum: 0.9, max_iter: 2000, batch_size: 32}
-      more: {mlp: {hidden: [70, 5], activation: [tanh, tanh, logistic], solver: momentum,
-                   initial: earlier/networks/fem_deep.npz}}   # continue training a saved network
+Its keys and their defaults: docs/design.md §6.4.
 
 Every set is a sweep (:mod:`femref.sweep`) of the base case over the shared ``parameters``,
 with the set's own ``parameters`` replacing or adding key paths. ``train`` is required: each
@@ -34,10 +13,8 @@ of its ``models`` is a training source (a network per source and per entry of
 set is an evaluation set and must run ``fem``: the networks and the inverse estimators
 are scored on its fem records against its fem peak force.
 
-Networks that train with scikit-learn (an MLP with ``solver`` sgd, adam or lbfgs; an RBF
-network) need the optional extra ``femref[train]``: without it the study file is refused when it
-is validated, at ``networks.<name>.mlp.solver`` (``networks.<name>.rbf``), before any sweep runs
-(:func:`training_dependency_problems`). ``solver: momentum`` trains with numpy alone.
+Networks that train with scikit-learn need the optional extra ``femref[train]``, checked when the study
+file is validated (:func:`training_dependency_problems`).
 """
 
 from __future__ import annotations
@@ -137,18 +114,13 @@ class MlpSpec(TaggedSpec):
             except ValueError as error:
                 problems.append(Problem(("activation",), str(error), _plain(self.activation)))
         else:
+            units = ", ".join(SKLEARN_UNITS)
             if not isinstance(self.activation, str):
-                problems.append(Problem(
-                    ("activation",),
-                    f"a unit per layer needs solver: momentum; {self.solver} (scikit-learn) takes one of {', '.join(SKLEARN_UNITS)} for every hidden layer",
-                    _plain(self.activation),
-                ))
+                rule = f"a unit per layer needs solver: momentum; {self.solver} (scikit-learn) takes one of {units} for every hidden layer"
+                problems.append(Problem(("activation",), rule, _plain(self.activation)))
             elif self.activation not in SKLEARN_UNITS:
-                problems.append(Problem(
-                    ("activation",),
-                    f"{self.activation} units need solver: momentum; {self.solver} (scikit-learn) takes {', '.join(SKLEARN_UNITS)}",
-                    self.activation,
-                ))
+                rule = f"{self.activation} units need solver: momentum; {self.solver} (scikit-learn) takes {units}"
+                problems.append(Problem(("activation",), rule, self.activation))
             for key in ("batch_size", "initial"):
                 if getattr(self, key) is not None:
                     problems.append(Problem((key,), f"{key} needs solver: momentum (got solver: {self.solver})", getattr(self, key)))
@@ -194,8 +166,6 @@ class RbfSpec(TaggedSpec):
 
 NETWORK_SPECS: dict[str, type[TaggedSpec]] = {"mlp": MlpSpec, "rbf": RbfSpec}
 NetworkSpec = tagged_union(NETWORK_SPECS, "network")
-
-
 
 
 def training_dependency_available() -> bool:

@@ -5,13 +5,9 @@
 >>> run_sweep(sweep, "speeds.h5", workers=2).runs_per_second              # doctest: +SKIP
 >>> data = read_sweep("speeds.h5"); data.records["fem"][data.ok].shape     # doctest: +SKIP
 
-* :mod:`femref.sweep.spec` — the sweep file and the sampling rule;
-* :mod:`femref.sweep.distributions` — the parameter distributions;
-* :mod:`femref.sweep.keypaths` — dotted key paths into a case;
-* :mod:`femref.sweep.worker` — one sample on a worker (case → fixed-length arrays);
-* :mod:`femref.sweep.store` — the HDF5 layout, resume, :func:`read_sweep`;
-* :mod:`femref.sweep.run` — the Dask orchestration, :func:`run_sweep`.
-
+The file and its samples (:mod:`~femref.sweep.spec`, :mod:`~femref.sweep.distributions`,
+:mod:`~femref.sweep.keypaths`), one sample on a worker (:mod:`~femref.sweep.worker`), the HDF5 file
+(:mod:`~femref.sweep.store`), the Dask orchestration (:mod:`~femref.sweep.run`).
 dask.distributed is imported when a sweep runs, not when a sweep file is read.
 """
 

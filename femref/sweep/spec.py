@@ -1,33 +1,11 @@
-"""Sweep files (docs/design.md §6): a base impact case, parameter distributions, and the samples they give.
-
-Layout of a sweep file (YAML, read with the case files' loader)::
-
-    base: ../impact_free_roll.yaml     # an impact case file, relative to this file
-                                       #   (or instead:  case: {...an inline impact case...})
-    samples: 40                        # random draws (per grid point when grid parameters exist)
-    seed: 7                            # integer >= 0
-    models: [fem, rigid]               # optional: replaces the base case's models
-    parameters:                        # case key path -> distribution, applied in this order
-      cars.0.velocity: {uniform: [0.5, 4.0]}
-      cars.1.body.axial_stiffness: {log_uniform: [1.0e9, 6.0e9]}
-      cars.0.body.axial_viscosity: {normal: {mean: 2.0e6, std: 5.0e5, clip: [5.0e5, 4.0e6]}}
-      couplers.0.law: {choice: [{kelvin_voigt: {stiffness: 4.0e7}}, {draft_gear: {...}}]}
-      fem.elements: {grid: [16, 32]}
-    outputs: {record_length: 200, force_length: 200}
+"""Sweep files (docs/design.md §6, the layout and the distributions): a base impact case, parameter distributions,
+and the samples they give.
 
 Key paths are dotted; integer parts index lists (``couplers.0.law.kelvin_voigt.stiffness``).
-They address the *resolved* base case (every default filled in, ``femref validate``),
-so a default the base file leaves out (``fem.elements``, ``integrator.rho_inf``) can be
-swept. Every part but the last must exist in the base case — or in a value of an earlier
-``choice``/``grid`` parameter that replaces a parent; a path that exists in no way is a
-sweep-file error. When an earlier choice removes a parent in some samples only, those
-samples fail (they are stored as failed samples, see :mod:`femref.sweep.store`).
-
-Distributions (registry :data:`~femref.sweep.distributions.DISTRIBUTIONS`): ``uniform: [low, high]``,
-``log_uniform: [low, high]`` (``log x`` uniform, ``low > 0``), ``normal: {mean, std,
-clip: [low, high]}`` (draw, then ``np.clip``; ``clip`` optional), ``choice: [v0, v1, …]``
-or ``choice: {values: […], weights: […]}`` (any YAML values), and ``grid: [v0, v1, …]``
-(the cartesian product over all grid parameters).
+They address the *resolved* base case, so a default the base file leaves out (``fem.elements``)
+can be swept. Every part but the last must exist in the base case — or in a value of an earlier
+``choice``/``grid`` parameter that replaces a parent; when that choice removes a parent in some
+samples only, those samples fail (stored as failed samples, :mod:`femref.sweep.store`).
 
 Sampling rule — deterministic and independent of the total count::
 
@@ -35,11 +13,8 @@ Sampling rule — deterministic and independent of the total count::
     i = draw · n_grid + grid_point         grid_point: C order over the grid parameters (the last varies fastest)
     random values of draw d:  numpy.random.default_rng([seed, d]), drawn in parameter order
 
-so raising ``samples`` keeps every earlier sample identical, and all grid points of one
-draw share its random values. Each sample's case is the resolved base case with the
-parameters applied in order, ``models`` replaced (if given) and ``estimators: []``. When
-the sample's case has a ``measurement`` and the sweep does not set ``measurement.seed``,
-sample ``i`` gets the noise seed ``int(SeedSequence([seed, i]).generate_state(1)[0])``.
+so raising ``samples`` keeps every earlier sample identical. A sample's case with a ``measurement``
+whose seed the sweep does not set gets :func:`noise_seed`.
 """
 
 from __future__ import annotations
@@ -91,10 +66,6 @@ FIXED_PATHS: Mapping[str, str] = {
 RESERVED_GROUPS = ("parameters", "samples")
 
 
-# ---------------------------------------------------------------------------------------------
-# The sweep file
-
-
 RecordLength = Annotated[int, BeforeValidator(reject_bool), Field(ge=2)]
 
 
@@ -133,10 +104,6 @@ class SweepFile(CaseModel):
 
 
 _SWEEP_ADAPTER: TypeAdapter[SweepFile] = TypeAdapter(SweepFile)
-
-
-# ---------------------------------------------------------------------------------------------
-# The sweep: base case, parameters and samples
 
 
 @dataclass(frozen=True)
@@ -212,10 +179,7 @@ class Sweep:
         values: dict[str, Any] = {}
         stored: dict[str, float | int] = {}
         for path, distribution in self.spec.parameters.items():
-            if isinstance(distribution, Grid):
-                values[path], stored[path] = distribution.point(int(point[path]))
-            else:
-                values[path], stored[path] = distribution.draw(rng)
+            values[path], stored[path] = distribution.point(int(point[path])) if isinstance(distribution, Grid) else distribution.draw(rng)
         data = self.base_data
         for path, value in values.items():
             try:
@@ -239,10 +203,6 @@ class Sweep:
 def noise_seed(seed: int, index: int) -> int:
     """The measurement noise seed of sample ``index``: ``SeedSequence([seed, index])``'s first word."""
     return int(np.random.SeedSequence([seed, index]).generate_state(1)[0])
-
-
-# ---------------------------------------------------------------------------------------------
-# Loading
 
 
 def load_sweep(path: str | Path) -> Sweep:

@@ -1,20 +1,6 @@
 """The HDF5 sweep file: one row per sample, written as samples finish, resumable.
 
-Layout (the contract the networks read; ``N`` samples, names fixed)::
-
-    /  attrs: femref_version, created, sweep_yaml (resolved sweep), base_case_yaml (resolved base case),
-              spec_hash (resolved sweep without samples, with the base case), seed, models, probes
-              (channel order), couplers (JSON lists), record_length, force_length, record_end (s),
-              record_rate (Hz), record_source ("measured" | "model"), measurement (JSON or null)
-    /parameters/<path>           (N,) float64 — or int64 index into attr values (JSON list) for choice and
-                                 non-numeric grid parameters; attr distribution (JSON)
-    /samples/status              (N,) int8: 0 not run, 1 ok, 2 failed
-    /samples/error               (N,) UTF-8 text, "" unless failed
-    /<model>/records             (N, channels, record_length) float64 m/s^2, NaN where not ok
-    /<model>/coupler_force       (N, couplers, force_length) float64 N, compression positive
-    /<model>/peak_coupler_force  (N, couplers) float64 N
-    /<model>/wall_time_s         (N,) float64 s
-
+Its layout, the contract the networks read: docs/design.md §4.4 (:data:`_ARRAYS` the per-model datasets).
 Only the sweep's client writes. Work goes to ``<output>.partial``, flushed after every
 stored batch of samples; once every sample is stored (ok or failed) it is renamed to ``<output>``.
 Opening again with the same sweep (same ``spec_hash``) resumes: stored samples are
@@ -50,6 +36,12 @@ _ARRAYS = {  # per-model dataset → (shape after N from the layout, units)
     "coupler_force": (lambda lay: (len(lay.couplers), lay.force_length), UNITS["force"]),
     "peak_coupler_force": (lambda lay: (len(lay.couplers),), UNITS["force"]),
     "wall_time_s": (lambda lay: (), "s"),
+}
+#: The root attributes :func:`read_sweep` reads (but ``models``) and how each is read.
+_ATTRS = {
+    "femref_version": str, "created": str, "sweep_yaml": str, "base_case_yaml": str, "spec_hash": str, "seed": int,
+    "probes": json.loads, "couplers": json.loads, "record_length": int, "force_length": int, "record_end": float,
+    "record_rate": float, "record_source": str, "measurement": json.loads,
 }
 
 
@@ -104,8 +96,6 @@ class SweepStore:
 
     def __init__(self, h5: h5py.File, output: Path, sweep: Sweep, layout: SweepLayout) -> None:
         self.h5, self.output, self.sweep, self.layout = h5, output, sweep, layout
-
-    # -- opening -------------------------------------------------------------------------------
 
     @classmethod
     def open(cls, output: str | Path, sweep: Sweep, layout: SweepLayout) -> "SweepStore":
@@ -173,23 +163,12 @@ class SweepStore:
         from femref.case import resolved_yaml
 
         h5.attrs.update(
-            {
-                "femref_version": __version__,
-                "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-                "sweep_yaml": sweep.resolved_yaml(),
-                "base_case_yaml": resolved_yaml(sweep.base_case),
-                "spec_hash": sweep.spec_hash,
-                "seed": sweep.spec.seed,
-                "models": json.dumps(list(layout.models)),
-                "probes": json.dumps(list(layout.probes)),
-                "couplers": json.dumps(list(layout.couplers)),
-                "record_length": layout.record_length,
-                "force_length": layout.force_length,
-                "record_end": layout.record_end,
-                "record_rate": record_rate(layout.record_length, layout.record_end),
-                "record_source": layout.record_source,
-                "measurement": json.dumps(layout.measurement),
-            }
+            femref_version=__version__, created=datetime.now(timezone.utc).isoformat(timespec="seconds"), sweep_yaml=sweep.resolved_yaml(),
+            base_case_yaml=resolved_yaml(sweep.base_case), spec_hash=sweep.spec_hash, seed=sweep.spec.seed,
+            models=json.dumps(list(layout.models)), probes=json.dumps(list(layout.probes)), couplers=json.dumps(list(layout.couplers)),
+            record_length=layout.record_length, force_length=layout.force_length, record_end=layout.record_end,
+            record_rate=record_rate(layout.record_length, layout.record_end), record_source=layout.record_source,
+            measurement=json.dumps(layout.measurement),
         )
         for path, distribution in sweep.spec.parameters.items():
             values = distribution.stored_values()
@@ -225,8 +204,6 @@ class SweepStore:
         self.h5.visititems(grow)
         self.h5.flush()
 
-    # -- state ---------------------------------------------------------------------------------
-
     @property
     def size(self) -> int:
         return int(self.h5["samples/status"].shape[0])
@@ -240,8 +217,6 @@ class SweepStore:
         status = self.status
         todo = status == NOT_RUN if not retry_failed else status != OK
         return [int(i) for i in np.flatnonzero(todo)]
-
-    # -- storing -------------------------------------------------------------------------------
 
     def store_batch(self, indices: list[int], stored_parameters: list[dict[str, float | int]], records: list[dict[str, Any]]) -> list[str]:
         """Store the samples ``indices`` (increasing) with their parameters and records (worker records, or
@@ -275,10 +250,6 @@ class SweepStore:
         if complete:
             os.replace(partial_path(self.output), self.output)
         return complete
-
-
-# ---------------------------------------------------------------------------------------------
-# Reading
 
 
 @dataclass(frozen=True)
@@ -345,28 +316,6 @@ def read_sweep(path: str | Path) -> SweepData:
                 parameters[name] = ds[...]
         arrays = {name: {model: h5[f"{model}/{name}"][...] for model in models} for name in _ARRAYS}
         return SweepData(
-            path=path,
-            femref_version=str(attrs["femref_version"]),
-            created=str(attrs["created"]),
-            sweep_yaml=str(attrs["sweep_yaml"]),
-            base_case_yaml=str(attrs["base_case_yaml"]),
-            spec_hash=str(attrs["spec_hash"]),
-            seed=int(attrs["seed"]),
-            models=models,
-            probes=json.loads(attrs["probes"]),
-            couplers=json.loads(attrs["couplers"]),
-            record_length=int(attrs["record_length"]),
-            force_length=int(attrs["force_length"]),
-            record_end=float(attrs["record_end"]),
-            record_rate=float(attrs["record_rate"]),
-            record_source=str(attrs["record_source"]),
-            measurement=json.loads(attrs["measurement"]),
-            parameters=parameters,
-            distributions=distributions,
-            status=h5["samples/status"][...],
-            error=list(h5["samples/error"].asstr()[...]),
-            records=arrays["records"],
-            coupler_force=arrays["coupler_force"],
-            peak_coupler_force=arrays["peak_coupler_force"],
-            wall_time_s=arrays["wall_time_s"],
+            path=path, models=models, parameters=parameters, distributions=distributions, status=h5["samples/status"][...],
+            error=list(h5["samples/error"].asstr()[...]), **{key: read(attrs[key]) for key, read in _ATTRS.items()}, **arrays,
         )

@@ -370,7 +370,7 @@ def test_a_folder_with_a_space_is_hidden_whole() -> None:
 def test_an_event_page_shows_no_local_path(tmp_path: Path) -> None:
     """An estimate's message and an event's flags may name a file by its absolute path (a network that gives the wrong
     number of values names its .npz): the event page shows it by name, or relative to the result file's folder."""
-    from femref.report.events import event_report
+    from femref.report.measured import event_report
 
     result = tmp_path / "yard.h5"
     assert CliRunner().invoke(main, ["run", str(CASES / "measured_yard.yaml"), "-o", str(result)]).exit_code == 0

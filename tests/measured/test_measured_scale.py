@@ -1,6 +1,6 @@
 """Measured runs at scale (issue 33, item 3): the work budget of measured scenes (femref.run.event_budget), events
 written as they finish (femref.events.event_file), a killed run's events recoverable, many events in bounded memory,
-and their report paginated with progress (femref.report.events).
+and their report paginated with progress (femref.report.measured).
 
 The streams are synthetic and cheap: two rod cars, one accelerometer each, and ``events`` half-sine coupler forces
 (1 MN, 50 ms) ``spacing`` s apart, ``a_rear = −P/m_rear``, ``a_front = +P/m_front`` with 0.02 m/s² of seeded noise,
@@ -211,9 +211,9 @@ def test_the_report_of_many_events_is_an_index_and_pages_with_progress(tmp_path,
     """Seven events at three a page (EVENTS_PER_PAGE lowered for the test): the index holds one row per event, links
     to pages 1–3, 4–6 and 7 and no figure; each page holds its events' figures; ``femref --progress`` prints a status
     line per page. At the default twenty a page, 1000 events made an index of 0.24 MB in 2.1 s (the slow test)."""
-    import femref.report.events as report_events
+    import femref.report.measured as report_measured
 
-    monkeypatch.setattr(report_events, "EVENTS_PER_PAGE", 3)
+    monkeypatch.setattr(report_measured, "EVENTS_PER_PAGE", 3)
     results = write_events(tmp_path / "many.h5", {"cars": ["hammer", "anvil"]}, _events(7))
     result = CliRunner().invoke(main, ["--progress", "report", str(results), "-o", str(tmp_path / "many.html")])
     assert result.exit_code == 0, result.output

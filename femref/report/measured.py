@@ -1,13 +1,9 @@
 """The report of a measured case's event file (docs/design.md §4.5): the event table and, per event
 and coupler, every estimator's force with its 95 % band.
 
-Up to :data:`EVENTS_PER_PAGE` events make one page. A file of more makes an index page — the facts, one
-row per event read from its attributes only (no history is read, no figure drawn) with a link to its page,
-the resolved case — and a page per :data:`EVENTS_PER_PAGE` events (:func:`event_pages`, named by
-:func:`page_name`) holding their full table and their figures, drawn one event at a time with progress.
-
-Read with h5py only (the report reads files, never the product's objects); drawn with the
-figures' Agg helpers; assembled like the result-file page (:mod:`femref.report.html`).
+Up to :data:`EVENTS_PER_PAGE` events make one page; a file of more makes an index page (:func:`event_report`)
+and a page per :data:`EVENTS_PER_PAGE` events (:func:`event_pages`; docs/design.md §4.4). Read with h5py only
+(the report reads files, never the product's objects).
 """
 
 from __future__ import annotations
@@ -27,7 +23,8 @@ from numpy.typing import NDArray
 from femref.core.catalog import SCENE_GROUP
 from femref.events import COMPLETE, EVENTS_GROUP, EVENTS_WRITTEN
 from femref.report.figures import MODEL_COLORS, Picture, figure_legend, new_figure, figure_png
-from femref.report.html import STYLE, pictures_html, hide_local_paths
+from femref.report.html import hide_local_paths, page, pictures_html, table_row
+from femref.report.read import attrs_of
 
 NOT_ESTIMATES = ("records", "closure")
 
@@ -74,7 +71,7 @@ def event_report(path: Path, h5: h5py.File, output: str | None = None) -> str:
             "<h2>Coupler forces</h2>",
             pictures_html([picture for event in events for picture in _force_pictures(event)], "no force estimate to draw"),
         ]
-        return _page(title, facts, body, _case_section(path, h5))
+        return page(title, facts, [*body, _case_section(path, h5)])
     index = output or f"{path.stem}.html"
     pages = _pages(names)
     rows = []
@@ -87,9 +84,10 @@ def event_report(path: Path, h5: h5py.File, output: str | None = None) -> str:
         "<h2>Events</h2>",
         f"<p>{len(names)} events on {len(pages)} pages of at most {EVENTS_PER_PAGE}, each with the events' estimates and "
         f"coupler forces: {links}</p>",
-        '<div class="wide"><table>' + "<tr>" + "".join(f"<th>{escape(c)}</th>" for c in INDEX_COLUMNS) + "</tr>" + "".join(rows) + "</table></div>",
+        '<div class="wide"><table>' + table_row(INDEX_COLUMNS) + "".join(rows) + "</table></div>",
+        _case_section(path, h5),
     ]
-    return _page(title, facts + [("pages", str(len(pages)))], body, _case_section(path, h5))
+    return page(title, facts + [("pages", str(len(pages)))], body)
 
 
 #: Events on one page of a report; a file with more gets an index page and a page per this many events.
@@ -129,7 +127,7 @@ def event_pages(path: Path, h5: h5py.File, output: str | None = None, progress_f
             "<h2>Events</h2>", _event_table(events, path.resolve().parent),
             "<h2>Coupler forces</h2>", pictures_html(pictures, "no force estimate to draw"),
         ]
-        yield page_name(index, first, len(chunk), len(names)), _page(f"femref report — {path.name}, {label}", [("result file", path.name)], body, "")
+        yield page_name(index, first, len(chunk), len(names)), page(f"femref report — {path.name}, {label}", [("result file", path.name)], body)
 
 
 def _event_names(h5: h5py.File) -> list[str]:
@@ -152,14 +150,6 @@ def _case_section(path: Path, h5: h5py.File) -> str:
     return f"<h2>Resolved case</h2>\n<pre>{escape(hide_local_paths(str(h5.attrs.get('case_yaml', '')), path.resolve().parent))}</pre>"
 
 
-def _page(title: str, facts: list[tuple[str, str]], body: list[str], tail: str) -> str:
-    head = f'<head><meta charset="utf-8"/><title>{escape(title)}</title><style>{STYLE}</style></head>'
-    parts = [f"<h1>{escape(title)}</h1>",
-             '<table class="facts">' + "".join(f"<tr><th>{escape(k)}</th><td>{escape(v)}</td></tr>" for k, v in facts) + "</table>",
-             *body, tail]
-    return "<!DOCTYPE html>\n<html lang=\"en\">\n" + head + "\n<body>\n" + "\n".join(p for p in parts if p) + "\n</body>\n</html>\n"
-
-
 def _index_row(event: EventData, link: str) -> str:
     a = event.attrs
     peaks = "; ".join(f"{e.estimator} {_number(e.attrs['peak_force'] / 1e3, '{:.1f}')}" + ("" if e.attrs["status"] == "ok" else f" ({e.attrs['status']})")
@@ -167,23 +157,22 @@ def _index_row(event: EventData, link: str) -> str:
     closure = "; ".join(f"{c}: {v['status']}" for c, v in event.closures.items())
     cells = [event.index, f"{a['trigger_time']:.4f}", a["impact_type"], _closing_speed(a), peaks, closure, a["wear"], a["alarm"],
              "; ".join(json.loads(a.get("flags", "[]")))]
-    return ("<tr>" + "".join(f"<td>{escape(str(cell))}</td>" for cell in cells)
-            + f'<td><a href="{escape(link)}">page</a></td></tr>')
+    return "<tr>" + "".join(f"<td>{escape(str(cell))}</td>" for cell in cells) + f'<td><a href="{escape(link)}">page</a></td></tr>'
 
 
 def _event(name: str, group: h5py.Group, histories: bool = True) -> EventData:
     """An event group as read: its attributes, each estimate's (with its histories unless ``histories`` is False:
     the index reads no dataset) and the closures."""
-    event = EventData(name, {k: _value(v) for k, v in group.attrs.items()})
+    event = EventData(name, attrs_of(group.attrs))
     for estimator, sub in group.items():
         if estimator in NOT_ESTIMATES:
             continue
         for coupler, data in sub.items():
             keys = ("time", "force", "force_lower", "force_upper")
             arrays = [np.asarray(data[key][()], dtype=float) if histories else np.empty(0) for key in keys]
-            event.estimates.append(EstimateData(estimator, coupler, *arrays, {k: _value(v) for k, v in data.attrs.items()}))
+            event.estimates.append(EstimateData(estimator, coupler, *arrays, attrs_of(data.attrs)))
     if "closure" in group:
-        event.closures = {coupler: {k: _value(v) for k, v in sub.attrs.items()} for coupler, sub in group["closure"].items()}
+        event.closures = {coupler: attrs_of(sub.attrs) for coupler, sub in group["closure"].items()}
     return event
 
 
@@ -207,19 +196,15 @@ def _event_table(events: list[EventData], folder: Path) -> str:
         closure = "; ".join(f"{c}: {v['status']}" + (f" at {v['closure_force'] / 1e3:.0f} kN" if v["status"] == "closed" else "")
                             for c, v in event.closures.items())
         flags = hide_local_paths("; ".join(json.loads(a.get("flags", "[]"))), folder)
+        head = [event.index, f"{a['trigger_time']:.4f}", a["impact_type"], _number(a["zero_harmonic_ratio"], "{:.2f}"), _closing_speed(a)]
+        tail = [closure, a["wear"], a["alarm"], flags]
         for k, estimate in enumerate(event.estimates):
             e = estimate.attrs
             band = f"{e['peak_lower'] / 1e3:.0f} – {e['peak_upper'] / 1e3:.0f}" if math.isfinite(e["peak_lower"]) else ""
             status = e["status"] if e["status"] == "ok" else f"{e['status']}: {hide_local_paths(str(e['message']), folder)}"
-            head = k == 0
-            cells = [
-                event.index if head else "", f"{a['trigger_time']:.4f}" if head else "", a["impact_type"] if head else "",
-                _number(a["zero_harmonic_ratio"], "{:.2f}") if head else "", _closing_speed(a) if head else "",
-                estimate.estimator, estimate.coupler, status, _number(e["peak_force"] / 1e3, "{:.1f}"), band, e["bound"],
-                closure if head else "", a["wear"] if head else "", a["alarm"] if head else "", flags if head else "",
-            ]
-            rows.append("<tr>" + "".join(f"<td>{escape(str(cell))}</td>" for cell in cells) + "</tr>")
-    header = "<tr>" + "".join(f"<th>{escape(c)}</th>" for c in columns) + "</tr>"
+            rows.append(table_row((), [*(head if k == 0 else [""] * len(head)), estimate.estimator, estimate.coupler, status,
+                                       _number(e["peak_force"] / 1e3, "{:.1f}"), band, e["bound"], *(tail if k == 0 else [""] * len(tail))]))
+    header = table_row(columns)
     notes = [f"event {event.index}: closing speed — {event.attrs.get('closing_speed_basis', '')}; alarm — {event.attrs['alarm_basis']}; "
              f"wear — {event.attrs['wear_basis']}" for event in events]
     return f'<div class="wide"><table>{header}{"".join(rows)}</table></div>' + "".join(f"<p>{escape(hide_local_paths(n, folder))}</p>" for n in notes)
@@ -239,9 +224,7 @@ def _force_pictures(event: EventData) -> list[Picture]:
             if np.any(np.isfinite(estimate.lower)):
                 ax.fill_between(t, estimate.lower / 1e3, estimate.upper / 1e3, color=color, alpha=0.25, lw=0, label=f"{estimate.estimator} 95 % band")
             drawn.append(estimate.estimator)
-        ax.set_xlabel("time after the trigger (s)")
-        ax.set_ylabel("coupler force (kN, compression +)")
-        ax.set_title(f"event {event.index}, coupler {coupler}")
+        ax.set(xlabel="time after the trigger (s)", ylabel="coupler force (kN, compression +)", title=f"event {event.index}, coupler {coupler}")
         figure_legend(ax)
         caption = (f"Event {event.index} ({event.attrs['impact_type']}), coupler {coupler}: each estimator's force, "
                    f"its 95 % band shaded where it has one; drawn: {', '.join(drawn) or 'none'}.")
@@ -251,14 +234,6 @@ def _force_pictures(event: EventData) -> list[Picture]:
 
 def _number(value: float, pattern: str) -> str:
     return "" if value is None or not math.isfinite(float(value)) else pattern.format(value)
-
-
-def _value(value: Any) -> Any:
-    if isinstance(value, bytes):
-        return value.decode()
-    if isinstance(value, np.generic):
-        return value.item()
-    return value
 
 
 __all__ = ["EVENTS_PER_PAGE", "event_pages", "event_report", "is_event_file", "page_name"]
