@@ -60,9 +60,6 @@ ESTIMATORS: tuple[str, ...] = ("inverse_rigid", "inverse_quasi_rigid")
 #: Estimators of a measured case: the inverse ones and the joint input-state (augmented Kalman) one.
 MEASURED_ESTIMATORS: tuple[str, ...] = (*ESTIMATORS, "kalman")
 
-#: Result-group prefix of a network estimator: ``ann_<name>`` (a saved network file).
-NETWORK_PREFIX = "ann_"
-
 #: Result-file groups beside the model groups (so no run may take their names): the scores, the scene's
 #: facts, a model choice.
 SCORES_GROUP = "scores"

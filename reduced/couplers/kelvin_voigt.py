@@ -60,11 +60,6 @@ class KelvinVoigt(PackedLaw):
         _checks.positive("stiffness", self.stiffness)
         _checks.non_negative("damping", self.damping)
 
-    @classmethod
-    def design_example(cls) -> KelvinVoigt:
-        """The coupler of the example impact case (docs/design.md §3): 4e7 N/m, 3e5 N·s/m."""
-        return cls(stiffness=4.0e7, damping=3.0e5)
-
     @property
     def reference_stiffness(self) -> float:
         return float(self.stiffness)

@@ -214,21 +214,6 @@ class CreepCorrection:
         partial = np.einsum("xn,xnjg->xjg", weights * (x[:, None] - nodes), psi)
         return full + partial - self._proj0 - xb * self._proj1
 
-    def mass_weighted_mean(self, group_weights: ArrayLike | None = None) -> NDArray[np.float64]:
-        """``∫ m C dx`` and ``∫ m x C dx`` (axis 0) of ``Σ_g C[:, :, g] · group_weights[g]``: zero by construction.
-
-        For tests of the rigid-mode projection. With interpolated time constants a single
-        group's coefficients are not smooth enough to integrate; weights smooth in τ_g
-        (the default, all ones, is the elastic response) are.
-        """
-        q = self.quadrature
-        weights = np.ones(self.tau_groups.size) if group_weights is None else np.asarray(group_weights)
-        C = self.node_coefficients() @ weights
-        C = C.reshape(*q.nodes.shape, C.shape[-1])
-        mean0 = q.integrate(q.mass[..., None] * C)
-        mean1 = q.integrate((q.mass * q.nodes)[..., None] * C)
-        return np.stack([mean0, mean1])
-
 
 def _cumulative_panels(weights: NDArray[np.float64], values: NDArray[np.float64]) -> NDArray[np.float64]:
     """``Σ`` of ``weights · values`` over the panels left of each panel edge, ``(P + 1, …)``: the full panels of ``∫_{−l}^{x}``."""
