@@ -23,10 +23,8 @@ Grouping equal time constants gives the separable form used by every model:
 so a probe costs one coefficient table, and time stepping costs one filter per
 (load, time-constant group). Time constants that are piecewise constant on the
 body's segments are grouped exactly; a continuously varying τ is represented by
-barycentric interpolation in log τ on Chebyshev points (``max_tau_groups`` of them);
-measured for τ varying 100-fold along a rod, the relative error of the correction
-against direct adaptive quadrature is 4e-6 with 16 points, 1e-8 with 24 (the
-default) and 4e-11 with 32, at λ = 0.1 … 100 (tests/reduced/quasi_rigid/test_frequency.py).
+barycentric interpolation in log τ on Chebyshev points (``max_tau_groups`` of them;
+its error: tests/reduced/quasi_rigid/test_frequency.py).
 """
 
 from __future__ import annotations
