@@ -50,10 +50,8 @@ compressed loses its stored energy — the cushion's own relaxation). Every step
 ``P̄ Δδ`` to the coupler's ``work``: the work the cars did on it, against which their own
 energy change is checked (:attr:`femref.impact.response.ImpactResponse.car_energy_balance_error`).
 
-The iteration is compiled (:mod:`femref.impact.kernels.couplers`); its readable twin, the oracle
-the tests hold it to, is ``tests/support/reference_engine``. Here: its limits and tolerances
-(:func:`force_tolerance`), the rule :func:`held_at_jump`, the failure details and
-:class:`CouplerConvergenceError`.
+The iteration is compiled (:mod:`femref.impact.kernels.couplers`); here are its limits and
+tolerances, the rule :func:`held_at_jump`, the failure details and :class:`CouplerConvergenceError`.
 """
 
 from __future__ import annotations
