@@ -10,13 +10,9 @@ samples)`` into a feature matrix ``(N, features)``:
 2. optional zero-phase low-pass (4th-order Butterworth, ``sosfiltfilt``), which
    also serves as the anti-alias filter before resampling;
 3. linear resampling of each record to ``length`` samples over its duration;
-4. optional normalisation, so shape and amplitude enter the network separately:
-   ``"peak"`` divides each record by its largest absolute value and appends that
-   peak; ``"channel_peak"`` divides each channel by its own peak ``A_c`` and
-   appends ``log A_c``. Logarithms suit force estimation: ``P = M a`` makes
-   ``log P = log M + log A`` additive, so with a log target
-   (``log_target=True`` in :mod:`ann.networks`) and log masses among the extras
-   a network has a linear relation to learn, whatever the impact speed;
+4. optional normalisation, so shape and amplitude enter the network separately
+   (:class:`FeatureSettings`); logarithms suit force estimation: ``P = M a`` makes
+   ``log P = log M + log A`` additive (``log_target`` in :mod:`ann.networks`);
 5. optional ``|rfft|`` magnitudes of the resampled channels;
 6. optional known scalar inputs (``extras``, e.g. the car masses a railroad
    has from the waybill), appended as ``log`` values — they must be positive;

@@ -30,14 +30,9 @@ and twice differentiated ``a2 − a1 = C F1'' + B (F2 − F1)''``. With the rigi
 
 Uniform EA: ``k1 = EA/2l``, ``k2 = −(1/2l) ∫_{−l}^{l} ∫_{−l}^{x} m dx₁ dx`` (the source's
 variable-density form); homogeneous: ``k2 = −M/2`` (the source's uniform form). Even
-profiles give ``k2 = −M/2`` whatever their shape (``μ(x) + μ(−x) = M``). Checked
-numerically against a lumped rod with linear density (±60 %) and stiffness (∓40 %),
-written independently in ``tests/reduced/test_inverse.py``: time-harmonic, the
-relative error falls like λ² (fitted slope 2.00; 0.15 % at λ = 0.05, 2.5 % at
-λ = 0.2); transient sin² coupler pulses on a 17 m, 119 t car: 4.1 % (0.3 s), 0.97 %
-(0.6 s), 0.21 % (1.2 s) of the peak force, while the uniform formula stays 5–6 % off.
-The two-term inversion is thus a few per cent for yard-impact pulses (λ ≈ 0.3): the
-O(ε) truncation, not noise, limits it there.
+profiles give ``k2 = −M/2`` whatever their shape (``μ(x) + μ(−x) = M``). Checked against an
+independent lumped rod of varying profiles (``tests/reduced/test_inverse.py``): the error falls like
+λ²; a few per cent for yard-impact pulses (λ ≈ 0.3), where the O(ε) truncation, not noise, limits it.
 
 Time-harmonic form (``F'' = −ω² F``): ``F1 = −k1 (a2 − a1)/ω² + k2 a1``. The source's
 ``F1,2 = (EA/(2lω²))(a2 − a1) ∓ (M/2) a1`` has the wrong sign on the first term for
@@ -64,10 +59,8 @@ FIT_FORMS: tuple[str, ...] = ("integrated", "differentiated")
 def rigid_coupler_force(mass: float, acceleration: ArrayLike, coupler_at: str = "left") -> NDArray[np.float64]:
     """Rigid car: ``P = M a`` (coupler at its −l end, ``left``) or ``P = −M a`` (at +l, ``right``).
 
-    ``P`` is the compression-positive coupler force (N), ``mass`` M (kg), ``acceleration``
-    the car's (uniform) acceleration (m/s²). The struck car of a yard impact has the
-    coupler at its left end (the hammer's +l end meets the anvil's −l end). Exact for
-    the rigid two-mass models (tests: 1e-12 against :mod:`reduced.rigid`).
+    ``P`` compression-positive (N), ``mass`` M (kg), ``acceleration`` (m/s²). The struck car of a yard
+    impact has the coupler at its left end.
     """
     m = _checks.positive("mass", mass)
     a = _checks.record("acceleration", acceleration, min_length=1)
@@ -80,10 +73,6 @@ def _profile_value(name: str, profile: Callable[[float], float], x: float) -> fl
     if not math.isfinite(value) or value <= 0.0:
         raise ValueError(f"{name}({x:.6g}) = {value!r}: a profile must be finite and > 0 on [-l, l]")
     return value
-
-
-def _baseline(record: NDArray[np.float64], samples: int) -> float:
-    return float(record[:samples].mean()) if samples > 0 else 0.0
 
 
 @dataclass(frozen=True)
@@ -126,17 +115,11 @@ class CoupledImpactInversion:
     ) -> CoupledImpactInversion:
         """Variable ``m(x)`` (kg/m) and ``EA(x)`` (N) on ``[−l, l]``: ``k1 = 1/C``, ``k2 = −(∫ μ/EA)/C``.
 
-        ``C = ∫ dx/EA``, ``μ(x) = ∫_{−l}^{x} m``, ``M = μ(l)``; the integrals are computed
-        once by ``scipy.integrate.quad`` (nested for ``μ``), with ``breakpoints`` (jumps
-        of the profiles) passed as ``points``. The profiles are checked finite and
-        positive at 65 points and the breakpoints.
+        ``C = ∫ dx/EA``, ``μ(x) = ∫_{−l}^{x} m``, ``M = μ(l)``, by ``scipy.integrate.quad`` with
+        ``breakpoints`` (jumps of the profiles) as ``points``.
 
-        ``span = (x1, x2)``: accelerometers at ``x1 < x2`` instead of the ends. The
-        elongation between them is ``∫_{x1}^{x2} F0/EA dx``, so both integrals run over
-        ``[x1, x2]`` (``μ`` still counts from ``−l``): ``k1 = 1/∫_{x1}^{x2} dx/EA``,
-        ``k2 = −∫_{x1}^{x2} μ/EA dx / ∫_{x1}^{x2} dx/EA``. Checked against the two-term
-        quasi-rigid car with sensors at ±0.9 l: 0.6 % of the peak instead of 5 % with the
-        end coefficients (``tests/models/test_inverse.py``).
+        ``span = (x1, x2)``: accelerometers at ``x1 < x2`` instead of the ends; both integrals then run
+        over ``[x1, x2]`` (``μ`` still counts from ``−l``); tests/models/test_inverse.py.
         """
         l = _checks.positive("half_length", half_length)
         if not callable(mass_per_length) or not callable(axial_stiffness):
@@ -186,13 +169,10 @@ class CoupledImpactInversion:
     ) -> CoupledImpactInversion:
         """Least-squares ``k1``, ``k2`` from records of ``a1``, ``a2`` and the end force ``F1``.
 
-        ``form='integrated'`` (default, no differentiation): fit
-        ``F1 − F1(0) = k1 D + k2 a1`` with ``D = ∬(a2 − a1)`` (the integrated equation
-        under :meth:`end_force`'s initial conditions). ``form='differentiated'`` (the
-        source's way): fit ``F1'' = k1 (a2 − a1) + k2 a1''`` with ``F1''`` and ``a1''`` from
-        ``differentiator`` (default ``SavitzkyGolay(31, 4)``; ``a2 − a1`` passes through
-        the same filter so that it cancels) — noisier, since it differentiates twice. ``F1`` is the tension-positive end force (N); pass
-        ``−P1`` for a compression-positive coupler record. Uniform ``time`` (s).
+        ``form='integrated'``: fit ``F1 − F1(0) = k1 ∬(a2 − a1) + k2 a1`` (:meth:`end_force`).
+        ``form='differentiated'`` (the source's way, noisier): fit ``F1'' = k1 (a2 − a1) + k2 a1''``, every
+        term through ``differentiator`` (default ``SavitzkyGolay(31, 4)``) so the filter cancels. ``F1`` is
+        tension positive (N): pass ``−P1`` for a coupler record. Uniform ``time`` (s).
         """
         _checks.choice("form", form, FIT_FORMS)
         t, a1, a2 = _records(time, left_acceleration, right_acceleration)
@@ -219,10 +199,7 @@ class CoupledImpactInversion:
     def second_derivative(
         self, left_acceleration: ArrayLike, right_acceleration: ArrayLike, left_acceleration_second_derivative: ArrayLike
     ) -> NDArray[np.float64]:
-        """``F1'' = k1 (a2 − a1) + k2 a1''`` (N/s²) from given ``a1``, ``a2`` and ``a1''``.
-
-        ``a1''`` (m/s⁴) from e.g. :meth:`SavitzkyGolay.derivative` (order 2).
-        """
+        """``F1'' = k1 (a2 − a1) + k2 a1''`` (N/s²) from given ``a1``, ``a2`` and ``a1''`` (m/s⁴)."""
         a1 = _checks.record("left_acceleration", left_acceleration, min_length=1)
         a2 = _checks.record("right_acceleration", right_acceleration, min_length=1)
         j = _checks.record("left_acceleration_second_derivative", left_acceleration_second_derivative, min_length=1)
@@ -239,22 +216,21 @@ class CoupledImpactInversion:
     ) -> NDArray[np.float64]:
         """``F1(t)`` (N, tension positive) by integrating ``F1''`` twice.
 
-        Initial conditions: the record starts at rest before the impact, so
-        ``F1(0) = F1'(0) = 0``, ``a1(0) = a1'(0) = 0`` and the ends move together
-        (``a2 − a1`` and its integral vanish at t = 0). Then exactly::
-
-            F1(t) = k1 ∬₀ᵗ (a2 − a1) + k2 a1(t)
-
-        (the ``a1''`` term integrates back to ``a1`` — no differentiation needed);
-        ``∬`` by :func:`integrate_twice` (exact for piecewise-linear records).
-        ``baseline_samples = n > 0`` subtracts from each record the mean of its first
-        n (pre-impact) samples as a sensor offset; an offset ``b`` left in ``a2 − a1``
-        grows as ``k1 b t²/2``, and so does the noise of a short baseline, so use
-        either no baseline (zero-mean sensors) or a long pre-trigger. Uniform ``time`` (s).
+        The record starts at rest before the impact (``F1``, ``a1``, ``a2 − a1`` and their first
+        derivatives vanish at t = 0), so exactly ``F1(t) = k1 ∬₀ᵗ (a2 − a1) + k2 a1(t)``: no differentiation.
+        ``baseline_samples = n > 0`` subtracts each record's mean over its first n samples as a sensor
+        offset; an offset ``b`` left in ``a2 − a1`` grows as ``k1 b t²/2``, and so does the noise of a short
+        baseline: use no baseline or a long pre-trigger. Uniform ``time`` (s).
         """
-        t, a1, a2 = _records(time, left_acceleration, right_acceleration)
+        return self._left_force(time, left_acceleration, right_acceleration, baseline_samples)[0]
+
+    def _left_force(
+        self, time: ArrayLike, left: ArrayLike, right: ArrayLike, baseline_samples: int
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """``F1`` and the baseline-corrected ``a1``."""
+        t, a1, a2 = _records(time, left, right)
         d, a1c = _integrated_terms(a1, a2, float(t[1] - t[0]), baseline_samples)
-        return self.k1 * d + self.k2 * a1c
+        return self.k1 * d + self.k2 * a1c, a1c
 
     def end_forces(
         self,
@@ -267,9 +243,7 @@ class CoupledImpactInversion:
         """``(F1, F2)`` (N, tension positive); ``F2 = F1 + M a1`` from ``F2'' − F1'' = M a1''``."""
         if self.total_mass is None:
             raise ValueError("total_mass is needed for the +l end force; construct with it")
-        t, a1, a2 = _records(time, left_acceleration, right_acceleration)
-        d, a1c = _integrated_terms(a1, a2, float(t[1] - t[0]), baseline_samples)
-        f1 = self.k1 * d + self.k2 * a1c
+        f1, a1c = self._left_force(time, left_acceleration, right_acceleration, baseline_samples)
         return f1, f1 + self.total_mass * a1c
 
     def coupler_force(
@@ -314,8 +288,7 @@ def _integrated_terms(
     n = int(baseline_samples)
     if n != baseline_samples or not 0 <= n <= a1.size:
         raise ValueError(f"baseline_samples must be an integer in [0, {a1.size}], got {baseline_samples!r}")
-    a1c = a1 - _baseline(a1, n)
-    a2c = a2 - _baseline(a2, n)
+    a1c, a2c = (a - (float(a[:n].mean()) if n > 0 else 0.0) for a in (a1, a2))
     return integrate_twice(a2c - a1c, dt), a1c
 
 

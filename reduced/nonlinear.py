@@ -13,44 +13,23 @@ Working with ``δ`` instead of ``x1``, ``x2`` keeps the closure accurate to its 
 tolerance however far the cars roll. The force comes from a
 :class:`reduced.couplers.Coupling` (law + contact + slack).
 
-Events and restarts. Every guard of the coupling (contact ``e_c``, ``e_t``; the
-law's, e.g. ``|x_g| = stroke``) is a terminal ``solve_ivp`` event; between events
-the piece of the law and the contact mode are frozen, so each segment's right-hand
-side is smooth and the stiff solver keeps its order. At an event the crossed
-guard's side flips, the sides of all guards are re-read a tiny step (1e-9 of the
-coupler's time scale) ahead — so guards crossing at the same instant switch
-together — and the integration restarts from the event state; each change is
-recorded (:class:`ImpactEvent`: contact, separation, gear_closed, …). A guard cannot
-re-fire at the restart because each event only watches the crossing *out of* its
-current side.
+Events and restarts. Every guard of the coupling is a terminal ``solve_ivp`` event watching
+the crossing *out of* its current side; between events the law's piece and the contact
+mode are frozen, so each segment is smooth. At an event the sides of all guards are
+re-read a tiny step (1e-9 of the coupler's time scale) ahead, so guards crossing at the
+same instant switch together, and the integration restarts (:class:`ImpactEvent`).
 
-Sided gear state (:meth:`reduced.couplers.Coupling.state_mirrored`). A bilateral draft
-gear with slack whose open contact passes into the other side's slack boundary while
-the gear is still compressed from the first side has its state mirrored there::
+Sided gear state: where an open contact passes into the other side's slack boundary with
+the gear still compressed from the first side, ``x_g → −x_g``
+(:meth:`reduced.couplers.Coupling.state_mirrored`, a ``gear_mirrored`` event), so the
+other side engages continuously; the mirror keeps ``|x_g|`` and ``∫F_g``, so the energy
+books are unchanged by it.
 
-    x_g → −x_g   when   x_g > 0 and δ + s_t < 0,   or   x_g < 0 and δ − s_c > 0
-
-so that the other side engages where ``(δ_e − x_g)/D`` crosses zero, continuously,
-not with a jump to ``−x_g/D``. The stale state makes the contact guard
-``e_t = max(δ + s_t, (δ + s_t − x_g)/D)`` equal to ``δ + s_t`` near the boundary, so
-its zero is an event exactly there; at that restart the rule is read a tiny step ahead
-(as the sides are), the state is mirrored — recorded as a ``gear_mirrored`` event —
-and the sides are re-read from the mirrored state (the contact stays open: the guard
-is ``|x_g|/D > 0`` there). The mirror keeps ``|x_g|`` and ``∫F_g`` (F_g odd) and the
-open contact stores no series energy, so the energy books are unchanged by it.
-
-Solver: ``LSODA`` by default (switches between Adams and BDF as the stiffness
-requires — the draft gear's series springs give a time constant ``μD`` ≈ 1e-3 s
-against a 0.1 s pulse; 8–30× fewer evaluations than ``Radau`` at the same
-accuracy here; ``Radau``/``BDF`` selectable), ``rtol = 1e-10`` and
-per-component absolute tolerances in :class:`IntegratorSettings` (scales of
-freight-car impacts: 1e-13 m on the closure, 1e-12 m/s on speeds, 1e-6 J on
-energies). Verified (``tests/reduced/test_nonlinear.py``): the power law with
-n = 1, N0 = 0 reproduces the closed form of :mod:`reduced.rigid` to 3e-11 of the
-peaks; the energy balance ``KE + stored + E_d − W_e = KE(0)`` closes to 5e-10 of
-``KE(0)``; the gear closure time and force history match an independent
-brute-force integration to 3e-13 s and 3e-10; a compression-only contact never
-transmits tension, also with repeated re-contacts.
+Solver: ``LSODA`` by default (the draft gear's series springs make the problem stiff:
+``μD`` ≈ 1e-3 s against a 0.1 s pulse; 8–30× fewer evaluations than ``Radau`` here),
+tolerances in :class:`IntegratorSettings`. Verified: ``tests/reduced/test_nonlinear.py``
+(the closed form of :mod:`reduced.rigid`, the energy balance, a brute-force gear closure,
+no tension through a compression-only contact).
 """
 
 from __future__ import annotations
@@ -117,14 +96,9 @@ class ImpactEvent:
 
 @dataclass(frozen=True, eq=False)
 class ImpactSimulation(TwoMassHistory):
-    """Result of :func:`simulate_impact`: the :class:`~reduced.history.TwoMassHistory`
-    (arrays of the shape of ``time``; ``separation_time`` is the first ``separation``
-    event) and what the ODE driver adds.
-
-    ``coupler_state`` (Nt, n_state); energies in J. ``status`` is ``"ok"`` or
-    ``"failed"`` with ``message``; samples after a failure are NaN. Work counters
-    ``nfev``, ``njev``, ``nlu``, ``segments``; ``wall_time_s``; ``settings`` as a dict.
-    """
+    """Result of :func:`simulate_impact`: the :class:`~reduced.history.TwoMassHistory` and what the ODE
+    driver adds: ``coupler_state`` (Nt, n_state); energies (J); ``status`` ``"ok"`` or ``"failed"`` with
+    ``message`` (samples after a failure are NaN); work counters; ``settings`` as a dict."""
 
     coupler_state: NDArray[np.float64]
     kinetic_energy: NDArray[np.float64]
@@ -240,14 +214,9 @@ def simulate_impact(
 ) -> ImpactSimulation:
     """Integrate the two-car impact through ``coupling`` and sample it at ``time``.
 
-    ``m1 ẍ1 = f1 − P``, ``m2 ẍ2 = f2 + P`` with ``P`` from the coupling (module
-    docstring), impact (``δ = 0``) at ``t = 0``, speeds from ``pair``; ``time`` (s) is
-    an increasing 1-D array with ``time[0] ≥ 0``, the integration runs from 0 to
-    ``time[-1]``. ``external_force(t) → (f_hammer, f_anvil)`` (N) adds e.g. a
-    locomotive's push or the coupler load from a third car (coupled impacts).
-
-    Solver failures and chattering (more than ``settings.max_segments`` restarts)
-    come back as ``status='failed'`` with a message; samples not reached are NaN.
+    Impact (``δ = 0``) at ``t = 0``, speeds from ``pair``; ``time`` (s) increasing, ``time[0] ≥ 0``.
+    ``external_force`` adds e.g. a locomotive's push. Solver failures and chattering (more than
+    ``settings.max_segments`` restarts) come back as ``status='failed'``; samples not reached are NaN.
     """
     settings = IntegratorSettings() if settings is None else settings
     t_out = _checks.time_grid("time", time, min_length=1)
@@ -313,11 +282,10 @@ def simulate_impact(
         nfev += int(sol.nfev)
         njev += int(sol.njev)
         nlu += int(sol.nlu)
+        segments.append((t0, float(sol.t[-1]), sol.sol, sides))
         if sol.status == -1:
             status, message = "failed", f"solve_ivp failed at t = {sol.t[-1]:.6g} s: {sol.message}"
-            segments.append((t0, float(sol.t[-1]), sol.sol, sides))
             break
-        segments.append((t0, float(sol.t[-1]), sol.sol, sides))
         if sol.status != 1:
             break
         te = float(sol.t[-1])
@@ -368,10 +336,7 @@ def _collect(
     n = model.n
     nt = t_out.size
     y = np.full((6 + n, nt), np.nan)
-    force = np.full(nt, np.nan)
-    a1 = np.full(nt, np.nan)
-    a2 = np.full(nt, np.nan)
-    stored = np.full(nt, np.nan)
+    force, a1, a2, stored = (np.full(nt, np.nan) for _ in range(4))
     filled = np.zeros(nt, dtype=bool)
     for k, (ta, tb, dense, sides) in enumerate(segments):
         last = k == len(segments) - 1

@@ -2,10 +2,7 @@
 
 ``m* δ̈ = −N(δ) − γ(δ) δ̇``, ``N = c δⁿ + N0``, ``γ = Σ_k γ_k δ^k``, ``δ(0) = 0``, ``δ̇(0) = w``
 (docs/formulas.md §A3): :func:`power_law_peak_series` gives the peak closure and force to
-second order in ``ε = γ(δ₀) w / N(δ₀)`` (derivation and checks in its docstring),
-:func:`power_law_peak_estimate` its first order. The event-driven ODE of the same impact is
-:func:`reduced.nonlinear.simulate_impact`, the reference the series is tested against
-(``tests/reduced/test_nonlinear.py``).
+second order in ``ε = γ(δ₀) w / N(δ₀)``, :func:`power_law_peak_estimate` its first order.
 """
 
 from __future__ import annotations
@@ -25,15 +22,10 @@ from reduced.rigid import ImpactPair
 class PowerLawPeak:
     """Peak of a power-law gear's free impact from the energy-form series (:func:`power_law_peak_series`).
 
-    ``closure`` δ_p (m) and ``spring_force`` N(δ_p) (N) of the estimate of ``order``;
-    at the peak δ̇ = 0, so the spring force is also the total coupler force there.
-    ``undamped_closure`` δ₀ (m) and ``undamped_force`` N(δ₀) (N) are the order-0
-    values; ``damping_parameter`` ε = γ(δ₀) w/N(δ₀) (dimensionless) is the expansion
-    parameter; ``closure_coefficients`` (a₀, a₁, a₂) = (1, −I₁, I₂/(2κ) − ν′I₁²/2) give
-    ``δ_p/δ₀ = Σ_k a_k ε^k`` up to ``order`` and ``force_coefficients`` (b₀, b₁, b₂) the
-    truncated series ``N(δ_p)/N(δ₀) = Σ_k b_k ε^k`` (for reporting; ``spring_force``
-    evaluates the law at ``closure`` instead, with an error of the same order);
-    ``undamped_time_to_peak`` T₀ (s) is the time to δ₀ without damping.
+    ``closure`` δ_p (m) and ``spring_force`` N(δ_p) (N, the total coupler force: δ̇ = 0 at the peak);
+    ``undamped_*`` the order-0 values; ``damping_parameter`` ε; ``closure_coefficients`` a_k of
+    ``δ_p/δ₀ = Σ_k a_k ε^k`` and ``force_coefficients`` b_k of ``N(δ_p)/N(δ₀) = Σ_k b_k ε^k`` (for
+    reporting); ``undamped_time_to_peak`` T₀ (s).
     """
 
     order: int
@@ -104,10 +96,8 @@ def power_law_peak_series(pair: ImpactPair, law: PowerLawGear, order: int = 2) -
     nothing cancels near the peak; Gauss-Legendre, the inner integral of I₂ on the
     same rule mapped to [0, θ]. ``undamped_time_to_peak`` ``T₀ = (δ₀/w) ∫₀^{π/2} cos θ/√ψ dθ``.
 
-    Checked (tests/reduced/test_nonlinear.py): the Kelvin-Voigt case (n = 1, N0 = 0,
-    γ = μ) gives ``I₁ = π/4``, ``a₂ = π²/32 + 1/4``, the Taylor series of the closed
-    form; against the ODE (rtol 1e-10) the error falls like ε² (order 1) and ε³
-    (order 2) for n = 1, 1.5, 3 with a preload and a closure-dependent γ; exact at γ = 0.
+    Checked (tests/reduced/test_nonlinear.py): the Kelvin-Voigt case gives the Taylor series of
+    the closed form; against the ODE the error falls like ε² (order 1) and ε³ (order 2).
     """
     if order not in (0, 1, 2):
         raise ValueError(f"order must be 0, 1 or 2, got {order!r}")
@@ -184,8 +174,7 @@ def power_law_peak_estimate(pair: ImpactPair, law: PowerLawGear) -> tuple[float,
     """Peak closure (m) and spring force there (N) of a power-law gear, first order in γ.
 
     ``δ₁ = δ₀ − W₁/N(δ₀)``, ``W₁ = ∫₀^{δ₀} γ(δ) √(w² − 2Φ(δ)/m*) dδ``, ``Φ(δ₀) = m* w²/2``
-    (docs/formulas.md §A3); the spring force is ``N(δ₁)``. The order-1 case of
-    :func:`power_law_peak_series` (same numbers), kept for its callers. Error O(γ²).
+    (docs/formulas.md §A3); the spring force is ``N(δ₁)``: the order-1 :func:`power_law_peak_series`.
     """
     peak = power_law_peak_series(pair, law, order=1)
     return peak.closure, peak.spring_force

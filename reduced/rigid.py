@@ -11,9 +11,6 @@ coupler is compressed), ``m* = m1 m2/(m1 + m2)``, closing speed ``w = v1 − v2`
 
 For ``t < 0`` the cars approach at their speeds and ``P = 0`` (records may start
 before the impact). Results are :class:`reduced.history.TwoMassHistory` objects.
-
-Realistic defaults (docs/design.md §8): :meth:`ImpactPair.source_study` is the study's
-119 t hammer car at 2.2 m/s against the 100 t anvil car.
 """
 
 from __future__ import annotations
@@ -186,14 +183,8 @@ def kelvin_voigt_impact(
     separate at the first ``t_s > 0`` with ``P = 0`` (closed form in
     :func:`_separation_time`) and then move at constant speeds; ``'bilateral'``
     (coupled): the formula holds for all ``t ≥ 0``. A compression-only pair that does
-    not close (``w ≤ 0``) never touches.
-
-    Checked against ``solve_ivp`` (DOP853, rtol 1e-13): x, a1, a2 and P agree to
-    4e-13 of their peaks (asserted 1e-8) for damping ratios 0.2, 1 and 3, both
-    contacts; continuous across ``ζ = 1 ± 1e-12`` (``tests/reduced/test_rigid.py``).
-
-    Parameters: ``stiffness`` c (N/m) > 0, ``damping`` μ (N·s/m) ≥ 0, ``time`` (s),
-    1-D increasing; ``t < 0`` gives the approach before impact.
+    not close (``w ≤ 0``) never touches. ``stiffness`` c (N/m), ``damping`` μ (N·s/m).
+    Checked against ``solve_ivp`` across damping ratios (``tests/reduced/test_rigid.py``).
     """
     c, mu = _check_coupler(stiffness, damping)
     _checks.choice("contact", contact, CONTACT_KINDS)
@@ -247,10 +238,8 @@ def perturbation_terms(tau: ArrayLike, order: int = 3) -> tuple[NDArray[np.float
         X2 = (τ cos τ − sin τ − τ² sin τ)/8
         X3 = τ³ sin τ/48 + τ sin τ/16 − τ² cos τ/16
 
-    (derived by hand and equal to the Taylor expansion of the exact
-    ``−e^{−ετ/2} sin(Ωτ)/Ω``, ``Ω = √(1 − ε²/4)``; the truncation error of order k
-    falls like ``ε^{k+1}``, slope fitted in ``tests/reduced/test_rigid.py``).
-    Returns arrays of shape ``(order + 1, len(τ))``.
+    (the Taylor expansion of the exact ``−e^{−ετ/2} sin(Ωτ)/Ω``, ``Ω = √(1 − ε²/4)``;
+    tests/reduced/test_rigid.py). Returns arrays of shape ``(order + 1, len(τ))``.
     """
     if order not in (0, 1, 2, 3):
         raise ValueError(f"order must be 0, 1, 2 or 3, got {order!r}")
@@ -291,8 +280,7 @@ def kelvin_voigt_perturbation(
     ``V = w√(m*/c)`` (:func:`perturbation_terms`); the acceleration and the force are
     the consistently truncated series ``X'' = Σ ε^k X_k''``, ``X_k'' = −X_k − X_{k−1}'``,
     ``P = m* x''``. Secular terms (``τ^k`` growth) limit it to ``ετ ≪ 1``; at fixed τ
-    its error against :func:`kelvin_voigt_impact` falls like ``ε^{order+1}`` (fitted
-    slope 4.0 for order 3 in the tests).
+    its error falls like ``ε^{order+1}``.
     """
     c, mu = _check_coupler(stiffness, damping)
     t = _checks.time_grid("time", time, min_length=1)

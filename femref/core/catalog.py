@@ -1,10 +1,7 @@
 """The one catalog of names: scene kinds, models, car fidelities, estimators, references.
 
-Every other list of these names is read from here — the case schema and its error
-messages (:mod:`femref.case`), the model registry (:mod:`femref.models`), the runner
-(:mod:`femref.run`) and the result-file groups (docs/design.md §4). Adding a model is
-one entry here and one module in :mod:`femref.models`; a test holds the registry to
-this catalog.
+Every other list of these names is read from here. Adding a model is one entry here and
+one module in :mod:`femref.models`; a test holds the registry to this catalog.
 
 A model serves a scene kind when its entry lists the kind; whether it can serve a
 particular case (e.g. ``exact`` needs piecewise-constant profiles) is decided at
@@ -59,9 +56,6 @@ assert set(FIDELITIES) == {name for name, entry in MODELS.items() if "impact" in
 ESTIMATORS: tuple[str, ...] = ("inverse_rigid", "inverse_quasi_rigid")
 #: Estimators of a measured case: the inverse ones and the joint input-state (augmented Kalman) one.
 MEASURED_ESTIMATORS: tuple[str, ...] = (*ESTIMATORS, "kalman")
-
-#: Result-group prefix of a network estimator: ``ann_<name>`` (a saved network file).
-NETWORK_PREFIX = "ann_"
 
 #: Result-file groups beside the model groups (so no run may take their names): the scores, the scene's
 #: facts, a model choice.

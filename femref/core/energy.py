@@ -14,9 +14,7 @@ def energy_balance_error(energy: ArrayLike, work: ArrayLike | None = None) -> fl
     ``energy`` is ``E(t)``, the sum of the system's accounts at the output times (J); ``work`` is
     ``W(t)``, the work done on it from outside since ``t = 0`` (J; None: a closed system, ``W = 0``).
     NaN samples (after a failed step) are left out; 0 when both vanish (nothing moves). The one
-    definition of an energy balance: an impact run's (``femref.impact.response.ImpactResponse``: the whole
-    line closed, and the cars under the coupler forces' work) and a single body's under end loads
-    (``femref.fem.transient``: ``W`` the end loads' work, ``E(0) = 0``).
+    definition of an energy balance, an impact run's and a single body's alike.
     """
     e = np.asarray(energy, dtype=float)
     w = np.zeros_like(e) if work is None else np.asarray(work, dtype=float)

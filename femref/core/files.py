@@ -4,9 +4,7 @@ A FIFO (named pipe) blocks the reader until a writer comes, which may be never; 
 (``/dev/zero``, ``/dev/urandom``) has no size and never ends; a folder or a socket is no
 file at all. :func:`regular_file` ``stat``\\ s the path (symbolic links followed) and refuses
 anything but a regular file before a byte is read, and names a loop of symbolic links as such
-instead of the operating system's "too many levels of symbolic links". The case, sweep and study
-files (:mod:`femref.case.loader`), load records (:mod:`femref.core.signals`) and measured
-records (:mod:`femref.sensing.record_files`) all go through it.
+instead of the operating system's "too many levels of symbolic links".
 """
 
 from __future__ import annotations

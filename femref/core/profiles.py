@@ -42,21 +42,11 @@ class Uniform:
     """The same value everywhere."""
 
     value: float
+    jumps = kinks = ()
+    is_piecewise_constant = True
 
     def __call__(self, x: ArrayLike) -> NDArray[np.float64]:
         return np.full(np.shape(x), float(self.value))
-
-    @property
-    def jumps(self) -> tuple[float, ...]:
-        return ()
-
-    @property
-    def kinks(self) -> tuple[float, ...]:
-        return ()
-
-    @property
-    def is_piecewise_constant(self) -> bool:
-        return True
 
 
 @dataclass(frozen=True)
@@ -68,6 +58,8 @@ class Piecewise:
 
     breaks: tuple[float, ...]
     values: tuple[float, ...]
+    kinks = ()
+    is_piecewise_constant = True
 
     def __post_init__(self) -> None:
         if len(self.values) != len(self.breaks) + 1:
@@ -83,14 +75,6 @@ class Piecewise:
     def jumps(self) -> tuple[float, ...]:
         return tuple(float(b) for b in self.breaks)
 
-    @property
-    def kinks(self) -> tuple[float, ...]:
-        return ()
-
-    @property
-    def is_piecewise_constant(self) -> bool:
-        return True
-
 
 @dataclass(frozen=True)
 class Linear:
@@ -99,18 +83,11 @@ class Linear:
     left: float
     right: float
     half_length: float
+    jumps = kinks = ()
 
     def __call__(self, x: ArrayLike) -> NDArray[np.float64]:
         s = (np.asarray(x, dtype=float) + self.half_length) / (2.0 * self.half_length)
         return self.left + (self.right - self.left) * s
-
-    @property
-    def jumps(self) -> tuple[float, ...]:
-        return ()
-
-    @property
-    def kinks(self) -> tuple[float, ...]:
-        return ()
 
     @property
     def is_piecewise_constant(self) -> bool:
@@ -123,6 +100,7 @@ class Table:
 
     x: tuple[float, ...]
     values: tuple[float, ...]
+    jumps = ()
 
     def __post_init__(self) -> None:
         if len(self.x) != len(self.values) or len(self.x) < 2:
@@ -132,10 +110,6 @@ class Table:
 
     def __call__(self, x: ArrayLike) -> NDArray[np.float64]:
         return np.interp(np.asarray(x, dtype=float), self.x, self.values)
-
-    @property
-    def jumps(self) -> tuple[float, ...]:
-        return ()
 
     @property
     def kinks(self) -> tuple[float, ...]:

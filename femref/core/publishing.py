@@ -18,18 +18,12 @@ file is closed.
 
 Older femref versions (before pid-named temporaries) named theirs at random: the result file
 ``.<final name>.<8 random characters>.tmp`` (``tempfile.mkstemp``) and a folder ``tmp<8 random characters>``
-(``tempfile.mkdtemp``) holding the XDMF + HDF5 field files ``<result stem>_<model>_fields.xdmf|.h5``. Without a
-pid in the name, :func:`legacy_leftovers` recognises them by name *and* content — a folder holding nothing but
-field files of this result (HDF5 and XDMF by their first bytes), a file of this final name (an HDF5 file if it
-is one) — owned by this user, unchanged for :data:`LEGACY_QUIET_SECONDS`, and open (or the working folder) of no
-process (``/proc``). What fails only the last two conditions, or holds other files, is kept and reported, never
-removed; without ``/proc`` nothing is removed.
+(``tempfile.mkdtemp``) of the field files ``<result stem>_<model>_fields.xdmf|.h5``; :func:`legacy_leftovers`
+recognises them by name *and* content, and removes only what is certainly unused.
 
 The output path (before any work): :func:`check_output_path` is the rule every command and
-:func:`femref.api.run_case` apply to where they write — its folder exists and is writable, a file is not a
-folder, and neither it nor a file written beside it is an input — raising :class:`OutputPathError` (a
-``ValueError``; the command line's exit 2); :func:`clean_leftovers` then removes the output's leftovers of
-killed and older runs.
+:func:`femref.api.run_case` apply to where they write, raising :class:`OutputPathError` (a ``ValueError``;
+the command line's exit 2); :func:`clean_leftovers` then removes the output's leftovers of killed and older runs.
 """
 
 from __future__ import annotations
@@ -139,10 +133,7 @@ def remove_leftovers(path: str | Path) -> list[Path]:
     path = Path(path)
     removed = []
     for entry in leftovers(path):
-        if entry.is_dir() and not entry.is_symlink():
-            shutil.rmtree(entry, ignore_errors=True)
-        else:
-            entry.unlink(missing_ok=True)
+        _remove(entry)
         sidecar_of(entry).unlink(missing_ok=True)
         removed.append(entry)
     if path.parent.is_dir():
@@ -163,6 +154,14 @@ HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 _XDMF_STARTS = (b"<Xdmf", b"<?xml")
 
 
+def _remove(entry: Path) -> None:
+    """Remove the file or folder ``entry`` (a link itself, never what it points to), ignoring errors of a folder's."""
+    if entry.is_dir() and not entry.is_symlink():
+        shutil.rmtree(entry, ignore_errors=True)
+    else:
+        entry.unlink(missing_ok=True)
+
+
 @dataclass
 class LegacyLeftovers:
     """An older femref's temporaries of one final name: those safe to remove, and those kept with the reason."""
@@ -171,18 +170,11 @@ class LegacyLeftovers:
     kept: list[tuple[Path, str]] = field(default_factory=list)
 
 
-@dataclass
-class LegacyCleanup:
-    """What :func:`remove_legacy_leftovers` removed, and what it kept with the reason."""
-
-    removed: list[Path] = field(default_factory=list)
-    kept: list[tuple[Path, str]] = field(default_factory=list)
-
-
 def legacy_leftovers(path: str | Path, now: float | None = None) -> LegacyLeftovers:
-    """An older femref's temporaries of ``path`` (module docstring): ``tmp<random>`` folders of its field files and
-    ``.<name>.<random>.tmp`` files, split into the removable ones (recognised by name and content, owned by this
-    user, unchanged for :data:`LEGACY_QUIET_SECONDS` before ``now``, used by no process) and the kept ones (why)."""
+    """An older femref's temporaries of ``path`` (module docstring): ``tmp<random>`` folders holding nothing but field
+    files of this result and ``.<name>.<random>.tmp`` files (HDF5 and XDMF by their first bytes), split into the
+    removable ones (owned by this user, unchanged for :data:`LEGACY_QUIET_SECONDS` before ``now``, used by no
+    process, ``/proc``) and the kept ones (why); without ``/proc`` nothing is removable."""
     path = Path(path)
     found = LegacyLeftovers()
     if not path.parent.is_dir():
@@ -219,15 +211,12 @@ def legacy_leftovers(path: str | Path, now: float | None = None) -> LegacyLeftov
     return found
 
 
-def remove_legacy_leftovers(path: str | Path) -> LegacyCleanup:
-    """Remove the removable :func:`legacy_leftovers` of ``path``; return what was removed and what was kept."""
+def remove_legacy_leftovers(path: str | Path) -> LegacyLeftovers:
+    """Remove the removable :func:`legacy_leftovers` of ``path``; return them (removed) and the kept ones."""
     found = legacy_leftovers(path)
     for entry in found.removable:
-        if entry.is_dir():
-            shutil.rmtree(entry, ignore_errors=True)  # checked: regular files only, no links to follow
-        else:
-            entry.unlink(missing_ok=True)
-    return LegacyCleanup(found.removable, found.kept)
+        _remove(entry)  # a folder was checked: regular files only, no links to follow
+    return found
 
 
 def _owned(entry: Path) -> bool:
@@ -304,15 +293,7 @@ def _paths_in_use(entries: list[Path]) -> set[Path] | None:
     return used
 
 
-# --- the output path: the rule femref's commands and femref.api share ---------------------------------------------
-#
-# An output is checked before any work, so a bad path never costs a run and nothing is written: its folder must
-# exist and be writable (a file output's parent, a folder output itself or its parent); a file output may not be a
-# folder, a folder output not a file; neither the output nor any other file the writer puts beside it (``writes``:
-# a sweep's ``.partial``, a run's field files, a study's networks) may be one of the writer's inputs — the same path,
-# or the same file by another relative path, a symbolic or a hard link. The inputs are the files given to the writer
-# and every file a case names (femref.case.inputs.case_inputs). The command line prints an OutputPathError as
-# ``error: …`` and exits 2 (femref.cli.common.check_output); femref.api.run_case raises it.
+# --- the output path, checked before any work: the rule femref's commands and femref.api share --------------------
 
 
 class OutputPathError(ValueError):
@@ -405,14 +386,11 @@ class LeftoverCleanup:
 
 
 def clean_leftovers(path: str | Path) -> LeftoverCleanup:
-    """Remove the temporaries of ``path`` that no running process writes — a killed run's (pid-named,
-    :func:`remove_leftovers`) and an older femref's (``tmp*`` field-file folders,
-    ``.<name>.<random>.tmp`` files: :func:`remove_legacy_leftovers`); return what was removed
-    and what was kept (an older femref's temporary that is not certainly unused, or holds more than femref wrote;
-    a temporary whose writer this process cannot see: :func:`unseen_temporaries`)."""
+    """Remove the temporaries of ``path`` that no running process writes (:func:`remove_leftovers`,
+    :func:`remove_legacy_leftovers`); return what was removed and what was kept (:class:`LeftoverCleanup`)."""
     killed = remove_leftovers(path)
     legacy = remove_legacy_leftovers(path)
-    return LeftoverCleanup(killed, legacy.removed, legacy.kept, unseen_temporaries(path))
+    return LeftoverCleanup(killed, legacy.removable, legacy.kept, unseen_temporaries(path))
 
 
 def note_output(error: OSError, path: Path, temporary: Path | None, leftover: str = "") -> OSError:
@@ -461,6 +439,6 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     discard_temporary(tmp)  # published: its sidecar
 
 
-__all__ = ["HDF5_SIGNATURE", "LEGACY_QUIET_SECONDS", "LeftoverCleanup", "LegacyCleanup", "LegacyLeftovers", "OutputPathError", "atomic_path",
+__all__ = ["HDF5_SIGNATURE", "LEGACY_QUIET_SECONDS", "LeftoverCleanup", "LegacyLeftovers", "OutputPathError", "atomic_path",
            "check_output_path", "clean_leftovers", "create_temporary", "discard_temporary", "legacy_leftovers", "leftovers", "note_output",
            "output_problem", "remove_leftovers", "remove_legacy_leftovers", "same_file", "temporary_path", "unseen_temporaries"]

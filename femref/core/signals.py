@@ -210,18 +210,12 @@ class Tabulated:
         return float(self.times[-1])
 
 
-#: Largest load-record file (bytes), checked by ``os.stat`` before the file is opened (like the case
-#: reader's :data:`femref.case.loader.MAX_YAML_BYTES`). A record of :data:`MAX_CSV_ROWS` samples in two
-#: columns of ~20 characters is ~40 MB; the limit leaves room for wide recorder exports with a few more
-#: channels, and stops a stray multi-gigabyte file before a byte of it is read.
+#: Largest load-record file (bytes), checked by ``os.stat`` before the file is opened: room for wide recorder
+#: exports, and a stray multi-gigabyte file is stopped before a byte of it is read.
 MAX_CSV_BYTES = 256 * 2**20
 
-#: Most data rows (samples) of a load record: 2e6. A recorder at 1 kHz for 30 min holds 1.8e6 samples, so a
-#: whole measured shift of a yard fits; the record is read whole into memory (two float columns, 32 MB at
-#: the limit) and every solver interpolates in it. The work budget (:mod:`femref.run.budget`) counts the
-#: samples again once the record is read (typical records 1e4 samples; under ``exact`` a long record is
-#: transformed whole, which the budget refuses far below this limit), so this limit only keeps the reading
-#: itself — seconds and memory before the budget can look — bounded.
+#: Most data rows (samples) of a load record: 30 min at 1 kHz fits. The work budget (:mod:`femref.run.budget`)
+#: counts the samples again once read; this limit only keeps the reading itself bounded.
 MAX_CSV_ROWS = 2_000_000
 
 #: Bytes read from the start and from the end of a record to estimate its bytes per row.

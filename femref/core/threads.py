@@ -1,13 +1,11 @@
 """One BLAS thread around the stepping.
 
 A run steps small operators many times; OpenBLAS's default of one thread per core makes
-each small product pay a thread hand-off (a 1e4-element car stepped with scipy's products
-ran about 7× slower with two threads than with one), and the workers of a sweep, one per
-core, would contend for the same cores. :func:`one_blas_thread` limits BLAS to one thread
-for a ``with`` block. The libraries are found once per process (threadpoolctl, about a
-millisecond); each limit then sets and restores their thread counts directly, a few
-microseconds (threadpoolctl's own ``limit`` inspects every library again, ~60 µs, which
-was a tenth of a rigid run).
+each small product pay a thread hand-off, and the workers of a sweep, one per core, would
+contend for the same cores. :func:`one_blas_thread` limits BLAS to one thread for a ``with``
+block. The libraries are found once per process (threadpoolctl); each limit then sets and
+restores their thread counts directly (threadpoolctl's own ``limit`` inspects every library
+again, ~60 µs, a tenth of a rigid run).
 """
 
 from __future__ import annotations

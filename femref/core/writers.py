@@ -12,8 +12,7 @@ field 22 of ``/proc/<pid>/stat``: a pid reused by a later process has another).
 same host, boot and PID namespace as the asking process, and a process of that pid started at that
 time), ``False`` once it ended, ``None`` when the asking process cannot see it (another host, boot or
 PID namespace) — such a temporary is kept and named, never removed. Without ``/proc`` (not Linux) the
-pid alone decides, on the same host. The sidecar is a plain file: this holds wherever the folder is
-shared (NFS included), with no lock to keep.
+pid alone decides, on the same host. The sidecar is a plain file: no lock to keep.
 """
 
 from __future__ import annotations

@@ -1,15 +1,9 @@
 """Exact solutions for free-free Kelvin-Voigt rods and Euler-Bernoulli beams (issue 2 §3).
 
-* :class:`Segments` — a piecewise-constant body on ``x ∈ [−l, l]``.
-* Harmonic response (time factor ``e^{−iωt}``): :func:`rod_harmonic`,
-  :func:`beam_harmonic` (closed form for one segment, transfer matrices for several),
-  and each method on its own: :func:`rod_harmonic_closed_form`,
-  :func:`rod_harmonic_transfer`, :func:`beam_harmonic_closed_form`,
-  :func:`beam_harmonic_transfer`.
-* Transient response of rods from rest to end-load histories: :func:`rod_transient`
-  (numerical inverse Laplace transform, de Hoog–Knight–Stokes).
-* The Laplace-domain unit-load responses behind them: :func:`rod_unit_response`,
-  :func:`beam_unit_response_closed_form`, :func:`beam_unit_response_transfer`.
+Harmonic responses (time factor ``e^{−iωt}``: closed form for one segment, transfer matrices
+for several, each also on its own), the transient response of rods from rest
+(:func:`rod_transient`, numerical inverse Laplace transform) and the Laplace-domain unit-load
+responses behind them, all of a piecewise-constant body :class:`Segments`.
 
 Conventions are those of docs/design.md §2: end loads are the internal force (moment,
 shear) at the ends, tension positive; ``M a = F2 − F1`` for rods,

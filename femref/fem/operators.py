@@ -107,13 +107,10 @@ def assemble_rod(
     ``M = ∫ m φᵢ φⱼ``, ``K = ∫ EA φᵢ' φⱼ'``, ``C = ∫ cA φᵢ' φⱼ'``; ``order + 2`` Gauss points
     per element, exact for linear coefficients (degree ``2·order + 1``); tabulated profiles
     have nodes on their kinks, piecewise profiles on their jumps (see
-    :func:`femref.fem.mesh.body_nodes`). Each profile is evaluated once at the quadrature
-    points. scikit-fem's element and basis give the shape functions ``φᵢ`` and their
-    derivatives at the quadrature points and the weights ``dx`` (Jacobian included); the
-    element matrices are then one product each, ``Mᵉᵢⱼ = Σ_q m(x_q) φᵢ(x_q) φⱼ(x_q) dx_q``
-    (scikit-fem's own assembler loops in Python over the local pairs, about a millisecond per
-    matrix whatever the mesh, which was most of a small car's set-up), summed straight into the
-    position numbering.
+    :func:`femref.fem.mesh.body_nodes`). scikit-fem's basis gives ``φᵢ``, their derivatives and
+    the weights ``dx`` at the quadrature points; the element matrices are then one product each,
+    ``Mᵉᵢⱼ = Σ_q m(x_q) φᵢ(x_q) φⱼ(x_q) dx_q`` (scikit-fem's own assembler loops in Python over
+    the local pairs: about a millisecond per matrix, most of a small car's set-up).
     """
     element = {1: ElementLineP1, 2: ElementLineP2}.get(order)
     if element is None:

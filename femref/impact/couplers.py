@@ -24,30 +24,22 @@ The fallback's scalar root needs a sign change of
 slope ≥ 1, but not where a table's unloading curve falls steeply (``T`` then rises as
 ``P`` pushes the ends apart) nor, by round-off, where ``T`` hardly depends on ``P``; the
 bracket is then widened, doubling its step, until ``f`` changes sign (it must: ``f → ±∞``
-as ``P → ±∞``). A stateful coupler (the draft gear) whose own Newton cycles — its force
-jumps where a contact engages with the gear compressed from the other side, ``|x_g|/D`` at
-the slack boundary: a state the sided gear state below keeps a bilateral contact from
-reaching, so this is the safeguard for a law that jumps — is solved the same way in ``P``
-alone, its state following each trial force through the trapezoidal state equation with
-``ṡ`` driven by that force (the state under a held force); ``f`` then rises with slope
-≥ 1, jumps included, and the root sits at the jump when ``T`` jumps over ``P``: the contact
-held at its boundary, transmitting what the step needs (a set-valued contact force).
+as ``P → ±∞``). A stateful coupler (the draft gear) whose own Newton cycles (its force jumps
+where a contact engages with the gear compressed from the other side: the safeguard for a law
+that jumps) is solved the same way in ``P`` alone, its state following each trial force
+through the trapezoidal state equation; ``f`` then rises with slope ≥ 1, jumps included, and
+the root sits at the jump when ``T`` jumps over ``P`` (a set-valued contact force).
 
 A bilateral draft gear with slack carries its *sided* state
-(:meth:`reduced.couplers.Coupling.state_mirrored`): where the open contact passes into the
-other side's slack boundary with the gear still compressed from the first side, the state
-is mirrored, ``x_g → −x_g``, so that the other side engages from zero force. The step that
-ends beyond that boundary, ``δ_{n+1} + tension_slack < 0`` with ``x_g,n > 0`` (or
-``δ_{n+1} − slack > 0`` with ``x_g,n < 0``), starts from the mirrored state::
+(:meth:`reduced.couplers.Coupling.state_mirrored`): the step that ends beyond the other side's
+slack boundary starts from the mirrored state::
 
     (s_n, ṡ_n) → σ (s_n, ṡ_n),   σ = −1 there, else +1
     s = σ s_n + dt/2 (σ ṡ_n + ṡ(δ, δ̇, s, P))
 
-— exact for the open contact, whose relaxation ``μ ṡ = −F_g(s)`` is odd (the trapezoidal
-map commutes with the mirror, so mirroring at the start of the step is mirroring at the
-crossing), and with ``σ`` taken from the trial closure it follows the iteration. ``σ = +1``
-whenever the state has the side's sign or is zero, so nothing else changes. The dissipation's
-midpoint state is ``(s + σ s_n)/2`` likewise.
+— exact for the open contact, whose relaxation is odd (the trapezoidal map commutes with the
+mirror), and with ``σ`` taken from the trial closure it follows the iteration. The
+dissipation's midpoint state is ``(s + σ s_n)/2`` likewise.
 
 Coupler dissipation is the midpoint rule of the law's dissipation rate while the contact
 mode holds and the force is the law's; on a step where the contact opens or closes, or
@@ -58,10 +50,8 @@ compressed loses its stored energy — the cushion's own relaxation). Every step
 ``P̄ Δδ`` to the coupler's ``work``: the work the cars did on it, against which their own
 energy change is checked (:attr:`femref.impact.response.ImpactResponse.car_energy_balance_error`).
 
-The iteration is compiled (:mod:`femref.impact.kernels.couplers`); its readable twin, the oracle
-the tests hold it to, is ``tests/support/reference_engine``. Here: its limits and tolerances
-(:func:`force_tolerance`), the rule :func:`held_at_jump`, the failure details and
-:class:`CouplerConvergenceError`.
+The iteration is compiled (:mod:`femref.impact.kernels.couplers`); here are its limits and
+tolerances, the rule :func:`held_at_jump`, the failure details and :class:`CouplerConvergenceError`.
 """
 
 from __future__ import annotations

@@ -24,12 +24,10 @@ class ImpactResponse:
     ``couplers[name]`` ``force`` (N, compression positive) and ``closure`` (m), ``energy``
     the bookkeeping (J): ``kinetic``, ``strain``, ``body_dissipated``, ``coupler_stored``,
     ``coupler_dissipated``, ``total``; ``coupler_work`` the work the cars did on the couplers so far
-    (J, ``Σ P̄ Δδ``: the coupler forces did its negative on the cars; None from older callers).
-    ``wall_time`` is the stepping (s); ``setup_time`` the
-    building of the cars (mesh, modes: added by whoever built them) and, compiled, their packing
-    and factorisation.
-    ``status`` is 0 when the run reached the end time,
-    −1 when a step failed (``message`` says where; the histories are NaN after it).
+    (J, ``Σ P̄ Δδ``; None from older callers). ``wall_time`` is the stepping (s); ``setup_time`` the
+    building of the cars (added by whoever built them) and, compiled, their packing and factorisation.
+    ``status`` is 0 when the run reached the end time, −1 when a step failed (``message`` says where;
+    the histories are NaN after it).
     """
 
     time: NDArray[np.float64]

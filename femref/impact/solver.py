@@ -7,12 +7,10 @@ the coupler forces, and each car advances with its final end loads. The car matr
 factorised once; a step costs each car its banded products and triangular solves, plus a
 Newton iteration on n_c + n_s unknowns.
 
-The loop is compiled (:mod:`femref.impact.kernels`: no Python work per step); the tests hold
-it to a readable reference engine with the same arithmetic (``tests/support/reference_engine``).
-
-Like ``scipy.integrate.solve_ivp``, the result carries a ``status`` (0 reached the end,
-−1 a step failed) and a ``message``: a step whose coupler iteration does not converge
-ends the run there, with the histories up to the failing step and NaN after.
+The loop is compiled (:mod:`femref.impact.kernels`: no Python work per step). Like
+``scipy.integrate.solve_ivp``, the result carries a ``status`` (0 reached the end, −1 a step
+failed) and a ``message``: a step whose coupler iteration does not converge ends the run
+there, with the histories up to the failing step and NaN after.
 
 Energy bookkeeping at the output steps: kinetic, strain and body-dissipated energy of
 the cars; stored and dissipated energy of the couplers; and the work the cars did on the

@@ -5,13 +5,8 @@ no factorisation and no state, so that building is cheap and both steppers — t
 readable reference (``tests/support/reference_engine``) and the compiled loop
 (:mod:`femref.impact.kernels`) — start from the same numbers:
 
-* :class:`SecondOrderSystem` — ``M ü + C u̇ + K u = B L`` with displacement outputs
-  ``y = E u (+ R L)``: the FEM car (sparse banded matrices), the modal car (a few dense
-  modal DOFs with a static correction ``R``) and the rigid car (one DOF). Stepped by
-  generalized-α.
-* :class:`StateSpaceSystem` — a discrete-time system of a fixed step,
-  ``x_{n+1} = A x_n + B L_{n+1}``, with outputs linear in x: the quasi-rigid car (its
-  creep filters and rigid motion stepped exactly for loads linear within a step).
+* :class:`SecondOrderSystem` (stepped by generalized-α): the FEM, modal and rigid cars;
+* :class:`StateSpaceSystem` (a discrete-time system of a fixed step): the quasi-rigid car.
 
 ``L`` is the car's end-load vector (rod: ``(F1, F2)``, internal axial force at ``−l`` and
 ``+l``, tension positive); the end outputs are what the couplers read (rod: the

@@ -1,11 +1,8 @@
 """Models that answer a scene, by name: the registry the runner reads.
 
-One module per model, named as the model (:mod:`.fem`, :mod:`.exact`, :mod:`.quasi_rigid`,
-:mod:`.rigid`, :mod:`.modal`), each holding its single-body and car forms (:mod:`.base`) and its
-instance as ``MODEL``. The names are those of
-:data:`femref.core.catalog.MODELS`, each module found by its name; a model serves the scene kinds
-its catalog entry lists, and a car fidelity (:class:`~femref.models.base.CarFidelity`) is found in
-:data:`CAR_FIDELITIES`.
+One module per model, named as the model in :data:`femref.core.catalog.MODELS`, each holding its
+single-body and car forms (:mod:`.base`) and its instance as ``MODEL``; a model serves the scene kinds
+its catalog entry lists.
 """
 
 from importlib import import_module

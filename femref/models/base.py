@@ -112,14 +112,9 @@ class CarFidelity(Protocol):
         """``½ s·x_setup``, ``½ t·x_step`` (``s, t = setup_us, step_us``, :meth:`cost_regressors`): a car's half of a
         two-car run, the one cost model of the work budget and the model choice's ladder.
 
-        The coefficients are fitted by ``benchmarks/fit_ladder_costs.py`` on every rung of 30 random two-car rod
-        impacts (draft-gear, Kelvin–Voigt and friction-table couplers, 16–64 P2 elements; a 2-core AMD EPYC, busy) on
-        the median of five cold runs per rung, by relative-error least squares with non-negative coefficients: the
-        set-up on the wall time outside the stepping (cars built, reduced, factorised and packed cold, the result
-        assembled), the step on the stepping time per step. Predicted over measured wall time per rung: −5 % to +5 %
-        (10th–90th percentile), at most 18 % off. Re-run the script when the build or the stepping changes. No
-        bending car was fitted: one costs as its rod (measured on impact_bending_hoppers.yaml against the same run
-        without bending, a step costs 1.2× rigid, 1.7× modal at 4 modes, 2.3× fem and 5× quasi-rigid).
+        The coefficients are fitted by ``benchmarks/fit_ladder_costs.py`` (its docstring: the runs, the fit and how
+        well it predicts); re-run it when the build or the stepping changes. No bending car was fitted: one costs as
+        its rod.
         """
         x_setup, x_step = self.cost_regressors(car, scene)
         setup = sum(s * x for s, x in zip(self.setup_us, x_setup, strict=True))

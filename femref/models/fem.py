@@ -137,8 +137,7 @@ class FemModel(CarFidelity):
         """``fem_n<n>`` for ``n = N·2^j`` (:data:`FEM_LEVELS`, at least :data:`MIN_ELEMENTS`), refined **jointly in
         space and time**: the coarsest at its automatic step ``dt₀`` (or the case's ``time.dt``), level ``n`` at
         ``dt₀·n₀/n``. Refining the mesh alone would leave the time error of a step set by the contact time
-        untouched, and Richardson between two levels would then see no change (measured: on stiff couplers fem at
-        8, 16 and 32 elements agreed to 1e-5 while all were 0.17 % off)."""
+        untouched, and Richardson between two levels would then see no change."""
         elements = sorted({max(MIN_ELEMENTS, round(scene.fem.elements * 2.0**j)) for j in FEM_LEVELS})
         n0, coarsest = elements[0], with_elements(scene, elements[0])
         return [Resolution(f"fem_n{n}", with_elements(scene, n), "elements", n, coarsest, (n0, n),

@@ -22,14 +22,9 @@ The modal damping ``Φᵀ C Φ`` is kept full: a Voigt viscosity that varies alo
 couples the modes. The static correction is elastic: the dropped modes' viscous lag
 (``τ L̇`` for a Voigt body) is not represented.
 
-Verified (tests/models/test_cars.py): the frequencies equal the dense FEM eigenvalues
-(1e-10) and so the exact homogeneous-rod ``nπ/(2l)·√(EA/m)`` to the mesh's h⁴ error; the
-static end flexibility (kept modes + correction) is ``(l/3EA)[[−2, −1], [1, 2]]`` for a
-homogeneous rod and the quasi-rigid model's elastic coefficients for a profiled one, for
-any k; Q is symmetric PSD; under a smooth pulse the end displacements converge to the
-FEM car's like k^−0.9 without the correction and k^−2.6 with it (elastic; with Voigt
-viscosity the dropped modes' lag brings it back to k^−0.9, 20× below the uncorrected
-error); momentum equals the impulse up to generalized-α's own lag term.
+Verified (tests/models/test_cars.py): the frequencies, the static end flexibility for any k,
+Q symmetric PSD, the convergence to the FEM car with the mode count (faster with the
+correction), momentum.
 """
 
 from __future__ import annotations

@@ -10,18 +10,12 @@ plus the creep deformation under the inertia-balanced end loads,
 
     u(x, t) = q(t) + Σ_j Σ_g C[x, j, g] y_{g,j}(t),   M q̈ = F2 − F1,   τ_g ẏ + y = L_j,
 
-stepped exactly for end loads linear within a step, so its end displacement and
-velocity after a step are affine in the new loads — the prediction the coupled
-solver's Newton iteration needs; the step is one matrix (:meth:`QuasiRigidStepper.transition`). The car starts undeformed at its rigid velocity
-(``initial_shape="undeformed"``), whatever its initial end loads: an impact's coupler
-force may jump at contact, and the deformation under it then develops through the
-creep filters (an elastic car takes it within the first step).
+stepped exactly for end loads linear within a step; the step is one matrix
+(:meth:`QuasiRigidStepper.transition`). The car starts undeformed at its rigid velocity
+(``initial_shape="undeformed"``): an impact's coupler force may jump at contact.
 
-Verified (tests/models/test_cars.py): ``predict`` is the exact affine map of ``advance``;
-against the FEM car under a smooth pulse the end displacements differ by O(ε²) of the
-rigid displacement (3.4e-5 at ε = 0.01, 2.4e-6 at 0.0025: slope 1.93); momentum equals
-the impulse to 1e-12; a car 10⁴ times stiffer agrees with the FEM, modal and rigid cars
-to 1e-6; the Voigt car's dissipated energy is within 3 % of the FEM car's.
+Verified (tests/models/test_cars.py): the affine prediction, O(ε²) against the FEM car,
+momentum, the stiff limit, the Voigt car's dissipated energy.
 """
 
 from __future__ import annotations

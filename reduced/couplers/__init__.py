@@ -1,19 +1,8 @@
 """Coupler force laws as small frozen value objects, and the contact that wraps them.
 
 Closure ``δ = x1 − x2`` (m, compression positive), force ``P`` (N, compression
-positive); every law has the interface of :class:`CouplerLaw`. Modules:
-
-* :mod:`.base` — the law interface (a module of plain functions on packed parameters and a class
-  deriving from :class:`PackedLaw`), :class:`CouplerTangent`, the :class:`CouplerLaw` protocol, ``Branch``;
-* :mod:`.kelvin_voigt` — :class:`KelvinVoigt`, ``P = c δ + μ δ̇``;
-* :mod:`.power_law` — :class:`PowerLawGear`, ``P = sgn(δ) (c |δ|ⁿ + N0) + γ(δ) δ̇``;
-* :mod:`.draft_gear` — :class:`StandardLinearDraftGear`, series springs and a gear with a stroke;
-* :mod:`.table` — :class:`HystereticTable`, tabulated loading/unloading curves;
-* :mod:`.friction_gear` — :func:`friction_gear`, a friction gear with hysteresis and a solid stop
-  (:class:`CubicLoading` or :class:`ExponentialLoading`) tabulated as a :class:`HystereticTable`;
-* :mod:`.coupling` — :class:`Coupling` (contact, slack), :class:`CouplerResponse`, :data:`CONTACT_KINDS`;
-* :mod:`.registry` — :data:`COUPLER_LAWS`, found in the law modules, :func:`compiled_form_rule`
-  and :func:`coupling_from_name`.
+positive); every law has the interface of :class:`CouplerLaw` (:mod:`.base`), one module
+each; the contact around a law is :mod:`.coupling`, the registry of laws :mod:`.registry`.
 """
 
 from .base import OPERATIONS, Branch, CouplerLaw, CouplerTangent, PackedLaw

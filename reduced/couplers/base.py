@@ -27,26 +27,14 @@ piece of a piecewise law), one signature per operation (:data:`OPERATIONS`)::
 plus, for a law with guards (functions whose sign selects the piece: gear open/closed, the
 sign of ``δ`` for a preloaded gear), ``guards(p, table, δ, s) -> tuple`` and
 ``piece_of_signs(signs) -> int``. The functions may call other plain module-level
-functions (of any module) and ``math``; they must not allocate. The law's class is a frozen
-dataclass deriving from :class:`PackedLaw`, which gives it the methods the ODE driver
-(:mod:`reduced.nonlinear`) calls — ``force(δ, δ̇, s, branch)``, ``state_rate``,
-``tangent`` (a :class:`CouplerTangent`), ``guards``, ``stored_energy``,
-``dissipation_rate``, ``initial_state`` — from its ``pack()``: ``(p, table)`` as lists.
-Each method takes an optional ``branch`` (one sign per guard) that freezes the piece: the
-ODE driver freezes it between events so each segment is smooth, and restarts at each
-guard's zero; ``branch=None`` picks it by the ``>= 0`` rule. The module also names the
-law, ``LAW = <class>`` and ``NAMES = (<case-file names>,)``, for the registry
-(:mod:`reduced.couplers.registry`).
+functions and ``math``; they must not allocate. The law's class is a frozen dataclass
+deriving from :class:`PackedLaw` (the methods the ODE driver calls, from its ``pack()``);
+the module also names ``LAW = <class>`` and ``NAMES = (<case-file names>,)`` for the
+registry (:mod:`reduced.couplers.registry`).
 
 Optionally ``signed_state = True`` and ``mirror_state(s)`` (the draft gear): the state is
-one signed compression (``s > 0`` buff, ``s < 0`` draft) of an odd law, so that
-mirroring it, ``s → −s``, keeps its stored energy and commutes with its relaxation
-while the contact is open. A bilateral contact with slack mirrors it when the open
-contact passes into the other side (:meth:`reduced.couplers.Coupling.state_mirrored`);
-laws without the attribute are never mirrored.
-
-Here: :data:`OPERATIONS`, :class:`PackedLaw`, :class:`CouplerTangent`, the :class:`CouplerLaw`
-protocol, the ``Branch`` type and ``guard_sign``, the guards' sign rule.
+one signed compression of an odd law, so that ``s → −s`` keeps its stored energy
+(:meth:`reduced.couplers.Coupling.state_mirrored`).
 """
 
 from __future__ import annotations
@@ -72,13 +60,9 @@ _EMPTY2 = np.zeros((0, 0))
 
 @dataclass(frozen=True, eq=False)
 class CouplerTangent:
-    """Partial derivatives of a coupler law at one point (SI units).
-
-    ``force_closure = ∂P/∂δ`` (N/m, the tangent stiffness), ``force_rate = ∂P/∂δ̇``
-    (N·s/m, the tangent damping), ``force_state = ∂P/∂s``; for the state rate
-    ``ṡ = q(δ, δ̇, s, P)``: ``rate_closure = ∂q/∂δ``, ``rate_rate = ∂q/∂δ̇``,
-    ``rate_state = ∂q/∂s`` and ``rate_force = ∂q/∂P``.
-    """
+    """Partial derivatives of a coupler law at one point (SI units): ``force_closure = ∂P/∂δ``, ``force_rate
+    = ∂P/∂δ̇``, ``force_state = ∂P/∂s``; of ``ṡ = q(δ, δ̇, s, P)``: ``rate_closure = ∂q/∂δ``, ``rate_rate =
+    ∂q/∂δ̇``, ``rate_state = ∂q/∂s``, ``rate_force = ∂q/∂P``."""
 
     force_closure: float
     force_rate: float
@@ -134,8 +118,8 @@ def guard_sign(value: float, strict: bool) -> int:
 
 
 class PackedLaw:
-    """The methods of :class:`CouplerLaw` from the law module's functions (module docstring) on the
-    law's packed parameters. A law class derives from it and defines ``pack()``."""
+    """The methods of :class:`CouplerLaw` from the law module's functions on the law's packed parameters;
+    ``branch`` (one sign per guard) freezes the piece, None picks it by the ``>= 0`` rule."""
 
     state_size: ClassVar[int] = 0
     guard_events: ClassVar[tuple[tuple[str, str], ...]] = ()

@@ -19,14 +19,11 @@ first side's sign, the state is mirrored::
 
     x_g → −x_g   when   x_g > 0 and δ + tension_slack < 0,   or   x_g < 0 and δ − slack > 0
 
-(:meth:`Coupling.state_mirrored`, :meth:`Coupling.sided_state`). Same ``|x_g|``, same
-``∫F_g`` (F_g odd), and ``P = 0`` on the open contact: no energy changes. The unchanged
-engagement rule then engages the tension side where ``F = (δ + tension_slack + |x_g|)/D``
-crosses zero, at ``δ + tension_slack = −|x_g|`` — the residual compression acts as extra
-free play and the force rises from zero (without the mirror it jumped from 0 to
-``−x_g/D`` and the stored ``x_g²/(2D)`` appeared from nothing). The rule is void when the
-state has the side's sign or is zero, for compression-only contacts, without slack, and
-for laws without a signed state.
+(strict inequalities: never on the boundary itself; :meth:`Coupling.state_mirrored`). Same ``|x_g|``,
+same ``∫F_g`` (F_g odd), ``P = 0`` on the open contact: no energy changes. The tension side then engages
+where ``(δ + tension_slack + |x_g|)/D`` crosses zero, the force rising from zero (without the mirror it
+jumped to ``−x_g/D`` and the stored ``x_g²/(2D)`` appeared from nothing). The rule applies only to a
+bilateral contact with slack and a law with a signed state.
 """
 
 from __future__ import annotations
@@ -72,16 +69,11 @@ class Coupling:
     The contact guards are ``e_c = min(δ − slack, F(δ − slack))`` (engaged in
     compression iff ``e_c > 0``) and ``e_t = max(δ + tension_slack, F(δ + tension_slack))``
     (engaged in tension iff ``e_t < 0``); their zeros are the contact and separation
-    events. The memoryless laws (Kelvin-Voigt, power law) drop their stored energy
-    when a compression-only contact separates with ``δ − slack > 0``; the ODE driver
-    books it as dissipated (the cushion's own relaxation).
+    events. The memoryless laws drop their stored energy when a compression-only contact
+    separates with ``δ − slack > 0``; the ODE driver books it as dissipated.
 
-    A law with a signed state (the draft gear) is given its *sided* state: mirrored,
-    ``x_g → −x_g``, where the open contact has passed into the other side's slack
-    boundary with ``x_g`` of the first side's sign (:meth:`state_mirrored`, module
-    docstring). :meth:`evaluate` and the guards take the state as given; the drivers
-    mirror it — the ODE driver at the contact event on that boundary (the stale state
-    makes ``e_t = δ + tension_slack``, resp. ``e_c = δ − slack``, there), the impact
+    :meth:`evaluate` and the guards take the law state as given; the drivers pass the sided
+    state (module docstring): the ODE driver at the contact event on the boundary, the impact
     engines at the start of the step that ends beyond it.
     """
 
@@ -108,15 +100,7 @@ class Coupling:
         return self.contact == "bilateral" and not self.always_engaged and bool(getattr(self.law, "signed_state", False))
 
     def state_mirrored(self, closure: float, state: NDArray[np.float64]) -> bool:
-        """Whether the law state ``x_g = state[0]`` is to be mirrored at closure ``δ`` (module docstring)::
-
-            x_g > 0 and δ + tension_slack < 0   (a buff compression, the closure past the tension boundary)
-            x_g < 0 and δ − slack > 0           (a draft compression, the closure past the compression boundary)
-
-        Only where :attr:`mirrors_state`; never for ``x_g = 0`` or a state of the side's sign,
-        and never on the boundary itself (strict inequalities: the contact is open on both
-        sides of it).
-        """
+        """Whether the law state ``x_g = state[0]`` is to be mirrored at closure ``δ`` (module docstring)."""
         if not self.mirrors_state:
             return False
         x = float(state[0])
@@ -166,9 +150,7 @@ class Coupling:
         """Contact mode and law branch from the signs of all guards."""
         n = len(self.contact_guard_events)
         law_branch = tuple(sides[n:])
-        if self.always_engaged:
-            return 1, law_branch
-        if sides[0] > 0:
+        if self.always_engaged or sides[0] > 0:
             return 1, law_branch
         if self.contact == "bilateral" and sides[1] < 0:
             return -1, law_branch
@@ -183,14 +165,8 @@ class Coupling:
         return self.law.force(self.effective_closure(closure, mode), closure_rate, state, law_branch)
 
     def evaluate(self, closure: float, closure_rate: float, state: NDArray[np.float64] | None = None) -> CouplerResponse:
-        """Force, mode, state rate and tangent with the branch and mode taken from the signs.
-
-        This is the entry point for a coupler iteration outside the ODE driver
-        (e.g. Newton on the coupler force between finite-element car bodies). The state is
-        taken as given: a driver passes the sided state (:meth:`sided_state`); a buff-
-        compressed gear state evaluated beyond the tension boundary gives the jump
-        ``(δ + tension_slack − x_g)/D`` the mirror avoids.
-        """
+        """Force, mode, state rate and tangent with the branch and mode taken from the signs: the entry point
+        for a coupler iteration outside the ODE driver. The state is taken as given (:meth:`sided_state`)."""
         closure = _checks.finite("closure", closure)
         closure_rate = _checks.finite("closure_rate", closure_rate)
         s = self.law.initial_state() if state is None else np.asarray(state, dtype=float)

@@ -8,19 +8,11 @@ and beyond ``δ_c`` the gear is solid, both curves rising with the solid stiffne
 
     L(δ) = L(δ_c) + k_s (δ − δ_c),    U(δ) = r L(δ_c) + k_s (δ − δ_c)
 
-The force is that of the table law, ``P = U + (L − U) clip(δ̇/v_s, 0, 1) + c_v δ̇``, odd
-in ``(δ, δ̇)``. Loading curves (:class:`CubicLoading`, :class:`ExponentialLoading`) are
-convex with a nondecreasing curvature; :func:`friction_gear` tabulates them at nodes
-placed so that the chord between two nodes stays within ``tolerance · L(δ_c)`` of the
-curve (:func:`tabulation_nodes`), with a node exactly at ``δ_c``, so every engine that
-runs the table law (the ODE driver, the readable impact step and the compiled kernel)
-runs this gear too, with no law code of its own (docs/formulas.md §A6).
-
-Verified: the tabulation against the curves and its node count's order
-(``tests/reduced/couplers/test_friction_gear.py``); the gear in every engine against a
-two-mass impact integrated in the test with the gear written from its definition
-(``tests/impact/test_friction_gear_engines.py``: peak force, its time, dissipated energy =
-the hysteresis loop area).
+Loading curves (:class:`CubicLoading`, :class:`ExponentialLoading`) are convex with a
+nondecreasing curvature; :func:`friction_gear` tabulates them (:func:`tabulation_nodes`), so
+every engine that runs the table law runs this gear too, with no law code of its own
+(docs/formulas.md §A6). Verified: ``tests/reduced/couplers/test_friction_gear.py`` and
+``tests/impact/test_friction_gear_engines.py`` (every engine against a two-mass impact).
 """
 
 from __future__ import annotations
@@ -152,13 +144,9 @@ def friction_gear(
     ``solid_stiffness`` k_s (N/m, at least ``L'(δ_c)``: the stop stiffens the gear; real gears
     20–50× that), ``switch_velocity`` v_s (m/s, > 0).
 
-    The table: :func:`tabulation_nodes` on ``[0, δ_c]`` (``L`` within ``tolerance · L(δ_c)``,
-    ``U`` within ``r · tolerance · L(δ_c)``; their integrals, the stored energy, within that
-    times δ), then one node on the solid line at ``δ_c + L(δ_c)/k_s``, where the loading
-    force is ``2 L(δ_c)`` (near a coupler's ultimate strength for rated forces of 2–2.5 MN).
-    Beyond it the table law continues with the last slope, ``k_s`` on both curves, so the
-    solid part is exact. The table law's ``reference_stiffness`` (time scales only) is the
-    loading secant there, ``2 L(δ_c) / (δ_c + L(δ_c)/k_s)``.
+    The table: :func:`tabulation_nodes` on ``[0, δ_c]``, then one node on the solid line at
+    ``δ_c + L(δ_c)/k_s`` (loading force ``2 L(δ_c)``), beyond which the table law's last slope
+    keeps the solid part exact; ``reference_stiffness`` is the loading secant there.
 
     Energy: a slow cycle to ``δ_m ≤ δ_c`` dissipates the loop area ``(1 − r) ∫₀^{δ_m} L``;
     beyond ``δ_c`` the solid part is elastic (``L − U = (1 − r) L(δ_c)`` stays constant), so

@@ -48,9 +48,7 @@ def dissipation_rate(p, table, closure, rate, state, transmitted, engaged, piece
 class KelvinVoigt(PackedLaw):
     """Linear spring and dashpot in parallel: ``P = c δ + μ δ̇`` (N).
 
-    ``stiffness`` c (N/m), ``damping`` μ (N·s/m). Stored energy ``c δ²/2``, dissipation
-    ``μ δ̇²``. Its two-mass closed form is :func:`reduced.rigid.kelvin_voigt_impact`; the
-    ODE driver reproduces it to 3e-11 of the peaks (``tests/reduced/test_nonlinear.py``).
+    ``stiffness`` c (N/m), ``damping`` μ (N·s/m). Stored energy ``c δ²/2``, dissipation ``μ δ̇²``.
     """
 
     stiffness: float
@@ -59,11 +57,6 @@ class KelvinVoigt(PackedLaw):
     def __post_init__(self) -> None:
         _checks.positive("stiffness", self.stiffness)
         _checks.non_negative("damping", self.damping)
-
-    @classmethod
-    def design_example(cls) -> KelvinVoigt:
-        """The coupler of the example impact case (docs/design.md §3): 4e7 N/m, 3e5 N·s/m."""
-        return cls(stiffness=4.0e7, damping=3.0e5)
 
     @property
     def reference_stiffness(self) -> float:

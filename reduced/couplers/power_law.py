@@ -86,8 +86,7 @@ class PowerLawGear(PackedLaw):
     ``stiffness`` c (N/mⁿ), ``exponent`` n ≥ 1 (n < 1 has infinite stiffness at
     δ = 0, which no Newton iteration or stiff solver can use), ``preload`` N0 (N,
     the initial tightening: the force jumps to ±N0 as δ passes 0), ``damping``
-    (γ_0 in N·s/m, γ_1 in N·s/m², …). With n = 1, N0 = 0, γ = (μ,) it is
-    :class:`KelvinVoigt` (the ODE driver reproduces the closed form to 3e-11).
+    (γ_0 in N·s/m, γ_1 in N·s/m², …). With n = 1, N0 = 0, γ = (μ,) it is :class:`KelvinVoigt`.
 
     Stored energy ``c|δ|^{n+1}/(n+1) + N0|δ|``; dissipation ``γ(δ) δ̇²``; tangent
     ``∂P/∂δ = n c |δ|^{n−1} + γ'(δ) δ̇``, ``∂P/∂δ̇ = γ(δ)``. One guard, ``δ`` itself

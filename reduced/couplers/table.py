@@ -1,11 +1,4 @@
-"""Tabulated hysteretic friction gear: for ``δ ≥ 0`` (N)::
-
-    P = U(δ) + (L(δ) − U(δ)) s(δ̇) + c_v δ̇,    s(δ̇) = clip(δ̇/v_s, 0, 1)
-
-oddly extended to ``δ < 0``. The table law (:class:`HystereticTable`: loading/unloading
-curves with hysteresis) fits the interface of :class:`reduced.couplers.base.CouplerLaw`
-memorylessly: the closure rate selects the curve (loading while the closure magnitude
-grows, unloading while it shrinks).
+"""Tabulated hysteretic friction gear, memoryless: the closure rate selects the curve (:class:`HystereticTable`).
 
 Packed ``p = [c_v, v_s, m]`` and the table's rows closure, L, U, ``∫₀L``, ``∫₀U`` at its
 ``m`` points; the functions are its arithmetic, once (:mod:`reduced.couplers.base`). Here
@@ -139,23 +132,17 @@ class HystereticTable(PackedLaw):
     point would be needed for that); the ODE driver integrates through the kinks of
     the table and of the switch band (its adaptive steps shorten there).
 
-    Implicit coupled solves: across a turning point the force drops by ``L − U`` within
-    a closure-rate band ``v_s`` wide, i.e. within a force band of about ``v_s/g_v``
-    (``g_v`` the car ends' velocity gain per newton over one step) — for FE car ends a
-    few kN against a drop of ~1 MN. A plain Newton iteration on the coupler force
-    then jumps over the band and cycles between the two curves (measured on the
-    default impact scene with the friction envelope as its coupler: fem, modal and
-    quasi-rigid cars fail at ``v_s`` = 0.01 m/s, modal and quasi-rigid still at 0.1 m/s,
-    all run at 1 m/s); it needs a safeguard (the residual is monotone in P, so
-    bracketing works).
+    Implicit coupled solves: across a turning point the force drops by ``L − U`` within a
+    force band of about ``v_s/g_v`` (``g_v`` the car ends' velocity gain per newton over one
+    step; for FE car ends a few kN against ~1 MN): a plain Newton iteration cycles between
+    the curves, so it needs a safeguard (the residual is monotone in P: bracketing works).
 
     Energy: ``stored = ∫₀^{|δ|} U`` (the part given back on unloading), dissipation
     rate ``(P − σU(|δ|)) δ̇ = (L − U)(|δ|) s(σδ̇) σδ̇ + c_v δ̇² ≥ 0`` because ``s > 0``
     only while ``σδ̇ > 0`` and ``L ≥ U`` everywhere (table checks, plus the last
     slopes ``0 ≤ U' ≤ L'`` so that it stays so beyond the table). A slow closed
-    cycle ``0 → δ_m → 0`` dissipates ``∫₀^{δ_m} (L − U)``, the loop area, exactly
-    in the limit ``v_s → 0`` (``tests/reduced/couplers/test_table.py``, with the energy
-    balance of :func:`reduced.nonlinear.simulate_impact`).
+    cycle ``0 → δ_m → 0`` dissipates the loop area ``∫₀^{δ_m} (L − U)`` as ``v_s → 0``
+    (``tests/reduced/couplers/test_table.py``).
 
     Tangent: ``∂P/∂δ = U' + (L' − U') s``, ``∂P/∂δ̇ = (L − U) s' + c_v`` with
     ``s' = 1/v_s`` for ``0 ≤ σδ̇ < v_s`` and 0 outside (right derivatives at the kinks;
@@ -211,18 +198,13 @@ class HystereticTable(PackedLaw):
 
         Unloading (an assumption — the source gives only "far below loading"):
         ``unloading_fraction`` (0.3) of the loading force at the published points, so
-        a slow full cycle within the gear travel returns 30 % of the work and
-        dissipates 70 % (friction gears give back the smaller part of the energy they
-        absorb; change the fraction to match a gear's measured rebound). On the
-        solid segment the unloading curve runs parallel to loading (slope
-        ``solid_stiffness``): the solid gear unloads elastically, so pressing it
-        further adds no friction loss and the loop height stays
-        ``(1 − fraction)·1.35 MN``.
+        a slow full cycle returns 30 % of the work (friction gears give back the smaller
+        part). On the solid segment unloading runs parallel to loading: the solid gear
+        unloads elastically.
 
         The 11.9 mm slack is in the table (zero force on both curves): with a
         ``compression_only`` coupling that plateau leaves the contact guard at exactly
-        zero and the ODE driver records spurious contact/separation events while it
-        crosses; there, prefer ``Coupling(friction_gear_envelope(slack_in_table=False),
+        zero (spurious contact/separation events); there, prefer ``Coupling(friction_gear_envelope(slack_in_table=False),
         slack=HystereticTable.FRICTION_GEAR_SLACK)`` (the table shifted by the slack).
         """
         fraction = _checks.finite("unloading_fraction", unloading_fraction)

@@ -15,25 +15,10 @@ equation of motion the outputs feed ``P`` through directly::
 ``P`` is a random walk, ``Ṗ = w``, ``E[w(t) w(s)] = q_P δ(t − s)`` (force-rate intensity,
 N²/s); each channel carries white noise of declared std ``σ_i`` (m/s²).
 
-The derivation goes on in the modules, in the order of the data flow:
-
-* :mod:`.cars` — :class:`CarDynamics`, :class:`SensorFilter`, :class:`CoupledCars`: the cars and the
-  recorders' anti-alias filter as the caller declares them;
-* :mod:`.augmented` — :class:`AugmentedModel`, :func:`augmented_model`: the rigid-body motion removed
-  exactly, the random-walk force appended, the filter states joined, sampled exactly (Van Loan),
-  whitened and scaled, detectability checked (PBH); :func:`forced_response`, the model's noise-free
-  samples under a prescribed force;
-* :mod:`.linear_gaussian` — :func:`van_loan_discretisation`, :func:`kalman_smoother` (the Joseph-form
-  reference filter and de Jong's RTS smoother, result :class:`GaussianSmoothing`) and the stationary
-  covariance (the DARE by doubling): generic, nothing of cars;
-* :mod:`.steady` — the O(dim²)-per-step estimator: the stationary filter and smoother with the
-  initial force as a regression (de Jong 1991), their likelihood and the smoothed force;
-* :mod:`.estimate` — :func:`estimate_force`, :class:`KalmanForce`: the force-rate search, the
-  noise scale, the peak and its band, the status (:data:`DEFAULT_FORCE_RATE_RANGE`,
-  :data:`NOISE_SCALES`);
-* :mod:`.variants` — :func:`estimate_force_with_variants`, :class:`VariantForceEstimate`,
-  :func:`corner_models`: the band widened to the envelope over perturbed models (the declared cars'
-  tolerance corners) and the masses' tolerance.
+The derivation goes on in the modules, in the order of the data flow: :mod:`.cars` (the cars as
+declared), :mod:`.augmented` (the filter's model), :mod:`.linear_gaussian` (generic machinery),
+:mod:`.steady` (the O(dim²)-per-step estimator), :mod:`.estimate` (:func:`estimate_force`) and
+:mod:`.variants` (the band over perturbed models).
 """
 
 from .augmented import AugmentedModel, augmented_model, forced_response

@@ -11,25 +11,18 @@ motion), ``Λ_e = diag(ω_j²)``. Internal forces do no work on rigid motion, ``
     r̈ = Φ_rᵀ B b P,   ë + C_ee ė + Λ_e e = Φ_eᵀ B b P,   a = O M⁻¹ B b P − O Φ_e (Λ_e e + C_ee ė)
 
 The rigid displacement ``r`` *and velocity* ``ṙ`` enter no output and no other state's
-equation: they are unobservable and exactly disconnected from everything observable. Kept
-in the filter their covariance only grows (a constant velocity or position offset is
-invisible to accelerometers) and contributes nothing, so they are removed — exactly, not
-as an approximation. The filter state is::
+equation: unobservable and exactly disconnected, they are removed (exactly), and the car
+speeds do not enter. The filter state is::
 
     z = [e_rear, ė_rear, e_front, ė_front, P]
 
-and the car speeds (``v0 ± σ_v``) do not enter: no prior on ``ṙ`` can inform ``P`` since
-``ṙ`` never reaches an output (if wanted, ``ṙ(t) = ṙ(0) + Φ_rᵀ B b ∫₀ᵗ P``). What remains is
-observable, so no dummy measurement is needed: the quasi-static part of ``P`` — which an
-acceleration-only filter on a *grounded* structure cannot see (a static load only deforms
-it, ``a = 0``; Naets' remedy is a dummy zero-displacement measurement) — is seen here
-directly as the rigid-body acceleration, ``M a_rigid = ±P``, of a free car. A dummy
-"elastic displacement = 0" measurement would be wrong here: the deformation *responds* to
-``P`` (quasi-statically ``e = Λ_e⁻¹ Φ_eᵀ B b P``), so it would pull the force towards zero.
-The premise is checked on every model by the PBH test on the marginal eigenvalues of the
-augmented system, ``rank [λI − A; H] = dim z`` for ``Re λ ≥ 0`` (detectability); a model that
-fails it (e.g. grounded cars) gets the status "force not detectable ...". The tests show a
-flat, bounded force estimate over a 5 s quiet tail after the impact.
+What remains is observable, so no dummy measurement is needed: the quasi-static part of
+``P``, which an acceleration-only filter on a *grounded* structure cannot see, is seen here
+as the rigid-body acceleration, ``M a_rigid = ±P``, of a free car (a dummy "elastic
+displacement = 0" measurement would pull the force towards zero: the deformation responds
+to ``P``). The premise is checked on every model by the PBH test on the marginal
+eigenvalues, ``rank [λI − A; H] = dim z`` for ``Re λ ≥ 0``; a model that fails it (e.g.
+grounded cars) gets the status "force not detectable ...".
 
 Discretisation at the record's step ``h``, exact for the random-walk state (a zero-order
 hold on ``P`` is not: ``P`` varies inside the step). With ``ż = A z + G w``, ``G = e_P``

@@ -5,9 +5,8 @@ joined by the coupler force (:class:`CoupledCars`); the model's equations open :
 Recorders' anti-alias filter (:class:`SensorFilter`, ``CoupledCars.sensor_filter``): a channel
 that passes an analogue low-pass before it is sampled is modelled as such — the filter's
 states ``w`` join the state (before ``P``), driven by the channel's acceleration, and the
-sample is the filter's output, ``ẇ = A_f w + b_f (H z)``, ``y = c_f w + v`` (no feed-through
-left). Ignoring a 100 Hz 4th-order filter delays the force by its group delay (≈ 4 ms) and
-misshapes it (9 % RMS of the peak in the tests); modelled, the force is on time (0.14 %).
+sample is the filter's output, ``ẇ = A_f w + b_f (H z)``, ``y = c_f w + v``. Ignored, a
+100 Hz 4th-order filter delays the force by its group delay (≈ 4 ms).
 """
 
 from __future__ import annotations
@@ -40,9 +39,7 @@ class CarDynamics:
     (n × n, symmetric; K positive semi-definite, its null space the rigid-body motion,
     which C must not damp), ``load_map`` B (n × J: generalised force of each end load),
     ``sensor_map`` O (S × n), ``coupler_load`` b (J: end loads per unit compression-positive
-    coupler force ``P``; a rod's rear car ``(0, −1)``, front car ``(−1, 0)``). In use: the
-    rigid mode and the first elastic free-free modes of a car, mass-normalised
-    (``M = I``, ``K = diag(ω²)``), but any M, C, K will do.
+    coupler force ``P``; a rod's rear car ``(0, −1)``, front car ``(−1, 0)``).
     """
 
     mass: FloatArray

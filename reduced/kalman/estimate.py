@@ -13,21 +13,15 @@ Noise scale (``noise_scale="estimated"``): all covariances ``R``, ``Q``, ``P_0``
 ``λ`` leaves the gains, the innovations and the smoothed mean unchanged and scales every
 ``S_k`` by ``λ``, so ``ℓ`` is maximised over λ in closed form, ``λ̂ = NIS`` (Harvey 1989, §3.4),
 and the likelihood concentrated over it, ``ℓ_c = −½ (N m log λ̂ + Σ log det S̃_k + N m)``,
-is maximised over ``q_P/λ`` as above; the smoothed variances are multiplied by ``λ̂``. With
-the declared noise right, ``λ̂ ≈ 1`` and nothing changes. It matters under model error:
-a wrong model leaves vibration it cannot explain, and with the sensors' own noise
-(≈ 0.05 m/s²) the likelihood explains it by the force — ``q_P`` runs to the top of the range
-and the peak is biased up (tests: +18 % and +25 % for cars whose mass, frequencies and
-damping differ by +5/−15 %/×1.5 and −2/+7 %/×0.8, flagged by NIS ≈ 180 and 70). With the
-scale estimated the misfit shows as noise (×22) instead: +1.6 % and +1.1 %, although the
-band then still misses the truth (model error is not white).
+is maximised over ``q_P/λ`` as above; the smoothed variances are multiplied by ``λ̂``. It
+matters under model error: a wrong model leaves vibration it cannot explain, which with the
+declared noise the likelihood explains by the force (``q_P`` runs to the top of the range,
+the peak is biased up); with the scale estimated the misfit shows as noise instead.
 
 Peak: the maximum of the smoothed mean (compression positive) and the pointwise 95 % band
-``mean ± 1.96 std`` at that sample. This ignores the uncertainty of *where* the peak is;
-it is a fair band for the peak when the std is small against the change of the force
-over the few samples around the peak, as for impact pulses at the noise levels of
-car-body accelerometers (tests: it covers the true peak in 19–20 of 20 seeds); otherwise
-it is slightly optimistic (the maximum of a noisy curve is biased up).
+``mean ± 1.96 std`` at that sample. This ignores the uncertainty of *where* the peak is: a
+fair band when the std is small against the force's change around the peak, as for impact
+pulses; otherwise slightly optimistic.
 """
 
 from __future__ import annotations

@@ -20,10 +20,9 @@ innovations ``ν∞_k = h_k α + e_k``, ``h_k = H L^k u``, ``e_k ~ N(0, S∞)`` 
 
 (``ẑ∞``, ``V∞``: the stationary smoother given α = 0; ``ψ_k`` the smoothed response to a unit
 α: the same smoother run with prior mean ``u`` and zero data; ``V∞_k,PP = P∞_PP − Σ_{j<N−k}
-|S∞^{-1/2} H L^j P∞ e_P|²``). The tests show this equals the Joseph-form time-varying
-filter and smoother with the same prior to ≤ 1e-9. Models that fail the detectability
-check have no stationary covariance; they fall back to the reference recursion with the
-prior ``N(0, σ_0² u uᵀ)``.
+|S∞^{-1/2} H L^j P∞ e_P|²``), equal to the Joseph-form filter and smoother with the same prior
+(tests). Models that fail the detectability check have no stationary covariance; they fall back
+to the reference recursion with the prior ``N(0, σ_0² u uᵀ)``.
 """
 
 from __future__ import annotations

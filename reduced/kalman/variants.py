@@ -5,23 +5,15 @@ Model uncertainty (:func:`estimate_force_with_variants`): the caller builds pert
 models (e.g. :func:`corner_models`: modal frequencies ±15 %, damping ×0.6–1.6); each is
 estimated with its own ``q_P`` (or at the nominal's, ``variant_force_rate="nominal"``, as a
 measured case's kalman estimator does) and — by default — its own noise scale, and the band is the
-union (envelope) of their 95 % bands, widened by a mass tolerance if given. The noise scale is needed: with the declared noise
-every wrong model biases the peak *up* (see :mod:`.estimate`), so the corners do not bracket a
-truth inside the box (tests: +0.4 … +65 % for the interior truth there); with it they do
-(−8 … +6 %, and −10 … +14 % for the corner truth). Not ``mean ± 1.96 √(std² + spread²)``:
-the variants are extremes chosen by the caller, not draws from a known distribution, so
-their sample spread has no probabilistic meaning (a few corners overstate it,
-one-at-a-time perturbations understate it, and a handful of models makes a mixture far
-from Gaussian); the envelope claims only what it shows — the estimate of every model
-considered, each with its noise band. It is a heuristic: the estimate is not monotone in
-the parameters, so it brackets the truth only as far as the corners span the estimates of
-the models inside the box (as in the tests). No likelihood weighting either: with
-thousands of samples the likelihood picks one variant with near certainty even when none
-is right. The data do discriminate frequencies and damping (variants near the truth's
-have λ̂ ≈ 1.4, the others up to ≈ 560), so calibrating those would narrow the band (not
-done here); the mass they cannot: scaling every mass and the force by the same factor
-leaves all accelerations unchanged (``a = P/M`` rigidly, and the mass-normalised modes
-scale by ``1/√s``), so a mass error passes one to one into the force.
+union (envelope) of their 95 % bands, widened by a mass tolerance if given. The noise scale is
+needed: with the declared noise every wrong model biases the peak *up* (:mod:`.estimate`), so
+the corners would not bracket a truth inside the box. Not ``mean ± 1.96 √(std² + spread²)``:
+the variants are extremes chosen by the caller, not draws from a known distribution; the
+envelope claims only what it shows. A heuristic: the estimate is not monotone in the
+parameters. No likelihood weighting either: with thousands of samples it picks one variant
+with near certainty even when none is right. The mass the data cannot discriminate: scaling
+every mass and the force by one factor leaves all accelerations unchanged, so a mass error
+passes one to one into the force.
 """
 
 from __future__ import annotations

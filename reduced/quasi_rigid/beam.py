@@ -27,7 +27,7 @@ the exact beam transfer functions (error ∝ λ⁴, tests/reduced/quasi_rigid/te
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Iterable
+from typing import Iterable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -35,9 +35,6 @@ from numpy.typing import ArrayLike, NDArray
 from .body import HarmonicResponse, LoadLike, QuasiRigidBody, TransientResponse
 from .creep import VOIGT, CreepKernel
 from .profiles import BodyQuadrature, ProfileLike
-
-if TYPE_CHECKING:
-    from .coupled import QuasiRigidStepper
 
 
 class QuasiRigidBeam(QuasiRigidBody):
@@ -125,9 +122,3 @@ class QuasiRigidBeam(QuasiRigidBody):
         """
         return self._transient(t, x, {"N1": N1, "N2": N2, "G1": G1, "G2": G2},
                                (initial_velocity, initial_angular_velocity), load_time_scale, int(rotation))
-
-    def stepper(self, probes: ArrayLike = (), **kwargs: object) -> "QuasiRigidStepper":
-        """A :class:`~.coupled.QuasiRigidStepper` (ends first, then ``probes``)."""
-        from .coupled import QuasiRigidStepper
-
-        return QuasiRigidStepper(self, probes, **kwargs)

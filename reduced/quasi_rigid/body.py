@@ -11,35 +11,26 @@ rigid-body acceleration plus the second time derivative of the creep correction
 
 the two-term generalisation of ``a* = 1 + q²/6`` (a complex, frequency-dependent mass).
 
-**Second derivatives of the load.** L̈ enters linearly through the filters. Sampled
-loads (arrays or plain callables sampled on the grid) are taken as piecewise linear,
-and the reported acceleration at ``t_n`` is the filter applied to the central second
-differences ``(L_{n+1} − 2L_n + L_{n−1})/dt²``: by linearity and shift invariance of the
-exact filter recursion this equals ``(y_{n+1} − 2y_n + y_{n−1})/dt²`` of the exact
-correction ``y``, i.e. the exact quasi-rigid acceleration of the piecewise-linear load
-averaged with the hat weight over ``[t_{n−1}, t_{n+1}]`` (the delta functions of L̈ at
-kinks are spread over two steps). For a smooth load its error is
-``(dt²/12) ∂⁴y/∂t⁴ + O(dt⁴)`` — second order, and relative to the O(ε) correction only.
-Velocities likewise use central first differences (box average over two steps).
-A :class:`LoadHistory` with analytic derivatives uses the samples of ``L̇`` and ``L̈``
-instead (the filter of their piecewise-linear interpolant: exact for τ = 0, O(dt²)
-otherwise); it carries no delta functions, so kinks of the load are then ignored.
+**Second derivatives of the load.** Sampled loads are taken as piecewise linear, and the
+acceleration at ``t_n`` is the filter applied to the central second differences
+``(L_{n+1} − 2L_n + L_{n−1})/dt²``: by linearity and shift invariance of the filter this is
+the exact quasi-rigid acceleration of the piecewise-linear load averaged with the hat weight
+over ``[t_{n−1}, t_{n+1}]`` (error ``(dt²/12) ∂⁴y/∂t⁴`` for a smooth load, relative to the O(ε)
+correction only). Velocities likewise use central first differences. A :class:`LoadHistory`
+with analytic derivatives uses the samples of ``L̇`` and ``L̈`` instead (kinks then ignored).
 
-Before ``t₀`` the load is taken as held at ``L(t₀)`` with the body in its quasi-static
-equilibrium (filters at steady state); displacements count from that initial position
-and shape (from rest and undeformed when ``L(t₀) = 0``). The last sample's differences
+Before ``t₀`` the load is held at ``L(t₀)`` with the body in quasi-static equilibrium;
+displacements count from that initial position and shape. The last sample's differences
 use a quadratic extrapolation of the load.
 
-Verified: tests/reduced/quasi_rigid/test_frequency.py (closed forms, O(λ⁴) against the exact
-solutions), tests/reduced/quasi_rigid/test_time.py (filters against direct quadrature, limits,
-O(ε²) against exact transients for smooth pulses, O(dt²) of the sampled L̈).
+Verified: tests/reduced/quasi_rigid/test_frequency.py, tests/reduced/quasi_rigid/test_time.py.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Callable, Mapping
+from typing import TYPE_CHECKING, Callable, Mapping
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -48,6 +39,9 @@ from scipy.signal import lfilter
 from .correction import CreepCorrection
 from .creep import CreepKernel, harmonic_factor, update_coefficients
 from .profiles import BodyQuadrature
+
+if TYPE_CHECKING:
+    from .coupled import QuasiRigidStepper
 
 
 @dataclass(frozen=True)
@@ -185,10 +179,19 @@ class QuasiRigidBody:
             return 0.0
         return float(self.epsilon(1.0 / load_time_scale)[0])
 
-    def _load_vector(self, loads: Mapping[str, complex]) -> NDArray[np.complex128]:
+    def stepper(self, probes: ArrayLike = (), **kwargs: object) -> QuasiRigidStepper:
+        """A :class:`~.coupled.QuasiRigidStepper` for coupled simulation (ends first, then ``probes``)."""
+        from .coupled import QuasiRigidStepper
+
+        return QuasiRigidStepper(self, probes, **kwargs)
+
+    def _check_load_names(self, loads: Mapping[str, object]) -> None:
         unknown = set(loads) - set(self.load_names)
         if unknown:
             raise ValueError(f"unknown loads {sorted(unknown)}; this body takes {self.load_names}")
+
+    def _load_vector(self, loads: Mapping[str, complex]) -> NDArray[np.complex128]:
+        self._check_load_names(loads)
         return np.array([complex(loads.get(name, 0.0) or 0.0) for name in self.load_names])
 
     # -- frequency domain ------------------------------------------------------------
@@ -218,9 +221,7 @@ class QuasiRigidBody:
         t = np.asarray(t, dtype=float)
         x = np.atleast_1d(np.asarray(x, dtype=float))
         dt = _uniform_step(t)
-        unknown = set(loads) - set(self.load_names)
-        if unknown:
-            raise ValueError(f"unknown loads {sorted(unknown)}; this body takes {self.load_names}")
+        self._check_load_names(loads)
         sampled = [_sample_load(loads.get(name), t, dt) for name in self.load_names]
         value = np.stack([v for v, _, _ in sampled])                              # (J, Nt)
         # the three sequences to filter, each with a leading sample at t₀ − dt where it is 0:

@@ -23,10 +23,8 @@ Grouping equal time constants gives the separable form used by every model:
 so a probe costs one coefficient table, and time stepping costs one filter per
 (load, time-constant group). Time constants that are piecewise constant on the
 body's segments are grouped exactly; a continuously varying τ is represented by
-barycentric interpolation in log τ on Chebyshev points (``max_tau_groups`` of them);
-measured for τ varying 100-fold along a rod, the relative error of the correction
-against direct adaptive quadrature is 4e-6 with 16 points, 1e-8 with 24 (the
-default) and 4e-11 with 32, at λ = 0.1 … 100 (tests/reduced/quasi_rigid/test_frequency.py).
+barycentric interpolation in log τ on Chebyshev points (``max_tau_groups`` of them;
+its error: tests/reduced/quasi_rigid/test_frequency.py).
 """
 
 from __future__ import annotations
@@ -213,21 +211,6 @@ class CreepCorrection:
         full = xb * self._cum0[p] - self._cum1[p]
         partial = np.einsum("xn,xnjg->xjg", weights * (x[:, None] - nodes), psi)
         return full + partial - self._proj0 - xb * self._proj1
-
-    def mass_weighted_mean(self, group_weights: ArrayLike | None = None) -> NDArray[np.float64]:
-        """``∫ m C dx`` and ``∫ m x C dx`` (axis 0) of ``Σ_g C[:, :, g] · group_weights[g]``: zero by construction.
-
-        For tests of the rigid-mode projection. With interpolated time constants a single
-        group's coefficients are not smooth enough to integrate; weights smooth in τ_g
-        (the default, all ones, is the elastic response) are.
-        """
-        q = self.quadrature
-        weights = np.ones(self.tau_groups.size) if group_weights is None else np.asarray(group_weights)
-        C = self.node_coefficients() @ weights
-        C = C.reshape(*q.nodes.shape, C.shape[-1])
-        mean0 = q.integrate(q.mass[..., None] * C)
-        mean1 = q.integrate((q.mass * q.nodes)[..., None] * C)
-        return np.stack([mean0, mean1])
 
 
 def _cumulative_panels(weights: NDArray[np.float64], values: NDArray[np.float64]) -> NDArray[np.float64]:

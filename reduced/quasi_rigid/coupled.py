@@ -20,25 +20,16 @@ Jacobian for a Newton iteration on a coupler force. The elastic limit (τ = 0) g
 ``y = L`` (quasi-static deformation at once), the rigid limit (τ = ∞) ``y`` frozen.
 
 Accelerations add ``Σ C L_τ[L̈]`` to the rigid ones; L̈ at ``t_{n+1}`` is the second
-derivative of the cubic through the last four load samples: no look-ahead, second order
-for smooth loads with error ``≈ (11/12) dt² L⁗`` (the time-domain model's central
-difference has ``dt²/12``); a kink of slope jump s shows as ``(2, −1)·s/dt`` over two
-steps. Before the first step the loads are taken as held at their initial values with
-the body in quasi-static equilibrium; displacements count from that position and shape
-(``initial_shape="equilibrium"``, the default). With ``initial_shape="undeformed"`` the
-body starts undeformed under its initial loads, as in an impact whose coupler force
-jumps at contact: the loads count as zero before t = 0, the filters of L start from
-rest, and the deformation under the initial loads then develops through the creep
-filters (an elastic body takes it at once, in the first step). Only the displacement
-sees that jump; the rate filters (of L̇, L̈) count the load's change after t = 0, so the
-velocity misses the decaying ``C L₀ e^{−t/τ}/τ`` of the jump (unbounded as τ → 0).
+derivative of the cubic through the last four load samples: no look-ahead, error
+``≈ (11/12) dt² L⁗`` for smooth loads; a kink of slope jump s shows as ``(2, −1)·s/dt``
+over two steps. ``initial_shape="undeformed"`` (an impact whose coupler force jumps at
+contact): the loads count as zero before t = 0 and the deformation under the initial
+loads develops through the creep filters; the rate filters count the load's change after
+t = 0 only, so the velocity misses the decaying ``C L₀ e^{−t/τ}/τ`` of the jump.
 
-Verified (tests/reduced/quasi_rigid/test_coupled.py): displacements equal the time-domain model
-to 1e-12; momentum ``∫ m v dx = M v₀ + ∫(F2 − F1) dt`` to 1e-12; the harmonic steady
-state; the exact response to O(ε²); rigid cars with a Kelvin–Voigt coupler reproduce the
-two-mass closed form (docs/formulas.md §A1) to 2e-5 at dt = 2e-4 s. The undeformed start
-differs from the equilibrium start by exactly ``C L₀ (1 − e^{−t/τ})`` (1e-12,
-tests/models/test_cars.py).
+Verified: tests/reduced/quasi_rigid/test_coupled.py (the time-domain model, momentum, the
+harmonic steady state, the exact response to O(ε²), the two-mass closed form) and
+tests/models/test_cars.py (the undeformed start).
 """
 
 from __future__ import annotations
@@ -90,10 +81,10 @@ class StepMatrices:
     acceleration: NDArray[np.float64]
 
 
-def _uniform_second_derivative_weights(dt: float) -> NDArray[np.float64]:
-    """Weights of ``L̈`` at the last of four samples ``dt`` apart (oldest first): ``(−1, 4, −5, 2)/dt²``,
-    computed as :meth:`QuasiRigidStepper._second_derivative` computes them."""
-    ta, tb, tc, td = -3.0 * dt, -2.0 * dt, -dt, 0.0
+def _second_derivative_weights(ta: float, tb: float, tc: float, td: float) -> NDArray[np.float64]:
+    """Weights on four samples (oldest first) of ``p''(t_d)``, p the cubic through them:
+    ``p''(t_d) = 2 f[t_d, t_c, t_b] + 2 f[t_d, t_c, t_b, t_a] ((t_d − t_c) + (t_d − t_b))``
+    (uniform step: ``(−1, 4, −5, 2)/dt²``)."""
     spread = (td - tc) + (td - tb)
     return np.array([
         2.0 * spread / ((ta - tb) * (ta - tc) * (ta - td)),
@@ -110,14 +101,10 @@ INITIAL_SHAPES: tuple[str, ...] = ("equilibrium", "undeformed")
 class QuasiRigidStepper:
     """Stateful stepper of a quasi-rigid body; ``positions`` are ``[−l, +l, *probes]``.
 
-    ``initial_loads`` (order of ``body.load_names``) are held before t = ``time`` with the
-    body (by default) in quasi-static equilibrium under them; displacements count from that initial
-    position and shape (so a rigid, τ = ∞, body never deforms). ``initial_rigid_velocity``
-    is the rigid-mode velocity (rod: centre-of-mass velocity, m/s; beam: ``(v, Ω)``).
-    ``initial_shape`` is ``"equilibrium"`` (the default: pre-deformed by the held initial
-    loads) or ``"undeformed"`` (undeformed at ``time`` although loaded: the filter states of
-    L start from zero, so the deformation develops through the creep filters — see the
-    module docstring); displacements then count from the undeformed shape.
+    ``initial_loads`` (order of ``body.load_names``) are held before t = ``time``; displacements count from
+    the initial shape: quasi-static equilibrium under them (``initial_shape="equilibrium"``) or undeformed
+    (``"undeformed"``, module docstring). ``initial_rigid_velocity`` is the rigid-mode velocity (rod:
+    centre-of-mass velocity, m/s; beam: ``(v, Ω)``).
     """
 
     def __init__(
@@ -237,11 +224,7 @@ class QuasiRigidStepper:
         return np.array(loads, dtype=float)
 
     def _second_derivative(self, t1: float, L1: NDArray[np.float64], dt: float) -> NDArray[np.float64]:
-        """``L̈(t₁)``: second derivative of the cubic through the last four samples (held before the start).
-
-        ``p''(t_d) = 2 f[t_d, t_c, t_b] + 2 f[t_d, t_c, t_b, t_a] ((t_d − t_c) + (t_d − t_b))``, written
-        as weights on the four samples (for a uniform step: ``(−1, 4, −5, 2)/dt²``).
-        """
+        """``L̈(t₁)``: second derivative of the cubic through the last four samples (held before the start)."""
         times = self._times
         if not times:  # held before the first sample, one step apart
             times.extend([self.time - 2.0 * dt, self.time - dt, self.time])
@@ -251,15 +234,7 @@ class QuasiRigidStepper:
         history = self._history
         history[:-1] = history[1:]
         history[-1] = L1
-        ta, tb, tc, td = times
-        spread = (td - tc) + (td - tb)
-        weights = np.array([
-            2.0 * spread / ((ta - tb) * (ta - tc) * (ta - td)),
-            2.0 / ((tb - tc) * (tb - td)) + 2.0 * spread / ((tb - ta) * (tb - tc) * (tb - td)),
-            2.0 / ((tc - tb) * (tc - td)) + 2.0 * spread / ((tc - ta) * (tc - tb) * (tc - td)),
-            2.0 / ((td - tb) * (td - tc)) + 2.0 * spread / ((td - ta) * (td - tb) * (td - tc)),
-        ])
-        return weights @ history
+        return _second_derivative_weights(*times) @ history
 
     def run(self, dt: float, loads: ArrayLike) -> dict[str, NDArray[np.float64]]:
         """Step through load samples ``loads[n]`` (shape ``(Nt, J)``, the first being the current loads).
@@ -288,18 +263,12 @@ class QuasiRigidStepper:
     def transition(self, dt: float) -> StepMatrices:
         """The step of ``dt`` as a linear map on the state: ``x_{n+1} = A x_n + B L_{n+1}``.
 
-        The state is ``x = (q, q̇, y, z, w, L̈_n, L_{n−2}, L_{n−1}, L_n)``: the rigid
-        displacement and velocity (K each), the three filter states ``(G, J)`` flattened
-        as ``g·J + j``, the current L̈ estimate and the last three load samples (J each;
-        the current loads last). Every part of :meth:`step` is linear in ``(x, L_{n+1})``
-        for a fixed ``dt``: the cubic Taylor step of ``q``, the exponential filter update
-        ``S' = d S + a·(L_n, L̇, L̈_n) + b·(L_{n+1}, L̇, L̈_{n+1})`` with ``L̇ = (L_{n+1} − L_n)/dt``,
-        and ``L̈_{n+1} = (−L_{n−2} + 4L_{n−1} − 5L_n + 2L_{n+1})/dt²`` (the cubic through the
-        last four samples, :meth:`_second_derivative` on a uniform grid). The outputs at
-        :attr:`positions` are ``displacement = D x + d₀``, ``velocity = V x``,
-        ``acceleration = Acc x`` (``d₀ = −C y₀`` is the shape displacements count from).
-        ``A`` is exact to rounding: ``tests/reduced/quasi_rigid/test_coupled.py`` holds it
-        to :meth:`step`.
+        The state is ``x = (q, q̇, y, z, w, L̈_n, L_{n−2}, L_{n−1}, L_n)``: the rigid displacement and velocity
+        (K each), the three filter states ``(G, J)`` flattened as ``g·J + j``, the current L̈ estimate and the
+        last three load samples (J each). Every part of :meth:`step` is linear in ``(x, L_{n+1})`` for a fixed
+        ``dt``: the filter update is ``S' = d S + a·(L_n, L̇, L̈_n) + b·(L_{n+1}, L̇, L̈_{n+1})``. The outputs
+        are ``displacement = D x + d₀`` (``d₀ = −C y₀``), ``velocity = V x``, ``acceleration = Acc x``;
+        tests/reduced/quasi_rigid/test_coupled.py holds ``A`` to :meth:`step`.
         """
         if not dt > 0.0:
             raise ValueError("dt must be > 0")
@@ -324,7 +293,7 @@ class QuasiRigidStepper:
         A[qd:qd + K, current] = 0.5 * dt * g
         B[qd:qd + K] = 0.5 * dt * g
         # L̈_{n+1} from the last four samples
-        weights = _uniform_second_derivative_weights(dt)
+        weights = _second_derivative_weights(-3.0 * dt, -2.0 * dt, -dt, 0.0)
         A[second:second + J, history:history + J] = weights[0] * eye_j
         A[second:second + J, history + J:history + 2 * J] = weights[1] * eye_j
         A[second:second + J, current] = weights[2] * eye_j
@@ -378,21 +347,14 @@ class QuasiRigidStepper:
 
     @property
     def correction_loads(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """The filtered loads behind the correction now, ``(y − y₀, z)``, each ``(G, J)``.
-
-        ``u(x) = r(x) q + Σ_{g,j} C[x, j, g] (y − y₀)[g, j]`` and ``v(x) = r(x) q̇ + Σ C[x, j, g] z[g, j]``
-        for any x (:meth:`at`): with a coefficient table computed once, fields and energies
-        of the body cost a small product when they are wanted, nothing per step.
-        """
+        """The filtered loads behind the correction now, ``(y − y₀, z)``, each ``(G, J)``:
+        ``u(x) = r(x) q + Σ_{g,j} C[x, j, g] (y − y₀)[g, j]``, ``v(x) = r(x) q̇ + Σ C[x, j, g] z[g, j]`` (:meth:`at`)."""
         G, J = self._state.shape[1:]
         return self._state[0] - self._y0.reshape(G, J), self._state[1].copy()
 
     def at(self, x: ArrayLike, derivative: int = 0) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Displacement and velocity (``derivative = 1``: their x-derivatives) at any positions x now.
-
-        Same state as :attr:`displacement` and :attr:`velocity`, without making x a probe
-        (the body caches the coefficient table of x).
-        """
+        """Displacement and velocity (``derivative = 1``: their x-derivatives) at any positions x now, without
+        making x a probe (the body caches the coefficient table of x)."""
         x = np.atleast_1d(np.asarray(x, dtype=float))
         C = self.body.coefficients(x, derivative)
         y, z = self.correction_loads
@@ -408,10 +370,6 @@ class QuasiRigidStepper:
     @property
     def end_velocity(self) -> NDArray[np.float64]:
         return self.velocity[:2]
-
-    @property
-    def end_acceleration(self) -> NDArray[np.float64]:
-        return self.acceleration[:2]
 
     def sensitivity(self, dt: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """``(∂u_end/∂L, ∂v_end/∂L)`` over a step of ``dt``: 2 × J matrices (m/N, m/(s·N))."""

@@ -19,10 +19,8 @@ Each filter is advanced by the exact exponential update for an input that is lin
 between samples (:func:`update_coefficients`), so a record of Nt samples costs O(Nt)
 (:func:`filter_piecewise_linear`, one ``scipy.signal.lfilter`` call), never O(Nt²).
 
-Verified (tests/reduced/quasi_rigid/test_time.py): the recursion equals an adaptive quadrature of
-the hereditary integral to 1e-13 for τ from 0.1 to 1e4 steps; τ = 0 and τ = ∞ are exact;
-the small-step series meets the direct formula continuously. A Zener kernel reproduces
-the complex-modulus closed form (tests/reduced/quasi_rigid/test_frequency.py).
+Verified: tests/reduced/quasi_rigid/test_time.py (against adaptive quadrature of the hereditary
+integral), tests/reduced/quasi_rigid/test_frequency.py (a Zener kernel's closed form).
 """
 
 from __future__ import annotations

@@ -35,7 +35,7 @@ response against the exact transient (tests/reduced/quasi_rigid/test_time.py).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Iterable
+from typing import Iterable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -43,9 +43,6 @@ from numpy.typing import ArrayLike, NDArray
 from .body import HarmonicResponse, LoadLike, QuasiRigidBody, TransientResponse
 from .creep import VOIGT, CreepKernel
 from .profiles import BodyQuadrature, ProfileLike
-
-if TYPE_CHECKING:
-    from .coupled import QuasiRigidStepper
 
 
 class QuasiRigidRod(QuasiRigidBody):
@@ -124,9 +121,3 @@ class QuasiRigidRod(QuasiRigidBody):
         ``π √(∫ΣF²/∫ΣḞ²)`` (the pulse length of a half-sine).
         """
         return self._transient(t, x, {"F1": F1, "F2": F2}, initial_velocity, load_time_scale)
-
-    def stepper(self, probes: ArrayLike = (), **kwargs: object) -> "QuasiRigidStepper":
-        """A :class:`~.coupled.QuasiRigidStepper` for coupled simulation (ends first, then ``probes``)."""
-        from .coupled import QuasiRigidStepper
-
-        return QuasiRigidStepper(self, probes, **kwargs)

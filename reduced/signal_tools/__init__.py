@@ -3,17 +3,7 @@ integration, impact-type classification, closure-force detection, resampling and
 normalisation of network features.
 
 All records are uniformly sampled 1-D arrays with sampling interval ``dt`` (s);
-every setting is an explicit argument or a field of a small frozen class. Modules:
-
-* :mod:`.smoothing` — :class:`SavitzkyGolay`, :class:`SpectralLowPass`,
-  :class:`GaussianKernel`, the adaptive-bandwidth :class:`AdaptiveBandwidth` (result
-  :class:`AdaptiveFit`; registry :data:`SMOOTHERS`, protocol :class:`Smoother`),
-  :func:`robust_noise_std` and :func:`integrate_twice`;
-* :mod:`.classification` — :func:`zero_frequency_ratio`, :func:`classify_impact`,
-  :class:`ImpactClassification` (free to roll vs coupled, docs/formulas.md §B);
-* :mod:`.closure_force` — :func:`detect_closure_force` (where the force–stroke compliance drops),
-  :class:`ClosureForceEstimate` (docs/formulas.md §A5);
-* :mod:`.records` — :func:`resample_record`, :func:`peak_normalise`, :class:`FeatureScaler`.
+every setting is an explicit argument or a field of a small frozen class.
 """
 
 from .classification import IMPACT_KINDS, ImpactClassification, classify_impact, zero_frequency_ratio

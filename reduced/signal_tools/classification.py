@@ -67,9 +67,8 @@ def classify_impact(
 ) -> ImpactClassification:
     """Free to roll if ``ρ ≥ threshold``, else coupled (docs/formulas.md §B; ρ in
     :func:`zero_frequency_ratio`). Confidence ``(ρ − t)/(1 − t)`` above the threshold
-    ``t``, ``(t − ρ)/t`` below. The relative acceleration is ``a2 − a1`` (either sign).
-    On 40 noisy rigid-model records (ζ ≤ 0.4, 2 % noise) and 4 coupled cars hit by a
-    third car it is right 44/44, confidence ≥ 0.32 (``tests/reduced/test_signal_tools.py``).
+    ``t``, ``(t − ρ)/t`` below. The relative acceleration is ``a2 − a1`` (either sign);
+    tests/reduced/test_signal_tools.py.
     """
     t = _checks.finite("threshold", threshold)
     if not 0.0 < t < 1.0:

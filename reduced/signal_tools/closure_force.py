@@ -119,8 +119,7 @@ def detect_closure_force(time: ArrayLike, force: ArrayLike, stroke: ArrayLike) -
     the best). Residuals of an estimated force are correlated, so ``σ̂²`` (the best fit's
     residual variance) is inflated by ``(1 + ρ₁)/(1 − ρ₁)``, ``ρ₁`` the residuals' lag-one
     autocorrelation, and the F test has as many times fewer effective samples. The interval
-    carries the noise, not the open curve's misfit (on a dashpot gear noise-free +0.6 to +1.6 %).
-    Status:
+    carries the noise, not the open curve's misfit. Status:
 
     - ``not closed``: the stiffening below 1.5, or p ≥ 0.05 with a stiffening below 3;
     - ``closed``: p < 1e-3, the stiffening at least 3 and the interval within ±10 %;
@@ -128,16 +127,10 @@ def detect_closure_force(time: ArrayLike, force: ArrayLike, stroke: ArrayLike) -
 
     ``time`` uniform (s); ``force`` compression positive (N); ``stroke`` the coupler's closure
     (m, compression positive, any offset) on the same samples. The record must start before
-    the force rises and run until it falls below 90 % of the peak. A stroke made from the
-    relative motion, ``δ = v₀ (t − t₀) − ∫∫ P (1/m₁ + 1/m₂)``, with a closing speed ``v₀`` 10 %
-    off moves the estimate by up to 3.5 % on the tests' records (most on the standard-linear
-    gear, whose solid stretch is longest: the error ``Δv₀ t`` bends its line). The solid stretch must span
-    about 5 samples: at 1 kHz a stop 50 × stiffer than the open gear between rigid cars,
-    closing at 85 % of the peak, is solid for 2 ms and reads ``ambiguous`` or ``not closed``.
-    Checked on three gear families written in the tests (standard-linear, friction with
-    hysteresis and a stiffening curve, a rate-dependent polymer gear) closing at 40–90 % of the
-    peak, exact, noisy and through the measurement chain
-    (``tests/reduced/test_closure_stiffness.py``, ``tests/measured/test_closure_families.py``).
+    the force rises and run until it falls below 90 % of the peak; the solid stretch must span
+    about 5 samples. Checked on three gear families written in the tests, exact, noisy and
+    through the measurement chain (``tests/reduced/test_closure_stiffness.py``,
+    ``tests/measured/test_closure_families.py``).
     """
     t = _checks.time_grid("time", time, uniform=True, min_length=16)
     f = _checks.record("force", force, min_length=16)

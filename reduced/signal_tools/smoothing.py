@@ -69,14 +69,8 @@ class SavitzkyGolay:
 def _odd_extension_spectrum(
     y: NDArray[np.float64], dt: float, end_window: int
 ) -> tuple[NDArray[np.complex128], NDArray[np.float64], float, float]:
-    """Spectrum of the odd periodic extension of ``y`` minus a straight line through its ends.
-
-    The line joins the end values of least-squares lines fitted to the first and the
-    last ``end_window`` samples (so one noisy end sample is not spread over the whole
-    record as a trend); the residual nearly vanishes at both ends, and its odd
-    extension of period ``2(N−1)dt`` is continuous with a continuous slope up to that
-    small misfit: no Gibbs ringing at the record ends.
-    """
+    """Spectrum of the odd periodic extension (period ``2(N−1)dt``) of ``y`` minus a straight line through its
+    ends, each end level from a least-squares line over ``end_window`` samples (:class:`SpectralLowPass`)."""
     n = y.size
     t_end = (n - 1) * dt
     w = int(min(max(end_window, 2), n // 2))
@@ -96,15 +90,10 @@ class SpectralLowPass:
     raised-cosine roll-off to 0 at ``cutoff_hz``; derivatives by ``(i2πf)^k`` on the
     same spectrum.
 
-    Ends: a straight line through the two end levels (each from a least-squares line
-    over half a cutoff period of samples, so that one noisy end sample does not set
-    it) is taken out and the residual oddly extended (continuous value and slope), so
-    records that do not start and end at the same level neither ring nor leak; the
-    line's own derivative is added back. Exact for straight lines; a smooth record
-    below the roll-off passes to ≈ 1e-3 (5 Hz sine on a ramp, 50 Hz cutoff). Strong
-    content above the cutoff *at the ends* biases the end levels and rings back into
-    the record (a 200 Hz sine of amplitude 0.5 running to the ends leaves ≈ 0.02);
-    records that start and end quiet (pre-trigger, post-impact) are not affected.
+    Ends: a straight line through the two end levels (each a least-squares line over half a cutoff period, so
+    one noisy end sample does not set it) is taken out, the residual oddly extended (continuous value and
+    slope) and the line's derivative added back: no ringing or leaking at ends of different levels. Exact for
+    straight lines; strong content above the cutoff *at the ends* biases the end levels and rings back.
     """
 
     cutoff_hz: float
@@ -186,14 +175,8 @@ def robust_noise_std(signal: ArrayLike) -> float:
 
 @dataclass(frozen=True)
 class AdaptiveFit:
-    """Result of :meth:`AdaptiveBandwidth.fit` (arrays of the record's length).
-
-    ``smoothed`` (units of the record); the bandwidths h chosen at each sample (s) by
-    the symmetric fit (``bandwidth``), the fit on the samples at and before it
-    (``left_bandwidth``) and the fit on those at and after it (``right_bandwidth``);
-    the ``noise_std`` σ used (units of the record) and the ``ladder`` of bandwidths
-    tried (s, increasing).
-    """
+    """Result of :meth:`AdaptiveBandwidth.fit`: the smoothed record, the bandwidths (s) chosen at each sample
+    by the symmetric, left and right fits, the noise σ used and the ``ladder`` of bandwidths tried (s)."""
 
     smoothed: NDArray[np.float64]
     bandwidth: NDArray[np.float64]
@@ -225,37 +208,15 @@ class AdaptiveBandwidth:
 
         ŷ(t_i) = Σ_s ŷ_{s,h_s} / g²_{s,h_s}  /  Σ_s 1/g²_{s,h_s}
 
-    Why: while the bias is small against the noise the estimates of growing h stay
-    inside each other's intervals, which shrink like h^{−1/2}; where a kink or a peak
-    makes the bias grow faster, the intersection empties and a small h is kept. At a
-    kink the symmetric fit must stay narrow, but the one-sided fit that looks away
-    from it may grow, and the fusion weights it up — the kink keeps its shape
-    without the noise of a narrow window. The noise σ is ``noise_std`` or, if None,
-    :func:`robust_noise_std` of the record.
+    Why: while the bias is small against the noise, the estimates of growing h stay inside each other's
+    intervals (which shrink like h^{−1/2}); at a kink the intersection empties and a small h is kept, while the
+    one-sided fit looking away from it may grow and the fusion weights it up. σ is ``noise_std`` or, if None,
+    :func:`robust_noise_std` of the record; ``min_bandwidth`` None is one sample interval.
 
-    Sums ``Σ_k K u^r``, ``Σ_k K² u^r`` and ``Σ_k K u^r y_k`` over the samples inside the
-    record are FFT correlations (one batch per bandwidth) and the (p+1)×(p+1) normal
-    equations of all samples are solved in closed form together. The record ends need
-    no special rule: there the fit is one-sided and its larger g widens its interval
-    (a one-sided fit with fewer than p + 2 samples gets no weight). A polynomial of
-    degree ≤ p is reproduced exactly by every fit, so whatever the bandwidths (tests:
-    1e-10 of its size, measured ≤ 2.3e-12). A record without noise (σ = 0) keeps the smallest bandwidth
-    wherever the estimates differ by rounding.
-
-    Settings: ``degree`` p (2); ``threshold`` Γ (2.0; smaller keeps more detail and
-    more noise); ``min_bandwidth`` h_min (s, at least the sample interval; None: one
-    sample interval); ``bandwidth_ratio`` ρ > 1 and ``bandwidth_count`` J (1.5 and 12:
-    h_max ≈ 86 h_min); ``noise_std`` σ (units of the record; None: estimated).
-
-    Measured (tests/reduced/test_adaptive_smoother.py; 0.1 s unit half-sine force pulse
-    with slope jumps at both ends, 2000 samples at 10 kHz, 2 % white noise, five seeds;
-    defaults): against the fixed-width Gaussian whose width (1.2–1.3 ms) is the best for
-    the whole record — chosen knowing the exact pulse — the rms error within ±2 ms of
-    the kinks is 0.41–0.76 of the Gaussian's and over the record 0.77–1.03 of it. A
-    Gaussian tuned for the kinks alone (0.45–0.8 ms) does about as well there (the
-    adaptive error is 0.85–1.34 of its) but is 1.14–1.40 × worse over the record.
-    The symmetric bandwidth is 1.7–2.6 ms at the kinks and 8.65 ms (the top of the
-    ladder) on the smooth parts. About 20 ms for 2000 samples.
+    The kernel sums are FFT correlations (one batch per bandwidth), the normal equations solved in closed
+    form. At the record ends the fit is one-sided and its larger g widens its interval (fewer than p + 2
+    samples: no weight). A polynomial of degree ≤ p is reproduced exactly by every fit. Measured against the
+    best fixed Gaussian: tests/reduced/test_adaptive_smoother.py.
     """
 
     degree: int = 2

@@ -1,13 +1,7 @@
 """The compiled stepping kernels of an impact (numba ``@njit``): the readable Python steppers' twins.
 
 Each module here is held by the tests to the readable reference engine
-(``tests/support/reference_engine``), to round-off, with no Python per step: :mod:`.laws` the
-coupler laws of :mod:`reduced.couplers` — their own functions, jitted — with one dispatcher per
-operation generated from the registry, and their packing per scene; :mod:`.coupling` the
-contact around a law; :mod:`.couplers` the coupler iteration of one step (Newton, its
-Gauss–Seidel fallback, the energy bookkeeping); :mod:`.cars` the cars' steppers, on the pool of
-:mod:`.pool` (every car of a run in two arrays, and the linear algebra on it) that
-:mod:`.packing` fills; :mod:`.loop` the time loop that calls both. Import the module you need.
+(``tests/support/reference_engine``), to round-off, with no Python per step. Import the module you need.
 
 **The on-disk cache is kept true here.** numba's cache (``cache=True``) checks only the
 file that defines a function, so after an edit of ``couplers.py`` the cached loop of

@@ -43,9 +43,7 @@ def effective_closure(law, closure, mode):
 @njit(inline="always", **_JIT)
 def mirror(law, closure, state):
     """``σ = −1.0`` where the gear state is to be mirrored at ``closure``, else ``+1.0`` (mirrors
-    Coupling.state_mirrored): a law with a signed state (the draft gear), bilateral with slack, with ``x_g > 0`` and
-    ``δ + tension_slack < 0`` or ``x_g < 0`` and ``δ − slack > 0``. A step to ``closure``
-    starts from ``σ (s_n, ṡ_n)`` (femref.impact.couplers, module docstring)."""
+    Coupling.state_mirrored). A step to ``closure`` starts from ``σ (s_n, ṡ_n)`` (femref.impact.couplers)."""
     if law.signed == 0 or law.contact != BILATERAL or (law.slack == 0.0 and law.tension_slack == 0.0):
         return 1.0
     if (state > 0.0 and closure + law.tension_slack < 0.0) or (state < 0.0 and closure - law.slack > 0.0):

@@ -6,15 +6,11 @@
 pool ``values`` holding every car's matrices and state, and an integer ``layout`` with one
 row per car (its sizes, then the offset in ``values`` of each of its fields: the column
 constants here). The kernels (:mod:`femref.impact.kernels.cars`) take ``(layout, values, c)``
-and index the pool directly. This is a performance contract,
-not a style: numba increments and decrements the reference count of every array a
-function receives (about 20 ns each, measured) wherever its control flow keeps the counts
-from being pruned, so a car passed as a record of some fifty arrays cost about a
-microsecond per call — several times a rigid car's arithmetic. Two arrays cost nothing
-measurable. The kernels, like the coupler kernels and the loop, are compiled without
-numba's reference counting (``_nrt=False``, see :mod:`femref.impact.kernels.couplers`):
-they never allocate, and a rigid run's step with every step recorded fell from 2.1 to
-1.1 µs.
+and index the pool directly. This is a performance contract, not a style: numba
+reference-counts every array a function receives (about 20 ns each), so a car passed as
+a record of some fifty arrays cost about a microsecond per call, several times a rigid
+car's arithmetic. The kernels are compiled without numba's reference counting
+(``_nrt=False``, :mod:`femref.impact.kernels.couplers`): they never allocate.
 
 Storage in the pool: dense matrices row-major; banded ones ``bands[k, i] = A[i, i + k − p]``
 (p the half-bandwidth, 2p + 1 rows of n) and Cholesky factors ``low[k, j] = L[j + k, j]``
