@@ -14,7 +14,7 @@ import math
 from pathlib import Path
 from typing import Annotated, Any, ClassVar, Literal
 
-from pydantic import AfterValidator, Field, PrivateAttr, ValidationInfo, field_validator, model_validator
+from pydantic import AfterValidator, Field, PrivateAttr, ValidationInfo, field_validator, model_serializer, model_validator
 from pydantic_core import PydanticCustomError
 
 from femref.case.base import SceneCase
@@ -62,12 +62,26 @@ def _channel_name(name: str) -> str:
 ChannelName = Annotated[str, AfterValidator(_channel_name)]
 
 
+class _FormatKeys(CaseModel):
+    """A model whose ``format_keys`` (the keys of record formats beyond CSV and HDF5) are written out only when they
+    differ from their defaults: the resolved case of a CSV or HDF5 record reads as it did before those formats."""
+
+    format_keys: ClassVar[tuple[str, ...]] = ()
+
+    @model_serializer(mode="wrap")
+    def _serialize(self, handler: Any) -> Any:
+        data = handler(self)
+        return {key: value for key, value in data.items() if key not in self.format_keys or getattr(self, key) != type(self).model_fields[key].default}
+
+
 SOURCE_KEYS = "column (CSV), dataset (HDF5) or channel (MDF4 channel name, TDMS group/channel, UFF58 record id or name)"
 
 
-class ChannelSpec(CaseModel):
+class ChannelSpec(_FormatKeys):
     """Where one probe's acceleration is in its file: a CSV ``column`` (header name or 0-based index), an
     HDF5 ``dataset`` (path) or an MDF4, TDMS or UFF58 ``channel``, and its unit."""
+
+    format_keys: ClassVar[tuple[str, ...]] = ("channel",)
 
     column: Column | None = Field(default=None, description="CSV column: header name or 0-based index. Exactly one of column, dataset, channel.")
     dataset: str | None = Field(default=None, description="HDF5 dataset path. Exactly one of column, dataset, channel.")
@@ -84,14 +98,16 @@ class ChannelSpec(CaseModel):
         return self
 
 
-class TimeSpec(CaseModel):
-    """A file's sample times: a column or dataset with its unit, or a uniform ``rate`` from ``start``."""
+class TimeSpec(_FormatKeys):
+    """A file's sample times: a column, dataset or channel with its unit, or a uniform ``rate`` from ``start``."""
+
+    format_keys: ClassVar[tuple[str, ...]] = ("channel",)
 
     column: Column | None = Field(default=None, description="CSV time column: header name or 0-based index.")
     dataset: str | None = Field(default=None, description="HDF5 time dataset path.")
     channel: str | None = Field(default=None, description="MDF4 time (master) channel, TDMS group/channel or UFF58 record holding the times.")
-    unit: TimeUnit | None = Field(default=None, description=f"Unit of the times: {', '.join(recordings.TIME_UNITS)} (iso8601: a CSV column of "
-                                                            "ISO-8601 timestamps, in s from the first). Default: the file's own, else s.")
+    unit: TimeUnit = Field(default="s", description=f"Unit of the times: {', '.join(recordings.TIME_UNITS)} (iso8601: a CSV column of "
+                                                   "ISO-8601 timestamps, in s from the first); a unit the file gives must equal it. Default s.")
     rate: Annotated[PositiveReal, Field(le=recordings.MAX_RECORD_RATE)] | None = Field(
         default=None, description=f"Sampling rate (Hz) of a file without a time column, at most {recordings.MAX_RECORD_RATE:g}."
     )
@@ -112,8 +128,10 @@ class AntiAliasSpec(CaseModel):
     order: Annotated[int, Field(ge=1, le=8)] = Field(default=4, description="Butterworth order, 1–8. Default 4.")
 
 
-class RecordFileSpec(CaseModel):
-    """One recorder's file: its time source, clock offset, channels and anti-alias filter."""
+class RecordFileSpec(_FormatKeys):
+    """One recorder's file: its format, time source, clock offset, channels and anti-alias filter."""
+
+    format_keys: ClassVar[tuple[str, ...]] = ("format", "separator", "decimal")
 
     file: Path = Field(description="CSV or TSV (header row), HDF5 (.h5, .hdf5), MDF4 (.mf4, .mdf), TDMS (.tdms) or UFF58 (.uff, .unv) "
                                    "file, relative to the case file's directory. Required.")

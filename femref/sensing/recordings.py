@@ -83,12 +83,11 @@ class ChannelSource:
 
 @dataclass(frozen=True)
 class TimeSource:
-    """A file's sample times: a ``column``, ``dataset`` or ``channel`` in ``unit`` (None: the file's, else s), or
-    ``rate`` (Hz) from ``start`` (s)."""
+    """A file's sample times: a ``column``, ``dataset`` or ``channel`` in ``unit``, or ``rate`` (Hz) from ``start`` (s)."""
 
     column: str | int | None = None
     dataset: str | None = None
-    unit: str | None = None
+    unit: str = "s"
     rate: float | None = None
     start: float = 0.0
     channel: str | None = None
@@ -228,7 +227,7 @@ def read_record_file(record: RecordFile, values_left: int | None = None) -> Reco
         if source.unit is not None and source.unit not in ACCELERATION_UNITS:
             raise RecordError(f"{name}: channel {source.probe}: unknown unit {source.unit!r}; units: {', '.join(ACCELERATION_UNITS)}")
     rate = record.time.rate
-    if rate is None and record.time.unit is not None and record.time.unit not in TIME_UNITS:
+    if rate is None and record.time.unit not in TIME_UNITS:
         raise RecordError(f"{name}: time: unknown unit {record.time.unit!r}; units: {', '.join(TIME_UNITS)}")
     if rate is not None and not (math.isfinite(rate) and 0.0 < rate <= MAX_RECORD_RATE):
         raise RecordError(f"{name}: time: rate {rate:g} Hz is outside (0, {MAX_RECORD_RATE:g}] Hz, the rates a rail-car recorder samples at")
@@ -253,7 +252,7 @@ def read_record_file(record: RecordFile, values_left: int | None = None) -> Reco
     values = {source.probe: columns[k] for k, source in enumerate(record.channels)}
     if rate is None:
         time = columns[-1]
-        time *= TIME_UNITS[_unit(f"{name}: time", record.time.unit, found[-1], TIME_UNITS) if found[-1] or record.time.unit else "s"]
+        time *= TIME_UNITS[_unit(f"{name}: time", record.time.unit, found[-1], TIME_UNITS)]  # in place: the arrays read are the record's own
         _check_time(name, time)
         rate = 1.0 / float(np.median(np.diff(time)))
         if rate > MAX_RECORD_RATE:
