@@ -74,7 +74,7 @@ class _FormatKeys(CaseModel):
         return {key: value for key, value in data.items() if key not in self.format_keys or getattr(self, key) != type(self).model_fields[key].default}
 
 
-SOURCE_KEYS = "column (CSV), dataset (HDF5) or channel (MDF4 channel name, TDMS group/channel, UFF58 record id or name)"
+SOURCE_KEYS = "column (CSV), dataset (HDF5), channel (MDF4 channel name, TDMS group/channel, UFF58 record id1)"
 
 
 class ChannelSpec(_FormatKeys):
@@ -85,7 +85,7 @@ class ChannelSpec(_FormatKeys):
 
     column: Column | None = Field(default=None, description="CSV column: header name or 0-based index. Exactly one of column, dataset, channel.")
     dataset: str | None = Field(default=None, description="HDF5 dataset path. Exactly one of column, dataset, channel.")
-    channel: str | None = Field(default=None, description="MDF4 channel name, TDMS group/channel or UFF58 record id or name (id1). "
+    channel: str | None = Field(default=None, description="MDF4 channel name, TDMS group/channel or UFF58 record id1. "
                                                           "Exactly one of column, dataset, channel.")
     unit: AccelerationUnit | None = Field(default=None, description=f"Unit of the values: {', '.join(recordings.ACCELERATION_UNITS)}. "
                                                                       "Default: the file's own (MDF4, TDMS, UFF58), which a declared unit must equal; "
