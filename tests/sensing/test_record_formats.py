@@ -169,6 +169,7 @@ def test_a_missing_channel_names_the_file_and_its_channels(tmp_path, fmt):
         read_columns(path, [("nope", "channel a/x")], LIMIT, fmt)
 
 
+@pytest.mark.filterwarnings("error::pytest.PytestUnraisableExceptionWarning")  # no traceback from a half-built object either
 @pytest.mark.parametrize("fmt", list(FILES))
 @pytest.mark.parametrize("damage", ["truncated", "garbage"])
 def test_a_corrupt_file_is_a_record_error_naming_the_file(tmp_path, fmt, damage):

@@ -7,7 +7,10 @@ before its data; the channels of one file must share a channel group (one time b
 
 from __future__ import annotations
 
+import gc
+import sys
 from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -19,17 +22,44 @@ from femref.sensing.formats.base import ColumnInfo, RecordError, Request
 __all__ = ["Reader"]
 
 
+@contextmanager
+def _half_built_objects_quiet() -> Iterator[None]:
+    """asammdf's MDF4 object left half-built by a corrupt file raises in ``__del__`` when collected, which Python
+    prints as a traceback; the file is already a RecordError, so that one report is dropped inside the block."""
+    previous = sys.unraisablehook
+
+    def hook(unraisable: object) -> None:
+        if "MDF4.__del__" not in getattr(getattr(unraisable, "object", None), "__qualname__", ""):
+            previous(unraisable)
+
+    sys.unraisablehook = hook
+    try:
+        yield
+    finally:
+        gc.collect()
+        sys.unraisablehook = previous
+
+
 class Reader:
     """An MDF4 record file (module docstring)."""
 
     def __init__(self, path: Path) -> None:
         self.name = path.name
         self.handle = path.open("rb")
-        try:
-            self.mdf = MDF(self.handle)
-        except Exception as error:  # asammdf raises what its parser meets on a corrupt file
+        identification = self.handle.read(16)
+        if not identification.startswith(b"MDF     4."):  # asammdf's half-built object on other bytes prints a traceback when collected
             self.handle.close()
-            raise RecordError(f"{self.name}: cannot read the file as MDF4: {error}") from None
+            raise RecordError(f"{self.name}: not an MDF4 file (it does not begin with 'MDF     4.', the identification of MDF version 4)")
+        self.handle.seek(0)
+        failure = None
+        with _half_built_objects_quiet():
+            try:
+                self.mdf = MDF(self.handle)
+            except Exception as error:  # asammdf raises what its parser meets on a corrupt file
+                failure = str(error)
+        if failure is not None:
+            self.handle.close()
+            raise RecordError(f"{self.name}: cannot read the file as MDF4: {failure}")
         self.selected: list[tuple[str, int, int, str]] = []
 
     def __enter__(self) -> Reader:
