@@ -53,6 +53,12 @@ def test_every_csv_dialect_reads_back_exactly(tmp_path, dialect):
     assert units == [None, None, None]
 
 
+def test_a_decimal_comma_in_a_comma_separated_file_is_refused(tmp_path):
+    path = write_csv(tmp_path / "r.csv")
+    with pytest.raises(RecordError, match=r"r\.csv: the case declares a decimal comma, and the header line is separated by commas"):
+        read_columns(path, REQUESTS, LIMIT, "csv", {"decimal": ","})
+
+
 def test_iso_timestamps_are_seconds_from_the_first(tmp_path):
     path = write_csv(tmp_path / "r.csv", iso=True)
     record = RecordFile(path, TimeSource(column="t", unit="iso8601"), 0.0, (ChannelSource("a/front", "front", None, "g"),))

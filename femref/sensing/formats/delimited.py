@@ -49,8 +49,12 @@ class Reader:
             raise RecordError(f"{self.name}: cannot read the file: {error}") from None
         if header is None:
             raise RecordError(f"{self.name}: needs a header row and at least two rows of samples, has 0 row(s)")
+        if decimal == "," and self.separator == ",":
+            raise RecordError(f"{self.name}: the case declares a decimal comma, and the header line is separated by commas; "
+                              "a file with decimal commas separates its cells by ; or a tab")
         self.header = [cell.strip() for cell in header]
         self.used: list[int] = []
+        self.selection: list[int] = []
         self.labels: dict[int, str] = {}
         self.clock: int | None = None
         self.origin: datetime | None = None
