@@ -14,7 +14,7 @@ import math
 from pathlib import Path
 from typing import Annotated, Any, ClassVar, Literal
 
-from pydantic import AfterValidator, Field, PrivateAttr, ValidationInfo, field_validator, model_validator
+from pydantic import AfterValidator, Field, PrivateAttr, ValidationInfo, field_validator, model_serializer, model_validator
 from pydantic_core import PydanticCustomError
 
 from femref.case.base import SceneCase
@@ -30,6 +30,7 @@ from femref.sensing.measurement import FILTER_ORDER
 from femref.sensing.network import NetworkContract
 from femref.sensing.calibration import CalibrationFileError, read_calibration
 from femref.sensing.findings import StatedSpeed
+from femref.sensing.formats import format_of
 from femref.sensing.trigger import MAX_WINDOW, QUIET, REARM_FRACTION
 
 __all__ = ["ChannelSpec", "KalmanSettings", "MeasuredCarSpec", "MeasuredCase", "MeasuredCouplerSpec", "RecordFileSpec", "TimeSpec"]
@@ -61,27 +62,52 @@ def _channel_name(name: str) -> str:
 ChannelName = Annotated[str, AfterValidator(_channel_name)]
 
 
-class ChannelSpec(CaseModel):
-    """Where one probe's acceleration is in its file: a CSV ``column`` (header name or 0-based index) or an
-    HDF5 ``dataset`` (path), and its unit."""
+class _FormatKeys(CaseModel):
+    """A model whose ``format_keys`` (the keys of record formats beyond CSV and HDF5) are written out only when they
+    differ from their defaults: the resolved case of a CSV or HDF5 record reads as it did before those formats."""
 
-    column: Column | None = Field(default=None, description="CSV column: header name or 0-based index. Exactly one of column, dataset.")
-    dataset: str | None = Field(default=None, description="HDF5 dataset path. Exactly one of column, dataset.")
-    unit: AccelerationUnit = Field(description=f"Unit of the values: {', '.join(recordings.ACCELERATION_UNITS)}. Required.")
+    format_keys: ClassVar[tuple[str, ...]] = ()
+
+    @model_serializer(mode="wrap")
+    def _serialize(self, handler: Any) -> Any:
+        data = handler(self)
+        return {key: value for key, value in data.items() if key not in self.format_keys or getattr(self, key) != type(self).model_fields[key].default}
+
+
+SOURCE_KEYS = "column (CSV), dataset (HDF5), channel (MDF4 channel name, TDMS group/channel, UFF58 record id1)"
+
+
+class ChannelSpec(_FormatKeys):
+    """Where one probe's acceleration is in its file: a CSV ``column`` (header name or 0-based index), an
+    HDF5 ``dataset`` (path) or an MDF4, TDMS or UFF58 ``channel``, and its unit."""
+
+    format_keys: ClassVar[tuple[str, ...]] = ("channel",)
+
+    column: Column | None = Field(default=None, description="CSV column: header name or 0-based index. Exactly one of column, dataset, channel.")
+    dataset: str | None = Field(default=None, description="HDF5 dataset path. Exactly one of column, dataset, channel.")
+    channel: str | None = Field(default=None, description="MDF4 channel name, TDMS group/channel or UFF58 record id1. "
+                                                          "Exactly one of column, dataset, channel.")
+    unit: AccelerationUnit | None = Field(default=None, description=f"Unit of the values: {', '.join(recordings.ACCELERATION_UNITS)}. "
+                                                                      "Default: the file's own (MDF4, TDMS, UFF58), which a declared unit must equal; "
+                                                                      "required when the file gives none.")
 
     @model_validator(mode="after")
     def _one_source(self) -> "ChannelSpec":
-        if (self.column is None) == (self.dataset is None):
-            raise problems_error([Problem((), "give exactly one of column (CSV) or dataset (HDF5)")])
+        if sum(getattr(self, key) is not None for key in ("column", "dataset", "channel")) != 1:
+            raise problems_error([Problem((), f"give exactly one of {SOURCE_KEYS}")])
         return self
 
 
-class TimeSpec(CaseModel):
-    """A file's sample times: a column or dataset with its unit, or a uniform ``rate`` from ``start``."""
+class TimeSpec(_FormatKeys):
+    """A file's sample times: a column, dataset or channel with its unit, or a uniform ``rate`` from ``start``."""
+
+    format_keys: ClassVar[tuple[str, ...]] = ("channel",)
 
     column: Column | None = Field(default=None, description="CSV time column: header name or 0-based index.")
     dataset: str | None = Field(default=None, description="HDF5 time dataset path.")
-    unit: TimeUnit = Field(default="s", description=f"Unit of the time column or dataset: {', '.join(recordings.TIME_UNITS)}. Default s.")
+    channel: str | None = Field(default=None, description="MDF4 time (master) channel, TDMS group/channel or UFF58 record holding the times.")
+    unit: TimeUnit = Field(default="s", description=f"Unit of the times: {', '.join(recordings.TIME_UNITS)} (iso8601: a CSV column of "
+                                                   "ISO-8601 timestamps, in s from the first); a unit the file gives must equal it. Default s.")
     rate: Annotated[PositiveReal, Field(le=recordings.MAX_RECORD_RATE)] | None = Field(
         default=None, description=f"Sampling rate (Hz) of a file without a time column, at most {recordings.MAX_RECORD_RATE:g}."
     )
@@ -89,9 +115,9 @@ class TimeSpec(CaseModel):
 
     @model_validator(mode="after")
     def _one_source(self) -> "TimeSpec":
-        sources = [key for key in ("column", "dataset", "rate") if getattr(self, key) is not None]
+        sources = [key for key in ("column", "dataset", "channel", "rate") if getattr(self, key) is not None]
         if len(sources) != 1:
-            raise problems_error([Problem((), "give exactly one of column (CSV), dataset (HDF5) or rate (Hz, with start)", sources or None)])
+            raise problems_error([Problem((), f"give exactly one of {SOURCE_KEYS} or rate (Hz, with start)", sources or None)])
         return self
 
 
@@ -102,13 +128,21 @@ class AntiAliasSpec(CaseModel):
     order: Annotated[int, Field(ge=1, le=8)] = Field(default=4, description="Butterworth order, 1–8. Default 4.")
 
 
-class RecordFileSpec(CaseModel):
-    """One recorder's file: its time source, clock offset, channels and anti-alias filter."""
+class RecordFileSpec(_FormatKeys):
+    """One recorder's file: its format, time source, clock offset, channels and anti-alias filter."""
 
-    file: Path = Field(description="CSV (header row) or HDF5 (.h5, .hdf5) file, relative to the case file's directory. Required.")
-    time: TimeSpec = Field(description="Sample times: {column | dataset, unit} or {rate, start}. Required.")
+    format_keys: ClassVar[tuple[str, ...]] = ("format", "separator", "decimal")
+
+    file: Path = Field(description="CSV or TSV (header row), HDF5 (.h5, .hdf5), MDF4 (.mf4, .mdf), TDMS (.tdms) or UFF58 (.uff, .unv) "
+                                   "file, relative to the case file's directory. Required.")
+    format: Literal["csv", "hdf5", "mdf4", "tdms", "uff58"] | None = Field(
+        default=None, description="The file's format. Default: by its suffix (above; any other is csv). MDF4, TDMS and UFF58 need femref[formats].")
+    separator: Literal[",", ";", "\t"] | None = Field(default=None, description="CSV separator. Default: a tab if the header line holds one, "
+                                                                                "else ; if it holds one, else ,.")
+    decimal: Literal[".", ","] = Field(default=".", description="CSV decimal mark (',' needs a separator other than ','). Default '.'.")
+    time: TimeSpec = Field(description="Sample times: {column | dataset | channel, unit} or {rate, start}. Required.")
     clock_offset: Real = Field(default=0.0, description="Added to this file's times (s): recorders' clocks differ. Default 0.")
-    channels: dict[ChannelName, ChannelSpec] = Field(description="<car>/<sensor>: {column | dataset, unit}; at least one. Required.")
+    channels: dict[ChannelName, ChannelSpec] = Field(description="<car>/<sensor>: {column | dataset | channel, unit}; at least one. Required.")
     anti_alias: AntiAliasSpec | None = Field(
         default=None,
         description="The recorder's Butterworth low-pass {corner (Hz), order}: kalman models it, networks need it. Default null: not declared.",
@@ -124,22 +158,35 @@ class RecordFileSpec(CaseModel):
     @classmethod
     def _some_channels(cls, channels: dict[str, ChannelSpec]) -> dict[str, ChannelSpec]:
         if not channels:
-            raise problems_error([Problem((), "name at least one channel <car>/<sensor>: {column | dataset, unit}")])
+            raise problems_error([Problem((), "name at least one channel <car>/<sensor>: {column | dataset | channel, unit}")])
         return channels
+
+    @model_validator(mode="after")
+    def _csv_options(self) -> "RecordFileSpec":
+        if self.decimal == "," and self.separator == ",":
+            raise problems_error([Problem(("decimal",), "a decimal comma needs a separator other than ',' (';' or a tab)", ",")])
+        if format_of(self.file, self.format) != "csv":
+            for key in ("separator", "decimal"):
+                if key in self.model_fields_set:
+                    raise problems_error([Problem((key,), f"is a CSV option; {self.file.name} is read as {format_of(self.file, self.format).upper()}")])
+        return self
 
     def source(self) -> recordings.RecordFile:
         """The file as :mod:`femref.sensing.recordings` reads it, with what validation read of it (read again if it changed)."""
         time = self.time
         return recordings.RecordFile(
             path=self.file,
-            time=recordings.TimeSource(column=time.column, dataset=time.dataset, unit=time.unit, rate=time.rate, start=time.start),
+            time=recordings.TimeSource(column=time.column, dataset=time.dataset, unit=time.unit, rate=time.rate, start=time.start, channel=time.channel),
             clock_offset=self.clock_offset,
             channels=tuple(
-                recordings.ChannelSource(probe=probe, column=channel.column, dataset=channel.dataset, unit=channel.unit)
+                recordings.ChannelSource(probe=probe, column=channel.column, dataset=channel.dataset, unit=channel.unit, channel=channel.channel)
                 for probe, channel in self.channels.items()
             ),
             anti_alias=None if self.anti_alias is None else recordings.AntiAlias(self.anti_alias.corner, self.anti_alias.order),
             kept=self._read,
+            format=self.format,
+            separator=self.separator,
+            decimal=self.decimal,
         )
 
 

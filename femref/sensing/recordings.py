@@ -1,11 +1,13 @@
-"""Measured acceleration records: CSV or HDF5 files of real recorders, read into SI units with their quality.
+"""Measured acceleration records: CSV, HDF5, MDF4, TDMS or UFF58 files of real recorders, read into SI units with their quality.
 
-A recorder's file holds sample times (a column or dataset, or a uniform ``rate`` from a
-``start``) and one column or dataset per accelerometer channel. :func:`read_records`
-reads every declared file and channel:
+A recorder's file holds sample times (a column, dataset or channel, or a uniform ``rate``
+from a ``start``) and one column, dataset or channel per accelerometer (:mod:`femref.sensing.formats`).
+:func:`read_records` reads every declared file and channel:
 
     t = offset + unit_t · t_file      (s; the file's clock offset added)
     a = unit_a · a_file               (m/s²; units ACCELERATION_UNITS, g = 9.80665 m/s² exactly)
+
+A unit is the one declared or the file's own (MDF4, TDMS, UFF58 metadata); when both are given they must agree.
 
 Each probe (``<car>/<sensor>``) keeps its own time axis: two recorders may sample at
 different rates and their clocks may differ by a known offset. A channel's rate is the
@@ -35,12 +37,16 @@ import numpy as np
 from numpy.typing import NDArray
 
 from femref.sensing import record_files
-from femref.sensing.record_files import HDF5_SUFFIXES, RecordError, SampleLimit, read_columns
+from femref.sensing.formats import format_of, key_of
+from femref.sensing.record_files import RecordError, SampleLimit, read_columns
 
 ACCELERATION_UNITS: dict[str, float] = {"m/s^2": 1.0, "g": 9.80665, "mm/s^2": 1.0e-3}
 """Acceleration units a channel may declare, and their value in m/s²."""
-TIME_UNITS: dict[str, float] = {"s": 1.0, "ms": 1.0e-3}
-"""Time units a time column or dataset may declare, and their value in s."""
+TIME_UNITS: dict[str, float] = {"s": 1.0, "ms": 1.0e-3, "iso8601": 1.0}
+"""Time units a time column, dataset or channel may declare, and their value in s (``iso8601``: a CSV column of
+ISO-8601 timestamps, read in s from the first)."""
+UNIT_SPELLINGS = {"m/s²": "m/s^2", "m/s2": "m/s^2", "m s-2": "m/s^2", "mm/s²": "mm/s^2", "mm/s2": "mm/s^2", "G": "g", "sec": "s"}
+"""Other spellings of the units above that files' metadata use."""
 GAP_STEP = 1.5
 """A time step longer than this many median steps is a gap."""
 SATURATED_RUN = 3
@@ -65,24 +71,26 @@ the costlier estimators (kalman) are priced below it by the work budget (:mod:`f
 
 @dataclass(frozen=True)
 class ChannelSource:
-    """Where probe ``<car>/<sensor>`` is in its file: a CSV ``column`` (header name or 0-based index) or an HDF5
-    ``dataset``, in ``unit``."""
+    """Where probe ``<car>/<sensor>`` is in its file: a CSV ``column`` (header name or 0-based index), an HDF5
+    ``dataset`` or an MDF4, TDMS or UFF58 ``channel``, in ``unit`` (None: the file's)."""
 
     probe: str
     column: str | int | None
     dataset: str | None
-    unit: str
+    unit: str | None
+    channel: str | None = None
 
 
 @dataclass(frozen=True)
 class TimeSource:
-    """A file's sample times: a ``column`` or ``dataset`` in ``unit``, or ``rate`` (Hz) from ``start`` (s)."""
+    """A file's sample times: a ``column``, ``dataset`` or ``channel`` in ``unit``, or ``rate`` (Hz) from ``start`` (s)."""
 
     column: str | int | None = None
     dataset: str | None = None
     unit: str = "s"
     rate: float | None = None
     start: float = 0.0
+    channel: str | None = None
 
 
 @dataclass(frozen=True)
@@ -96,14 +104,18 @@ class AntiAlias:
 @dataclass(frozen=True)
 class RecordFile:
     """One recorder's file: its times, its clock offset (s, added to them), its channels and the
-    anti-alias filter its channels passed before sampling (None: not declared); ``kept``: what an earlier
-    reading of it gave (:class:`RecordRead`, used while the file is unchanged; None: read it)."""
+    anti-alias filter its channels passed before sampling (None: not declared); ``format`` (None: by suffix) and
+    the CSV ``separator`` (None: sniffed) and ``decimal``; ``kept``: what an earlier reading of it gave
+    (:class:`RecordRead`, used while the file is unchanged; None: read it)."""
 
     path: Path
     time: TimeSource
     clock_offset: float
     channels: tuple[ChannelSource, ...]
     anti_alias: AntiAlias | None = None
+    format: str | None = None
+    separator: str | None = None
+    decimal: str = "."
     kept: RecordRead | None = field(default=None, compare=False, repr=False)
 
 
@@ -212,23 +224,35 @@ def read_record_file(record: RecordFile, values_left: int | None = None) -> Reco
     path, name = record.path, record.path.name
     values_left = record_files.MAX_RECORD_VALUES if values_left is None else values_left
     for source in record.channels:
-        if source.unit not in ACCELERATION_UNITS:
+        if source.unit is not None and source.unit not in ACCELERATION_UNITS:
             raise RecordError(f"{name}: channel {source.probe}: unknown unit {source.unit!r}; units: {', '.join(ACCELERATION_UNITS)}")
     rate = record.time.rate
     if rate is None and record.time.unit not in TIME_UNITS:
         raise RecordError(f"{name}: time: unknown unit {record.time.unit!r}; units: {', '.join(TIME_UNITS)}")
     if rate is not None and not (math.isfinite(rate) and 0.0 < rate <= MAX_RECORD_RATE):
         raise RecordError(f"{name}: time: rate {rate:g} Hz is outside (0, {MAX_RECORD_RATE:g}] Hz, the rates a rail-car recorder samples at")
-    hdf5 = path.suffix.lower() in HDF5_SUFFIXES
-    requests = [(source.dataset if hdf5 else source.column, f"channel {source.probe}") for source in record.channels]
+    fmt = format_of(path, record.format)
+    key = key_of(fmt)
+    requests = [(getattr(source, key), f"channel {source.probe}") for source in record.channels]
+    options: dict[str, object] = {}
+    if fmt == "csv":
+        options = {"separator": record.separator, "decimal": record.decimal}
+        if rate is None and record.time.unit == "iso8601":
+            options["timestamps"] = record.time.column
+    elif record.time.unit == "iso8601":
+        raise RecordError(f"{name}: time: unit iso8601 is for a CSV column of ISO-8601 timestamps; this file is {fmt.upper()}")
     if rate is None:
-        requests.append((record.time.dataset if hdf5 else record.time.column, "time"))
+        requests.append((getattr(record.time, key), "time"))
+    for reference, what in requests:
+        if reference is None:
+            raise RecordError(f"{name}: {what}: a {fmt.upper()} file's columns are named by {key}: give {key}")
     stamp = file_stamp(path)
-    columns = read_columns(path, requests, SampleLimit.for_file(len(record.channels) + 1, values_left))
+    columns, found = read_columns(path, requests, SampleLimit.for_file(len(record.channels) + 1, values_left), fmt, options)
+    units = [_unit(f"{name}: channel {source.probe}", source.unit, found[k], ACCELERATION_UNITS) for k, source in enumerate(record.channels)]
     values = {source.probe: columns[k] for k, source in enumerate(record.channels)}
     if rate is None:
         time = columns[-1]
-        time *= TIME_UNITS[record.time.unit]  # in place: every array read_columns returns is the record's own
+        time *= TIME_UNITS[_unit(f"{name}: time", record.time.unit, found[-1], TIME_UNITS)]  # in place: the arrays read are the record's own
         _check_time(name, time)
         rate = 1.0 / float(np.median(np.diff(time)))
         if rate > MAX_RECORD_RATE:
@@ -238,16 +262,30 @@ def read_record_file(record: RecordFile, values_left: int | None = None) -> Reco
         time = record.time.start + np.arange(max(v.size for v in values.values())) / rate
     time += record.clock_offset
     channels = []
-    for source in record.channels:
+    for source, unit in zip(record.channels, units):
         a = values[source.probe]
         label = f"{name}: channel {source.probe}"
         if a.size != time.size:
             raise RecordError(f"{label}: {a.size} samples against {time.size} sample times")
         if not np.any(np.isfinite(a)):
             raise RecordError(f"{label}: no finite value")
-        a *= ACCELERATION_UNITS[source.unit]
+        a *= ACCELERATION_UNITS[unit]
         channels.append(Channel(source.probe, time, a, float(rate), name, _quality(time, a), record.anti_alias))
     return RecordRead(stamp, tuple(channels))
+
+
+def _unit(label: str, declared: str | None, found: str | None, units: dict[str, float]) -> str:
+    """The unit of a column: the ``declared`` one, the file's (``found``, spelled as in ``units``), which must agree."""
+    if found is None or not found.strip():
+        if declared is None:
+            raise RecordError(f"{label}: the file gives no unit; declare its unit: {', '.join(units)}")
+        return declared
+    spelled = UNIT_SPELLINGS.get(found.strip(), found.strip())
+    if declared is not None and declared != spelled:
+        raise RecordError(f"{label}: the case declares unit {declared!r}, the file gives {found!r}; they must agree")
+    if spelled not in units:
+        raise RecordError(f"{label}: the file gives unit {found!r}, not one of {', '.join(units)}")
+    return spelled
 
 
 def _check_time(name: str, time: NDArray[np.float64]) -> None:
@@ -286,6 +324,6 @@ def _runs(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:
     return list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1))
 
 
-__all__ = ["AntiAlias", "ACCELERATION_UNITS", "HDF5_SUFFIXES", "MAX_EVENT_VALUES", "MAX_RECORD_RATE", "PLAUSIBLE_ACCELERATION", "TIME_UNITS",
+__all__ = ["AntiAlias", "ACCELERATION_UNITS", "MAX_EVENT_VALUES", "MAX_RECORD_RATE", "PLAUSIBLE_ACCELERATION", "TIME_UNITS",
            "Channel", "ChannelSource", "QualityInterval", "RecordError", "RecordFile", "RecordRead", "Recordings", "Stamp", "TimeSource",
            "file_stamp", "read_record_file", "read_records"]

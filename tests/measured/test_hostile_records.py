@@ -389,9 +389,9 @@ def test_a_run_reads_each_record_once_and_a_changed_one_again(tmp_path: Path, mo
     reads: list[str] = []
     real = recordings.read_columns
 
-    def counting(path, requests, limit):
+    def counting(path, *args):
         reads.append(path.name)
-        return real(path, requests, limit)
+        return real(path, *args)
 
     monkeypatch.setattr(recordings, "read_columns", counting)
     csv_record(tmp_path / "r.csv")
@@ -453,7 +453,7 @@ print(before // 1024, peak_kib() // 1024, round(seconds, 1), sum(c.acceleration.
 def test_a_two_hour_stream_is_read_in_well_under_1_gb(tmp_path: Path) -> None:
     """Two recorders, five channels, two hours at 1 kHz (7.2e6 samples per channel, 0.46 GB of CSV) read in a subprocess:
     the arrays kept are 7.2e6 × (2 times + 5 channels) × 8 bytes = 384 MiB; reading adds a chunk of lines
-    (``CSV_CHUNK_ROWS``) and the checks a few arrays of one channel's size (time steps, a median's copy, |a|), so the
+    (``CHUNK_SAMPLES``) and the checks a few arrays of one channel's size (time steps, a median's copy, |a|), so the
     peak resident memory (``VmHWM``, interpreter included) stays under 800 MiB. Measured (2 cores, busy): 16 s,
     678 MiB; the row-by-row reader before this read the same files in 41 s at 3.3 GB."""
     import subprocess
