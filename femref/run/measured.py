@@ -36,7 +36,7 @@ from femref.sensing import findings
 from femref.sensing.findings import classify_records, stated_speed
 from femref.sensing.noise_gate import quiet_corrected
 from femref.sensing.recordings import Recordings, read_records
-from reduced.signal_tools.classification import NOT_AN_IMPACT
+from reduced.signal_tools import NOT_AN_IMPACT
 
 
 @dataclass

@@ -50,8 +50,7 @@ from scipy.integrate import cumulative_trapezoid
 
 from femref.events import ClosureResult, ForceEstimate
 from femref.sensing.noise_gate import QuietNoise
-from reduced.signal_tools import ImpactClassification, classify_impact, detect_closure_force
-from reduced.signal_tools.classification import MomentumEvidence, momentum_evidence
+from reduced.signal_tools import ImpactClassification, MomentumEvidence, classify_impact, detect_closure_force, momentum_evidence
 
 Cars = Sequence[Any]
 """The line's cars in order (``name``, ``mass``, ``body`` or None, ``sensors``)."""

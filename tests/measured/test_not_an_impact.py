@@ -28,7 +28,7 @@ from femref.scene.build import scene_from_case
 from measured.test_closing_speed import LAWS
 from measured.test_event_trigger import LENGTH, MODEL_DT, POST, PRE, SENSORS, TRIGGER, recorded, ringing
 from measured.test_measured_statistics import impact, mismatched
-from reduced.signal_tools.classification import IMPACT_KINDS, NOT_AN_IMPACT, momentum_evidence
+from reduced.signal_tools import IMPACT_KINDS, NOT_AN_IMPACT, momentum_evidence
 from support.measured import simulated_event
 
 MASS = 100e3  # kg, each car: the ringing impacts' equal and opposite rigid accelerations are those of equal masses
