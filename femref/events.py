@@ -111,6 +111,11 @@ class EventResult:
     impact_type: str = "unknown"
     zero_harmonic_ratio: float = np.nan
     classification_confidence: float = np.nan
+    momentum_ratio: float = np.nan
+    momentum_threshold: float = np.nan
+    velocity_change: float = np.nan
+    velocity_change_noise: float = np.nan
+    classification_basis: str = ""
     closing_speed: float = np.nan
     closing_speed_lower: float = np.nan
     closing_speed_upper: float = np.nan
@@ -127,7 +132,8 @@ class EventResult:
 
 EVENT_UNITS = {
     "start": "s", "end": "s", "trigger_time": "s", "closing_speed": "m/s", "closing_speed_lower": "m/s", "closing_speed_upper": "m/s", "epsilon": "1",
-    "zero_harmonic_ratio": "1", "classification_confidence": "1",
+    "zero_harmonic_ratio": "1", "classification_confidence": "1", "momentum_ratio": "1", "momentum_threshold": "1", "velocity_change": "m/s",
+    "velocity_change_noise": "m/s",
 }
 
 
@@ -200,7 +206,7 @@ def _write_event(group: h5py.Group, event: EventResult) -> None:
     for key in EVENT_UNITS:
         group.attrs[key] = float(getattr(event, key))
     group.attrs["units"] = json.dumps(EVENT_UNITS)
-    for key in ("trigger_probe", "impact_type", "closing_speed_source", "closing_speed_basis", "alarm", "alarm_basis", "wear", "wear_basis"):
+    for key in ("trigger_probe", "impact_type", "classification_basis", "closing_speed_source", "closing_speed_basis", "alarm", "alarm_basis", "wear", "wear_basis"):
         group.attrs[key] = getattr(event, key)
     group.attrs["flags"] = json.dumps(list(event.flags))
     records = group.create_group("records")

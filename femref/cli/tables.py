@@ -256,6 +256,8 @@ def event_table(outcome) -> Table:
         closure = ", ".join(c.status + (f" at {c.closure_force / 1e3:.0f} kN" if c.status == "closed" else "") for c in event.closures)
         head = [str(event.index), f"{event.trigger_time:.4f}", event.impact_type, _fmt(event.zero_harmonic_ratio, "{:.2f}"), _closing_speed(event)]
         tail = [closure, event.wear, event.alarm]
+        if not event.estimates:  # not an impact: the event's own row, its evidence below
+            table.add_row(*head, "none run", "", "", "", *tail)
         for k, estimate in enumerate(event.estimates):
             peak, lower, upper = estimate.peak
             table.add_row(
@@ -267,6 +269,7 @@ def event_table(outcome) -> Table:
                 *(tail if k == 0 else [""] * len(tail)),
             )
         notes = list(event.flags) + [f"{e.estimator}: {e.message}" for e in event.estimates if not e.ok]
+        notes += [event.classification_basis] if not event.estimates and event.classification_basis else []
         if event.closing_speed_source == "none":
             notes.append(f"no closing speed: {event.closing_speed_basis}")
         for note in notes:

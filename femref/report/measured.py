@@ -198,6 +198,8 @@ def _event_table(events: list[EventData], folder: Path) -> str:
         flags = hide_local_paths("; ".join(json.loads(a.get("flags", "[]"))), folder)
         head = [event.index, f"{a['trigger_time']:.4f}", a["impact_type"], _number(a["zero_harmonic_ratio"], "{:.2f}"), _closing_speed(a)]
         tail = [closure, a["wear"], a["alarm"], flags]
+        if not event.estimates:  # not an impact, or no estimator: the event's own row
+            rows.append(table_row((), [*head, "none run", "", "", "", "", "", *tail]))
         for k, estimate in enumerate(event.estimates):
             e = estimate.attrs
             band = f"{e['peak_lower'] / 1e3:.0f} – {e['peak_upper'] / 1e3:.0f}" if math.isfinite(e["peak_lower"]) else ""
@@ -205,9 +207,15 @@ def _event_table(events: list[EventData], folder: Path) -> str:
             rows.append(table_row((), [*(head if k == 0 else [""] * len(head)), estimate.estimator, estimate.coupler, status,
                                        _number(e["peak_force"] / 1e3, "{:.1f}"), band, e["bound"], *(tail if k == 0 else [""] * len(tail))]))
     header = table_row(columns)
-    notes = [f"event {event.index}: closing speed — {event.attrs.get('closing_speed_basis', '')}; alarm — {event.attrs['alarm_basis']}; "
-             f"wear — {event.attrs['wear_basis']}" for event in events]
+    notes = [f"event {event.index}: {_type_basis(event.attrs)}closing speed — {event.attrs.get('closing_speed_basis', '')}; "
+             f"alarm — {event.attrs['alarm_basis']}; wear — {event.attrs['wear_basis']}" for event in events]
     return f'<div class="wide"><table>{header}{"".join(rows)}</table></div>' + "".join(f"<p>{escape(hide_local_paths(n, folder))}</p>" for n in notes)
+
+
+def _type_basis(attrs: dict[str, Any]) -> str:
+    """Why the event has its type (files written before the momentum evidence existed: nothing)."""
+    basis = attrs.get("classification_basis", "")
+    return f"type {attrs['impact_type']} — {basis}; " if basis else ""
 
 
 def _force_pictures(event: EventData) -> list[Picture]:

@@ -9,7 +9,9 @@ events (:func:`femref.sensing.trigger.search_events`), checks their cost against
 * removes each channel's offset before the trigger and measures its noise there
   (:func:`femref.sensing.noise_gate.quiet_corrected`);
 * classifies it from the zero-harmonic ratio of the relative acceleration of the first coupler's cars
-  (:func:`femref.sensing.findings.classify_records`);
+  (:func:`femref.sensing.findings.classify_records`), or as ``not_an_impact`` when the cars' forces are not internal
+  to the line or the coupler did not close (:func:`femref.sensing.findings.momentum_records`; not when a channel
+  saturated): such an event keeps its records, window and flags and runs nothing further;
 * runs the scene's estimators, plug-ins of one protocol (:func:`femref.estimators.plug_ins`: the inverse ones,
   ``kalman``, then the saved networks, each reading the records from the contact in the kalman force), each
   through :func:`femref.estimators.capture`, on the records and the noise;
@@ -21,6 +23,7 @@ events (:func:`femref.sensing.trigger.search_events`), checks their cost against
 from __future__ import annotations
 
 from collections.abc import Callable
+import math
 from dataclasses import dataclass
 
 from femref.estimators import Estimator, Recorded, capture, plug_ins
@@ -33,6 +36,7 @@ from femref.sensing import findings
 from femref.sensing.findings import classify_records, stated_speed
 from femref.sensing.noise_gate import quiet_corrected
 from femref.sensing.recordings import Recordings, read_records
+from reduced.signal_tools import NOT_AN_IMPACT
 
 
 @dataclass
@@ -92,11 +96,15 @@ def _event(scene: MeasuredScene, estimators: list[Estimator], recordings: Record
     records, noise_std, quiet = quiet_corrected(t, raw, event.trigger_time)
     result = EventResult(index=event.index, start=event.start, end=event.end, trigger_time=event.trigger_time,
                          trigger_probe=event.trigger_probe, flags=tuple(event.flags), time=t, records=records)
+    saturated = [flag for flag in event.flags if flag.startswith("saturated")]
     try:
         kind = classify_records(cars, couplers[0], t, records)
         result.impact_type, result.zero_harmonic_ratio, result.classification_confidence = kind.kind, kind.zero_frequency_ratio, kind.confidence
     except ValueError as error:
         result.impact_type, result.flags = "unknown", (*result.flags, f"not classified: {error}")
+    else:
+        if _outside_forces(scene, result, noise_std, saturated):
+            return _not_an_impact(result, progress)
     total = len(estimators) + 1
     if progress is not None:
         progress(1, total)
@@ -116,10 +124,36 @@ def _event(scene: MeasuredScene, estimators: list[Estimator], recordings: Record
         scene.calibration.band(result.estimates, (speed.lower, speed.upper), {car.name: car.mass for car in cars}, filters, quiet, result.impact_type)
     primary = findings.primary(couplers, result.estimates)
     result.closures = [findings.closure(cars, couplers, coupler, primary, speed.value) for coupler in couplers if coupler.name in primary]
-    saturated = [flag for flag in event.flags if flag.startswith("saturated")]
     implausible = [e for e in result.estimates if e.status == "implausible"]
     result.alarm, result.alarm_basis = findings.alarm(scene.checks.alarm, list(primary.values()), saturated, implausible)
     result.wear, result.wear_basis = findings.wear(scene.checks.rated_closure_force, scene.checks.wear_tolerance, result.closures)
+    return result
+
+
+def _outside_forces(scene: MeasuredScene, result: EventResult, noise_std: dict[str, float], saturated: list[str]) -> bool:
+    """Whether the event's forces come from outside the line (:func:`femref.sensing.findings.momentum_records`), its
+    evidence stored on ``result``; no evidence (a car not recorded) or a saturated channel: False."""
+    try:
+        momentum = findings.momentum_records(scene.cars, scene.couplers[0], result.time, result.records, noise_std, scene.kalman.mass_tolerance)
+    except ValueError as error:
+        result.classification_basis = f"no momentum evidence: {error}"
+        return False
+    result.momentum_ratio, result.momentum_threshold = momentum.ratio, momentum.threshold
+    result.velocity_change, result.velocity_change_noise = momentum.velocity_change, momentum.velocity_noise
+    result.classification_basis = momentum.basis
+    if not momentum.internal and saturated:
+        result.classification_basis += "; a channel saturated (its clipped peak breaks the balance): kept an impact"
+        return False
+    return not momentum.internal
+
+
+def _not_an_impact(result: EventResult, progress: Progress | None) -> EventResult:
+    """``result`` made a transient that is no coupler impact: no estimator run, no closing speed, no closure, alarm none."""
+    result.impact_type, result.classification_confidence = NOT_AN_IMPACT, math.nan
+    why = "not an impact (its type's evidence): no estimator run"
+    result.closing_speed_basis, result.alarm_basis, result.wear_basis = why, why, why
+    if progress is not None:
+        progress(1, 1)
     return result
 
 

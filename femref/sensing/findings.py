@@ -5,7 +5,10 @@ The **impact type** (:func:`classify_records`, docs/formulas.md §B): a free-to-
 relative velocity for good, so the relative acceleration ``a_front − a_rear`` of a coupler's two cars has a
 zero-frequency component; a coupled impact (cars coupled before and after) returns it, and the zero harmonic
 vanishes. :func:`reduced.signal_tools.classify_impact` decides on the ratio ``ρ = |A(0)|/max_f |A(f)|``; each car's
-acceleration is read at its sensor nearest the centre (the rigid-body motion: a node of its first axial mode).
+acceleration is read at its sensor nearest the centre (the rigid-body motion: a node of its first axial mode). Before
+that, :func:`momentum_records`: a coupler force is internal to the line, ``Σ m_k a_k ≈ 0`` below the cars' first elastic
+mode, and the coupler closes; a transient pushed from outside (a track joint, brakes, a knock on one car, a noise burst)
+is ``not_an_impact`` (:func:`reduced.signal_tools.classification.momentum_evidence`).
 
 **The closing speed** (:func:`from_force`; docs/formulas.md §K3: the derivation, the assumption's numbers, the
 checks) from an estimated coupler force ``P`` (N, compression positive) and ``m* = m_rear m_front/(m_rear + m_front)``:
@@ -47,7 +50,7 @@ from scipy.integrate import cumulative_trapezoid
 
 from femref.events import ClosureResult, ForceEstimate
 from femref.sensing.noise_gate import QuietNoise
-from reduced.signal_tools import ImpactClassification, classify_impact, detect_closure_force
+from reduced.signal_tools import ImpactClassification, MomentumEvidence, classify_impact, detect_closure_force, momentum_evidence
 
 Cars = Sequence[Any]
 """The line's cars in order (``name``, ``mass``, ``body`` or None, ``sensors``)."""
@@ -59,6 +62,9 @@ RESIDUAL_STROKE = 0.15
 """β: the stroke left at separation is at most ``β v₀ T`` (module docstring)."""
 EDGE_FRACTIONS = (0.01, 0.05)
 """The fractions of the peak force whose crossings give the contact's start and end."""
+RIGID_CORNER = 8.0
+"""Hz: the low-pass of the momentum evidence on a car without a body, half of 16 Hz, the lowest first axial mode taken
+for a loaded car (its lading on the underframe)."""
 
 
 @dataclass(frozen=True)
@@ -200,6 +206,20 @@ def classify_records(cars: Cars, coupler: Any, time: NDArray[np.float64], record
     front, rear = (cars[coupler.front], cars[coupler.rear])
     relative = records[f"{front.name}/{_central_sensor(front)}"] - records[f"{rear.name}/{_central_sensor(rear)}"]
     return classify_impact(np.asarray(relative, dtype=float), float(time[1] - time[0]))
+
+
+def momentum_records(cars: Cars, coupler: Any, time: NDArray[np.float64], records: Mapping[str, NDArray[np.float64]],
+                     noise_std: Mapping[str, float], mass_tolerance: float) -> MomentumEvidence:
+    """Whether the event's forces are internal to the line and ``coupler`` closed (:func:`momentum_evidence` on each car's
+    central sensor, low-passed at half the lowest first axial mode ``1/(2 T_wave)`` of the cars, :data:`RIGID_CORNER`
+    when a car has no body); ValueError when the records cannot tell."""
+    probes = [f"{car.name}/{_central_sensor(car)}" for car in cars]
+    missing = [probe for probe in probes if probe not in records]
+    if missing:
+        raise ValueError(f"the line's momentum needs every car's central sensor; not recorded: {', '.join(missing)}")
+    corner = min((0.25 / car.body.wave_travel_time if car.body is not None else RIGID_CORNER) for car in cars)
+    return momentum_evidence([records[p] for p in probes], [car.mass for car in cars], [noise_std[p] for p in probes], float(time[1] - time[0]),
+                             corner=corner, mass_tolerance=mass_tolerance, rear=coupler.rear)
 
 
 def _central_sensor(car: Any) -> str:
@@ -353,6 +373,7 @@ def wear(rated: float | None, tolerance: float, closures: Sequence[ClosureResult
     return state, f"{least.coupler} closed at {least.closure_force:.4g} N against {threshold:.4g} N ({1 - tolerance:.0%} of the rated {rated:.4g} N)"
 
 
-__all__ = ["EDGE_FRACTIONS", "MOST_DAMPED_COUPLER", "RESIDUAL_STROKE", "STIFFEST_COUPLER", "ClosingSpeed", "StatedSpeed", "alarm",
-           "checked_closing_speed", "classify_records", "closure", "coupler_stroke", "epsilon", "from_force", "implausible", "line_reduced_mass",
+__all__ = ["EDGE_FRACTIONS", "MOST_DAMPED_COUPLER", "RESIDUAL_STROKE", "RIGID_CORNER", "STIFFEST_COUPLER", "ClosingSpeed", "StatedSpeed", "alarm",
+           "checked_closing_speed", "classify_records", "closure",
+           "momentum_records", "coupler_stroke", "epsilon", "from_force", "implausible", "line_reduced_mass",
            "peak_force_bound", "primary", "stated_speed", "unknown", "wear"]

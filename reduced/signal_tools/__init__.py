@@ -6,7 +6,18 @@ All records are uniformly sampled 1-D arrays with sampling interval ``dt`` (s);
 every setting is an explicit argument or a field of a small frozen class.
 """
 
-from .classification import IMPACT_KINDS, ImpactClassification, classify_impact, zero_frequency_ratio
+from .classification import (
+    CLOSING_SIGMAS,
+    IMPACT_KINDS,
+    MAX_THRESHOLD,
+    NOISE_ENERGY_FACTOR,
+    NOT_AN_IMPACT,
+    ImpactClassification,
+    MomentumEvidence,
+    classify_impact,
+    momentum_evidence,
+    zero_frequency_ratio,
+)
 from .closure_force import ClosureForceEstimate, detect_closure_force
 from .records import SCALER_KINDS, FeatureScaler, peak_normalise, resample_record
 from .smoothing import (
@@ -22,7 +33,11 @@ from .smoothing import (
 )
 
 __all__ = [
+    "CLOSING_SIGMAS",
     "IMPACT_KINDS",
+    "MAX_THRESHOLD",
+    "NOISE_ENERGY_FACTOR",
+    "NOT_AN_IMPACT",
     "SCALER_KINDS",
     "SMOOTHERS",
     "AdaptiveBandwidth",
@@ -31,12 +46,14 @@ __all__ = [
     "FeatureScaler",
     "GaussianKernel",
     "ImpactClassification",
+    "MomentumEvidence",
     "SavitzkyGolay",
     "Smoother",
     "SpectralLowPass",
     "classify_impact",
     "detect_closure_force",
     "integrate_twice",
+    "momentum_evidence",
     "peak_normalise",
     "resample_record",
     "robust_noise_std",

@@ -1,20 +1,33 @@
 """Impact-type classification: free to roll vs coupled from the zero-frequency content
-of the relative acceleration spectrum (docs/formulas.md §B).
+of the relative acceleration spectrum, and not an impact when the cars' forces are not
+internal to the line (docs/formulas.md §B).
 
 :func:`zero_frequency_ratio` gives ``ρ = |A(0)| / max_f |A(f)|``; :func:`classify_impact`
-thresholds it into an :class:`ImpactClassification`.
+thresholds it into an :class:`ImpactClassification`; :func:`momentum_evidence` gives the
+momentum ratio ``R`` and the relative velocity change that tell a coupler impact from a
+transient pushed from outside.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike
+from scipy.signal import butter, sosfiltfilt
 
 from reduced import _checks
 
 IMPACT_KINDS: tuple[str, ...] = ("free_to_roll", "coupled")
+NOT_AN_IMPACT = "not_an_impact"
+"""The class of a transient whose forces come from outside the line (a track joint, brakes, a knock, noise)."""
+NOISE_ENERGY_FACTOR = 3.0
+"""``k``: the threshold allows ``k`` times the expected noise energy (its chi-square spread over the window)."""
+MAX_THRESHOLD = 0.5
+"""An ``R`` threshold from here on (noise as strong as the event) tells no impact: halfway to the uncorrelated R = 1."""
+CLOSING_SIGMAS = 3.0
+"""A closing is a relative velocity change beyond this many noise standard deviations."""
 
 
 @dataclass(frozen=True)
@@ -79,4 +92,65 @@ def classify_impact(
     return ImpactClassification("coupled", (t - rho) / t, rho, t)
 
 
-__all__ = ["IMPACT_KINDS", "ImpactClassification", "classify_impact", "zero_frequency_ratio"]
+@dataclass(frozen=True)
+class MomentumEvidence:
+    """The momentum ratio ``ratio`` (R) against its ``threshold``, and the largest relative velocity change
+    ``velocity_change`` (m/s) against its noise std ``velocity_noise`` (m/s) (:func:`momentum_evidence`)."""
+
+    ratio: float
+    threshold: float
+    velocity_change: float
+    velocity_noise: float
+
+    @property
+    def internal(self) -> bool:
+        """Whether the forces are internal to the line and the coupler closed: a coupler impact."""
+        return self.ratio <= self.threshold < MAX_THRESHOLD and self.velocity_change > CLOSING_SIGMAS * self.velocity_noise
+
+    @property
+    def basis(self) -> str:
+        """The evidence in words."""
+        return (f"momentum ratio R = {self.ratio:.3g} against {self.threshold:.3g}; relative velocity change {self.velocity_change:.3g} m/s "
+                f"against its noise {self.velocity_noise:.2g} m/s (a closing needs > {CLOSING_SIGMAS:g}×)"
+                + ("" if self.threshold < MAX_THRESHOLD else f"; the noise could make R reach {MAX_THRESHOLD:g}: no impact stands out of it"))
+
+
+def momentum_evidence(accelerations: ArrayLike, masses: ArrayLike, noise_std: ArrayLike, dt: float, *, corner: float | None,
+                      mass_tolerance: float, rear: int = 0) -> MomentumEvidence:
+    """``R = ∫(Σ_k m_k ā_k)² dt / ∫Σ_k (m_k ā_k)² dt`` and ``Δv = max_t |∫(a_{rear+1} − a_rear) dt|``.
+
+    ``ā`` each car's acceleration (rows of ``accelerations``, m/s², a common axis) low-passed below ``corner``
+    (Hz; None: unfiltered), under the cars' first elastic mode. Couplers are internal forces: ``Σ m_k a_k = 0`` for
+    the rigid motion, so ``R ≈ 0`` for an impact; forces from outside give ``R ≈ 1`` uncorrelated (a knock on one car,
+    a joint's jolts one car after the next), ``R ≈ n`` for the same deceleration of all ``n`` cars (brakes).
+    An impact's ``R`` is at most ``R_i = n τ²/(1 − τ)² + k E_n/E``: declared masses within ``τ`` leave ``|Σ m̂ a|² ≤
+    n τ² Σ (m a)²`` (Cauchy–Schwarz), white noise ``σ_k`` (``noise_std``) adds ``E_n = T Σ m_k² σ_k² min(1, 2 f_c dt)``
+    against the measured ``E = ∫Σ (m ā)²`` (``k`` = :data:`NOISE_ENERGY_FACTOR`). The threshold ``t = √R_i``, the geometric
+    mean of ``R_i`` and the uncorrelated 1, leaves both the same factor; from ``t`` ≥ :data:`MAX_THRESHOLD` the noise alone
+    could give the ``R`` of an impact, and none is seen. The coupler between cars ``rear``
+    and ``rear + 1`` closes: ``Δv`` beyond :data:`CLOSING_SIGMAS` × ``σ_rel √(dt T)`` (a random walk's std at ``T``)."""
+    a = np.asarray(accelerations, dtype=float)
+    m = np.asarray(masses, dtype=float)
+    sigma = np.asarray(noise_std, dtype=float)
+    if a.ndim != 2 or a.shape[0] != m.size or sigma.size != m.size or a.shape[0] < 2 or a.shape[1] < 16:
+        raise ValueError(f"accelerations must be (cars ≥ 2, samples ≥ 16) with a mass and noise per car, got {a.shape}, {m.size}, {sigma.size}")
+    _checks.sample_step("dt", dt)
+    nyquist = 0.5 / dt
+    band = 1.0 if corner is None or corner >= nyquist else 2.0 * corner * dt
+    low = a if corner is None or corner >= nyquist else sosfiltfilt(butter(4, corner, fs=1.0 / dt, output="sos"), a, axis=1)
+    forces = m[:, None] * low
+    energy = float(np.sum(forces**2) * dt)
+    if energy == 0.0:
+        raise ValueError("the accelerations are identically zero: nothing to classify")
+    duration = a.shape[1] * dt
+    noise_energy = duration * float(np.sum(m**2 * sigma**2)) * band
+    tolerance = _checks.finite("mass_tolerance", mass_tolerance)
+    threshold = math.sqrt(m.size * tolerance**2 / (1.0 - tolerance) ** 2 + NOISE_ENERGY_FACTOR * noise_energy / energy)
+    relative = a[rear + 1] - a[rear]
+    velocity = np.cumsum(0.5 * (relative[1:] + relative[:-1])) * dt
+    velocity_noise = math.hypot(sigma[rear], sigma[rear + 1]) * math.sqrt(dt * duration)
+    return MomentumEvidence(float(np.sum(forces.sum(axis=0) ** 2) * dt / energy), threshold, float(np.max(np.abs(velocity))), velocity_noise)
+
+
+__all__ = ["CLOSING_SIGMAS", "IMPACT_KINDS", "MAX_THRESHOLD", "NOISE_ENERGY_FACTOR", "NOT_AN_IMPACT", "ImpactClassification", "MomentumEvidence", "classify_impact",
+           "momentum_evidence", "zero_frequency_ratio"]
