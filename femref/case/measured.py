@@ -30,7 +30,7 @@ from femref.sensing.measurement import FILTER_ORDER
 from femref.sensing.network import NetworkContract
 from femref.sensing.calibration import CalibrationFileError, read_calibration
 from femref.sensing.findings import StatedSpeed
-from femref.sensing.formats import format_of
+from femref.sensing.record_files import format_of
 from femref.sensing.trigger import MAX_WINDOW, QUIET, REARM_FRACTION
 
 __all__ = ["ChannelSpec", "KalmanSettings", "MeasuredCarSpec", "MeasuredCase", "MeasuredCouplerSpec", "RecordFileSpec", "TimeSpec"]

@@ -9,7 +9,7 @@ events (:func:`femref.sensing.trigger.search_events`), checks their cost against
 * removes each channel's offset before the trigger and measures its noise there
   (:func:`femref.sensing.noise_gate.quiet_corrected`);
 * classifies it from the zero-harmonic ratio of the relative acceleration of the first coupler's cars
-  (:func:`femref.sensing.findings.classify_records`), or as ``not_an_impact`` when the cars' forces are not internal
+  (:func:`femref.sensing.findings.classify_event`), or as ``not_an_impact`` when the cars' forces are not internal
   to the line or the coupler did not close (:func:`femref.sensing.findings.momentum_records`; not when a channel
   saturated): such an event keeps its records, window and flags and runs nothing further;
 * runs the scene's estimators, plug-ins of one protocol (:func:`femref.estimators.plug_ins`: the inverse ones,
@@ -23,7 +23,6 @@ events (:func:`femref.sensing.trigger.search_events`), checks their cost against
 from __future__ import annotations
 
 from collections.abc import Callable
-import math
 from dataclasses import dataclass
 
 from femref.estimators import Estimator, Recorded, capture, plug_ins
@@ -33,7 +32,7 @@ from femref.run.event_budget import check_events
 from femref.scene.measured import MeasuredScene
 from femref.sensing import trigger
 from femref.sensing import findings
-from femref.sensing.findings import classify_records, stated_speed
+from femref.sensing.findings import stated_speed
 from femref.sensing.noise_gate import quiet_corrected
 from femref.sensing.recordings import Recordings, read_records
 from reduced.signal_tools import NOT_AN_IMPACT
@@ -97,14 +96,17 @@ def _event(scene: MeasuredScene, estimators: list[Estimator], recordings: Record
     result = EventResult(index=event.index, start=event.start, end=event.end, trigger_time=event.trigger_time,
                          trigger_probe=event.trigger_probe, flags=tuple(event.flags), time=t, records=records)
     saturated = [flag for flag in event.flags if flag.startswith("saturated")]
-    try:
-        kind = classify_records(cars, couplers[0], t, records)
-        result.impact_type, result.zero_harmonic_ratio, result.classification_confidence = kind.kind, kind.zero_frequency_ratio, kind.confidence
-    except ValueError as error:
-        result.impact_type, result.flags = "unknown", (*result.flags, f"not classified: {error}")
-    else:
-        if _outside_forces(scene, result, noise_std, saturated):
-            return _not_an_impact(result, progress)
+    found = findings.classify_event(cars, couplers[0], t, records, noise_std, scene.kalman.mass_tolerance, bool(saturated))
+    result.impact_type, result.zero_harmonic_ratio, result.classification_confidence = found.kind, found.zero_frequency_ratio, found.confidence
+    result.classification_basis = found.basis
+    if found.not_classified:
+        result.flags = (*result.flags, f"not classified: {found.not_classified}")
+    if found.momentum is not None:
+        m = found.momentum
+        result.momentum_ratio, result.momentum_threshold, result.velocity_change, result.velocity_change_noise = (
+            m.ratio, m.threshold, m.velocity_change, m.velocity_noise)
+    if found.kind == NOT_AN_IMPACT:
+        return _not_an_impact(result, progress)
     total = len(estimators) + 1
     if progress is not None:
         progress(1, total)
@@ -130,26 +132,8 @@ def _event(scene: MeasuredScene, estimators: list[Estimator], recordings: Record
     return result
 
 
-def _outside_forces(scene: MeasuredScene, result: EventResult, noise_std: dict[str, float], saturated: list[str]) -> bool:
-    """Whether the event's forces come from outside the line (:func:`femref.sensing.findings.momentum_records`), its
-    evidence stored on ``result``; no evidence (a car not recorded) or a saturated channel: False."""
-    try:
-        momentum = findings.momentum_records(scene.cars, scene.couplers[0], result.time, result.records, noise_std, scene.kalman.mass_tolerance)
-    except ValueError as error:
-        result.classification_basis = f"no momentum evidence: {error}"
-        return False
-    result.momentum_ratio, result.momentum_threshold = momentum.ratio, momentum.threshold
-    result.velocity_change, result.velocity_change_noise = momentum.velocity_change, momentum.velocity_noise
-    result.classification_basis = momentum.basis
-    if not momentum.internal and saturated:
-        result.classification_basis += "; a channel saturated (its clipped peak breaks the balance): kept an impact"
-        return False
-    return not momentum.internal
-
-
 def _not_an_impact(result: EventResult, progress: Progress | None) -> EventResult:
-    """``result`` made a transient that is no coupler impact: no estimator run, no closing speed, no closure, alarm none."""
-    result.impact_type, result.classification_confidence = NOT_AN_IMPACT, math.nan
+    """``result`` of a transient that is no coupler impact: no estimator run, no closing speed, no closure, alarm none."""
     why = "not an impact (its type's evidence): no estimator run"
     result.closing_speed_basis, result.alarm_basis, result.wear_basis = why, why, why
     if progress is not None:

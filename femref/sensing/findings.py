@@ -50,7 +50,7 @@ from scipy.integrate import cumulative_trapezoid
 
 from femref.events import ClosureResult, ForceEstimate
 from femref.sensing.noise_gate import QuietNoise
-from reduced.signal_tools import ImpactClassification, MomentumEvidence, classify_impact, detect_closure_force, momentum_evidence
+from reduced.signal_tools import NOT_AN_IMPACT, ImpactClassification, MomentumEvidence, classify_impact, detect_closure_force, momentum_evidence
 
 Cars = Sequence[Any]
 """The line's cars in order (``name``, ``mass``, ``body`` or None, ``sensors``)."""
@@ -222,6 +222,39 @@ def momentum_records(cars: Cars, coupler: Any, time: NDArray[np.float64], record
                              corner=corner, mass_tolerance=mass_tolerance, rear=coupler.rear)
 
 
+@dataclass(frozen=True)
+class EventClass:
+    """An event's class — ``kind``: an impact type (``free_to_roll``, ``coupled``), ``not_an_impact`` or ``unknown`` —
+    with its evidence: the zero-frequency ratio and confidence of the impact type, the line's ``momentum`` evidence
+    (None when the records cannot give it), the ``basis`` in words, and why it was ``not_classified`` (unknown)."""
+
+    kind: str
+    zero_frequency_ratio: float = math.nan
+    confidence: float = math.nan
+    momentum: MomentumEvidence | None = None
+    basis: str = ""
+    not_classified: str = ""
+
+
+def classify_event(cars: Cars, coupler: Any, time: NDArray[np.float64], records: Mapping[str, NDArray[np.float64]],
+                   noise_std: Mapping[str, float], mass_tolerance: float, saturated: bool) -> EventClass:
+    """The event's class at ``coupler``: its impact type (:func:`classify_records`), made ``not_an_impact`` when the
+    forces are not internal to the line or the coupler did not close (:func:`momentum_records`) — but not when a
+    channel ``saturated``: its clipped peak breaks the balance, so the event stays an impact."""
+    try:
+        kind = classify_records(cars, coupler, time, records)
+    except ValueError as error:
+        return EventClass("unknown", not_classified=str(error))
+    try:
+        momentum = momentum_records(cars, coupler, time, records, noise_std, mass_tolerance)
+    except ValueError as error:
+        return EventClass(kind.kind, kind.zero_frequency_ratio, kind.confidence, basis=f"no momentum evidence: {error}")
+    if momentum.internal or saturated:
+        basis = momentum.basis if momentum.internal else f"{momentum.basis}; a channel saturated (its clipped peak breaks the balance): kept an impact"
+        return EventClass(kind.kind, kind.zero_frequency_ratio, kind.confidence, momentum, basis)
+    return EventClass(NOT_AN_IMPACT, kind.zero_frequency_ratio, math.nan, momentum, momentum.basis)
+
+
 def _central_sensor(car: Any) -> str:
     return min(car.sensors, key=lambda name: abs(car.sensors[name]))
 
@@ -373,7 +406,6 @@ def wear(rated: float | None, tolerance: float, closures: Sequence[ClosureResult
     return state, f"{least.coupler} closed at {least.closure_force:.4g} N against {threshold:.4g} N ({1 - tolerance:.0%} of the rated {rated:.4g} N)"
 
 
-__all__ = ["EDGE_FRACTIONS", "MOST_DAMPED_COUPLER", "RESIDUAL_STROKE", "RIGID_CORNER", "STIFFEST_COUPLER", "ClosingSpeed", "StatedSpeed", "alarm",
-           "checked_closing_speed", "classify_records", "closure",
-           "momentum_records", "coupler_stroke", "epsilon", "from_force", "implausible", "line_reduced_mass",
+__all__ = ["EDGE_FRACTIONS", "MOST_DAMPED_COUPLER", "RESIDUAL_STROKE", "RIGID_CORNER", "STIFFEST_COUPLER", "ClosingSpeed", "EventClass",
+           "StatedSpeed", "alarm", "checked_closing_speed", "classify_event", "classify_records", "closure", "momentum_records", "coupler_stroke", "epsilon", "from_force", "implausible", "line_reduced_mass",
            "peak_force_bound", "primary", "stated_speed", "unknown", "wear"]

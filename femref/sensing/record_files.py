@@ -3,7 +3,7 @@
 :mod:`femref.sensing.recordings` reads a recorder's columns through :func:`read_columns`, which keeps to the rules of
 docs/design.md §3.7, each refusal a :class:`RecordError` naming the file, the column, channel or dataset and the rule:
 regular files only (:func:`femref.core.files.regular_file`); nothing read from outside the file the case names (each
-reader of :mod:`femref.sensing.formats` opens that file alone); sizes bounded before allocation (:data:`MAX_RECORD_BYTES`
+reader of :mod:`femref.sensing.formats`, chosen by :func:`open_reader`, opens that file alone); sizes bounded before allocation (:data:`MAX_RECORD_BYTES`
 by ``stat`` for text files, :data:`MAX_RECORD_SAMPLES`, :data:`MAX_RECORD_VALUES`: the sample counts a file's headers
 give are checked before a sample is read; a text file, whose line count bounds its samples, is read no further than one
 row past the limit). Every format is read chunk by chunk (:data:`CHUNK_SAMPLES`) into one array per column.
@@ -11,6 +11,7 @@ row past the limit). Every format is read chunk by chunk (:data:`CHUNK_SAMPLES`)
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,11 +21,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from femref.core.files import NotRegularFile, regular_file
-from femref.sensing.formats import RecordError, Request, open_reader
+from femref.sensing.formats.base import ColumnInfo, RecordError, RecordReader, Request
 from femref.sensing.formats.hdf5 import MAX_SOFT_LINKS
 
-__all__ = ["CHUNK_SAMPLES", "MAX_RECORD_BYTES", "MAX_RECORD_SAMPLES", "MAX_RECORD_VALUES", "MAX_SOFT_LINKS", "RecordError", "SampleLimit",
-           "read_columns"]
+__all__ = ["CHUNK_SAMPLES", "FORMATS", "MAX_RECORD_BYTES", "MAX_RECORD_SAMPLES", "MAX_RECORD_VALUES", "MAX_SOFT_LINKS", "SUFFIXES", "ColumnInfo",
+           "RecordError", "RecordReader", "Request", "SampleLimit", "format_of", "key_of", "open_reader", "read_columns"]
 
 MAX_RECORD_BYTES = 2**30
 """Largest text (CSV, UFF58) record file (bytes, 1 GiB), by ``stat`` before it is opened. Two hours at 1 kHz of a
@@ -37,6 +38,42 @@ MAX_RECORD_VALUES = 2**26
 floats). Two recorders, five channels, two hours at 1 kHz hold 5.0e7."""
 CHUNK_SAMPLES = 1 << 18
 """Samples per column read at a time (a CSV chunk is about 10 MB of text)."""
+
+
+FORMATS: dict[str, tuple[str, str, str | None]] = {
+    "csv": ("delimited", "column", None),
+    "hdf5": ("hdf5", "dataset", None),
+    "mdf4": ("mdf4", "channel", "asammdf"),
+    "tdms": ("tdms", "channel", "nptdms"),
+    "uff58": ("uff58", "channel", "pyuff"),
+}
+"""Format → (its module here, the case key naming a column of it, the package of the ``formats`` extra it needs)."""
+SUFFIXES = {".csv": "csv", ".tsv": "csv", ".txt": "csv", ".h5": "hdf5", ".hdf5": "hdf5", ".hdf": "hdf5", ".mf4": "mdf4", ".mdf": "mdf4",
+            ".tdms": "tdms", ".uff": "uff58", ".unv": "uff58"}
+"""File name endings and the format each means; any other file is CSV unless its ``format:`` is declared."""
+
+
+def format_of(path: Path, declared: str | None = None) -> str:
+    """The format of the file at ``path``: ``declared``, else by suffix (:data:`SUFFIXES`), else ``csv``."""
+    return declared or SUFFIXES.get(path.suffix.lower(), "csv")
+
+
+def key_of(fmt: str) -> str:
+    """The case key (``column``, ``dataset``, ``channel``) naming a column of a ``fmt`` file."""
+    return FORMATS[fmt][1]
+
+
+def open_reader(path: Path, fmt: str, options: dict[str, Any]) -> RecordReader:
+    """The reader of ``fmt`` on the regular file at ``path``, opened with the format's ``options`` (CSV: separator, decimal)."""
+    module, _, package = FORMATS[fmt]
+    if package is not None:
+        try:
+            importlib.import_module(package)
+        except ImportError:
+            raise RecordError(f"{path.name}: reading {fmt.upper()} files needs the package {package}: "
+                              "pip install 'femref[formats]'") from None
+    reader: RecordReader = importlib.import_module(f"femref.sensing.formats.{module}").Reader(path, **options)
+    return reader
 
 
 @dataclass(frozen=True)

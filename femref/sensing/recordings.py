@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from femref.sensing import record_files
-from femref.sensing.formats import format_of, key_of
+from femref.sensing.record_files import format_of, key_of
 from femref.sensing.record_files import RecordError, SampleLimit, read_columns
 
 ACCELERATION_UNITS: dict[str, float] = {"m/s^2": 1.0, "g": 9.80665, "mm/s^2": 1.0e-3}

@@ -191,10 +191,8 @@ def test_a_corrupt_file_is_a_record_error_naming_the_file(tmp_path, fmt, damage)
 def test_a_sample_count_beyond_the_limit_is_refused_before_a_sample_is_read(tmp_path, fmt, monkeypatch):
     path = written(tmp_path, fmt)
     _, keys, _ = FILES[fmt]
-    from femref.sensing import formats
-
     opened = []
-    real = formats.open_reader
+    real = record_files.open_reader
 
     def spying(*args):
         reader = real(*args)
