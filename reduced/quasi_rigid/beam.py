@@ -33,6 +33,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .body import HarmonicResponse, LoadLike, QuasiRigidBody, TransientResponse
+from .coupled import QuasiRigidStepper
 from .creep import VOIGT, CreepKernel
 from .profiles import BodyQuadrature, ProfileLike
 
@@ -122,3 +123,7 @@ class QuasiRigidBeam(QuasiRigidBody):
         """
         return self._transient(t, x, {"N1": N1, "N2": N2, "G1": G1, "G2": G2},
                                (initial_velocity, initial_angular_velocity), load_time_scale, int(rotation))
+
+    def stepper(self, probes: ArrayLike = (), **kwargs: object) -> QuasiRigidStepper:
+        """A :class:`~.coupled.QuasiRigidStepper` for coupled simulation (ends first, then ``probes``)."""
+        return QuasiRigidStepper(self, probes, **kwargs)

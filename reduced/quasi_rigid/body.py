@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Callable, Mapping
+from typing import Callable, Mapping
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -39,9 +39,6 @@ from scipy.signal import lfilter
 from .correction import CreepCorrection
 from .creep import CreepKernel, harmonic_factor, update_coefficients
 from .profiles import BodyQuadrature
-
-if TYPE_CHECKING:
-    from .coupled import QuasiRigidStepper
 
 
 @dataclass(frozen=True)
@@ -178,12 +175,6 @@ class QuasiRigidBody:
         if math.isinf(load_time_scale):
             return 0.0
         return float(self.epsilon(1.0 / load_time_scale)[0])
-
-    def stepper(self, probes: ArrayLike = (), **kwargs: object) -> QuasiRigidStepper:
-        """A :class:`~.coupled.QuasiRigidStepper` for coupled simulation (ends first, then ``probes``)."""
-        from .coupled import QuasiRigidStepper
-
-        return QuasiRigidStepper(self, probes, **kwargs)
 
     def _check_load_names(self, loads: Mapping[str, object]) -> None:
         unknown = set(loads) - set(self.load_names)

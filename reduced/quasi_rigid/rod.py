@@ -41,6 +41,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .body import HarmonicResponse, LoadLike, QuasiRigidBody, TransientResponse
+from .coupled import QuasiRigidStepper
 from .creep import VOIGT, CreepKernel
 from .profiles import BodyQuadrature, ProfileLike
 
@@ -121,3 +122,7 @@ class QuasiRigidRod(QuasiRigidBody):
         ``π √(∫ΣF²/∫ΣḞ²)`` (the pulse length of a half-sine).
         """
         return self._transient(t, x, {"F1": F1, "F2": F2}, initial_velocity, load_time_scale)
+
+    def stepper(self, probes: ArrayLike = (), **kwargs: object) -> QuasiRigidStepper:
+        """A :class:`~.coupled.QuasiRigidStepper` for coupled simulation (ends first, then ``probes``)."""
+        return QuasiRigidStepper(self, probes, **kwargs)
