@@ -74,6 +74,13 @@ class ForceEstimate:
         k = self.peak_index
         return (float(self.force[k]), float(self.lower[k]), float(self.upper[k]))
 
+    def drop_number(self, status: str, message: str) -> None:
+        """Make the estimate ``status`` (``failed``, ``implausible``) with ``message`` and no number: its force and band
+        NaN on its own time axis."""
+        self.status, self.message = status, message
+        self.force = np.full(self.force.shape, np.nan)
+        self.lower, self.upper = self.force.copy(), self.force.copy()
+
 
 @dataclass
 class ClosureResult:

@@ -57,12 +57,9 @@ def fail_if_not_finite(estimate: ForceEstimate) -> None:
     how many samples and the first one (``[count, sample]``)."""
     bad = np.flatnonzero(~np.isfinite(estimate.force))
     if estimate.ok and bad.size:
-        estimate.status = "failed"
-        estimate.message = (f"the {estimate.estimator} force is not finite (NaN or infinity) at {bad.size} of {estimate.force.size} samples, "
-                            f"from t = {estimate.time[bad[0]]:g} s")
         estimate.settings["not_finite"] = [int(bad.size), int(bad[0])]
-        estimate.force = np.full(estimate.force.shape, np.nan)
-        estimate.lower, estimate.upper = estimate.force.copy(), estimate.force.copy()
+        estimate.drop_number("failed", f"the {estimate.estimator} force is not finite (NaN or infinity) at {bad.size} of "
+                                       f"{estimate.force.size} samples, from t = {estimate.time[bad[0]]:g} s")
 
 
 __all__ = ["FAMILIES", "Estimator", "InverseEstimator", "KalmanEstimator", "NetworkPeak", "Recorded", "capture", "fail_if_not_finite", "plug_ins"]

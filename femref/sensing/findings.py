@@ -303,10 +303,8 @@ def _flag_implausible(estimate: ForceEstimate, closing_speed_upper: float, reduc
     reason = implausible(peak, closing_speed_upper, reduced_mass)
     if reason is None:
         return False
-    estimate.status, estimate.message = "implausible", reason
+    estimate.drop_number("implausible", reason)
     estimate.settings["implausible_peak"] = peak
-    estimate.force = np.full(estimate.force.shape, np.nan)
-    estimate.lower, estimate.upper = estimate.force.copy(), estimate.force.copy()
     return True
 
 
