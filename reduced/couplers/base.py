@@ -143,8 +143,7 @@ class PackedLaw:
         p, table = self.packed
         return p, table, float(state[0]) if self.state_size else 0.0
 
-    def _piece(self, closure: float, state: Any, branch: Branch | None) -> int:
-        p, table, s = self._args(state)
+    def _piece(self, p: Any, table: Any, closure: float, s: float, branch: Branch | None) -> int:
         if branch is None:
             return int(self.functions.piece(p, table, closure, s, False))
         signs = getattr(self.functions, "piece_of_signs", None)
@@ -162,7 +161,7 @@ class PackedLaw:
 
     def force(self, closure: float, closure_rate: float, state: NDArray[np.float64], branch: Branch | None = None) -> float:
         p, table, s = self._args(state)
-        return float(self.functions.force(p, table, closure, closure_rate, s, self._piece(closure, state, branch)))
+        return float(self.functions.force(p, table, closure, closure_rate, s, self._piece(p, table, closure, s, branch)))
 
     def state_rate(
         self, closure: float, closure_rate: float, state: NDArray[np.float64], force: float, branch: Branch | None = None
@@ -170,24 +169,24 @@ class PackedLaw:
         if not self.state_size:
             return np.zeros(0)
         p, table, s = self._args(state)
-        return np.array([self.functions.state_rate(p, table, closure, closure_rate, s, force, self._piece(closure, state, branch))])
+        return np.array([self.functions.state_rate(p, table, closure, closure_rate, s, force, self._piece(p, table, closure, s, branch))])
 
     def tangent(
         self, closure: float, closure_rate: float, state: NDArray[np.float64], force: float, branch: Branch | None = None
     ) -> CouplerTangent:
         p, table, s = self._args(state)
-        values = self.functions.tangent(p, table, closure, closure_rate, s, force, self._piece(closure, state, branch))
+        values = self.functions.tangent(p, table, closure, closure_rate, s, force, self._piece(p, table, closure, s, branch))
         return CouplerTangent.of(values, self.state_size)
 
     def stored_energy(self, closure: float, state: NDArray[np.float64], engaged: bool, branch: Branch | None = None) -> float:
         p, table, s = self._args(state)
-        return float(self.functions.stored_energy(p, table, closure, s, engaged, self._piece(closure, state, branch)))
+        return float(self.functions.stored_energy(p, table, closure, s, engaged, self._piece(p, table, closure, s, branch)))
 
     def dissipation_rate(
         self, closure: float, closure_rate: float, state: NDArray[np.float64], force: float, engaged: bool, branch: Branch | None = None
     ) -> float:
         p, table, s = self._args(state)
-        piece = self._piece(closure, state, branch)
+        piece = self._piece(p, table, closure, s, branch)
         return float(self.functions.dissipation_rate(p, table, closure, closure_rate, s, force, engaged, piece))
 
 

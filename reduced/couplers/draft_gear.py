@@ -185,7 +185,8 @@ class StandardLinearDraftGear(PackedLaw):
 
     def gear_spring(self, gear_compression: float, branch: Branch | None = None) -> tuple[float, float]:
         """``F_g(x_g)`` (N) and ``F_g'(x_g)`` (N/m) on the (frozen) piece."""
-        return gear_spring(self.packed[0], gear_compression, self._piece(0.0, [gear_compression], branch))
+        p, table = self.packed
+        return gear_spring(p, gear_compression, self._piece(p, table, 0.0, float(gear_compression), branch))
 
 
 LAW = StandardLinearDraftGear
