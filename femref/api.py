@@ -1,7 +1,8 @@
 """The Python API: run a case and read its result file without the command line.
 
 A thin layer over the flow ``femref run`` drives (:func:`femref.flow.plan_case`, :func:`femref.flow.run_plan`),
-plus readers of the result file (docs/design.md §4) into labelled arrays.
+plus readers of the result file (docs/design.md §4) into labelled arrays, and :func:`run_fleet`, ``femref fleet``'s
+run of a fleet manifest into its event store.
 
 >>> from femref.api import run_case, open_result
 >>> outcome = run_case("cases/impact_free_roll.yaml", output="free_roll.h5")   # doctest: +SKIP
@@ -29,7 +30,7 @@ if TYPE_CHECKING:  # the readers' return types; neither library is needed to run
     import pandas
     import xarray
 
-__all__ = ["OutputPathError", "RunOutcome", "check_run_output", "open_frames", "open_result", "result_models", "run_case", "run_scene"]
+__all__ = ["OutputPathError", "RunOutcome", "check_run_output", "open_frames", "open_result", "result_models", "run_case", "run_fleet", "run_scene"]
 
 #: The extra that installs what :func:`open_result` and :func:`open_frames` need.
 READ_EXTRA = "femref[xarray]"
@@ -96,6 +97,46 @@ def run_case(case: str | Path | Mapping[str, Any], output: str | Path | None = N
         check_run_output(output, plan.case, None if isinstance(case, Mapping) else Path(case), folder)
     outcome = run_plan(plan, output, progress_for)
     return {"simulate": outcome.run, "choose": outcome.choice, "measure": outcome.measured}[outcome.flow]
+
+
+def run_fleet(manifest: str | Path, out: str | Path, workers: int | None = None, scheduler: str | None = None) -> Any:
+    """Run every recording of a fleet manifest on Dask into its event store, as ``femref fleet`` does.
+
+    Recordings stored ``ok`` and unchanged (their case, their files' sizes and modification times) are skipped;
+    the others run, one Dask task each, and their rows are committed to ``<out>/events.sqlite`` one recording at a
+    time, their histories written to ``<out>/events/<recording>.h5``. Read the store with
+    :func:`femref.fleet.store.read_events` and :func:`femref.fleet.store.read_estimates`.
+
+    Parameters
+    ----------
+    manifest : str or Path
+        The fleet manifest (YAML): defaults, cars, gears and recordings; relative paths from its folder.
+    out : str or Path
+        The output folder, made if absent (its parent must exist); a rerun into it resumes.
+    workers : int, optional
+        Worker processes of the local Dask cluster; default one per CPU.
+    scheduler : str, optional
+        Address of a Dask scheduler to run on instead (``tcp://host:8786``); its workers run the same femref.
+
+    Returns
+    -------
+    femref.fleet.runner.FleetSummary
+        Recordings run, skipped and failed (``failures``: name and message; a failed recording is stored
+        ``failed`` and the others run), events by type, alarms by level, values and bytes read, wall time and
+        throughput (``events_per_second``, ``megabytes_per_second``, ``samples_per_second``).
+
+    Raises
+    ------
+    femref.case.CaseError
+        A bad manifest (every problem named by its manifest key path), before anything is written.
+    femref.fleet.store.StoreError
+        ``out`` holds a file at ``events.sqlite`` that is not this fleet's event store.
+    femref.fleet.runner.FleetInterrupted
+        Ctrl-C: the recordings committed stay (its ``summary``); run again to resume.
+    """
+    from femref.fleet.runner import run_fleet as run
+
+    return run(manifest, out, workers=workers, scheduler=scheduler)
 
 
 def check_run_output(output: Path, case: Any, case_path: Path | None = None, base_dir: Path | None = None) -> None:

@@ -38,6 +38,7 @@ LAYERS = {
     "bench": 7,
     "sweep": 7,
     "study": 7,
+    "fleet": 7,
     "verification": 7,
     "cli": 8,
 }

@@ -1,7 +1,7 @@
 """The ``femref`` command: the only place that prints and exits (docs/design.md §5, §9).
 
 One module per command family — :mod:`.run` (run, validate), :mod:`.sweep` (sweep,
-study, calibrate), :mod:`.bench`, :mod:`.report`, :mod:`.figures` — sharing :mod:`.common` (exit
+study, calibrate), :mod:`.bench`, :mod:`.report`, :mod:`.figures`, :mod:`.fleet` — sharing :mod:`.common` (exit
 codes, case loading, progress) and :mod:`.tables` (the summaries). Each command
 imports the machinery it drives when it runs: ``femref --help`` and every command's
 ``--help`` import neither numpy nor the solvers (tests/cli/test_first_hour.py holds this).
@@ -14,6 +14,7 @@ import click
 from femref.cli.bench import bench_command
 from femref.cli.common import PROGRESS_KEY, faults_end_cleanly
 from femref.cli.figures import figures_command
+from femref.cli.fleet import fleet_command
 from femref.cli.report import report_command
 from femref.cli.run import run_command, validate_command
 from femref.cli.sweep import calibrate_command, study_command, sweep_command
@@ -68,7 +69,8 @@ def main(context: click.Context, progress: bool | None) -> None:
     context.meta[PROGRESS_KEY] = progress
 
 
-for _command in (run_command, validate_command, sweep_command, study_command, calibrate_command, bench_command, report_command, figures_command):
+for _command in (run_command, validate_command, sweep_command, study_command, calibrate_command, bench_command, report_command, figures_command,
+                 fleet_command):
     main.add_command(_command)
 
 __all__ = ["main"]

@@ -311,3 +311,26 @@ def configuration_progress(console: Console) -> Iterator:
             bar.update(task, description=label)
 
         yield progress
+
+
+@contextmanager
+def recording_progress(console: Console, stage: str, unit: str) -> Iterator:
+    """``progress(done, total, recording, events)`` of a fleet's recordings (``events < 0``: none to say): a bar of
+    ``unit`` with the last recording's name and events on a terminal; with ``--progress`` and stderr not a terminal a
+    line per recording (``fleet: 3/40 <recording>: 2 events``); else None (no callback)."""
+    if not _show_progress(console):
+        yield None
+        return
+
+    def last(recording: str, events: int) -> str:
+        return f"{recording}: {events} event{'s' if events != 1 else ''}" if events >= 0 else ""
+
+    if not console.is_terminal:
+        yield lambda done, total, recording, events: console.print(f"{stage}: {done}/{total} {last(recording, events)}".rstrip(),
+                                                                   markup=False, highlight=False)
+        return
+    columns = (TextColumn(stage), BarColumn(), TextColumn("{task.completed}/{task.total} " + unit), TextColumn("{task.description}"),
+               TimeRemainingColumn())
+    with Progress(*columns, console=console, transient=True) as bar:
+        task = bar.add_task("", total=None)
+        yield lambda done, total, recording, events: bar.update(task, completed=done, total=total, description=last(recording, events))

@@ -11,9 +11,9 @@ compiled: a rigid sample runs in about 3 ms, less than the scheduling, shipping 
 writing of a task of its own (measured: a 1000-sample rigid sweep on 2 workers ran at 53
 samples/s with a task per sample, against 336 samples/s in a plain process pool).
 
-Where the work runs: a ``distributed.LocalCluster`` of ``workers`` single-threaded
-processes (default: one per CPU), an existing scheduler (``scheduler="tcp://host:8786"``),
-or a given ``distributed.Client``.
+Where the work runs (:func:`femref.core.cluster.dask_client`): a ``distributed.LocalCluster`` of ``workers``
+single-threaded processes (default: one per CPU), an existing scheduler (``scheduler="tcp://host:8786"``),
+or a given ``distributed.Client``; the batches stream back through :func:`femref.core.cluster.bounded_results`.
 
 >>> summary = run_sweep("cases/sweeps/free_roll_speeds.yaml", "speeds.h5", workers=2)  # doctest: +SKIP
 >>> summary.run, summary.failed, f"{summary.runs_per_second:.2f} runs/s"                  # doctest: +SKIP
@@ -21,12 +21,10 @@ or a given ``distributed.Client``.
 
 from __future__ import annotations
 
-import logging
-import os
 import time
 import uuid
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from contextlib import closing
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -34,14 +32,13 @@ from typing import Any
 import numpy as np
 
 from femref.case import CaseError
+from femref.core.cluster import IN_FLIGHT_PER_THREAD, Task, bounded_results, dask_client, in_flight_slots
 from femref.sweep.spec import Sweep, load_sweep
 from femref.sweep.store import FAILED, SweepLayout, SweepStore, partial_path
 from femref.sweep.worker import run_samples
 
 __all__ = ["SweepInterrupted", "SweepSummary", "run_sweep"]
 
-#: Futures kept in flight per worker thread: enough to keep every worker busy, few enough to stream.
-IN_FLIGHT_PER_THREAD = 2
 #: Most samples in one task (:func:`batch_size`).
 MAX_BATCH = 32
 
@@ -118,9 +115,9 @@ def run_sweep(
         summary.skipped = store.size - len(pending)
         todo = pending if limit is None else pending[: max(0, limit)]
         if todo:
-            with _client(scheduler, workers, client) as dask_client:
+            with dask_client(scheduler, workers, client) as connected:
                 started = time.perf_counter()  # the rate of the runs, without the cluster's start and stop
-                _run(dask_client, sweep, store, todo, summary, progress)
+                _run(connected, sweep, store, todo, summary, progress)
                 summary.wall_time_s = time.perf_counter() - started
     except KeyboardInterrupt:
         interrupted = True
@@ -133,25 +130,6 @@ def run_sweep(
     return summary
 
 
-@contextmanager
-def _client(scheduler: str | None, workers: int | None, client: Any) -> Iterator[Any]:
-    """The given client, a client of ``scheduler``, or a client of a new local cluster."""
-    if client is not None:
-        yield client
-        return
-    from distributed import Client, LocalCluster
-
-    if scheduler is not None:
-        with Client(scheduler) as remote:  # connect timeout: dask config distributed.comm.timeouts.connect
-            yield remote
-        return
-    cluster = LocalCluster(
-        n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=logging.ERROR
-    )
-    with cluster, Client(cluster) as local:
-        yield local
-
-
 def batch_size(samples: int, threads: int) -> int:
     """Samples per task: enough that a task outlasts its scheduling and the client's write of its rows
     (a rigid sample runs in milliseconds), few enough that every worker thread gets several
@@ -161,15 +139,10 @@ def batch_size(samples: int, threads: int) -> int:
 
 def _run(client: Any, sweep: Sweep, store: SweepStore, todo: list[int], summary: SweepSummary, progress: Progress | None) -> None:
     """Submit ``todo`` in batches with a bounded number of futures in flight; store each batch as it finishes."""
-    from distributed import as_completed
-
     outputs = sweep.spec.outputs
     threads = max(1, sum(client.nthreads().values()))
-    slots = IN_FLIGHT_PER_THREAD * threads
     size = batch_size(len(todo), threads)
     queue = iter(todo)
-    in_flight: dict[Any, list[Any]] = {}
-    finished = as_completed()
 
     def stored(samples: list[Any], records: list[dict[str, Any]]) -> None:
         errors = store.store_batch([s.index for s in samples], [s.stored for s in samples], records)
@@ -192,8 +165,8 @@ def _run(client: Any, sweep: Sweep, store: SweepStore, todo: list[int], summary:
             return None
         return sample
 
-    def submit_more() -> None:
-        while len(in_flight) < slots:
+    def tasks() -> Iterator[Task]:
+        while True:
             batch = []
             while len(batch) < size and (index := next(queue, None)) is not None:
                 sample = valid(index)
@@ -201,21 +174,13 @@ def _run(client: Any, sweep: Sweep, store: SweepStore, todo: list[int], summary:
                     batch.append(sample)
             if not batch:
                 return
-            key = f"femref-samples-{batch[0].index}-{uuid.uuid4().hex[:8]}"
             cases = [sample.case_data for sample in batch]
-            future = client.submit(run_samples, cases, str(sweep.base_dir), outputs.record_length, outputs.force_length, key=key, pure=False)
-            in_flight[future] = batch
-            finished.add(future)
+            yield Task(run_samples, (cases, str(sweep.base_dir), outputs.record_length, outputs.force_length),
+                       key=f"femref-samples-{batch[0].index}-{uuid.uuid4().hex[:8]}", tag=batch)
 
-    try:
-        submit_more()
-        for future in finished:
-            batch = in_flight.pop(future)
+    with closing(bounded_results(client, tasks(), in_flight_slots(client))) as finished:
+        for batch, future in finished:
             stored(batch, _records_of(future, len(batch)))
-            submit_more()
-    except BaseException:
-        client.cancel(list(in_flight))
-        raise
 
 
 def _records_of(future: Any, samples: int) -> list[dict[str, Any]]:

@@ -27,7 +27,7 @@ from support.paths import CASES, REPO
 #: clusters. Each command imports these when it runs (femref/cli/common.py).
 HEAVY = ("numpy", "scipy", "sklearn", "h5py", "numba", "matplotlib", "dask", "distributed", "pandas", "xarray", "pyvista",
          "meshio", "skfem", "pydantic")
-COMMANDS = ("run", "validate", "sweep", "study", "calibrate", "bench", "report", "figures")
+COMMANDS = ("run", "validate", "sweep", "study", "calibrate", "bench", "report", "figures", "fleet")
 
 
 def small_impact_case() -> dict:
@@ -71,7 +71,7 @@ def test_every_command_help_states_its_exit_codes_and_what_its_output_may_not_be
         assert result.exit_code == 0, result.output
         text = " ".join(result.output.split())
         assert "Exit codes: 0 " in text and re.search(r"\b2 (bad|not)\b", text), (command, text)
-        if command in ("run", "sweep", "study", "calibrate", "bench", "report"):
+        if command in ("run", "sweep", "study", "calibrate", "bench", "report", "fleet"):
             assert "refused if" in text, (command, text)
     progress = " ".join(CliRunner().invoke(main, ["--help"], terminal_width=200).output.split())
     assert "--progress / --no-progress" in progress and "FEMREF_PROGRESS" in progress
