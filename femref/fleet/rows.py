@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import os
+from dataclasses import dataclass
 from datetime import timedelta
 from pathlib import Path
 from typing import Any
@@ -25,16 +26,24 @@ from femref.sensing.findings import primary
 __all__ = ["RecordingFacts", "event_rows"]
 
 
+@dataclass(frozen=True)
 class RecordingFacts:
-    """What every row of one recording shares: its files, cars, couplers and gears, limits, calibration and networks
-    (paths relative to the manifest's folder) and where its histories are (relative to the store's folder)."""
+    """What every row of one recording shares: the recording (cars, couplers, gears, limits), its record files,
+    calibration and networks (``; ``-joined paths relative to the manifest's folder) and its event file (relative to
+    the store's folder)."""
 
-    def __init__(self, recording: Recording, base_dir: Path, histories: str) -> None:
-        self.recording = recording
-        self.files = "; ".join(_relative(path, base_dir) for path in recording.record_files)
-        self.calibration = "" if recording.calibration is None else _relative(recording.calibration, base_dir)
-        self.network = "; ".join(_relative(path, base_dir) for path in recording.networks)
-        self.histories = histories
+    recording: Recording
+    files: str
+    calibration: str
+    network: str
+    histories: str
+
+    @classmethod
+    def of(cls, recording: Recording, base_dir: Path, histories: str) -> "RecordingFacts":
+        """The facts of ``recording``, its paths made relative to ``base_dir`` (the manifest's folder)."""
+        return cls(recording, "; ".join(_relative(path, base_dir) for path in recording.record_files),
+                   "" if recording.calibration is None else _relative(recording.calibration, base_dir),
+                   "; ".join(_relative(path, base_dir) for path in recording.networks), histories)
 
 
 def _relative(path: Path, base_dir: Path) -> str:

@@ -33,7 +33,7 @@ from typing import Any
 from femref.core.cluster import Task, bounded_results, dask_client, in_flight_slots
 from femref.fleet.manifest import Fleet, Recording, load_manifest, recording_stamp
 from femref.fleet.store import STORE_NAME, EventStore, RecordingRow, sql_time
-from femref.fleet.worker import event_path, run_recording
+from femref.fleet.worker import event_path, failed, run_recording
 
 __all__ = ["FleetInterrupted", "FleetSummary", "Progress", "fleet_inputs", "run_fleet"]
 
@@ -98,7 +98,7 @@ def fleet_inputs(fleet: Fleet, out_dir: Path) -> dict[str, Path]:
     inputs = {"MANIFEST": fleet.path}
     for recording in fleet.recordings:
         for number, path in enumerate(recording.files):
-            if inside == path.resolve().parent or inside in path.resolve().parents:
+            if inside in path.resolve().parents:
                 inputs[f"recordings[{recording.index}] file {number + 1}"] = path
     return inputs
 
@@ -149,8 +149,7 @@ def _results(client: Any, fleet: Fleet, todo: list[Recording], out_dir: Path) ->
             try:
                 result = future.result()
             except KilledWorker as error:
-                result = {"status": "failed", "message": f"the recording killed the workers that ran it ({error})", "events": [], "estimates": [],
-                          "event_count": 0, "samples": 0, "bytes_read": 0, "seconds": 0.0, "femref_version": ""}
+                result = failed(f"the recording killed the workers that ran it ({error})")
             yield recording, result
 
 

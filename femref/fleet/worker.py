@@ -21,7 +21,7 @@ from femref.events import EventResult, event_file
 from femref.fleet.manifest import Recording
 from femref.fleet.rows import RecordingFacts, event_rows
 
-__all__ = ["EVENTS_FOLDER", "event_path", "run_recording"]
+__all__ = ["EVENTS_FOLDER", "event_path", "failed", "run_recording"]
 
 #: The folder of the event files in a fleet's output folder.
 EVENTS_FOLDER = "events"
@@ -30,6 +30,12 @@ EVENTS_FOLDER = "events"
 def event_path(out_dir: Path, name: str) -> Path:
     """Where recording ``name``'s event file goes: ``<out>/events/<name>.h5``."""
     return Path(out_dir) / EVENTS_FOLDER / f"{name}.h5"
+
+
+def failed(message: str) -> dict[str, Any]:
+    """The result of a recording that could not be run: no rows, nothing read, ``message`` why."""
+    return {"status": "failed", "message": message, "events": [], "estimates": [], "event_count": 0, "samples": 0, "bytes_read": 0,
+            "seconds": 0.0, "femref_version": __version__}
 
 
 def run_recording(recording: Recording, base_dir: str, source: str, out_dir: str) -> dict[str, Any]:
@@ -46,12 +52,10 @@ def run_recording(recording: Recording, base_dir: str, source: str, out_dir: str
     path = event_path(Path(out_dir), recording.name)
     events: list[dict[str, Any]] = []
     estimates: list[dict[str, Any]] = []
-    result: dict[str, Any] = {"status": "ok", "message": "", "events": events, "estimates": estimates, "event_count": 0, "samples": 0,
-                              "bytes_read": 0, "femref_version": __version__}
     try:
         case = parse_case(recording.case, source=source, base_dir=Path(base_dir))
         scene = plan_case(case, Path(base_dir), source).scene
-        facts = RecordingFacts(recording, Path(base_dir), path.relative_to(Path(out_dir)).as_posix())
+        facts = RecordingFacts.of(recording, Path(base_dir), path.relative_to(Path(out_dir)).as_posix())
         path.parent.mkdir(parents=True, exist_ok=True)
         remove_leftovers(path)  # a temporary of a worker killed in an earlier run
 
@@ -67,12 +71,12 @@ def run_recording(recording: Recording, base_dir: str, source: str, out_dir: str
         scene_facts = {"cars": [car.name for car in scene.cars], "couplers": [c.name for c in scene.couplers], "estimators": list(scene.estimators)}
         with event_file(path, scene_facts, recording.resolved) as writer:
             outcome = run_measured(scene, sink=keep_rows(writer), source=source)
-        result["event_count"] = len(outcome.events)
-        result["samples"] = sum(int(channel.time.size) for channel in outcome.recordings.channels.values())
-        result["bytes_read"] = sum(os.stat(file).st_size for file in recording.record_files)
+        result = {"status": "ok", "message": "", "events": events, "estimates": estimates, "event_count": len(outcome.events),
+                  "samples": sum(int(channel.time.size) for channel in outcome.recordings.channels.values()),
+                  "bytes_read": sum(os.stat(file).st_size for file in recording.record_files), "femref_version": __version__}
     except (CaseError, RecordError) as error:
-        result.update(status="failed", message=str(error), events=[], estimates=[])
+        result = failed(str(error))
     except Exception as error:  # the recording is stored as failed with why, and the fleet goes on
-        result.update(status="failed", message=f"{type(error).__name__}: {error}", events=[], estimates=[])
+        result = failed(f"{type(error).__name__}: {error}")
     result["seconds"] = time.perf_counter() - started
     return result
