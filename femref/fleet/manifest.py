@@ -25,7 +25,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Annotated, Any
 
-from pydantic import AfterValidator, AwareDatetime, Field, ValidationError, model_validator
+from pydantic import AfterValidator, Field, ValidationError, model_validator
 
 from femref.case import CaseError, Problem, parse_case, resolved_yaml
 from femref.case.cars import CarName
@@ -49,7 +49,15 @@ def _recording_name(name: str) -> str:
     return name
 
 
+def _aware(moment: datetime) -> datetime:
+    if moment.tzinfo is None or moment.utcoffset() is None:
+        raise problems_error([Problem((), "give the time's zone, e.g. 2026-11-01T06:12:00Z or 2026-11-01T07:12:00+01:00", moment.isoformat())])
+    return moment
+
+
 RecordingName = Annotated[str, AfterValidator(_recording_name)]
+#: A date and time with its zone.
+ZonedTime = Annotated[datetime, AfterValidator(_aware)]
 GearName = Annotated[str, AfterValidator(name_rule("gear"))]
 
 
@@ -73,7 +81,7 @@ class RecordingSpec(CaseModel):
     """One measured run: when and where it was recorded, the cars in line, their couplers and the recorders' files."""
 
     name: RecordingName = Field(description="Unique; the store's key and its event file's name. Letters, digits, '_', '-', '.'. Required.")
-    start: AwareDatetime = Field(description="Wall-clock time of t = 0 of the records, with its zone (2026-11-01T06:12:00Z). Required.")
+    start: ZonedTime = Field(description="Wall-clock time of t = 0 of the records, with its zone (2026-11-01T06:12:00Z). Required.")
     track: str = Field(default="", description="Where it was recorded. Default empty.")
     cars: tuple[CarName, ...] = Field(min_length=2, description="Keys of cars, in line (front to rear as the records' +x); two or more. Required.")
     couplers: tuple[RecordingCouplerSpec, ...] = Field(min_length=1, description="Coupler k joins cars k and k + 1; one or more. Required.")

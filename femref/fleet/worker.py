@@ -4,9 +4,9 @@
 that cannot be run: the recording's case parsed again from its plain data, its work budget checked
 (:func:`femref.flow.plan_case`), then :func:`femref.run.measured.run_measured` with a sink that makes each event's
 store rows from its full result (:func:`femref.fleet.rows.event_rows`) and writes it to ``<out>/events/<name>.h5``
-(:func:`femref.events.event_file`: under a temporary name, renamed when every event is in). A record that turns out
-bad during the run, events over the budget or any other error make the recording ``failed`` with its message; its
-event file is then not written. The worker never opens the store: the client writes what this returns.
+(:func:`femref.events.event_file`: under a temporary name, renamed when every event is in; the temporaries of a
+worker killed before are removed first). A record that turns out bad during the run, events over the budget or any
+other error make the recording ``failed`` with its message; its event file is then not written. The worker never opens the store: the client writes what this returns.
 """
 
 from __future__ import annotations
@@ -43,7 +43,6 @@ def run_recording(recording: Recording, base_dir: str, source: str, out_dir: str
     ``estimates`` (the store rows), ``event_count``, ``samples`` (values read: samples × channels), ``bytes_read``
     (of its record files), ``seconds`` (this run) and ``femref_version``."""
     from femref.case import CaseError, parse_case
-    from femref.core.publishing import remove_leftovers
     from femref.flow import plan_case
     from femref.run.measured import run_measured
     from femref.sensing.recordings import RecordError
@@ -56,21 +55,16 @@ def run_recording(recording: Recording, base_dir: str, source: str, out_dir: str
         case = parse_case(recording.case, source=source, base_dir=Path(base_dir))
         scene = plan_case(case, Path(base_dir), source).scene
         facts = RecordingFacts.of(recording, Path(base_dir), path.relative_to(Path(out_dir)).as_posix())
-        path.parent.mkdir(parents=True, exist_ok=True)
-        remove_leftovers(path)  # a temporary of a worker killed in an earlier run
 
-        def keep_rows(writer: Any):
+        scene_facts = {"cars": [car.name for car in scene.cars], "couplers": [c.name for c in scene.couplers], "estimators": list(scene.estimators)}
+        with event_file(path, scene_facts, recording.resolved) as writer:
             def sink(event: EventResult) -> EventResult:
                 rows = event_rows(facts, scene.couplers, event)
                 events.extend(rows[0])
                 estimates.extend(rows[1])
                 return writer(event)
 
-            return sink
-
-        scene_facts = {"cars": [car.name for car in scene.cars], "couplers": [c.name for c in scene.couplers], "estimators": list(scene.estimators)}
-        with event_file(path, scene_facts, recording.resolved) as writer:
-            outcome = run_measured(scene, sink=keep_rows(writer), source=source)
+            outcome = run_measured(scene, sink=sink, source=source)
         result = {"status": "ok", "message": "", "events": events, "estimates": estimates, "event_count": len(outcome.events),
                   "samples": sum(int(channel.time.size) for channel in outcome.recordings.channels.values()),
                   "bytes_read": sum(os.stat(file).st_size for file in recording.record_files), "femref_version": __version__}

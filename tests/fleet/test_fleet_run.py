@@ -20,6 +20,7 @@ import yaml
 from click.testing import CliRunner
 
 from femref.cli import main
+from femref.events import COMPLETE
 from femref.fleet import runner
 from femref.fleet.runner import run_fleet
 from femref.fleet.store import read_estimates, read_events, read_recordings
@@ -221,5 +222,11 @@ def test_a_worker_killed_mid_run_is_restarted_and_its_recordings_run_again(refer
     assert_same_store(reference, fleet_dir / "out4" / "events.sqlite")
     client.wait_for_workers(2, timeout=60)
     assert killed[0] not in client.run(os.getpid).values()
+    # every event file whole under its final name and no temporary left (a kill between the creation of a temporary's
+    # writer sidecar and its first byte can leave that empty sidecar: femref.core.publishing cannot tell whose it is)
     names = yaml.safe_load((fleet_dir / "fleet.yaml").read_text())["recordings"]
-    assert sorted(p.name for p in (fleet_dir / "out4" / "events").iterdir()) == sorted(f"{r['name']}.h5" for r in names)  # no temporary left
+    files = [p for p in (fleet_dir / "out4" / "events").iterdir() if not p.name.endswith(".writer")]
+    assert sorted(p.name for p in files) == sorted(f"{r['name']}.h5" for r in names)
+    for path in files:
+        with h5py.File(path) as h5:
+            assert h5.attrs[COMPLETE], path

@@ -61,7 +61,7 @@ BAD = [
     (lambda d: d["recordings"][1].update(cars=["C0003", "C0007"]), "recordings[1].cars[1]", "unknown car"),
     (lambda d: d["recordings"][1].update(name=d["recordings"][0]["name"]), "recordings[1].name", "names are unique"),
     (lambda d: d["recordings"][0].update(name="../up"), "recordings[0].name", "letters, digits"),
-    (lambda d: d["recordings"][0].update(start="2026-11-01T06:12:00"), "recordings[0].start", "timezone"),
+    (lambda d: d["recordings"][0].update(start="2026-11-01T06:12:00"), "recordings[0].start", "give the time's zone"),
     (lambda d: d["defaults"].update(records=[]), "defaults.records", "a recording gives its own records"),
     (lambda d: d["recordings"][0]["couplers"].append({"gear": "G0001"}), "recordings[0].couplers", "coupler k joins cars k and k + 1"),
 ]
