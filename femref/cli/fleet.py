@@ -68,7 +68,9 @@ def fleet_command(context: click.Context, manifest_path: Path, out_dir: Path, wo
         _summary(interrupted.summary)
         click.echo(f"interrupted: {interrupted.summary.run} recordings stored in this call; run again to resume", err=True)
         sys.exit(EXIT_INTERRUPTED)
-    except Exception as error:  # the Dask machinery or the file system, not a recording (those are stored as failed)
+    except OSError:  # a full disk, a quota: faults_end_cleanly's one line
+        raise
+    except Exception as error:  # the Dask machinery or the store, not a recording (those are stored as failed)
         fail(f"fleet failed: {type(error).__name__}: {error}", EXIT_RUN_FAILURE)
     _summary(summary)
     _fleet_report(summary.store, out_dir)
@@ -102,4 +104,8 @@ def _fleet_report(store: Path, out_dir: Path) -> None:
         return
     from femref.fleet.store import read_estimates, read_events
 
-    click.echo(f"wrote {write_fleet_report(read_events(store), read_estimates(store), out_dir)}")
+    try:
+        written = write_fleet_report(read_events(store), read_estimates(store), out_dir)
+    except Exception as error:  # the store is written and stays; the report can be made again from it
+        fail(f"fleet report failed: {type(error).__name__}: {error} (the store {store} is complete)", EXIT_RUN_FAILURE)
+    click.echo(f"wrote {written}")

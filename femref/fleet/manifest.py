@@ -116,10 +116,10 @@ class FleetManifest(CaseModel):
             if recording.name in seen:
                 problems.append(Problem(("recordings", i, "name"), f"also the name of recordings[{seen[recording.name]}]; names are unique", recording.name))
             seen.setdefault(recording.name, i)
-            problems += [Problem(("recordings", i, "cars", k), f"unknown car{did_you_mean(car, list(self.cars))}; cars: {', '.join(self.cars)}", car)
+            problems += [Problem(("recordings", i, "cars", k), f"unknown car{did_you_mean(car, list(self.cars))}; cars: {_listing(self.cars)}", car)
                          for k, car in enumerate(recording.cars) if car not in self.cars]
             problems += [Problem(("recordings", i, "couplers", k, "gear"), f"unknown gear{did_you_mean(c.gear, list(self.gears))}; "
-                                 f"gears: {', '.join(self.gears) or 'none'}", c.gear) for k, c in enumerate(recording.couplers) if c.gear not in self.gears]
+                                 f"gears: {_listing(self.gears)}", c.gear) for k, c in enumerate(recording.couplers) if c.gear not in self.gears]
             ratings = {self.gears[c.gear].rated_closure_force for c in recording.couplers if c.gear in self.gears} - {None}
             if len(ratings) > 1:
                 rule = f"the gears of one recording share their rated_closure_force (a measured case checks one); found {sorted(ratings)} N"
@@ -129,10 +129,16 @@ class FleetManifest(CaseModel):
         return self
 
 
+def _listing(names: Mapping[str, Any], shown: int = 10) -> str:
+    """The first ``shown`` of ``names``, comma-separated (a fleet may have thousands of cars)."""
+    listed = list(names)
+    return (", ".join(listed[:shown]) + (f", … ({len(listed)} in all)" if len(listed) > shown else "")) or "none"
+
+
 @dataclass(frozen=True)
 class Recording:
-    """One recording of a fleet, expanded: its measured ``case`` (plain data, paths relative to ``base_dir``), what
-    the store records of it, and its ``stamp`` (:func:`recording_stamp`)."""
+    """One recording of a fleet, expanded: its measured ``case`` (plain data, paths relative to the manifest's folder),
+    its resolved case and the files it reads (what :func:`recording_stamp` stamps), and what the store records of it."""
 
     index: int
     name: str

@@ -83,3 +83,13 @@ def test_femref_fleet_exits_2_on_a_bad_manifest_and_writes_nothing(manifest, tmp
     assert result.exit_code == 2, result.output
     assert f"{manifest}: defaults.events.trigger: must be > 0 (in recording " in result.output
     assert not out.exists()
+
+
+def test_femref_fleet_exits_2_on_an_output_folder_holding_something_else(manifest, tmp_path):
+    """An ``events.sqlite`` in the output folder that is not a femref event store is refused and left as it was."""
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "events.sqlite").write_text("station,time\n")
+    result = CliRunner().invoke(main, ["fleet", str(manifest), "-o", str(out)])
+    assert result.exit_code == 2 and "not a femref event store" in result.output, result.output
+    assert (out / "events.sqlite").read_text() == "station,time\n" and sorted(p.name for p in out.iterdir()) == ["events.sqlite"]
