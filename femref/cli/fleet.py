@@ -23,7 +23,7 @@ SHOWN_FAILURES = 5
 @click.argument("manifest_path", metavar="MANIFEST", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("-o", "--output", "out_dir", required=True, type=click.Path(file_okay=False, path_type=Path),
               help="output folder (made in an existing folder): events.sqlite, events/<recording>.h5 and the fleet report; "
-                   "refused if the store would overwrite an input")
+                   "refused if the store or an event file would overwrite an input")
 @click.option("--workers", type=click.IntRange(min=1), help="local cluster worker processes (default: one per CPU)")
 @click.option("--scheduler", metavar="tcp://HOST:PORT", help="run on this Dask scheduler (default: a local cluster)")
 @click.option("--progress/--no-progress", default=None, help="as femref --progress/--no-progress (default: only on a terminal)")
@@ -47,6 +47,7 @@ def fleet_command(context: click.Context, manifest_path: Path, out_dir: Path, wo
     from femref.fleet.manifest import load_manifest
     from femref.fleet.runner import FleetInterrupted, fleet_inputs, run_fleet
     from femref.fleet.store import STORE_NAME, StoreError
+    from femref.fleet.worker import event_path
 
     if scheduler is not None and workers is not None:
         raise click.UsageError("--workers sizes the local cluster; the cluster behind --scheduler has its own workers")
@@ -58,7 +59,8 @@ def fleet_command(context: click.Context, manifest_path: Path, out_dir: Path, wo
             fleet = load_manifest(manifest_path, progress=None if checked is None else lambda done, total: checked(done, total, "", -1))
     except CaseError as error:
         fail(error)
-    check_output(out_dir, "-o", fleet_inputs(fleet, out_dir), folder=True, writes=[out_dir / STORE_NAME])
+    writes = [out_dir / STORE_NAME, *(event_path(out_dir, recording.name) for recording in fleet.recordings)]
+    check_output(out_dir, "-o", fleet_inputs(fleet, out_dir), folder=True, writes=writes)
     try:
         with recording_progress(console, "fleet", "recordings") as stored:
             summary = run_fleet(fleet, out_dir, scheduler=scheduler, workers=workers, progress=stored)

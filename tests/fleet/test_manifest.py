@@ -93,3 +93,16 @@ def test_femref_fleet_exits_2_on_an_output_folder_holding_something_else(manifes
     result = CliRunner().invoke(main, ["fleet", str(manifest), "-o", str(out)])
     assert result.exit_code == 2 and "not a femref event store" in result.output, result.output
     assert (out / "events.sqlite").read_text() == "station,time\n" and sorted(p.name for p in out.iterdir()) == ["events.sqlite"]
+
+
+def test_femref_fleet_refuses_an_output_folder_where_an_event_file_would_overwrite_a_record(manifest, tmp_path):
+    """A recording whose record file sits where another recording's event file would go: exit 2, nothing written."""
+    data = yaml.safe_load(manifest.read_text())
+    target = f"out/events/{data['recordings'][1]['name']}.h5"
+    (tmp_path / "out" / "events").mkdir(parents=True)
+    (tmp_path / target).write_bytes((manifest.parent / data["recordings"][0]["records"][0]["file"]).read_bytes())
+    data["recordings"][0]["records"][0].update(file=target, format="csv")
+    manifest.write_text(yaml.safe_dump(data, sort_keys=False))
+    result = CliRunner().invoke(main, ["fleet", str(manifest), "-o", str(tmp_path / "out")])
+    assert result.exit_code == 2 and "would write" in result.output and "(the output may not overwrite an input)" in result.output, result.output
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["events"]
