@@ -22,7 +22,7 @@ SHOWN_FAILURES = 5
 @click.command("fleet")
 @click.argument("manifest_path", metavar="MANIFEST", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("-o", "--output", "out_dir", required=True, type=click.Path(file_okay=False, path_type=Path),
-              help="output folder (made in an existing folder): events.sqlite, events/<recording>.h5 and the fleet report; "
+              help="output folder (made in an existing folder): events.sqlite, events/<recording>.h5 and the fleet report report/; "
                    "refused if the store or an event file would overwrite an input")
 @click.option("--workers", type=click.IntRange(min=1), help="local cluster worker processes (default: one per CPU)")
 @click.option("--scheduler", metavar="tcp://HOST:PORT", help="run on this Dask scheduler (default: a local cluster)")
@@ -97,8 +97,12 @@ def _summary(summary) -> None:
     click.echo(f"store: {summary.store}")
 
 
+#: The fleet report's folder in the output folder (where ``femref report OUT/events.sqlite`` writes it too).
+REPORT_FOLDER = "report"
+
+
 def _fleet_report(store: Path, out_dir: Path) -> None:
-    """The fleet report of the store beside it, when this femref has :mod:`femref.report.fleet`; else a note."""
+    """The fleet report of the store in ``OUT/report/``, when this femref has :mod:`femref.report.fleet`; else a note."""
     try:
         from femref.report.fleet import write_fleet_report
     except ImportError:
@@ -107,7 +111,7 @@ def _fleet_report(store: Path, out_dir: Path) -> None:
     from femref.fleet.store import read_estimates, read_events
 
     try:
-        written = write_fleet_report(read_events(store), read_estimates(store), out_dir)
+        written = write_fleet_report(read_events(store), read_estimates(store), out_dir / REPORT_FOLDER)
     except Exception as error:  # the store is written and stays; the report can be made again from it
         fail(f"fleet report failed: {type(error).__name__}: {error} (the store {store} is complete)", EXIT_RUN_FAILURE)
     click.echo(f"wrote {written}")
