@@ -120,9 +120,9 @@ def run_fleet(fleet: Fleet | str | Path, out_dir: str | Path, *, scheduler: str 
             return summary
         started = time.perf_counter()
         try:
-            with dask_client(scheduler, workers, client) as connected:
+            with dask_client(scheduler, workers, client) as connected, closing(_results(connected, fleet, todo, out_dir)) as results:
                 started = time.perf_counter()
-                for recording, result in _results(connected, fleet, todo, out_dir):
+                for recording, result in results:
                     _store(store, recording, stamps[recording.name], result, out_dir, summary)
                     if progress is not None:
                         progress(summary.run, len(todo), recording.name, result["event_count"])
@@ -135,7 +135,7 @@ def run_fleet(fleet: Fleet | str | Path, out_dir: str | Path, *, scheduler: str 
 
 def _results(client: Any, fleet: Fleet, todo: list[Recording], out_dir: Path) -> Iterator[tuple[Recording, dict[str, Any]]]:
     """Each of ``todo`` run on ``client`` and its worker's result, as they finish (a recording that killed the workers
-    that ran it: a failed result)."""
+    that ran it: a failed result); closed, it cancels the tasks in flight."""
     from distributed import KilledWorker
 
     def tasks() -> Iterator[Task]:
