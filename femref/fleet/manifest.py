@@ -62,8 +62,9 @@ GearName = Annotated[str, AfterValidator(name_rule("gear"))]
 
 
 class GearSpec(CaseModel):
-    """A draft gear: its force law (as an impact case's coupler takes it; kept with the manifest, the estimators read
-    the force from the accelerations) and its rated closure force, which replaces ``checks.rated_closure_force``."""
+    """A draft gear: its force law (as an impact case's coupler takes it: validated, it says what the gear is; the run
+    does not use it, the estimators read the force from the accelerations) and its rated closure force, which replaces
+    ``checks.rated_closure_force``."""
 
     law: AnyCouplerLaw | None = Field(default=None, description="The gear's coupler law, as in impact cases (friction_gear, draft_gear, ...). Default none.")
     rated_closure_force: PositiveReal | None = Field(
