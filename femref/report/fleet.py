@@ -207,7 +207,10 @@ def _event_pages(events: pd.DataFrame, drawn: set[str], store_folder: Path, temp
     for done, (recording, rows) in enumerate(((r, recordings[recordings["recording"] == r]) for r in todo), start=1):
         source = _histories_file(store_folder, rows["histories"].iloc[0])
         if source is not None:
-            links.update(_draw_recording(recording, source, rows, temporary / EVENT_PAGES))
+            try:
+                links.update(_draw_recording(recording, source, rows, temporary / EVENT_PAGES))
+            except (OSError, KeyError, ValueError):  # not an event file femref report reads (ReportInputError): its events link to it
+                pass
         if progress is not None:
             progress(done, len(todo))
     for row in recordings.itertuples():

@@ -186,26 +186,29 @@ def yard_events(tmp_path_factory) -> Path:
 
 def test_events_link_to_their_pages(tmp_path, yard_events):
     """A recording with an exceedance gets its event page drawn beside the report (the page femref report writes of its
-    HDF5 file); a recording that needs no look links to its HDF5 file; a recording whose file is missing links nowhere."""
+    HDF5 file); a recording that needs no look links to its HDF5 file, and so does one whose file is no event file; a
+    recording whose file is missing links nowhere."""
     store = tmp_path / "out"
     (store / "events").mkdir(parents=True)
     shutil.copy(yard_events, store / "events" / yard_events.name)
     shutil.copy(yard_events, store / "events" / "quiet.h5")
-    events = fleet_events(cars=2, days=1, seed=4, hot=0.0, saturated=0.0).head(3).copy()
-    events["recording"] = [yard_events.stem, "quiet", "gone"]
-    events["event_index"] = [1, 0, 0]
+    (store / "events" / "broken.h5").write_bytes(b"not HDF5")
+    events = fleet_events(cars=2, days=1, seed=4, hot=0.0, saturated=0.0).head(4).copy()
+    events["recording"] = [yard_events.stem, "quiet", "gone", "broken"]
+    events["event_index"] = [1, 0, 0, 0]
     events["event_key"] = [f"{r}/{k}" for r, k in zip(events["recording"], events["event_index"])]
     events["histories"] = [f"events/{r}.h5#events/{k}" for r, k in zip(events["recording"], events["event_index"])]
     events["event_type"], events["estimator"] = "free_to_roll", "inverse_rigid"
-    events.loc[events.index[0], ["peak_force", "peak_force_lower", "peak_force_upper", "alarm"]] = [2.6e6, 2.55e6, 2.65e6, "certain"]
+    for row in (0, 3):
+        events.loc[events.index[row], ["peak_force", "peak_force_lower", "peak_force_upper", "alarm"]] = [2.6e6, 2.55e6, 2.65e6, "certain"]
     page = write_fleet_report(events, estimates_of(events), store / "report", now=NOW).read_text(encoding="utf-8")
-    links = dict(re.findall(r'<a href="([^"]+)">([^<]+)</a>', page)[::-1])
-    inverse = {text: href for href, text in links.items()}
+    inverse = {text: href for href, text in re.findall(r'<a href="([^"]+)">([^<]+)</a>', page)}
     drawn = inverse[f"{yard_events.stem}/1"]
     assert drawn == f"events/{yard_events.stem}.html"
     assert "inverse_rigid" in (store / "report" / drawn).read_text(encoding="utf-8")
-    assert inverse["quiet/0"] == "../events/quiet.h5"
+    assert inverse["quiet/0"] == "../events/quiet.h5" and inverse["broken/0"] == "../events/broken.h5"
     assert "gone/0" not in inverse
+    assert sorted(p.name for p in (store / "report" / "events").iterdir()) == [f"{yard_events.stem}.html"]
 
 
 def _chromium() -> str | None:
