@@ -62,7 +62,6 @@ event's ``worn`` (the store's ``wear``), a gear's state needs it to persist."""
 SECONDS_PER_DAY = 86400.0
 FORECAST_DAYS = 36525.0
 """A crossing farther than a century from the pivot is no forecast (NaT): a nearly flat trend."""
-STATUSES = ("worn", "wearing", "ok", "insufficient data", "no wear limit")
 IMPACT_TYPES = ("free_to_roll", "coupled")
 """The event types whose closure forces enter a trend (``not_an_impact`` and ``unknown`` rows never close a gear)."""
 
@@ -226,5 +225,5 @@ def _status(trend: GearTrend, now: pd.Timestamp, horizon_days: float, confidence
     return "ok", f"{rate}; {when}: {why}"
 
 
-__all__ = ["CONFIDENCE", "IMPACT_TYPES", "MIN_EVENTS", "MIN_SPAN_DAYS", "RECENT_EVENTS", "STATUSES", "GearTrend", "as_utc", "closures",
+__all__ = ["CONFIDENCE", "IMPACT_TYPES", "MIN_EVENTS", "MIN_SPAN_DAYS", "RECENT_EVENTS", "GearTrend", "as_utc", "closures",
            "gear_trend", "gear_trends"]

@@ -130,7 +130,11 @@ def _publish(temporary: Path, folder: Path) -> None:
         return
     previous = create_temporary(folder, part="old", folder=True)
     os.replace(folder, previous)
-    os.replace(temporary, folder)
+    try:
+        os.replace(temporary, folder)
+    except OSError:
+        os.replace(previous, folder)  # the previous report back under its name
+        raise
     discard_temporary(temporary)
     discard_temporary(previous)
 
