@@ -1,7 +1,8 @@
-"""``femref report RESULTS.h5 [-o REPORT.html]``: one self-contained HTML page of a result file.
+"""``femref report RESULTS.h5 [-o REPORT.html]``: one self-contained HTML page of a result file; ``femref report
+OUT/events.sqlite [-o FOLDER]``: the fleet report of an event store (:mod:`femref.report.fleet`).
 
 The page is assembled in memory and written under a temporary name in the target folder, then
-renamed: a failure leaves nothing under the final name.
+renamed: a failure leaves nothing under the final name (the fleet report: its folder, the same way).
 """
 
 from __future__ import annotations
@@ -26,6 +27,45 @@ def write_atomically(path: Path, text: str) -> None:
         tmp.write_text(text, encoding="utf-8")
 
 
+SQLITE_HEADER = b"SQLite format 3\x00"
+FLEET_FOLDER = "report"
+
+
+def is_event_store(path: Path) -> bool:
+    """Whether ``path`` is an SQLite file (the event store of ``femref fleet``, contract D) by its header."""
+    try:
+        with open(path, "rb") as file:
+            return file.read(len(SQLITE_HEADER)) == SQLITE_HEADER
+    except OSError:
+        return False
+
+
+def _write_fleet_report(store: Path, output: Path | None, all_event_pages: bool) -> None:
+    """The fleet report of the event store ``store`` into ``output`` (default: ``report/`` beside the store), the event
+    pages drawn with progress."""
+    import sqlite3
+
+    from rich.console import Console
+
+    from femref.cli.common import model_progress
+    from femref.fleet.store import read_estimates, read_events
+    from femref.report.fleet import write_fleet_report
+
+    folder = output or store.parent / FLEET_FOLDER
+    check_output(folder, "-o", {"STORE": store}, folder=True, default=output is None)
+    try:
+        events, estimates = read_events(store), read_estimates(store)
+    except (sqlite3.DatabaseError, KeyError, ValueError) as error:
+        fail(f"{store}: not a femref event store ({error})")
+    with model_progress(Console(stderr=True)) as progress_for:
+        try:
+            index = write_fleet_report(events, estimates, folder, store_folder=store.parent, all_event_pages=all_event_pages,
+                                       progress=progress_for("event pages"))
+        except ValueError as error:
+            fail(error)
+    click.echo(f"wrote {index}")
+
+
 def _write_event_pages(results: Path, output: Path) -> None:
     """The pages of an event file of many events beside the index ``output`` (femref.report.measured), each written
     atomically, with progress per event (a bar per page on a terminal, status lines with femref --progress)."""
@@ -41,10 +81,16 @@ def _write_event_pages(results: Path, output: Path) -> None:
 
 @click.command("report")
 @click.argument("results", metavar="RESULTS.h5", type=click.Path(dir_okay=False, path_type=Path))
-@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path),
-              help="HTML file (default: RESULTS stem + .html, next to RESULTS); refused if it is RESULTS.h5 or one of its field files")
-def report_command(results: Path, output: Path | None) -> None:
+@click.option("-o", "--output", type=click.Path(path_type=Path),
+              help="HTML file (default: RESULTS stem + .html, next to RESULTS); refused if it is RESULTS.h5 or one of its field files. "
+                   "For an event store: the report's folder (default: report/ beside it)")
+@click.option("--all-event-pages", is_flag=True, help="An event store: draw every event's page, not only those that need a look")
+def report_command(results: Path, output: Path | None, all_event_pages: bool) -> None:
     """Write one self-contained HTML page (scores, plots, field map, case) from a femref result file.
+
+    OUT/events.sqlite, the event store of femref fleet, gives the fleet report: FOLDER/index.html (traffic lights per car
+    and gear, exceedances, distributions, gear-wear trends, every event linked), FOLDER/events.csv and, with openpyxl,
+    FOLDER/events.xlsx.
 
     An event file of more than 20 events gives an index page (one row per event) and, beside it, a page per
     20 events with their figures, REPORT_events_0001-0020.html …, drawn with progress.
@@ -58,6 +104,9 @@ def report_command(results: Path, output: Path | None) -> None:
     from femref.report import ReportInputError, build_report
     from femref.results import field_files_match, result_field_files
 
+    if is_event_store(results):
+        _write_fleet_report(results, output, all_event_pages)
+        return
     defaulted = output is None
     output = output or default_output(results)
     try:
