@@ -102,13 +102,9 @@ REPORT_FOLDER = "report"
 
 
 def _fleet_report(store: Path, out_dir: Path) -> None:
-    """The fleet report of the store in ``OUT/report/``, when this femref has :mod:`femref.report.fleet`; else a note."""
-    try:
-        from femref.report.fleet import write_fleet_report
-    except ImportError:
-        click.echo("note: no fleet report: this femref has no femref.report.fleet", err=True)
-        return
+    """The fleet report of the store in ``OUT/report/`` (:func:`femref.report.fleet.write_fleet_report`)."""
     from femref.fleet.store import read_estimates, read_events
+    from femref.report.fleet import write_fleet_report
 
     try:
         written = write_fleet_report(read_events(store), read_estimates(store), out_dir / REPORT_FOLDER)

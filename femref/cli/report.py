@@ -32,7 +32,7 @@ FLEET_FOLDER = "report"
 
 
 def is_event_store(path: Path) -> bool:
-    """Whether ``path`` is an SQLite file (the event store of ``femref fleet``, contract D) by its header."""
+    """Whether ``path`` is an SQLite file (the event store of ``femref fleet``, docs/design.md §10.2) by its header."""
     try:
         with open(path, "rb") as file:
             return file.read(len(SQLITE_HEADER)) == SQLITE_HEADER

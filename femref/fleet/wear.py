@@ -1,6 +1,6 @@
 """The closure-force trend of each draft gear, and the date it is forecast to cross its wear limit.
 
-Per gear, the closure forces ``P_i`` (N) of the impacts where it closed (event store rows, contract D: an impact type,
+Per gear, the closure forces ``P_i`` (N) of the impacts where it closed (event store rows, an impact type,
 ``closure_status == "closed"``), against their times ``t_i`` (days), follow the Theil–Sen line
 
     m = median_{i<j} (P_j − P_i)/(t_j − t_i)   (N/day),     P(t) = c + m (t − t_c),    c = median_i (P_i − m (t_i − t_c))
@@ -12,7 +12,7 @@ their median with the same confidence (a sign test: ``P(Bin(n, ½) ≤ k − 1) 
 
     lower(t) = c_lo + min(m_lo Δ, m_hi Δ),    upper(t) = c_hi + max(m_lo Δ, m_hi Δ),    Δ = t − t_c
 
-and the forecast crossing of the wear limit ``P_w = (1 − wear_tolerance) × rated_closure_force`` (contract D's
+and the forecast crossing of the wear limit ``P_w = (1 − wear_tolerance) × rated_closure_force`` (the store's
 ``wear_limit``) is where the line falls through ``P_w``; its interval, where ``lower`` and ``upper`` do (the lower
 band first). Noise-free points on a line give ``m_lo = m = m_hi`` and ``c_lo = c = c_hi``: the crossing exact.
 
@@ -109,14 +109,14 @@ class GearTrend:
 
 
 def closures(events: pd.DataFrame) -> pd.DataFrame:
-    """The rows of contract D's ``events`` whose gear closed in an impact, with a finite closure force."""
+    """The rows of ``events`` whose gear closed in an impact, with a finite closure force."""
     rows = events[events["event_type"].isin(IMPACT_TYPES) & (events["closure_status"] == "closed") & np.isfinite(events["closure_force"])]
     return rows.sort_values(["time", "event_key"], kind="stable")
 
 
 def gear_trends(events: pd.DataFrame, now: pd.Timestamp | None = None, horizon_days: float = 30.0,
                 confidence: float = CONFIDENCE) -> dict[str, GearTrend]:
-    """Every gear of ``events`` (contract D's DataFrame) with its trend as of ``now`` (UTC; default the latest event):
+    """Every gear of ``events`` (DataFrame) with its trend as of ``now`` (UTC; default the latest event):
     only events up to ``now`` count, ``wearing`` looks ``horizon_days`` ahead of it (module docstring)."""
     if horizon_days <= 0.0 or not math.isfinite(horizon_days):
         raise ValueError(f"horizon_days {horizon_days}: must be a positive number of days")

@@ -1,4 +1,4 @@
-"""The fleet report: one self-contained page of an event store's rows (contract D's DataFrames, docs/design.md §4.6).
+"""The fleet report: one self-contained page of an event store's rows (docs/design.md §4.6; the store: §10.2).
 
 :func:`write_fleet_report` writes ``folder/index.html`` with, as of ``now`` (only events up to it count):
 
@@ -6,7 +6,7 @@
   a gear is red when it is ``worn`` (:mod:`femref.fleet.wear`) or one of its impacts raised an alarm in the last
   :data:`RECENT_DAYS` days, amber when it is ``wearing`` or one of its events in those days carries flags (saturated,
   gap), green otherwise; a car red or amber by the same alarms and flags on its couplings. The store ties a gear to a
-  coupling, not to a car (contract C), so a car's light reads its impacts, a gear's its trend and impacts;
+  coupling, not to a car (the fleet manifest, docs/design.md §10.1), so a car's light reads its impacts, a gear's its trend and impacts;
 * the **exceedances** against the alarm limit (:func:`exceedances`: the rows whose alarm is certain or possible,
   newest first) with every estimator's peak of them (the estimates' rows);
 * the **distributions** of closing speed and peak force of the impacts, by impact type, and the events that are not
@@ -51,9 +51,9 @@ EVENT_COLUMNS = ("event_key", "recording", "event_index", "time", "track", "file
                  "closing_speed", "closing_speed_lower", "closing_speed_upper", "estimator", "peak_force", "peak_force_lower", "peak_force_upper",
                  "alarm_limit", "alarm", "closure_force", "closure_status", "wear_limit", "wear", "flags", "femref_version", "calibration", "network",
                  "histories")
-"""Contract D's columns of ``read_events``."""
+"""The event store's columns of ``read_events``."""
 ESTIMATE_COLUMNS = ("event_key", "coupler", "estimator", "status", "peak_force", "lower", "upper", "time_of_peak")
-"""Contract D's columns of ``read_estimates``."""
+"""The event store's columns of ``read_estimates``."""
 ALARMED = ("certain", "possible")
 NOT_AN_IMPACT = "not_an_impact"
 RECENT_DAYS = 7.0
@@ -78,7 +78,7 @@ class Light:
 def write_fleet_report(events: pd.DataFrame, estimates: pd.DataFrame, folder: str | Path, *, now: pd.Timestamp | str | None = None,
                        horizon_days: float = 30.0, store_folder: str | Path | None = None, all_event_pages: bool = False,
                        progress: Callable[[int, int], None] | None = None) -> Path:
-    """Write the fleet report of ``events`` and ``estimates`` (contract D's DataFrames) to ``folder/index.html`` with
+    """Write the fleet report of ``events`` and ``estimates`` (the event store's frames, docs/design.md §10.2) to ``folder/index.html`` with
     ``events.csv`` (and ``events.xlsx`` with openpyxl) beside it; return the page's path.
 
     ``now`` (UTC, default the wall clock): the report's time — later events are left out, the lights look
@@ -88,7 +88,7 @@ def write_fleet_report(events: pd.DataFrame, estimates: pd.DataFrame, folder: st
     ValueError on a missing column, a bad ``horizon_days`` or a ``folder`` that holds something else than a report."""
     missing = [c for c in EVENT_COLUMNS if c not in events.columns] + [f"estimates.{c}" for c in ESTIMATE_COLUMNS if c not in estimates.columns]
     if missing:
-        raise ValueError(f"the event store's frames lack the columns {', '.join(missing)} (contract D: femref.fleet.store.read_events/read_estimates)")
+        raise ValueError(f"the event store's frames lack the columns {', '.join(missing)} (femref.fleet.store.read_events/read_estimates)")
     folder = Path(folder)
     _check_folder(folder)
     store_folder = Path(store_folder) if store_folder is not None else folder.resolve().parent

@@ -32,7 +32,7 @@ def can_write_xlsx() -> bool:
 
 
 def write_exports(events: pd.DataFrame, folder: Path) -> list[Path]:
-    """``events.csv`` and, with openpyxl, ``events.xlsx`` of ``events`` (contract D's rows, newest first) in ``folder``."""
+    """``events.csv`` and, with openpyxl, ``events.xlsx`` of ``events`` (rows, newest first) in ``folder``."""
     table = events.rename(columns=header)
     csv = folder / CSV_NAME
     table.to_csv(csv, index=False, encoding="utf-8-sig", date_format="%Y-%m-%dT%H:%M:%S.%fZ")

@@ -3,8 +3,6 @@ each) give the events cases/measured_yard.yaml finds in the whole stream."""
 
 from __future__ import annotations
 
-import sys
-import types
 from contextlib import contextmanager
 
 import distributed
@@ -15,7 +13,7 @@ from click.testing import CliRunner
 from femref.case import load_case
 from femref.cli import main
 from femref.fleet import runner
-from femref.fleet.store import ESTIMATE_COLUMNS, EVENT_COLUMNS, read_estimates, read_events
+from femref.fleet.store import read_estimates, read_events
 from femref.run.measured import run_measured
 from femref.scene.build import scene_from_case
 from support.measured import yard_case_with_inverse_estimators
@@ -26,26 +24,26 @@ def test_the_example_fleet_finds_the_gallery_streams_events(tmp_path, monkeypatc
     """The same trigger instants (on each file's own clock, the events' times less the recordings' starts), types, and
     inverse peaks within 0.3 % of the whole-stream case's (measured: at most 0.11 %, inverse_quasi_rigid: the running
     baseline removed from the records starts from a shorter quiet stretch, the records differ by a few mm/s²); the
-    gentle impact below the alarm limit and the gear open, the hard one above it and solid. The fleet report is called
-    with the store's frames and OUT/report."""
+    gentle impact below the alarm limit and the gear open, the hard one above it and solid. The fleet report is written
+    to OUT/report, its exceedance the hard impact; ``femref report OUT/events.sqlite -o FOLDER`` writes it again from the store."""
     @contextmanager
     def in_process(scheduler, workers, given):
         with distributed.Client(processes=False, n_workers=1, threads_per_worker=1, dashboard_address=":0") as local:
             yield local
 
-    reported = []
-
-    def write_fleet_report(events, estimates, folder):  # the fleet report's entry point, as femref fleet calls it
-        reported.append((list(events.columns), list(estimates.columns), len(events), folder))
-        return folder / "index.html"
-
     monkeypatch.setattr(runner, "dask_client", in_process)
-    monkeypatch.setitem(sys.modules, "femref.report.fleet", types.SimpleNamespace(write_fleet_report=write_fleet_report))
     out = tmp_path / "yard"
     result = CliRunner().invoke(main, ["fleet", str(CASES / "fleet" / "yard.yaml"), "-o", str(out)])
     assert result.exit_code == 0, result.output
     assert "2 run now" in result.output and "events: 2 (free_to_roll 2); alarms: certain 1" in result.output
-    assert reported == [(list(EVENT_COLUMNS), list(ESTIMATE_COLUMNS), 2, out / "report")] and f"wrote {out / 'report' / 'index.html'}" in result.output
+    assert f"wrote {out / 'report' / 'index.html'}" in result.output
+    page = (out / "report" / "index.html").read_text(encoding="utf-8")
+    assert "G0001" in page and "H0001, A0001" in page
+    exported = pd.read_csv(out / "report" / "events.csv", encoding="utf-8-sig")
+    assert len(exported) == 2
+    again = CliRunner().invoke(main, ["report", str(out / "events.sqlite"), "-o", str(tmp_path / "again")])
+    assert again.exit_code == 0, again.output
+    assert pd.read_csv(tmp_path / "again" / "events.csv", encoding="utf-8-sig").equals(exported)
     events = read_events(out / "events.sqlite").sort_values("time", ignore_index=True)
     estimates = read_estimates(out / "events.sqlite").set_index(["event_key", "estimator"])
     stream = run_measured(scene_from_case(load_case(yard_case_with_inverse_estimators(tmp_path)))).events

@@ -1,4 +1,4 @@
-"""The event store on its own: contract D's columns and dtypes, a recording replaced whole in one transaction, no
+"""The event store on its own: the event store's columns and dtypes, a recording replaced whole in one transaction, no
 duplicate row possible, and files that are not this fleet's store refused."""
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import pytest
 
 from femref.fleet.store import ESTIMATE_COLUMNS, EVENT_COLUMNS, EventStore, RecordingRow, StoreError, read_estimates, read_events
 
-#: Contract D, written out: the events columns in order.
+#: The event store's columns, written out: the events columns in order.
 CONTRACT_EVENTS = ["event_key", "recording", "event_index", "time", "track", "files", "cars", "coupler", "car_front", "car_rear", "gear",
                    "event_type", "closing_speed", "closing_speed_lower", "closing_speed_upper", "estimator", "peak_force",
                    "peak_force_lower", "peak_force_upper", "alarm_limit", "alarm", "closure_force", "closure_status", "wear_limit", "wear",

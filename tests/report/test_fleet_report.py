@@ -1,4 +1,4 @@
-"""The fleet report (femref.report.fleet) of synthetic event-store frames (contract D's columns): the exceedance table
+"""The fleet report (femref.report.fleet) of synthetic event-store frames (the event store's columns, docs/design.md §10.2): the exceedance table
 against a pandas filter, the CSV through pandas, the traffic lights against their rule recomputed here, a wearing gear
 amber before it crosses and red after, event pages linked, the folder written whole or not at all, and the page in
 headless Chromium (the check of tests/report/test_report.py)."""
@@ -150,7 +150,7 @@ def test_a_wearing_gear_is_amber_before_it_crosses_and_red_after(tmp_path, day, 
 
 def test_the_folder_is_written_whole_or_refused(tmp_path):
     """A rerun replaces the previous report (no temporary left beside it); a folder holding anything else is refused with
-    nothing written; a frame without contract D's columns is refused."""
+    nothing written; a frame without the event store's columns is refused."""
     events = fleet_events(cars=3, days=3, seed=1)
     estimates = estimates_of(events)
     folder = tmp_path / "report"
@@ -252,32 +252,16 @@ def test_the_page_renders_in_chromium(fleet, tmp_path):
     assert facts["width"] == "1280/1280"
 
 
-def test_the_command_renders_a_store(tmp_path, monkeypatch):
-    """``femref report OUT/events.sqlite`` knows the store by its SQLite header, reads it with femref.fleet.store's readers
-    (here stand-ins returning the synthetic frames: the store is FLEET's, tested in tests/fleet) and writes OUT/report/;
-    a store that its readers refuse exits 2 with nothing written."""
+def test_the_command_refuses_an_sqlite_file_that_is_no_store(tmp_path):
+    """``femref report X.sqlite`` knows a store by its SQLite header and reads it with femref.fleet.store's readers (the
+    store written by ``femref fleet``: tests/fleet/test_fleet_example.py renders one); an SQLite file that is no event
+    store exits 2 with nothing written."""
     import sqlite3
-    import types
 
     from femref.cli.report import report_command
 
-    events = fleet_events(cars=3, days=8, seed=6)
     store = tmp_path / "events.sqlite"
-    sqlite3.connect(store).close()
     with sqlite3.connect(store) as connection:
         connection.execute("CREATE TABLE t (x)")
-    readers = types.ModuleType("femref.fleet.store")
-    readers.read_events = lambda path: events if Path(path) == store else None
-    readers.read_estimates = lambda path: estimates_of(events)
-    monkeypatch.setitem(__import__("sys").modules, "femref.fleet.store", readers)
-    done = CliRunner().invoke(report_command, [str(store)])
-    assert done.exit_code == 0, done.output
-    page = (tmp_path / "report" / "index.html").read_text(encoding="utf-8")
-    assert "femref fleet report" in page and (tmp_path / "report" / "events.csv").is_file()
-
-    def refuse(path):
-        raise sqlite3.DatabaseError("no such table: events")
-
-    readers.read_events = refuse
     done = CliRunner().invoke(report_command, [str(store), "-o", str(tmp_path / "other")])
     assert done.exit_code == 2 and "not a femref event store" in done.output and not (tmp_path / "other").exists()

@@ -1,4 +1,4 @@
-"""Synthetic event-store frames (contract D's columns) for the wear-trend and fleet-report tests.
+"""Synthetic event-store frames (the event store's columns, docs/design.md §10.2) for the wear-trend and fleet-report tests.
 
 A fleet of cars ``C0001…`` whose couplings are recorded once a day per car: each day every car is the rear car of one
 recording with a random front car, the coupler's gear is the rear car's (``G0001…``), its closure force the gear's
@@ -30,7 +30,7 @@ def alarm_of(lower: float, upper: float, limit: float) -> str:
 
 def fleet_events(cars: int = 20, days: int = 30, seed: int = 0, closure: Callable[[str, float], float] | None = None,
                  scatter: float = 0.015, hot: float = 0.01, saturated: float = 0.01, gaps: float = 0.0) -> pd.DataFrame:
-    """Contract D's events of ``cars`` cars over ``days`` days; ``closure(gear, day)`` the gear's true closure force (N;
+    """events of ``cars`` cars over ``days`` days; ``closure(gear, day)`` the gear's true closure force (N;
     default ``RATED`` for every gear), scattered by ``scatter`` × rated. Peaks are 0.75 MN per m/s of closing speed (below
     the alarm limit) but for a share ``hot`` of impacts at 2.4–3.2 MN; a share ``saturated`` is flagged saturated (its alarm at least possible), a share ``gaps`` flagged with a gap."""
     closure = closure or (lambda gear, day: RATED)
