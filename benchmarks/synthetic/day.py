@@ -243,6 +243,12 @@ class FilePlan:
         return f"{self.recorder.name}_{int(seconds // 3600):02d}-{int(seconds % 3600 // 60):02d}-{seconds % 60:06.3f}"
 
 
+def file_start(stem: str) -> float:
+    """The clock time (s) a file starts at, from its name (:attr:`FilePlan.stem`: ``r2_HH-MM-SS.sss``)."""
+    hours, minutes, seconds = stem.split("_", 1)[1].split("-")
+    return int(hours) * 3600.0 + int(minutes) * 60.0 + float(seconds)
+
+
 def file_plans(day: Day) -> list[FilePlan]:
     """Each recorder's files: one per hour of its own clock, a new one where its clock starts again (whole seconds)."""
     plans = []
