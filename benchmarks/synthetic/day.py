@@ -48,8 +48,8 @@ G = 9.80665
 IMPACTS_PER_HOUR = 8.4
 JOINTS_PER_HOUR = 2.0
 BURSTS_PER_HOUR = 1.0
-SLOTS = {"impact": 20.0, "track_joint": 10.0, "noise_burst": 10.0}
-"""s each occurrence holds to itself; an impact's slot makes impacts at least 20 s apart."""
+SLOTS = {"impact": 21.0, "track_joint": 10.0, "noise_burst": 10.0}
+"""s each occurrence holds to itself; an impact's slot (its contact up to 1 s late in it) makes impacts at least 20 s apart."""
 LEAD = 5.0
 """s from a slot's start to its occurrence."""
 EDGE = 10.0

@@ -2,8 +2,7 @@
 holds what its truth says.
 
 The impacts here come from a closed form, not the fem library (that takes minutes): a rigid pair through a
-Kelvin–Voigt coupler, ``m_r a_r = −P``, ``m_f a_f = P`` for half a damped period, every probe of a car alike. The
-records are then checked against that closed form at the reference times the truth's clocks give for each recorder's
+Kelvin–Voigt coupler (:func:`support.synthetic.rigid_pair`). The records are then checked against that closed form at the reference times the truth's clocks give for each recorder's
 ticks (``t = (c − offset)/(1 + drift)``): what remains is the recorders' noise and offsets, so the placement, the
 clocks, the restart and the units are each checked by a second path."""
 
@@ -15,38 +14,10 @@ import numpy as np
 import pytest
 
 from femref.sensing.record_files import MAX_RECORD_SAMPLES, SampleLimit, format_of, key_of, read_columns
-from support.synthetic import day, impacts, writers
+from support.synthetic import closed_form_library, day, rigid_pair, writers
 
 HOURS = 0.2
-M_REAR, M_FRONT, OMEGA, ZETA = 119e3, 100e3, 40.0, 0.2
 LIMIT = SampleLimit(MAX_RECORD_SAMPLES, "the test's limit")
-
-
-def rigid_pair(t: np.ndarray, speed: float, coupled: bool) -> dict[str, np.ndarray]:
-    """The pair's accelerations (m/s²) at ``t`` (s from contact): ``P = m*(ω²x + 2ζωẋ)`` over the first half period of
-    ``x = v/ω_d e^{−ζωτ} sin ω_d τ``; a coupled pair is pulled back by the opposite pulse after it (no net Δv)."""
-    m_star = M_REAR * M_FRONT / (M_REAR + M_FRONT)
-    wd = OMEGA * math.sqrt(1.0 - ZETA**2)
-    half = math.pi / wd
-
-    def pulse(tau: np.ndarray) -> np.ndarray:
-        tau = np.clip(tau, 0.0, half)
-        x = speed / wd * np.exp(-ZETA * OMEGA * tau) * np.sin(wd * tau)
-        rate = speed * np.exp(-ZETA * OMEGA * tau) * (np.cos(wd * tau) - ZETA * OMEGA / wd * np.sin(wd * tau))
-        return np.where((tau > 0.0) & (tau < half), m_star * (OMEGA**2 * x + 2 * ZETA * OMEGA * rate), 0.0)
-
-    force = pulse(t) - (pulse(t - half) if coupled else 0.0)
-    return {probe: (-force / M_REAR if probe.startswith("car1") else force / M_FRONT) for probe in impacts.PROBES}
-
-
-def closed_form_library() -> list:
-    time = np.arange(0.0, 0.5, 1e-3)
-    specs = [impacts.ImpactSpec("draft_gear", 2.0), impacts.ImpactSpec("coupled", 1.5)]
-    library = []
-    for spec in specs:
-        a = rigid_pair(time, spec.speed, spec.impact_type == "coupled")
-        library.append(impacts.SimulatedImpact(spec, time, a, time, np.zeros(time.size), np.zeros(time.size)))
-    return library
 
 
 @pytest.fixture(scope="module")
