@@ -206,9 +206,9 @@ class Signals:
         out = np.zeros((t.size, len(recorder.probes)))
         columns = [PROBES.index(p) for p in recorder.probes]
         for occurrence, (start, end) in zip(self.day.occurrences, self.spans):
-            inside = (t >= start) & (t <= end)
-            if not inside.any():
+            if end < t[0] or start > t[-1]:
                 continue
+            inside = slice(int(np.searchsorted(t, start, side="left")), int(np.searchsorted(t, end, side="right")))  # t increases
             if occurrence.kind == "impact":
                 out[inside] += self.splines[occurrence.params["library"]](t[inside] - occurrence.time)[:, columns]
             elif occurrence.kind == "track_joint":
