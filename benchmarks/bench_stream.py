@@ -13,8 +13,9 @@ against its truth.json:
 * **transients**: the events at a track joint or noise burst, and whether each is ``not_an_impact``;
 * **hand cut**: each event's window (``start``–``end`` on the reference clock, :data:`MARGIN` either side, at least
   ``pre + post`` long as a case's records must be; an event cut short by the next runs into it) is cut from
-  the recorders' files (read by femref's reader), recorder r2's with the clock correction the run reports for the event
-  (``/events/<i>/clock/r2`` ``correction``, written as the cut's ``clock_offset``), as a short single-file case (HDF5,
+  the recorders' files (read by femref's reader), recorder r2's with its declared ``clock_offset`` plus the clock
+  correction the run reports for the event (``/events/<i>/clock/r2`` ``correction``) as the cut's ``clock_offset``, as
+  a short single-file case (HDF5,
   the values as read) run in process (:func:`femref.run.measured.run_measured`); every number, string and history of
   the run's event and the cut's event nearest its trigger (but wall times, the clock group and estimator settings) is
   compared, numbers to :data:`RTOL`.
@@ -185,7 +186,7 @@ def hand_cut(folder: Path, case: dict[str, Any], files: list[RecorderFiles], eve
     folder.mkdir(parents=True, exist_ok=True)
     for recorder in files:
         record = recorder.record
-        correction = 0.0 if record is case["records"][0] else float(event[f"clock/{record['recorder']}@correction"])
+        correction = record.get("clock_offset", 0.0) + (0.0 if record is case["records"][0] else float(event[f"clock/{record['recorder']}@correction"]))
         columns = recorder.window(event["start"] - correction - MARGIN, end - correction + MARGIN)
         _, _, probes = requests(record)
         with h5py.File(folder / f"{record['recorder']}.h5", "w") as h5:

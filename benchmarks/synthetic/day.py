@@ -3,8 +3,10 @@
     python benchmarks/synthetic/day.py --hours 24 --out build/synthetic/day [--formats csv,hdf5,mdf4,tdms,uff58] [--seed 1]
 
 Recorder ``r1`` on car 1 (rear, centre, front; in g) is the reference clock; recorder ``r2`` on car 2 (rear, centre; in
-m/s², CSV with ``;`` and decimal commas) runs 50 ppm fast with an offset, ``c = offset + (1 + 50e-6) t``, and restarts once:
-it stops for 50–70 s, and its new file starts on a whole second of a clock set again (a new offset). On this:
+m/s², CSV with ``;`` and decimal commas) runs 50 ppm fast with an offset, ``c = offset + (1 + 50e-6) t``: 7.3125 s, of
+which the case declares the 7 s the installer noted (``clock_offset: -7``), the rest and the drift left to estimate
+(``clock_drift: estimate``). It restarts once: it stops for 50–70 s, its clock keeps running but comes back 0.4375 s
+behind its line (a new offset), and its new file starts on a whole second. On this:
 
 * impacts, 8.4 an hour (202 in 24 h) at random times at least 20 s apart, each drawn from the fem library of
   :mod:`impacts` (free to roll and coupled, 1–4 m/s, three gears; the cars ring until they rest), placed at a random
@@ -61,8 +63,10 @@ RESTART_MARGIN = 20.0
 NOISE = 0.05
 """m/s²: the recorders' white noise."""
 DRIFT_PPM = 50.0
-CLOCK_OFFSETS = (7.0, 2.4375)
-"""s: recorder r2's clock ahead of r1's before and after its restart (the first a whole second: its first file's start)."""
+CLOCK_OFFSETS = (7.3125, 6.875)
+"""s: recorder r2's clock ahead of r1's before and after its restart."""
+DECLARED_OFFSET = -7.0
+"""s: r2's ``clock_offset`` in the case, what its installer noted (added to its times)."""
 TRIGGER = {"trigger": 3.0, "pre": 0.5, "post": 2.5}
 CHECKS = {"alarm": 2.5e6, "rated_closure_force": 2.016e6, "wear_tolerance": 0.15}
 ESTIMATORS = ["inverse_rigid", "kalman"]
@@ -292,7 +296,7 @@ def case_data(fmt: str) -> dict[str, Any]:
         if fmt == "csv" and recorder.dialect != Dialect():
             record.update(separator=recorder.dialect.separator, decimal=recorder.dialect.decimal)
         if recorder is not RECORDERS[0]:
-            record["clock_drift"] = "estimate"
+            record.update(clock_offset=DECLARED_OFFSET, clock_drift="estimate")
         record["anti_alias"] = {"corner": LOWPASS, "order": 4}
         record["channels"] = {probe: {key: source(recorder, column), "unit": recorder.unit} for probe, column in zip(recorder.probes, recorder.columns)}
         records.append(record)
@@ -318,7 +322,8 @@ def truth(day: Day, library: Sequence[SimulatedImpact], files: dict[str, list[st
               for o in day.occurrences if o.kind != "impact"]
     return {
         "hours": day.seconds / 3600.0, "seconds": day.seconds, "seed": day.seed, "rate": RATE, "noise": NOISE,
-        "recorders": {r.name: {"probes": list(r.probes), "unit": r.unit, "reference": r is RECORDERS[0]} for r in RECORDERS},
+        "recorders": {r.name: {"probes": list(r.probes), "unit": r.unit, "reference": r is RECORDERS[0],
+                               "declared_clock_offset": 0.0 if r is RECORDERS[0] else DECLARED_OFFSET} for r in RECORDERS},
         "clocks": {name: [asdict(c) for c in clocks] for name, clocks in day.clocks.items()},
         "restart": {"recorder": "r2", "stop": r2[0].end, "resume": r2[1].start, "gap": r2[1].start - r2[0].end},
         "drift_ppm": DRIFT_PPM,
