@@ -143,10 +143,8 @@ def plan_day(hours: float, library: Sequence[SimulatedImpact], seed: int = 1) ->
     kinds = (["impact"] * math.ceil(IMPACTS_PER_HOUR * hours) + ["track_joint"] * math.ceil(JOINTS_PER_HOUR * hours)
              + ["noise_burst"] * math.ceil(BURSTS_PER_HOUR * hours))
     gap = float(rng.uniform(*RESTART_GAP))
-    slots = [*rng.permutation(kinds), "restart"]
+    slots = [str(kind) for kind in rng.permutation([*kinds, "restart"])]
     lengths = [SLOTS[kind] if kind != "restart" else gap + 2 * RESTART_MARGIN for kind in slots]
-    order = rng.permutation(len(slots))
-    slots, lengths = [slots[k] for k in order], [lengths[k] for k in order]
     free = seconds - 2 * EDGE - sum(lengths)
     if free <= 0:
         raise ValueError(f"{len(slots)} occurrences need {sum(lengths) + 2 * EDGE:.0f} s; a {hours:g} h day has {seconds:.0f} s")
@@ -193,7 +191,7 @@ def span(occurrence: Occurrence, library: Sequence[SimulatedImpact]) -> tuple[fl
     if occurrence.kind == "impact":
         return occurrence.time, occurrence.time + float(library[p["library"]].time[-1])
     if occurrence.kind == "track_joint":
-        return occurrence.time - 0.5, occurrence.time + max(max(JOINT_AXLES.values())) / p["speed"] + 0.5
+        return occurrence.time - 0.5, occurrence.time + max(s for axles in JOINT_AXLES.values() for s in axles) / p["speed"] + 0.5
     return occurrence.time, occurrence.time + p["duration"]
 
 
@@ -257,12 +255,14 @@ def file_plans(day: Day) -> list[FilePlan]:
     """Each recorder's files: one per hour of its own clock, a new one where its clock starts again (whole seconds)."""
     plans = []
     for recorder in RECORDERS:
-        for k, clock in enumerate(day.clocks[recorder.name]):
+        for clock in day.clocks[recorder.name]:
             first = math.ceil(float(clock.reading(clock.start)))  # a (re)started logger's first file begins on a whole second
             last = math.ceil(float(clock.reading(clock.end)) * RATE)
             hour = (first // 3600 + 1) * 3600 * int(RATE)
             edges = [first * int(RATE), *range(hour, last, 3600 * int(RATE)), last]
-            plans += [FilePlan(recorder, a, b, clock, len(plans)) for a, b in zip(edges[:-1], edges[1:]) if b > a]
+            for a, b in zip(edges[:-1], edges[1:]):
+                if b > a:
+                    plans.append(FilePlan(recorder, a, b, clock, len(plans)))  # its index seeds its noise
     return plans
 
 
