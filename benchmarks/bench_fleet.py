@@ -5,7 +5,7 @@ flagged before its closure force crosses the wear limit.
 
 The fleet of benchmarks/synthetic/fleet.py (written first if ``--fleet`` holds no manifest) is run by ``femref fleet
 MANIFEST -o OUT --workers N --no-progress`` in a child process for N = 1 and 2, each into a fresh folder: wall time,
-the client's peak memory (its ``ru_maxrss``; the workers are its children), events and record megabytes per second.
+the client's peak memory (its VmHWM; the workers are processes of their own), events and record megabytes per second.
 The two stores' events (:func:`femref.fleet.store.read_events`, sorted by event and coupler) must be equal, every
 column. Then the worn gear's trend (:func:`femref.fleet.wear.gear_trends`) is replayed day by day, each day seeing
 only the events up to its midnight: the first day the worn gear is ``wearing`` or ``worn`` must come before the day
@@ -20,9 +20,7 @@ import json
 import math
 import os
 import shutil
-import subprocess
 import sys
-import time
 from pathlib import Path
 from typing import Any
 
@@ -30,6 +28,7 @@ import yaml
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from bench_stream import femref_child  # noqa: E402
 from synthetic import fleet  # noqa: E402
 
 FLAGGED = ("wearing", "worn")
@@ -37,15 +36,10 @@ FLAGGED = ("wearing", "worn")
 
 def femref_fleet(manifest: Path, out: Path, workers: int) -> dict[str, Any]:
     """``femref fleet manifest -o out --workers N --no-progress`` in a child process: wall time, the client's peak
-    memory, exit code, its output."""
-    command = [sys.executable, "-c", "from femref.cli import main; main()", "fleet", str(manifest.resolve()), "-o", str(out.resolve()),
-               "--workers", str(workers), "--no-progress"]
-    started = time.perf_counter()
-    child = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=out.parent)  # femref from the path
-    output = child.stdout.read() if child.stdout else ""
-    _, status, usage = os.wait4(child.pid, 0)
-    return {"workers": workers, "wall_s": time.perf_counter() - started, "client_peak_mb": usage.ru_maxrss / 1024.0,
-            "returncode": os.waitstatus_to_exitcode(status), "output": output[-4000:]}
+    memory (its VmHWM; the workers are processes of their own), exit code, its output."""
+    arguments = ["fleet", str(manifest.resolve()), "-o", str(out.resolve()), "--workers", str(workers), "--no-progress"]
+    wall, peak, code, output = femref_child(arguments, out.parent, out.parent / f"{out.name}.log")
+    return {"workers": workers, "wall_s": wall, "client_peak_mb": peak, "returncode": code, "output": output}
 
 
 def same_store(first: Path, second: Path) -> tuple[bool, str]:

@@ -1,16 +1,17 @@
 """The synthetic day through ``femref run``: cost, memory, every impact found once, and each event as cut by hand.
 
     python benchmarks/bench_stream.py [--hours 24] [--formats csv,hdf5,mdf4,tdms,uff58] [--lengths 1,4,12,24]
-                                      [--length-format csv] [--out build/bench_stream] [--json build/bench_stream.json] [--keep]
+                                      [--length-format csv] [--out build/bench_stream] [--json build/bench_stream.json] [--margin 0.05] [--no-cut] [--keep]
 
 For each format the day of benchmarks/synthetic/day.py (seed 1) is written, run by ``femref run <format>/day.yaml -o
-events.h5`` in a child process (wall time; peak memory: the child's ``ru_maxrss`` from ``os.wait4``) and scored
+events.h5`` in a child process (wall time; peak memory: the child's VmHWM, :data:`PEAK_MEMORY_CHILD`) and scored
 against its truth.json:
 
-* **impacts**: an event whose trigger lies within :data:`MATCH` of an impact's contact matches it; each impact is
-  found once (one event of an impact type), missed (none) or split (more); an event of an impact type matching
-  nothing is a phantom; the impact type is compared with the truth's;
-* **transients**: the events at a track joint or noise burst, and whether each is ``not_an_impact``;
+* **impacts**: an event whose window (``start``–``end``) holds an impact's contact matches it; each impact is found
+  once (one event of an impact type), missed (none) or split (more); an event of an impact type matching nothing is a
+  phantom; the impact type is compared with the truth's, and the trigger's delay after the contact is reported;
+* **transients**: the events at a track joint or noise burst (its time in the window or :data:`TRANSIENT_LEAD` before
+  it), and whether each is ``not_an_impact``;
 * **hand cut**: each event's window (``start``–``end`` on the reference clock, :data:`MARGIN` either side, at least
   ``pre + post`` long as a case's records must be; an event cut short by the next runs into it) is cut from
   the recorders' files (read by femref's reader), recorder r2's with its declared ``clock_offset`` plus the clock
@@ -48,12 +49,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from synthetic import day  # noqa: E402
 from synthetic.writers import FORMATS  # noqa: E402
 
-MATCH = (-0.05, 1.0)
-"""s: an event's trigger time minus an impact's contact time within this interval matches it (the trigger fires on the
-first samples above its level, a few ms to tens of ms after contact)."""
-TRANSIENT_MATCH = (-1.0, 2.5)
-"""s: an event's trigger minus a joint's or burst's time within this interval belongs to it (a joint jolts car 2 first,
-car 1 up to 1.4 s later)."""
+TRANSIENT_LEAD = 0.5
+"""s: an event belongs to a joint or burst whose time lies in its window or up to this before it (a joint jolts car 2
+first, car 1 up to 1.4 s later)."""
 MARGIN = 0.05
 """s of records either side of an event's window in its hand cut (interpolation needs the samples around the window)."""
 RTOL = 1e-9
@@ -65,7 +63,7 @@ group (the hand cut declares the correction instead)."""
 
 @dataclass(frozen=True)
 class RunCost:
-    """A child run's ``wall`` time (s), peak resident memory (``peak_mb``, MB), exit code and the end of its stderr."""
+    """A child run's ``wall`` time (s), peak resident memory (``peak_mb``, MB: its VmHWM), exit code and the end of its stderr."""
 
     wall: float
     peak_mb: float
@@ -73,18 +71,35 @@ class RunCost:
     stderr: str
 
 
-def femref_run(case: Path, output: Path) -> RunCost:
-    """``femref run case -o output`` in a child process, timed, its peak memory read from its rusage."""
-    command = [sys.executable, "-c", "from femref.cli import main; main()", "run", str(case.resolve()), "-o", str(output.resolve())]
+PEAK_MEMORY_CHILD = ("import atexit, os\n"
+                     "def peak():\n"
+                     "    with open('/proc/self/status') as status, open(os.environ['BENCH_VMHWM'], 'w') as out:\n"
+                     "        out.write(next(line for line in status if line.startswith('VmHWM')).split()[1])\n"
+                     "atexit.register(peak)\n"
+                     "from femref.cli import main\n"
+                     "main()\n")
+"""``femref`` in the child, writing its VmHWM (kB) at exit to the file ``$BENCH_VMHWM``. Not the child's ``ru_maxrss``:
+Linux carries the parent's peak into it across fork and exec."""
+
+
+def femref_child(arguments: list[str], cwd: Path, log: Path) -> tuple[float, float, int, str]:
+    """``femref ARGUMENTS`` in a child process (working directory ``cwd``, not the tree: femref from the path, output
+    to ``log``): its wall time (s), peak memory (MB), exit code and the end of its output."""
+    peak = log.with_suffix(".vmhwm")
+    peak.unlink(missing_ok=True)
     started = time.perf_counter()
-    with open(output.with_suffix(".stderr"), "w+") as stderr:
-        child = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=stderr, cwd=case.parent)  # not the working tree: femref from the path
-        _, status, usage = os.wait4(child.pid, 0)
+    with open(log, "w+") as output:
+        code = subprocess.call([sys.executable, "-c", PEAK_MEMORY_CHILD, *arguments], stdout=output, stderr=subprocess.STDOUT, cwd=cwd,
+                               env={**os.environ, "BENCH_VMHWM": str(peak.resolve())})
         wall = time.perf_counter() - started
-        child.returncode = os.waitstatus_to_exitcode(status)
-        stderr.seek(0)
-        tail = stderr.read()[-2000:]
-    return RunCost(wall, usage.ru_maxrss / 1024.0, child.returncode, tail)
+        output.seek(0)
+        tail = output.read()[-4000:]
+    return wall, (float(peak.read_text()) / 1024.0 if peak.exists() else math.nan), code, tail
+
+
+def femref_run(case: Path, output: Path) -> RunCost:
+    """``femref run case -o output`` in a child process, timed, with its peak memory."""
+    return RunCost(*femref_child(["run", str(case.resolve()), "-o", str(output.resolve())], case.parent, output.with_suffix(".log")))
 
 
 def read_event_file(path: Path) -> list[dict[str, Any]]:
@@ -115,21 +130,23 @@ def score(events: list[dict[str, Any]], truth: dict[str, Any]) -> dict[str, Any]
     claimed = set()
     for k, event in enumerate(events):
         for i, impact in enumerate(impacts):
-            if MATCH[0] <= event["trigger_time"] - impact["time"] <= MATCH[1]:
+            if event["start"] <= impact["time"] <= event["end"]:
                 matches[i].append(k)
                 claimed.add(k)
     transients: dict[str, list[str]] = {"track_joint": [], "noise_burst": []}
     for other in truth["not_impacts"]:
-        near = [e for e in events if TRANSIENT_MATCH[0] <= e["trigger_time"] - other["time"] <= TRANSIENT_MATCH[1]]
+        near = [e for e in events if e["start"] - TRANSIENT_LEAD <= other["time"] <= e["end"]]
         transients[other["kind"]] += [e["impact_type"] for e in near] or ["not found"]
         claimed |= {events.index(e) for e in near}
     found_once = [m for m in matches if len(m) == 1 and events[m[0]]["impact_type"] in IMPACT_TYPES]
     phantoms = [e["trigger_time"] for k, e in enumerate(events) if k not in claimed and e["impact_type"] != "not_an_impact"]
     types = [events[m[0]]["impact_type"] == impacts[i]["type"] for i, m in enumerate(matches) if len(m) == 1]
+    delays = [events[m[0]]["trigger_time"] - impacts[i]["time"] for i, m in enumerate(matches) if len(m) == 1]
     return {
         "impacts": len(impacts), "events": len(events), "found_once": len(found_once), "missed": sum(not m for m in matches),
         "split": sum(len(m) > 1 for m in matches), "phantoms": len(phantoms), "phantom_times": phantoms,
         "type_agrees": int(sum(types)), "type_differs": int(len(types) - sum(types)),
+        "trigger_delay_s": [min(delays, default=math.nan), max(delays, default=math.nan)],
         "transients": {kind: {"count": len(classes), "not_an_impact": classes.count("not_an_impact"), "classes": sorted(set(classes))}
                        for kind, classes in transients.items()},
         "unclaimed_not_an_impact": sum(k not in claimed and e["impact_type"] == "not_an_impact" for k, e in enumerate(events)),
@@ -172,7 +189,7 @@ class RecorderFiles:
         return [np.concatenate([p[k] for p in parts]) for k in range(len(parts[0]))]
 
 
-def hand_cut(folder: Path, case: dict[str, Any], files: list[RecorderFiles], event: dict[str, Any]) -> dict[str, Any]:
+def hand_cut(folder: Path, case: dict[str, Any], files: list[RecorderFiles], event: dict[str, Any], margin: float = MARGIN) -> dict[str, Any]:
     """The event's window cut from the recorders' files (module docstring), run in process; the cut's event (flat)."""
     from femref.case import load_case
     from femref.events import event_file
@@ -182,12 +199,12 @@ def hand_cut(folder: Path, case: dict[str, Any], files: list[RecorderFiles], eve
     cut = {key: value for key, value in case.items() if key != "records"}
     cut["records"] = []
     settings = case["events"]
-    end = max(event["end"], event["start"] + settings.get("pre", 0.05) + settings["post"] + MARGIN)  # a case's records span pre + post
+    end = max(event["end"], event["start"] + settings.get("pre", 0.05) + settings["post"] + margin)  # a case's records span pre + post
     folder.mkdir(parents=True, exist_ok=True)
     for recorder in files:
         record = recorder.record
         correction = record.get("clock_offset", 0.0) + (0.0 if record is case["records"][0] else float(event[f"clock/{record['recorder']}@correction"]))
-        columns = recorder.window(event["start"] - correction - MARGIN, end - correction + MARGIN)
+        columns = recorder.window(event["start"] - correction - margin, end - correction + margin)
         _, _, probes = requests(record)
         with h5py.File(folder / f"{record['recorder']}.h5", "w") as h5:
             h5["time"] = columns[0]
@@ -237,7 +254,7 @@ def differences(run: dict[str, Any], cut: dict[str, Any]) -> tuple[float, list[s
     return worst, differ
 
 
-def bench_format(out: Path, fmt: str, hours: float, cut: bool) -> dict[str, Any]:
+def bench_format(out: Path, fmt: str, hours: float, cut: bool, margin: float = MARGIN) -> dict[str, Any]:
     """Write the day in ``fmt``, run it, score it and (``cut``) compare each event with its hand cut."""
     folder = out / f"day_{hours:g}h"
     started = time.perf_counter()
@@ -258,7 +275,7 @@ def bench_format(out: Path, fmt: str, hours: float, cut: bool) -> dict[str, Any]
         files = [RecorderFiles(folder / fmt, record) for record in case["records"]]
         worst, failing = 0.0, {}
         for event in sorted(events, key=lambda e: e["start"]):
-            found = hand_cut(folder / "cut", case, files, event)
+            found = hand_cut(folder / "cut", case, files, event, margin)
             relative, differ = differences(event, found)
             worst = max(worst, relative)
             if differ:
@@ -276,11 +293,12 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=Path("build/bench_stream"))
     parser.add_argument("--json", type=Path, default=Path("build/bench_stream.json"))
     parser.add_argument("--no-cut", action="store_true", help="skip the hand cuts")
+    parser.add_argument("--margin", type=float, default=MARGIN, help="s of records either side of an event's window in its hand cut")
     parser.add_argument("--keep", action="store_true", help="keep the written days")
     args = parser.parse_args()
     results: dict[str, Any] = {"formats": [], "lengths": []}
     for fmt in [f for f in args.formats.split(",") if f]:
-        row = bench_format(args.out, fmt, args.hours, not args.no_cut)
+        row = bench_format(args.out, fmt, args.hours, not args.no_cut, args.margin)
         results["formats"].append(row)
         print(json.dumps({k: v for k, v in row.items() if k not in ("hand_cut_differences", "phantom_times", "stderr")}), flush=True)
         if not args.keep:
