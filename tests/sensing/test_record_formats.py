@@ -15,7 +15,7 @@ import pytest
 
 from femref.sensing import record_files
 from femref.sensing.record_files import RecordError, SampleLimit, read_columns
-from femref.sensing.recordings import ChannelSource, RecordFile, TimeSource, read_record_file
+from femref.sensing.recordings import ChannelSource, RecordFile, TimeSource, read_records
 
 T = np.arange(2000) / 1000.0
 FRONT = np.round(3.0 * np.sin(2 * np.pi * 7.0 * T) + 0.125, 6)  # 7 digits: UFF58's ASCII (12 digits) holds them exactly
@@ -62,7 +62,7 @@ def test_a_decimal_comma_in_a_comma_separated_file_is_refused(tmp_path):
 def test_iso_timestamps_are_seconds_from_the_first(tmp_path):
     path = write_csv(tmp_path / "r.csv", iso=True)
     record = RecordFile(path, TimeSource(column="t", unit="iso8601"), 0.0, (ChannelSource("a/front", "front", None, "g"),))
-    channel = read_record_file(record).channels[0]
+    channel = next(iter(read_records([record]).channels.values()))
     np.testing.assert_allclose(channel.time, T, rtol=0, atol=1e-12)
     np.testing.assert_array_equal(channel.acceleration, FRONT * 9.80665)
 
@@ -74,12 +74,12 @@ def test_an_unparseable_or_backward_iso_time_names_the_row(tmp_path):
     path.write_text("\n".join(lines) + "\n")
     record = RecordFile(path, TimeSource(column="t", unit="iso8601"), 0.0, (ChannelSource("a/front", "front", None, "g"),))
     with pytest.raises(RecordError, match=r"r\.csv: time \(column 't'\): row 6 is not an ISO-8601 timestamp"):
-        read_record_file(record)
+        read_records([record])
     lines = write_csv(tmp_path / "r.csv", iso=True).read_text().splitlines()
     lines[5], lines[6] = lines[6], lines[5]
     path.write_text("\n".join(lines) + "\n")
     with pytest.raises(RecordError, match=r"r\.csv: time must increase strictly; sample 6 \(t = 0\.004 s\) goes back"):
-        read_record_file(record)
+        read_records([record])
 
 
 def test_an_iso_time_not_declared_says_how_to_declare_it(tmp_path):
@@ -162,10 +162,10 @@ def test_the_files_unit_is_taken_and_a_declared_one_must_agree(tmp_path, fmt):
     path = written(tmp_path, fmt)
     _, keys, _ = FILES[fmt]
     record = RecordFile(path, TimeSource(channel=keys[0]), 0.0, (ChannelSource("a/front", None, None, None, channel=keys[1]),))
-    np.testing.assert_allclose(read_record_file(record).channels[0].acceleration, FRONT * 9.80665, rtol=1e-12, atol=1e-11)
+    np.testing.assert_allclose(next(iter(read_records([record]).channels.values())).acceleration, FRONT * 9.80665, rtol=1e-12, atol=1e-11)
     record = RecordFile(path, TimeSource(channel=keys[0]), 0.0, (ChannelSource("a/front", None, None, "m/s^2", channel=keys[1]),))
     with pytest.raises(RecordError, match=r"channel a/front: the case declares unit 'm/s\^2', the file gives 'g'; they must agree"):
-        read_record_file(record)
+        read_records([record])
 
 
 @pytest.mark.parametrize("fmt", ["mdf4", "tdms", "uff58"])
