@@ -8,12 +8,14 @@ The streams are those of measured/streams.py: two recorders of two cars meeting 
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 from click.testing import CliRunner
 
 from femref.case import load_case
@@ -155,3 +157,45 @@ def test_a_record_error_deep_in_the_fifth_of_seven_files_names_it_and_writes_not
     assert result.exit_code == 2, result.output
     assert "r1_04.csv: time must increase strictly; sample 6001 (t = " in result.output and "goes back" in result.output, result.output
     assert not (tmp_path / "out.h5").exists() and not list(tmp_path.glob(".out.h5*"))
+
+
+def test_each_events_clock_is_in_the_event_file_the_table_and_the_report(drifting, tmp_path):
+    """The clock of each event (correction, drift, lag, residual) written to its group ``clock/r2`` as computed, named
+    in the console table's notes and in the report."""
+    import h5py
+    from rich.console import Console
+
+    from femref.cli.tables import event_table
+    from support.measured import write_events
+
+    _, outcome = drifting
+    path = write_events(tmp_path / "events.h5", {"cars": ["a", "b"], "couplers": ["c1"], "estimators": ["inverse_rigid"]}, outcome.events[:3])
+    with h5py.File(path) as h5:
+        for event in outcome.events[:3]:
+            attrs = h5[f"events/{event.index}/clock/r2"].attrs
+            (clock,) = event.clock_corrections
+            assert [attrs[k] for k in ("correction", "drift", "lag", "residual")] == [clock.correction, clock.drift, clock.lag, clock.residual]
+    console = Console(width=400, record=True)
+    console.print(event_table(outcome))
+    assert console.export_text().count("clock r2: correction ") == len(outcome.events)
+    result = CliRunner().invoke(main, ["report", str(path), "-o", str(tmp_path / "report.html")])
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "report.html").read_text().count("clock r2: correction ") == 3
+
+
+@pytest.mark.parametrize(("change", "where", "rule"), [
+    (lambda r: r[0].update(files=["nothing_*.h5"]), r"records\.0\.files\.0", "the glob matches no file"),
+    (lambda r: r[0].update(file="r1_00.h5"), r"records\.0\.file", "give exactly one of file"),
+    (lambda r: r[0].update(clock_drift="estimate"), r"records\.0\.clock_drift", "the first recorder is the reference"),
+    (lambda r: r[1].update(recorder="r1"), r"records\.1\.recorder", "records[0] has the same name"),
+])
+def test_a_recorders_files_and_clock_keys_are_checked(tmp_path, change, where, rule):
+    """A glob matching nothing, ``file`` beside ``files``, the reference recorder's clock estimated, two recorders of
+    one name: exit 2 naming the key and the rule."""
+    stream = write_stream(tmp_path, 60.0, impact_times(60.0, 1, seed=6))
+    data = yaml.safe_load(stream.case.read_text())
+    change(data["records"])
+    stream.case.write_text(yaml.safe_dump(data, sort_keys=False))
+    result = CliRunner().invoke(main, ["run", str(stream.case), "-o", str(tmp_path / "out.h5")])
+    assert result.exit_code == 2, result.output
+    assert rule in result.output and re.search(where, result.output.replace("[", ".").replace("]", "")), result.output
