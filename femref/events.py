@@ -153,7 +153,7 @@ class EventResult:
     wear: str = "unknown"
     wear_basis: str = ""
     clock_corrections: tuple[ClockCorrection, ...] = ()
-    """Per non-reference recorder whose clock is estimated or drifts: the clock at this event."""
+    """Per recorder whose clock is estimated (``clock_drift: estimate``): its clock at this event."""
 
 
 EVENT_UNITS = {
