@@ -7,11 +7,12 @@ the stream's start or a logger restart, a gap of either recorder) it is a line
     c(t) = c₀ + ċ · (t − t_s)          drift = −ċ · 1e6 ppm  (a clock that gains has a falling correction)
 
 fitted by least squares to the lags measured at the segment's events. The lag at an event (:func:`measure_lag`):
-the two recorders' accelerations, each channel less its median, low-passed at :data:`LAG_CORNER` (zero phase) and
-summed as ``|a|`` over the recorder's channels, are cross-correlated over the event's window; the lag is the peak of
-the normalised correlation ``ρ`` within ``±w`` of the fit's prediction, refined by a parabola through its three
-samples. A coupling impact moves both cars at once, so both recorders see its pulse at the same instant; a
-transient on one car (a track joint) does not correlate (``ρ <`` :data:`MIN_CORRELATION`: no lag, the prediction kept).
+each recorder's first car's mean acceleration (its channels less their medians), low-passed at :data:`LAG_CORNER`
+(zero phase) to what is left of the rigid-body pulse, the two cross-correlated over the event's window; the lag is
+the peak of ``|ρ|``, the normalised correlation, within ``±w`` of the fit's prediction, refined by a parabola through
+its three samples. A coupling impact moves both cars at once, equal and opposite (``ρ`` near −1), so both
+recorders see its pulse at the same instant; a transient one car alone feels, or both at other times (a track joint
+under each car's axles in turn), does not correlate (``|ρ| <`` :data:`MIN_CORRELATION`: no lag, the prediction kept).
 The search half-width ``w`` follows what the fit does not know: :data:`INITIAL_SEARCH` with no lag in the segment,
 :data:`MIN_SEARCH` plus :data:`MAX_DRIFT` times the time since the one lag there is, :data:`MIN_SEARCH` plus
 :data:`FIT_DRIFT` times the time since the last lag once the drift is fitted; a lag further than
@@ -33,9 +34,10 @@ from numpy.typing import NDArray
 from scipy.signal import butter, correlate, sosfiltfilt
 
 
-LAG_CORNER = 20.0
-"""Corner (Hz) of the zero-phase 2nd-order Butterworth low-pass the lag is measured through: the cars' rigid-body pulse
-(a contact of 50–1200 ms) passes, their axial modes (15–30 Hz and up) and the sensor noise are damped."""
+LAG_CORNER = 10.0
+"""Corner (Hz) of the zero-phase low-pass (2nd-order Butterworth, forward and back) the lag is measured through: the
+cars' rigid-body pulse (a contact of 50–1200 ms) passes, their axial modes (15–30 Hz and up) and the noise are damped,
+so what is left of the two cars is one pulse shape, scaled by their masses."""
 MIN_CORRELATION = 0.5
 """Least normalised correlation of the two recorders' signals for an event's lag to count."""
 INITIAL_SEARCH = 1.0
@@ -158,21 +160,20 @@ class ClockTrack:
 
 
 def lag_signal(t: NDArray[np.float64], records: NDArray[np.float64], rate: float) -> NDArray[np.float64]:
-    """``Σ |lowpass(a − median a)|`` over a recorder's channels (``records``: channels × samples on the grid ``t`` at
-    ``rate`` Hz), NaN read as 0, less its median: the signal whose lag is measured."""
-    a = np.nan_to_num(records - np.nanmedian(records, axis=1, keepdims=True))
+    """``lowpass(mean over channels of (a − median a))``: a car's rigid-body acceleration, low-passed (``records``: the
+    car's channels × samples on the grid ``t`` at ``rate`` Hz; NaN read as 0): the signal whose lag is measured."""
+    a = np.nan_to_num(records - np.nanmedian(records, axis=1, keepdims=True)).mean(axis=0)
     corner = min(LAG_CORNER, 0.4 * rate)
-    low = sosfiltfilt(butter(2, corner, fs=rate, output="sos"), a, axis=1) if a.shape[1] > 15 else a
-    s = np.abs(low).sum(axis=0)
-    return s - np.median(s)
+    return sosfiltfilt(butter(2, corner, fs=rate, output="sos"), a) if a.size > 15 else a
 
 
 def measure_lag(reference: NDArray[np.float64], other: NDArray[np.float64], rate: float, predicted: float) -> tuple[float, float]:
     """``(lag, ρ)``: the correction (s) at which the ``other`` recorder's signal best matches the ``reference``'s
-    (module docstring). ``reference`` is on a grid ``t_j`` (``rate`` Hz); ``other`` on the recorder's clock at
+    (module docstring), ``ρ`` the normalised correlation there (negative: the cars moved opposite ways, as a coupling
+    impact moves them). ``reference`` is on a grid ``t_j`` (``rate`` Hz); ``other`` on the recorder's clock at
     ``t_j − predicted − K/rate + m/rate``, ``2K`` samples longer (``K`` samples each side: the search), so shift ``k``
-    is the correction ``predicted + (K − k)/rate``. NaN lag when the peak is at the search's edge or ``|ρ|``
-    falls below :data:`MIN_CORRELATION`."""
+    is the correction ``predicted + (K − k)/rate``. NaN lag when the peak is at the search's edge or ``|ρ|`` falls
+    below :data:`MIN_CORRELATION`."""
     k_max = other.size - reference.size
     energy = float(np.dot(reference, reference))
     if k_max < 2 or energy <= 0.0:
@@ -181,11 +182,11 @@ def measure_lag(reference: NDArray[np.float64], other: NDArray[np.float64], rate
     squares = np.concatenate([[0.0], np.cumsum(other * other)])
     window = squares[reference.size:] - squares[: k_max + 1]
     rho = r / np.sqrt(energy * np.maximum(window, 1e-300))
-    k = int(np.argmax(rho))
+    k = int(np.argmax(np.abs(rho)))
     best = float(rho[k])
-    if k == 0 or k == k_max or best < MIN_CORRELATION:
+    if k == 0 or k == k_max or abs(best) < MIN_CORRELATION:
         return math.nan, best
-    left, centre, right = rho[k - 1], rho[k], rho[k + 1]
+    left, centre, right = np.sign(best) * rho[k - 1 : k + 2]
     curvature = left - 2.0 * centre + right
     shift = 0.5 * (left - right) / curvature if curvature < 0.0 else 0.0
     return predicted + (0.5 * k_max - k - shift) / rate, best

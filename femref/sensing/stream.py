@@ -338,9 +338,9 @@ class EventStream:
         at = event.trigger_time - track.predict(event.trigger_time)  # on the recorder's clock
         predicted, half = track.predict(at), track.search(at)
         k = int(math.ceil(half * rate))
-        ref = lag_signal(t, np.array([np.interp(t, reference.own, a) for a in reference.values]), rate)
+        ref = lag_signal(t, np.array([np.interp(t, reference.own, reference.values[i]) for i in _first_car(reference.recorder.probes)]), rate)
         grid = t[0] - predicted - k / rate + np.arange(t.size + 2 * k) / rate
-        other = lag_signal(grid, np.array([np.interp(grid, lane.own, a) for a in lane.values]), rate)
+        other = lag_signal(grid, np.array([np.interp(grid, lane.own, lane.values[i]) for i in _first_car(lane.recorder.probes)]), rate)
         lag, rho = measure_lag(ref, other, rate, predicted)
         taken = math.isfinite(lag) and track.take(at, lag)
         correction = track.predict(at)
@@ -349,7 +349,7 @@ class EventStream:
         elif not taken:
             basis = f"lag {lag:.6f} s (ρ = {rho:.2f}) lies off the fit: not taken; the fit's prediction applied"
         else:
-            basis = f"cross-correlation of the low-passed |a| (ρ = {rho:.2f}); the fit of segment {track.segment_number(at)} (from the stream's start or a restart)"
+            basis = f"cross-correlation of the cars' low-passed mean accelerations (ρ = {rho:.2f}); the fit of segment {track.segment_number(at)} (from the stream's start or a restart)"
         return ClockCorrection(lane.name, correction, track.drift_at(at), lag, lag - correction, basis)
 
     def _prune(self, before: float) -> None:
@@ -361,6 +361,12 @@ class EventStream:
             n = max(int(np.searchsorted(lane.mapped, before, side="left")) - 1, 0)
             if n > 0:
                 lane.own, lane.mapped, lane.values = lane.own[n:], lane.mapped[n:], lane.values[:, n:]
+
+
+def _first_car(probes: list[str]) -> list[int]:
+    """The indices of the probes (``<car>/<sensor>``) on the first car a recorder records."""
+    car = probes[0].split("/")[0]
+    return [i for i, probe in enumerate(probes) if probe.split("/")[0] == car]
 
 
 def _union(parts: list[tuple[NDArray[np.float64], NDArray[np.float64]]], probes: list[list[str]]) -> Chunk:
