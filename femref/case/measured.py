@@ -365,6 +365,7 @@ class MeasuredCase(SceneCase):
             except recordings.RecordError as error:
                 problems.append(Problem(("records", i), str(error)))
                 continue
+            record._probed_rate = head.rate
             spans.append((head.first_time, head.last_time))
             rates.append((head.rate, source.path.name))
             if record.anti_alias is not None and record.anti_alias.corner >= 0.5 * head.rate:

@@ -10,7 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated, Any, ClassVar, Literal
 
-from pydantic import AfterValidator, Field, ValidationInfo, field_validator, model_serializer, model_validator
+from pydantic import AfterValidator, Field, PrivateAttr, ValidationInfo, field_validator, model_serializer, model_validator
 from pydantic_core import PydanticCustomError
 
 from femref.case.errors import Problem, did_you_mean, problems_error
@@ -141,6 +141,8 @@ class RecordFileSpec(_FormatKeys):
         description="The recorder's Butterworth low-pass {corner (Hz), order}: kalman models it, networks need it. Default null: not declared.",
     )
 
+    _probed_rate: float | None = PrivateAttr(default=None)  # the rate validation found (MeasuredCase._record_problems)
+
     @field_validator("file", mode="after")
     @classmethod
     def _resolve(cls, path: Path | None, info: ValidationInfo) -> Path | None:
@@ -210,4 +212,5 @@ class RecordFileSpec(_FormatKeys):
             files=self.files or (),
             recorder=self.recorder or "",
             clock_drift=self.clock_drift,
+            probed_rate=self._probed_rate,
         )

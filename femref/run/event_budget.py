@@ -50,10 +50,11 @@ class RecordSize:
 
 
 def record_size(record: RecordFile, index: int) -> RecordSize:
-    """The size of ``record``: its channels and rate (Hz), declared or from its first file's first chunk
-    (:func:`femref.sensing.recordings.probe_recorder`). RecordError for a file that cannot be read as declared."""
+    """The size of ``record``: its channels and rate (Hz), declared, or as validation probed it, or from its first
+    file's first chunk (:func:`femref.sensing.recordings.probe_recorder`). RecordError for a file that cannot be read
+    as declared."""
     key = f"records.{index}.time.rate" if record.time.rate is not None else f"records.{index}.{'files' if record.files else 'file'}"
-    rate = record.time.rate if record.time.rate is not None else probe_recorder(record).rate
+    rate = record.time.rate or record.probed_rate or probe_recorder(record).rate
     return RecordSize(rate, len(record.channels), key)
 
 

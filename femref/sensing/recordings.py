@@ -32,14 +32,14 @@ from __future__ import annotations
 import glob
 import math
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
 from femref.sensing import record_files
-from femref.sensing.record_files import RecordError, format_of, key_of, open_columns
+from femref.sensing.record_files import WHOLE_FILE_FORMATS, RecordError, format_of, key_of, open_columns
 from femref.sensing.quality import QualityInterval, QualityTracker
 
 ACCELERATION_UNITS: dict[str, float] = {"m/s^2": 1.0, "g": 9.80665, "mm/s^2": 1.0e-3}
@@ -119,6 +119,8 @@ class RecordFile:
     files: tuple[Path, ...] = ()
     recorder: str = ""
     clock_drift: float | str = 0.0
+    probed_rate: float | None = field(default=None, compare=False)
+    """The rate (Hz) :func:`probe_recorder` found when the case was validated (None: not probed)."""
 
     @property
     def paths(self) -> tuple[Path, ...]:
@@ -375,16 +377,24 @@ class RecorderHead:
 def probe_recorder(record: RecordFile) -> RecorderHead:
     """Each of ``record``'s files opened, its columns and units resolved and its first :data:`PROBE_SAMPLES` samples
     read (times finite and increasing, the rate within :data:`MAX_RECORD_RATE`, each file starting after the previous
-    one did), without reading the files through; RecordError naming the file and the rule."""
+    one did), without reading the files through; RecordError naming the file and the rule. A file after the first of a
+    format whose reader holds the whole file (UFF58) is only opened and its columns resolved: its span is taken to
+    follow the previous file's at the rate found."""
     _check_units(record)
     rate, start, origin = record.time.rate, math.nan, None
     index, first, last, exact = 0, math.nan, math.nan, False
-    for path in record.paths:
+    for number, path in enumerate(record.paths):
         name = path.name
         fmt, requests, options = _requests(record, path, origin)
         with open_columns(path, requests, fmt, options, size=PROBE_SAMPLES) as (reader, infos, parts):
             for k, source in enumerate(record.channels):
                 _unit(f"{name}: channel {source.probe}", source.unit, infos[k].unit, ACCELERATION_UNITS)
+            if number > 0 and fmt in WHOLE_FILE_FORMATS:
+                step = 1.0 / (rate if rate is not None else start)
+                samples = max(info.samples for info in infos)
+                last, exact = last + samples * step, False
+                index += samples
+                continue
             chunk = next(parts, None)
             whole = chunk is not None and next(parts, None) is None
             n = min((part.size for part in chunk), default=0) if chunk is not None else 0
