@@ -220,3 +220,37 @@ def test_without_its_package_a_format_names_the_extra(tmp_path, fmt, monkeypatch
     monkeypatch.setitem(sys.modules, PACKAGE[fmt], None)  # import raises ImportError
     with pytest.raises(RecordError, match=rf"r{SUFFIX[fmt]}: reading {fmt.upper()} files needs the package {PACKAGE[fmt]}: pip install 'femref\[formats\]'"):
         read_columns(path, [("front", "channel a/front")], LIMIT, fmt)
+
+
+def uff58_record(values: np.ndarray, precision: int, spacing: int) -> dict:
+    """A pyuff dataset-58 record of ``values`` at 1 kHz from 0.25 s (``precision`` 2 single, 4 double; ``spacing`` 1 even)."""
+    axis = {f"{axis}_{key}": value for axis in ("abscissa", "ordinate", "orddenom", "z_axis")
+            for key, value in (("spec_data_type", 0), ("len_unit_exp", 0), ("force_unit_exp", 0), ("temp_unit_exp", 0), ("axis_lab", "NONE"),
+                               ("axis_units_lab", "NONE"))}
+    return axis | {"type": 58, "binary": 0, "func_type": 1, "func_id": 1, "ver_num": 0, "load_case_id": 0, "id1": "front", "id2": "NONE",
+                   "id3": "NONE", "id4": "NONE", "id5": "NONE", "rsp_ent_name": "car", "rsp_node": 1, "rsp_dir": 1, "ref_ent_name": "NONE",
+                   "ref_node": 0, "ref_dir": 0, "ord_data_type": precision, "num_pts": values.size, "abscissa_spacing": spacing,
+                   "abscissa_min": 0.25, "abscissa_inc": 1e-3, "z_axis_value": 0.0, "n_bytes": 0, "x": 0.25 + np.arange(values.size) * 1e-3,
+                   "data": values, "abscissa_axis_units_lab": "s", "ordinate_axis_units_lab": "g"}
+
+
+@pytest.mark.parametrize("precision", [2, 4], ids=["single 6E13.5", "double 4E20.12"])
+def test_uff58_ascii_records_are_read_as_pyuff_reads_them(tmp_path, precision):
+    """An ASCII UFF58 record written by pyuff in single and in double precision (2000 and 1999 points: a full and a
+    partial last line): the reader's numpy conversion of its fields and of its abscissa equals pyuff's own reading,
+    to the bit; a record it cannot take that way (uneven abscissa) is left to pyuff."""
+    pyuff = pytest.importorskip("pyuff")
+    from femref.sensing.formats.uff58 import Reader
+
+    for points in (2000, 1999):
+        path = tmp_path / f"r{points}.uff"
+        pyuff.UFF(str(path)).write_sets([uff58_record(FRONT[:points] * (1 + 1e-7 * np.arange(points)), precision, 1)], mode="overwrite")
+        reader = Reader(path)
+        ((number, _),) = reader.headers.values()
+        truth = reader.uff.read_sets(number)
+        for field in ("data", "x"):
+            fast = reader.ascii_column(number, field)
+            assert fast is not None and np.array_equal(fast, np.asarray(truth[field], dtype=float)), (points, field)
+    pyuff.UFF(str(tmp_path / "u.uff")).write_sets([uff58_record(FRONT[:100], 4, 0)], mode="overwrite")
+    reader = Reader(tmp_path / "u.uff")
+    assert reader.ascii_column(next(iter(reader.headers.values()))[0], "data") is None
