@@ -103,6 +103,23 @@ class ClosureResult:
     residual: float = np.nan
 
 
+@dataclass(frozen=True)
+class ClockCorrection:
+    """An event's clock for one non-reference ``recorder`` (:mod:`femref.sensing.clock`): the ``correction`` applied (s,
+    added to its times to reach the reference recorder's clock), the ``drift`` (ppm, its clock gains), the event's own
+    measured ``lag`` (s, NaN: none measured) and its ``residual`` (lag − correction, s), and how they were found (``basis``)."""
+
+    recorder: str
+    correction: float
+    drift: float
+    lag: float
+    residual: float
+    basis: str
+
+
+CLOCK_UNITS = {"correction": "s", "drift": "ppm", "lag": "s", "residual": "s"}
+
+
 @dataclass
 class EventResult:
     """One impact event of a measured case and everything found about it."""
@@ -135,6 +152,8 @@ class EventResult:
     alarm_basis: str = ""
     wear: str = "unknown"
     wear_basis: str = ""
+    clock_corrections: tuple[ClockCorrection, ...] = ()
+    """Per recorder whose clock is estimated (``clock_drift: estimate``): its clock at this event."""
 
 
 EVENT_UNITS = {
@@ -231,6 +250,11 @@ def _write_event(group: h5py.Group, event: EventResult) -> None:
         in_range = estimate.in_calibrated_range  # None: no calibration covers this estimate, no range it holds in
         sub.attrs["in_calibrated_range"] = "n/a" if in_range is None else str(bool(in_range)).lower()
         sub.attrs["units"] = json.dumps({"peak_force": "N", "peak_lower": "N", "peak_upper": "N", "wall_time_s": "s"})
+    if event.clock_corrections:
+        clocks = group.create_group("clock")
+        for clock in event.clock_corrections:
+            clocks.create_group(clock.recorder).attrs.update(correction=clock.correction, drift=clock.drift, lag=clock.lag, residual=clock.residual,
+                                                             basis=clock.basis, units=json.dumps(CLOCK_UNITS))
     closures = group.create_group("closure")
     for closure in event.closures:
         sub = closures.create_group(closure.coupler)
@@ -246,5 +270,5 @@ def _dataset(group: h5py.Group, name: str, data: NDArray, units: str) -> None:
     dataset.attrs["units"] = units
 
 
-__all__ = ["BOUNDS", "COMPLETE", "EVENTS_GROUP", "EVENTS_WRITTEN", "ClosureResult", "EventResult", "EventWriter", "ForceEstimate", "event_file",
+__all__ = ["BOUNDS", "CLOCK_UNITS", "COMPLETE", "ClockCorrection", "EVENTS_GROUP", "EVENTS_WRITTEN", "ClosureResult", "EventResult", "EventWriter", "ForceEstimate", "event_file",
            "without_histories"]

@@ -1,21 +1,22 @@
 """The ``kind: measured`` case: coupler forces, impact type, gear closure, wear and alarm from recorded accelerations.
 
-Every record file is read when the case is loaded (:mod:`femref.sensing.recordings`) and what was read is kept
-for the run, which reads a file again only if it changed since: a bad file, channel, unit or time column, or a file
-beyond the limits of :mod:`femref.sensing.record_files`, is a case error naming the file, channel and rule; so is an
-event grid beyond :data:`~femref.sensing.recordings.MAX_EVENT_VALUES`. The relations between keys are checked once
+Every record file is checked when the case is loaded as far as its start tells (:func:`femref.sensing.recordings.probe_recorder`:
+it opens, its columns and units resolve, its first chunk's times increase at a rate within the limit, the recorders'
+spans overlap); the run streams the files and meets what lies further in (docs/design.md §3.7). A bad file, channel,
+unit or time column, or a file beyond the limits of :mod:`femref.sensing.record_files`, is a case error naming the file,
+channel and rule; so is an event grid beyond :data:`~femref.sensing.recordings.MAX_EVENT_VALUES`. The relations between keys are checked once
 the keys are valid. :func:`femref.scene.build.scene_from_case` turns the case into a
 :class:`femref.scene.measured.MeasuredScene`.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 from typing import Annotated, Any, ClassVar, Literal
 
-from pydantic import AfterValidator, Field, PrivateAttr, ValidationInfo, field_validator, model_serializer, model_validator
-from pydantic_core import PydanticCustomError
+from pydantic import AfterValidator, Field, ValidationInfo, field_validator, model_validator
 
 from femref.case.base import SceneCase
 from femref.case.bodies import RodBody
@@ -23,171 +24,17 @@ from femref.case.cars import CarName, cars_rule
 from femref.case.couplers import Between, CouplerName, named_couplers
 from femref.case.errors import Problem, did_you_mean, problems_error
 from femref.case.estimators import ANY_IMPACT, AnnEstimatorSpec, contract_scene_problems, estimator_entry
-from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, ProbeName, Real, duplicates, entry_name, name_rule, resolve_case_path
+from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, ProbeName, Real, duplicates, entry_name, resolve_case_path
+from femref.case.records import RecordFileSpec
 from femref.core.catalog import MEASURED_ESTIMATORS
-from femref.sensing import record_files, recordings
+from femref.sensing import recordings
 from femref.sensing.measurement import FILTER_ORDER
 from femref.sensing.network import NetworkContract
 from femref.sensing.calibration import CalibrationFileError, read_calibration
 from femref.sensing.findings import StatedSpeed
-from femref.sensing.record_files import format_of
 from femref.sensing.trigger import MAX_WINDOW, QUIET, REARM_FRACTION
 
-__all__ = ["ChannelSpec", "KalmanSettings", "MeasuredCarSpec", "MeasuredCase", "MeasuredCouplerSpec", "RecordFileSpec", "TimeSpec"]
-
-
-def _unit_rule(units: dict[str, float], what: str):
-    def rule(unit: str) -> str:
-        if unit not in units:
-            raise problems_error([Problem((), f"unknown {what} unit{did_you_mean(unit, list(units))}; units: {', '.join(units)}", unit)])
-        return unit
-
-    return rule
-
-
-AccelerationUnit = Annotated[str, AfterValidator(_unit_rule(recordings.ACCELERATION_UNITS, "acceleration"))]
-TimeUnit = Annotated[str, AfterValidator(_unit_rule(recordings.TIME_UNITS, "time"))]
-Column = int | str
-
-
-def _channel_name(name: str) -> str:
-    car, _, sensor = name.partition("/")
-    if not sensor or "/" in sensor:
-        raise PydanticCustomError("channel_name", "channels are named <car>/<sensor>")
-    name_rule("car")(car)
-    name_rule("sensor")(sensor)
-    return name
-
-
-ChannelName = Annotated[str, AfterValidator(_channel_name)]
-
-
-class _FormatKeys(CaseModel):
-    """A model whose ``format_keys`` (the keys of record formats beyond CSV and HDF5) are written out only when they
-    differ from their defaults: the resolved case of a CSV or HDF5 record reads as it did before those formats."""
-
-    format_keys: ClassVar[tuple[str, ...]] = ()
-
-    @model_serializer(mode="wrap")
-    def _serialize(self, handler: Any) -> Any:
-        data = handler(self)
-        return {key: value for key, value in data.items() if key not in self.format_keys or getattr(self, key) != type(self).model_fields[key].default}
-
-
-SOURCE_KEYS = "column (CSV), dataset (HDF5), channel (MDF4 channel name, TDMS group/channel, UFF58 record id1)"
-
-
-class ChannelSpec(_FormatKeys):
-    """Where one probe's acceleration is in its file: a CSV ``column`` (header name or 0-based index), an
-    HDF5 ``dataset`` (path) or an MDF4, TDMS or UFF58 ``channel``, and its unit."""
-
-    format_keys: ClassVar[tuple[str, ...]] = ("channel",)
-
-    column: Column | None = Field(default=None, description="CSV column: header name or 0-based index. Exactly one of column, dataset, channel.")
-    dataset: str | None = Field(default=None, description="HDF5 dataset path. Exactly one of column, dataset, channel.")
-    channel: str | None = Field(default=None, description="MDF4 channel name, TDMS group/channel or UFF58 record id1. "
-                                                          "Exactly one of column, dataset, channel.")
-    unit: AccelerationUnit | None = Field(default=None, description=f"Unit of the values: {', '.join(recordings.ACCELERATION_UNITS)}. "
-                                                                      "Default: the file's own (MDF4, TDMS, UFF58), which a declared unit must equal; "
-                                                                      "required when the file gives none.")
-
-    @model_validator(mode="after")
-    def _one_source(self) -> "ChannelSpec":
-        if sum(getattr(self, key) is not None for key in ("column", "dataset", "channel")) != 1:
-            raise problems_error([Problem((), f"give exactly one of {SOURCE_KEYS}")])
-        return self
-
-
-class TimeSpec(_FormatKeys):
-    """A file's sample times: a column, dataset or channel with its unit, or a uniform ``rate`` from ``start``."""
-
-    format_keys: ClassVar[tuple[str, ...]] = ("channel",)
-
-    column: Column | None = Field(default=None, description="CSV time column: header name or 0-based index.")
-    dataset: str | None = Field(default=None, description="HDF5 time dataset path.")
-    channel: str | None = Field(default=None, description="MDF4 time (master) channel, TDMS group/channel or UFF58 record holding the times.")
-    unit: TimeUnit = Field(default="s", description=f"Unit of the times: {', '.join(recordings.TIME_UNITS)} (iso8601: a CSV column of "
-                                                   "ISO-8601 timestamps, in s from the first); a unit the file gives must equal it. Default s.")
-    rate: Annotated[PositiveReal, Field(le=recordings.MAX_RECORD_RATE)] | None = Field(
-        default=None, description=f"Sampling rate (Hz) of a file without a time column, at most {recordings.MAX_RECORD_RATE:g}."
-    )
-    start: Real = Field(default=0.0, description="Time of the first sample (s) with a rate. Default 0.")
-
-    @model_validator(mode="after")
-    def _one_source(self) -> "TimeSpec":
-        sources = [key for key in ("column", "dataset", "channel", "rate") if getattr(self, key) is not None]
-        if len(sources) != 1:
-            raise problems_error([Problem((), f"give exactly one of {SOURCE_KEYS} or rate (Hz, with start)", sources or None)])
-        return self
-
-
-class AntiAliasSpec(CaseModel):
-    """The recorder's analogue anti-alias low-pass, applied to every channel of its file before sampling."""
-
-    corner: PositiveReal = Field(description="Corner frequency (Hz), below the file's Nyquist frequency (rate/2). Required.")
-    order: Annotated[int, Field(ge=1, le=8)] = Field(default=4, description="Butterworth order, 1–8. Default 4.")
-
-
-class RecordFileSpec(_FormatKeys):
-    """One recorder's file: its format, time source, clock offset, channels and anti-alias filter."""
-
-    format_keys: ClassVar[tuple[str, ...]] = ("format", "separator", "decimal")
-
-    file: Path = Field(description="CSV or TSV (header row), HDF5 (.h5, .hdf5), MDF4 (.mf4, .mdf), TDMS (.tdms) or UFF58 (.uff, .unv) "
-                                   "file, relative to the case file's directory. Required.")
-    format: Literal["csv", "hdf5", "mdf4", "tdms", "uff58"] | None = Field(
-        default=None, description="The file's format. Default: by its suffix (above; any other is csv). MDF4, TDMS and UFF58 need femref[formats].")
-    separator: Literal[",", ";", "\t"] | None = Field(default=None, description="CSV separator. Default: a tab if the header line holds one, "
-                                                                                "else ; if it holds one, else ,.")
-    decimal: Literal[".", ","] = Field(default=".", description="CSV decimal mark (',' needs a separator other than ','). Default '.'.")
-    time: TimeSpec = Field(description="Sample times: {column | dataset | channel, unit} or {rate, start}. Required.")
-    clock_offset: Real = Field(default=0.0, description="Added to this file's times (s): recorders' clocks differ. Default 0.")
-    channels: dict[ChannelName, ChannelSpec] = Field(description="<car>/<sensor>: {column | dataset | channel, unit}; at least one. Required.")
-    anti_alias: AntiAliasSpec | None = Field(
-        default=None,
-        description="The recorder's Butterworth low-pass {corner (Hz), order}: kalman models it, networks need it. Default null: not declared.",
-    )
-    _read: recordings.RecordRead | None = PrivateAttr(default=None)  # what validation read (MeasuredCase._record_problems), for the run
-
-    @field_validator("file", mode="after")
-    @classmethod
-    def _resolve(cls, path: Path, info: ValidationInfo) -> Path:
-        return resolve_case_path(path, info)
-
-    @field_validator("channels", mode="after")
-    @classmethod
-    def _some_channels(cls, channels: dict[str, ChannelSpec]) -> dict[str, ChannelSpec]:
-        if not channels:
-            raise problems_error([Problem((), "name at least one channel <car>/<sensor>: {column | dataset | channel, unit}")])
-        return channels
-
-    @model_validator(mode="after")
-    def _csv_options(self) -> "RecordFileSpec":
-        if self.decimal == "," and self.separator == ",":
-            raise problems_error([Problem(("decimal",), "a decimal comma needs a separator other than ',' (';' or a tab)", ",")])
-        if format_of(self.file, self.format) != "csv":
-            for key in ("separator", "decimal"):
-                if key in self.model_fields_set:
-                    raise problems_error([Problem((key,), f"is a CSV option; {self.file.name} is read as {format_of(self.file, self.format).upper()}")])
-        return self
-
-    def source(self) -> recordings.RecordFile:
-        """The file as :mod:`femref.sensing.recordings` reads it, with what validation read of it (read again if it changed)."""
-        time = self.time
-        return recordings.RecordFile(
-            path=self.file,
-            time=recordings.TimeSource(column=time.column, dataset=time.dataset, unit=time.unit, rate=time.rate, start=time.start, channel=time.channel),
-            clock_offset=self.clock_offset,
-            channels=tuple(
-                recordings.ChannelSource(probe=probe, column=channel.column, dataset=channel.dataset, unit=channel.unit, channel=channel.channel)
-                for probe, channel in self.channels.items()
-            ),
-            anti_alias=None if self.anti_alias is None else recordings.AntiAlias(self.anti_alias.corner, self.anti_alias.order),
-            kept=self._read,
-            format=self.format,
-            separator=self.separator,
-            decimal=self.decimal,
-        )
+__all__ = ["KalmanSettings", "MeasuredCarSpec", "MeasuredCase", "MeasuredCouplerSpec"]
 
 
 class MeasuredCarSpec(CaseModel):
@@ -496,26 +343,33 @@ class MeasuredCase(SceneCase):
         return problems
 
     def _record_problems(self) -> list[Problem]:
-        """Each file read as the run will read it (and kept for it), the files together within
-        :data:`~femref.sensing.record_files.MAX_RECORD_VALUES`; the event settings against the span they share."""
+        """Each recorder probed (:func:`~femref.sensing.recordings.probe_recorder`: its files open, their columns and
+        units, their first chunk's times and rate); the recorders' names and clocks; the event settings against the span
+        they share."""
         problems = []
         spans = []
         rates = []
-        values_left = record_files.MAX_RECORD_VALUES
+        names: dict[str, int] = {}
         for i, record in enumerate(self.records):
+            source = record.source()
+            if record.recorder is not None and record.recorder in names:
+                problems.append(Problem(("records", i, "recorder"), f"records[{names[record.recorder]}] has the same name; a recorder's name is unique",
+                                        record.recorder))
+            if record.recorder is not None:
+                names.setdefault(record.recorder, i)
+            if i == 0 and record.clock_drift == "estimate":
+                problems.append(Problem(("records", 0, "clock_drift"), "the first recorder is the reference the others' clocks are estimated against; "
+                                                                         "give its drift in ppm (default 0)", "estimate"))
             try:
-                kept = recordings.read_record_file(record.source(), values_left)
+                head = recordings.probe_recorder(source)
             except recordings.RecordError as error:
                 problems.append(Problem(("records", i), str(error)))
                 continue
-            record._read = kept
-            values_left -= kept.values
-            read = recordings.Recordings({channel.probe: channel for channel in kept.channels})
-            spans.append(read.span)
-            rates.append((max(channel.rate for channel in kept.channels), record.file.name))
-            rate = min(channel.rate for channel in read.channels.values())
-            if record.anti_alias is not None and record.anti_alias.corner >= 0.5 * rate:
-                rule = f"must be below the file's Nyquist frequency rate/2 = {0.5 * rate:g} Hz"
+            record._probed_rate = head.rate
+            spans.append((head.first_time, head.last_time))
+            rates.append((head.rate, source.path.name))
+            if record.anti_alias is not None and record.anti_alias.corner >= 0.5 * head.rate:
+                rule = f"must be below the file's Nyquist frequency rate/2 = {0.5 * head.rate:g} Hz"
                 problems.append(Problem(("records", i, "anti_alias", "corner"), rule, record.anti_alias.corner))
         if not problems:
             span = min(last for _, last in spans) - max(first for first, _ in spans)
@@ -539,8 +393,17 @@ class MeasuredCase(SceneCase):
         return [Problem(("events", "max_window"), rule, window)]
 
     def record_sources(self) -> tuple[recordings.RecordFile, ...]:
-        """Every record file as :mod:`femref.sensing.recordings` reads it."""
-        return tuple(record.source() for record in self.records)
+        """Every recorder as :mod:`femref.sensing.recordings` reads it, each named: its ``recorder``, else its first file's
+        stem, or its name where stems repeat, or ``records[i]``."""
+        sources = [record.source() for record in self.records]
+        given = {record.recorder for record in self.records if record.recorder}
+        stems = [source.path.stem for source in sources]
+        names = []
+        for i, (record, source) in enumerate(zip(self.records, sources)):
+            candidates = [source.path.stem] if stems.count(source.path.stem) == 1 else []
+            candidates += [source.path.name, f"records[{i}]"]
+            names.append(record.recorder or next(c for c in candidates if c not in given and c not in names))
+        return tuple(dataclasses.replace(source, recorder=name) for source, name in zip(sources, names))
 
     @classmethod
     def _unknown_key_rule(cls, key: Any, known: list[str]) -> str:

@@ -272,6 +272,8 @@ def event_table(outcome) -> Table:
         notes += [event.classification_basis] if not event.estimates and event.classification_basis else []
         if event.closing_speed_source == "none":
             notes.append(f"no closing speed: {event.closing_speed_basis}")
+        notes += [f"clock {c.recorder}: correction {c.correction:+.6f} s, drift {c.drift:+.2f} ppm, lag {c.lag:+.6f} s (residual {c.residual:+.2e} s)"
+                  for c in event.clock_corrections]
         for note in notes:
             table.add_row("", "", "", "", "", f"[yellow]{note}[/yellow]", "", "", "", "", "", "")
     return table

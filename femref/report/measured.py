@@ -26,7 +26,7 @@ from femref.report.figures import MODEL_COLORS, Picture, figure_legend, new_figu
 from femref.report.html import hide_local_paths, page, pictures_html, table_row
 from femref.report.read import attrs_of
 
-NOT_ESTIMATES = ("records", "closure")
+NOT_ESTIMATES = ("records", "closure", "clock")
 
 
 @dataclass
@@ -48,6 +48,7 @@ class EventData:
     attrs: dict[str, Any]
     estimates: list[EstimateData] = field(default_factory=list)
     closures: dict[str, dict[str, Any]] = field(default_factory=dict)
+    clocks: dict[str, dict[str, Any]] = field(default_factory=dict)
 
 
 def is_event_file(h5: h5py.File) -> bool:
@@ -173,6 +174,8 @@ def _event(name: str, group: h5py.Group, histories: bool = True) -> EventData:
             event.estimates.append(EstimateData(estimator, coupler, *arrays, attrs_of(data.attrs)))
     if "closure" in group:
         event.closures = {coupler: attrs_of(sub.attrs) for coupler, sub in group["closure"].items()}
+    if "clock" in group:
+        event.clocks = {recorder: attrs_of(sub.attrs) for recorder, sub in group["clock"].items()}
     return event
 
 
@@ -208,7 +211,10 @@ def _event_table(events: list[EventData], folder: Path) -> str:
                                        _number(e["peak_force"] / 1e3, "{:.1f}"), band, e["bound"], *(tail if k == 0 else [""] * len(tail))]))
     header = table_row(columns)
     notes = [f"event {event.index}: {_type_basis(event.attrs)}closing speed — {event.attrs.get('closing_speed_basis', '')}; "
-             f"alarm — {event.attrs['alarm_basis']}; wear — {event.attrs['wear_basis']}" for event in events]
+             f"alarm — {event.attrs['alarm_basis']}; wear — {event.attrs['wear_basis']}"
+             + "".join(f"; clock {recorder}: correction {c['correction']:+.6f} s, drift {c['drift']:+.2f} ppm, lag {c['lag']:+.6f} s "
+                       f"(residual {c['residual']:+.2e} s) — {c['basis']}" for recorder, c in event.clocks.items())
+             for event in events]
     return f'<div class="wide"><table>{header}{"".join(rows)}</table></div>' + "".join(f"<p>{escape(hide_local_paths(n, folder))}</p>" for n in notes)
 
 

@@ -1,16 +1,15 @@
 """The work budget of a measured scene: events × estimators × the event grid (docs/design.md §3.5).
 
-A measured run reads its records, finds the events in them, and runs every estimator on each event's window,
-resampled onto one grid at the fastest channel's rate (:func:`femref.sensing.trigger.window`). Its cost is
+A measured run streams its records, finds the events in them, and runs every estimator on each event's window,
+resampled onto one grid at the fastest channel's rate (:func:`femref.sensing.trigger.event_grid`). Its cost is
 
     work   = Σ over events of the event's grid samples × the per-sample cost of every estimator (:func:`event_cost`)
-    memory = the records held + the largest event (events are written as they finish and not kept)
+    memory = the stream's buffers (:func:`stream_memory`) + the largest event (events are written as they finish)
 
-The number of events is unknown before the trigger runs, so the budget is checked twice (docs/design.md §3.5,
-"Measured scenes"): **before any work**, one event at its largest, a window of ``events.max_window`` on the fastest
-record's grid (:func:`measured_costs`); **once the trigger has run**, before the first event's estimators, the events
-found, each on its own window (:func:`check_events`: counted exactly, where a bound from the stream's length over
-the shortest event spacing would refuse every long stream for events it does not hold). Both refuse as
+The number of events is unknown before the stream is read, so the budget is checked in two steps (docs/design.md
+§3.5, "Measured scenes"): **before any work**, one event at its largest, a window of ``events.max_window`` on the
+fastest record's grid (:func:`measured_costs`); **as the events are found**, each before its estimators run
+(:class:`EventBudget`: the event alone, and the events so far together). Both refuse as
 :func:`femref.run.costs.check_costs` does.
 """
 
@@ -22,7 +21,10 @@ from typing import TYPE_CHECKING
 
 from femref.case.errors import CaseError, Problem
 from femref.run.costs import Cost, check_costs
-from femref.sensing.recordings import RecordError, RecordFile, Recordings, read_record_file
+from femref.sensing.baseline import BLOCK, half_blocks
+from femref.sensing import record_files
+from femref.sensing.recordings import RecordError, RecordFile, probe_recorder
+from femref.sensing.stream import BUFFER_MARGIN
 
 if TYPE_CHECKING:
     from femref.scene.measured import MeasuredScene
@@ -39,23 +41,30 @@ _KALMAN_BATCH = 15
 
 @dataclass(frozen=True)
 class RecordSize:
-    """A record file as the budget sees it: its samples, its rate (Hz), its channels, and the key that sets the rate
+    """A recorder as the budget sees it: its rate (Hz), its channels, and the key that sets the rate
     (``records.<i>.time.rate`` when the case declares it, ``records.<i>.file`` when the file's times do)."""
 
-    samples: int
     rate: float
     channels: int
     key: str
 
 
 def record_size(record: RecordFile, index: int) -> RecordSize:
-    """The size of ``record``: its samples and its fastest channel's rate (Hz), from what validation read of it
-    (``record.kept``), or — a record built without validation — from reading it with the record reader
-    (:func:`femref.sensing.recordings.read_record_file`, with its limits). RecordError for a file that cannot be read
+    """The size of ``record``: its channels and rate (Hz), declared, or as validation probed it, or from its first
+    file's first chunk (:func:`femref.sensing.recordings.probe_recorder`). RecordError for a file that cannot be read
     as declared."""
-    key = f"records.{index}.time.rate" if record.time.rate is not None else f"records.{index}.file"
-    channels = (record.kept if record.kept is not None else read_record_file(record)).channels
-    return RecordSize(max(c.acceleration.size for c in channels), max(c.rate for c in channels), len(record.channels), key)
+    key = f"records.{index}.time.rate" if record.time.rate is not None else f"records.{index}.{'files' if record.files else 'file'}"
+    rate = record.time.rate or record.probed_rate or probe_recorder(record).rate
+    return RecordSize(rate, len(record.channels), key)
+
+
+def stream_memory(rate: float, channels: int, max_window: float) -> float:
+    """The bytes a stream holds at most (s, Hz): per channel and its recorder's times, the chunk read ahead, the samples
+    merged and not yet through the baseline (a chunk and its delay ``(H + 1.5) B``) and the buffer an event is cut from
+    (a chunk, its window, the baseline's delay and :data:`~femref.sensing.stream.BUFFER_MARGIN`)."""
+    delay = (half_blocks() + 1.5) * BLOCK
+    samples = 3 * record_files.CHUNK_SAMPLES + rate * (2 * delay + max_window + BUFFER_MARGIN)
+    return _BYTES * samples * (channels + 1)
 
 
 def kalman_states(scene: MeasuredScene) -> int:
@@ -116,7 +125,7 @@ def event_cost(scene: MeasuredScene, samples: int, channels: int, rate: float, w
 
 def measured_costs(scene: MeasuredScene) -> list[Cost]:
     """What ``femref run`` of a measured ``scene`` costs at most per event, before any work (module docstring): the
-    largest event grid (:func:`event_cost`) with the records it reads (:func:`record_size`)."""
+    largest event grid (:func:`event_cost`) with the stream's buffers (:func:`stream_memory`)."""
     sizes = []
     for i, record in enumerate(scene.records):
         try:
@@ -125,35 +134,45 @@ def measured_costs(scene: MeasuredScene) -> list[Cost]:
             raise CaseError(Problem(("records", i), str(error))) from None
     fastest = max(sizes, key=lambda s: s.rate)
     samples = int(scene.max_window * fastest.rate) + 1
-    cost = event_cost(scene, samples, sum(s.channels for s in sizes), fastest.rate,
+    channels = sum(s.channels for s in sizes)
+    cost = event_cost(scene, samples, channels, fastest.rate,
                       what=f"one event (a window of events.max_window = {scene.max_window:g} s at the records' {fastest.rate:.4g} Hz)")
-    cost.memory += sum(_BYTES * s.samples * (s.channels + 1) for s in sizes)  # the records as read: times and channels
+    cost.memory += stream_memory(fastest.rate, channels, scene.max_window)
     cost.factors[fastest.key] = (fastest.rate / _TYPICAL_RATE, f"{fastest.rate:.4g} Hz")
     return [cost]
 
 
-def check_events(scene: MeasuredScene, recordings: Recordings, events: list[Event], source: str = "<case>") -> Cost:
-    """Refuse the events the trigger found when their total exceeds the budget (module docstring): raises
-    :class:`CaseError` naming ``records`` or, when one event alone is over, the key driving it; returns the total."""
-    fastest = max(recordings.channels.values(), key=lambda c: c.rate)
-    rate, channels = fastest.rate, len(recordings.channels)
-    index = next((i for i, record in enumerate(scene.records) if record.path.name == fastest.file), 0)
-    rate_key = f"records.{index}.time.rate" if scene.records[index].time.rate is not None else f"records.{index}.file"
-    times = {id(c.time): c.time.size for c in recordings.channels.values()}  # one time axis per recorder, shared by its channels
-    held = _BYTES * (sum(times.values()) + sum(c.acceleration.size for c in recordings.channels.values()))
-    costs = [event_cost(scene, int((e.end - e.start) * rate) + 1, channels, rate, what=f"event {e.index} ({e.end - e.start:.3g} s)") for e in events]
-    if not costs:
-        return Cost("events", 0.0, held, "no event")
-    largest = max(costs, key=lambda c: c.memory)
-    first, last = recordings.span
-    total = Cost("events", sum(c.work for c in costs), largest.memory + held,
-                 f"{len(events)} events in {last - first:.4g} s of records, the largest {largest.size}",
-                 {"records": (len(events) / _TYPICAL_EVENTS, f"{len(events)} events")}, what=f"the run of the {len(events)} events found")
-    for cost in (max(costs, key=lambda c: c.work), largest):  # one event alone over: its own keys
-        cost.factors[rate_key] = (rate / _TYPICAL_RATE, f"{rate:.4g} Hz")
-        check_costs([dataclasses.replace(cost, memory=cost.memory + held)], source, cost.title)
-    check_costs([total], source, "the events")
-    return total
+@dataclass
+class EventBudget:
+    """The budget of the events a stream finds, checked as each is found, before its estimators run (module
+    docstring): :meth:`check` raises :class:`CaseError` at ``source`` naming the key driving one event alone over it,
+    or ``records`` when the events so far are. ``rate`` (Hz): the events' grid; ``rate_key``: the key that sets it."""
+
+    scene: MeasuredScene
+    rate: float
+    channels: int
+    rate_key: str
+    source: str = "<case>"
+    count: int = 0
+    work: float = 0.0
+    largest: Cost | None = None
+
+    def check(self, event: Event) -> Cost:
+        """Add ``event`` (refused as the module docstring says); the total so far."""
+        scene, rate = self.scene, self.rate
+        held = stream_memory(rate, self.channels, scene.max_window)
+        cost = event_cost(scene, int((event.end - event.start) * rate) + 1, self.channels, rate, what=f"event {event.index} ({event.end - event.start:.3g} s)")
+        cost.factors[self.rate_key] = (rate / _TYPICAL_RATE, f"{rate:.4g} Hz")
+        check_costs([dataclasses.replace(cost, memory=cost.memory + held)], self.source, cost.title)
+        self.count, self.work = self.count + 1, self.work + cost.work
+        if self.largest is None or cost.memory > self.largest.memory:
+            self.largest = cost
+        largest, n = self.largest, self.count
+        total = Cost("events", self.work, largest.memory + held,
+                     f"{n} events up to {event.end:.4g} s of records, the largest {largest.size}",
+                     {"records": (n / _TYPICAL_EVENTS, f"{n} events")}, what=f"the run of the first {n} events found")
+        check_costs([total], self.source, "the events")
+        return total
 
 
-__all__ = ["RecordSize", "check_events", "event_cost", "kalman_states", "measured_costs", "record_size"]
+__all__ = ["EventBudget", "RecordSize", "event_cost", "kalman_states", "measured_costs", "record_size", "stream_memory"]

@@ -1,10 +1,9 @@
 """A measured case, event by event: impact type, closing speed, ε, every estimator's force with its band,
 the gear's closure, wear and alarm.
 
-:func:`run_measured` reads the scene's record files (:mod:`femref.sensing.recordings`), cuts the stream into
-events (:func:`femref.sensing.trigger.search_events`), checks their cost against the work budget
-(:func:`femref.run.event_budget.check_events`) and for each event, on one common time grid
-(:func:`femref.sensing.trigger.window`):
+:func:`run_measured` streams the scene's recorders (:mod:`femref.sensing.recordings`) and takes each event as the
+stream decides it (:class:`femref.sensing.stream.EventStream`: its records on one common time grid, each estimated
+clock's correction), checks its cost against the work budget (:class:`femref.run.event_budget.EventBudget`) and:
 
 * removes each channel's offset before the trigger and measures its noise there
   (:func:`femref.sensing.noise_gate.quiet_corrected`);
@@ -28,73 +27,85 @@ from dataclasses import dataclass
 from femref.estimators import Estimator, Recorded, capture, plug_ins
 from femref.events import EventResult
 from femref.models import Progress, ProgressFor
-from femref.run.event_budget import check_events
+from femref.run.event_budget import EventBudget
 from femref.scene.measured import MeasuredScene
 from femref.sensing import trigger
 from femref.sensing import findings
 from femref.sensing.findings import stated_speed
 from femref.sensing.noise_gate import quiet_corrected
-from femref.sensing.recordings import Recordings, read_records
+from femref.sensing.recordings import RecorderReader
+from femref.sensing.stream import CutEvent, EventStream, StreamStatistics
 from reduced.signal_tools import NOT_AN_IMPACT
 
 
 @dataclass
 class MeasuredOutcome:
-    """The scene, the records as read and every event's result."""
+    """The scene, every event's result, how they were found and what the stream read."""
 
     scene: MeasuredScene
-    recordings: Recordings
     events: list[EventResult]
     search: trigger.EventSearch
     """How the events were found (its notes are the run's warnings)."""
     streamed: bool = False
     """True when a sink took each event as it finished: ``events`` are then what it returned."""
+    stream: StreamStatistics | None = None
+    """What the stream read: samples, bytes, files, gaps."""
 
 
-#: The progress label while the record files are read.
+#: The progress label while the record files are read (``(bytes read, bytes in all)``).
 READ_LABEL = "read records"
 
 
 def run_measured(scene: MeasuredScene, progress_for: ProgressFor | None = None, sink: Callable[[EventResult], EventResult] | None = None,
                  source: str = "<case>") -> MeasuredOutcome:
-    """Every event of the scene's records (module docstring).
+    """Every event of the scene's records (module docstring), each as soon as the stream decides it.
 
-    ``progress_for(label)``, if given, is called when a stage starts — :data:`READ_LABEL`, then
-    :func:`event_label` for each event — and the callback it may return gets ``(done, total)`` after each step
-    of that stage. ``sink(event)``, if given, takes each event's full result as soon as it is done and returns what
-    the outcome keeps (``femref run``'s :class:`femref.events.EventWriter`: its summary, so memory does not grow with
-    the events' histories). Over the work budget: a :class:`~femref.case.CaseError` at ``source``.
+    ``progress_for(label)``, if given, is called when a stage starts — :data:`READ_LABEL` (its callback gets the bytes
+    read and the bytes of all files as the stream goes), then :func:`event_label` for each event — and the callback it
+    may return gets ``(done, total)`` after each step of that stage. ``sink(event)``, if given, takes each event's full
+    result as soon as it is done and returns what the outcome keeps (``femref run``'s
+    :class:`femref.events.EventWriter`: its summary, so memory does not grow with the events). Over the work budget: a
+    :class:`~femref.case.CaseError` at ``source``; a record broken further in than validation looked: a RecordError.
     """
     settings = trigger.TriggerSettings(scene.trigger, scene.pre, scene.post, scene.rearm, scene.quiet, scene.max_window)
     estimators = plug_ins(scene)
-    step = progress_for(READ_LABEL) if progress_for else None
-    recordings = read_records(scene.records)
-    if step is not None:
-        step(1, 1)
-    search = trigger.search_events(recordings, settings)
-    found = search.events
-    check_events(scene, recordings, found, source)
+    readers = [RecorderReader(record) for record in scene.records]
+    total = sum(path.stat().st_size for record in scene.records for path in record.paths if path.exists())
+    read = progress_for(READ_LABEL) if progress_for else None
+    stream = EventStream(readers, settings, names=[r.name for r in scene.records], labels=[r.label for r in scene.records],
+                         estimated=[r.estimated_clock for r in scene.records],
+                         on_chunk=None if read is None else lambda: read(sum(r.bytes for r in readers), total))
+    budget: EventBudget | None = None
     events = []
-    for number, event in enumerate(found, start=1):
-        step = progress_for(event_label(number, len(found), event.trigger_time)) if progress_for else None
-        result = _event(scene, estimators, recordings, event, step)
+    for number, cut in enumerate(stream, start=1):
+        if budget is None:
+            fastest = max(range(len(readers)), key=lambda i: readers[i].rate or 0.0)
+            record = scene.records[fastest]
+            key = f"records.{fastest}.time.rate" if record.time.rate is not None else f"records.{fastest}.{'files' if record.files else 'file'}"
+            budget = EventBudget(scene, stream.rate, sum(len(r.channels) for r in scene.records), key, source)
+        budget.check(cut.event)
+        step = progress_for(event_label(number, None, cut.event.trigger_time)) if progress_for else None
+        result = _event(scene, estimators, cut, step)
         events.append(result if sink is None else sink(result))
-    return MeasuredOutcome(scene, recordings, events, search, streamed=sink is not None)
+    if read is not None:
+        read(total, total)
+    assert stream.search is not None
+    return MeasuredOutcome(scene, events, stream.search, streamed=sink is not None, stream=stream.statistics)
 
 
-def event_label(number: int, count: int, trigger_time: float) -> str:
-    """How progress names an event: ``event 2/7 at 3.603 s`` (its trigger time on the records' clock)."""
-    return f"event {number}/{count} at {trigger_time:.3f} s"
+def event_label(number: int, count: int | None, trigger_time: float) -> str:
+    """How progress names an event: ``event 2/7 at 3.603 s`` (its trigger time on the records' clock), ``event 2 at
+    3.603 s`` while the count is not known."""
+    of = "" if count is None else f"/{count}"
+    return f"event {number}{of} at {trigger_time:.3f} s"
 
 
-def _event(scene: MeasuredScene, estimators: list[Estimator], recordings: Recordings, event: trigger.Event,
-           progress: Progress | None = None) -> EventResult:
+def _event(scene: MeasuredScene, estimators: list[Estimator], cut: CutEvent, progress: Progress | None = None) -> EventResult:
     """One event's result (module docstring); ``progress(done, total)`` after its classification and each estimator."""
-    cars, couplers = scene.cars, scene.couplers
-    t, raw = trigger.window(recordings, event)
-    records, noise_std, quiet = quiet_corrected(t, raw, event.trigger_time)
+    cars, couplers, event, t = scene.cars, scene.couplers, cut.event, cut.time
+    records, noise_std, quiet = quiet_corrected(t, cut.records, event.trigger_time)
     result = EventResult(index=event.index, start=event.start, end=event.end, trigger_time=event.trigger_time,
-                         trigger_probe=event.trigger_probe, flags=tuple(event.flags), time=t, records=records)
+                         trigger_probe=event.trigger_probe, flags=tuple(event.flags), time=t, records=records, clock_corrections=cut.clocks)
     saturated = [flag for flag in event.flags if flag.startswith("saturated")]
     found = findings.classify_event(cars, couplers[0], t, records, noise_std, scene.kalman.mass_tolerance, bool(saturated))
     result.impact_type, result.zero_harmonic_ratio, result.classification_confidence = found.kind, found.zero_frequency_ratio, found.confidence

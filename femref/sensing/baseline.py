@@ -67,8 +67,10 @@ Chunk = tuple[NDArray[np.float64], dict[str, NDArray[np.float64]]]
 
 @dataclass
 class _Buffered:
-    """A stream fed in chunks: its channels, first time (s), and the samples not yet used (``(channels, samples)``)."""
+    """A stream fed in chunks: its channels, first time (s; ``origin`` when given: the blocks of streams fed apart, a
+    recorder's each, then line up), and the samples not yet used (``(channels, samples)``)."""
 
+    origin: float = field(default=math.nan, kw_only=True)
     _names: list[str] | None = field(default=None, init=False)
     _t0: float = field(default=math.nan, init=False)
     _time: NDArray[np.float64] = field(default_factory=lambda: np.empty(0), init=False)
@@ -77,7 +79,7 @@ class _Buffered:
     def _append(self, t: NDArray[np.float64], channels: Mapping[str, ArrayLike]) -> None:
         names = list(channels)
         if self._names is None:
-            self._names, self._t0 = names, float(t[0])
+            self._names, self._t0 = names, float(t[0]) if math.isnan(self.origin) else self.origin
             self._values = np.empty((len(names), 0))
         if names != self._names:
             raise ValueError(f"every chunk needs the channels {self._names}, got {names}")
@@ -132,14 +134,20 @@ class RunningBaseline(_Buffered):
             return
         blocks = np.floor((self._time - self._t0) / self.block).astype(np.int64)
         bounds = np.searchsorted(blocks, np.arange(self._complete, end + 1), side="left")
-        for j, lo, hi in zip(range(self._complete, end), bounds[:-1], bounds[1:]):
-            self._medians[j] = _nanmedian_rows(self._values[:, lo:hi])
+        medians = _nanmedian(_groups(self._values, bounds[:-1], bounds[1:]), overwrite=True)  # (channels, blocks)
+        self._medians.update((j, medians[:, i]) for i, j in enumerate(range(self._complete, end)))
         self._complete = end
 
-    def _baseline(self, j: int) -> NDArray[np.float64]:
-        """``b_j``: the median of the block medians within ``H`` of block ``j`` that are known."""
-        around = [self._medians[i] for i in range(max(j - self.half, 0), j + self.half + 1) if i in self._medians]
-        return _nanmedian_rows(np.array(around).T)
+    def _baselines(self, blocks: range) -> NDArray[np.float64]:
+        """``b_j`` of each block ``j`` of ``blocks`` (blocks × channels): the median of the block medians within ``H``
+        of it that are known (a block not known counts as no sample)."""
+        first = blocks.start - self.half
+        known = np.full((blocks.stop - blocks.start + 2 * self.half, len(self._names or ())), np.nan)
+        for j, median in self._medians.items():
+            if 0 <= j - first < known.shape[0]:
+                known[j - first] = median
+        around = known[np.arange(len(blocks))[:, None] + np.arange(2 * self.half + 1)]  # (blocks, 2H + 1, channels)
+        return _nanmedian(np.ascontiguousarray(np.moveaxis(around, 1, 2)), overwrite=True)
 
     def _emit(self, end: int) -> Chunk:
         """The samples of blocks ``_emitted … end − 1`` less the baseline interpolated between block centres."""
@@ -148,7 +156,7 @@ class RunningBaseline(_Buffered):
             return np.empty(0), {name: np.empty(0) for name in self._names}
         blocks = range(max(self._emitted - 1, 0), end + 1)
         centres = self._t0 + (np.array(blocks) + 0.5) * self.block
-        levels = np.array([self._baseline(j) for j in blocks])  # (blocks, channels)
+        levels = self._baselines(blocks)  # (blocks, channels)
         cut = int(np.searchsorted(np.floor((self._time - self._t0) / self.block), end, side="left"))
         t, values = self._time[:cut], self._values[:, :cut]
         out = {name: values[k] - np.interp(t, centres, levels[:, k]) for k, name in enumerate(self._names)}
@@ -198,26 +206,52 @@ class NoiseMeter(_Buffered):
     def _count(self, blocks: NDArray[np.float64], values: NDArray[np.float64], counts: NDArray[np.int64] | None = None) -> None:
         """Add each block's ``σ_j`` (``blocks``: each sample's block) to ``counts`` (default: the meter's)."""
         counts = self._counts if counts is None else counts
+        if blocks.size == 0:
+            return
         starts = np.flatnonzero(np.diff(blocks, prepend=-math.inf) > 0.0)
-        for lo, hi in zip(starts, [*starts[1:], blocks.size]):
-            samples = values[:, lo:hi]
-            spread = MAD_SCALE * _nanmedian_rows(np.abs(samples - _nanmedian_rows(samples)[:, None]))
-            counted = np.flatnonzero((np.count_nonzero(np.isfinite(samples), axis=1) >= MIN_NOISE_SAMPLES) & (spread > 0.0))
-            bins = np.floor((np.log10(spread[counted]) - _NOISE_DECADES[0]) * NOISE_BINS).astype(np.int64)
-            counts[counted, np.clip(bins, 0, counts.shape[1] - 1)] += 1
+        samples = _groups(values, starts, np.append(starts[1:], blocks.size))  # (channels, blocks, samples)
+        spread = MAD_SCALE * _nanmedian(np.abs(samples - _nanmedian(samples)[..., None]), overwrite=True)
+        channel, block = np.nonzero((np.count_nonzero(np.isfinite(samples), axis=2) >= MIN_NOISE_SAMPLES) & (spread > 0.0))
+        bins = np.floor((np.log10(spread[channel, block]) - _NOISE_DECADES[0]) * NOISE_BINS).astype(np.int64)
+        np.add.at(counts, (channel, np.clip(bins, 0, counts.shape[1] - 1)), 1)
 
 
-def _nanmedian_rows(x: NDArray[np.float64]) -> NDArray[np.float64]:
-    """The median of each row's finite values (NaN for a row with none), without numpy's all-NaN warning."""
-    if x.shape[1] == 0:
-        return np.full(x.shape[0], np.nan)
-    finite = np.isfinite(x)
-    if finite.all():
-        return np.median(x, axis=1)
-    out = np.full(x.shape[0], np.nan)
-    for k in np.flatnonzero(finite.any(axis=1)):
-        out[k] = float(np.median(x[k, finite[k]]))
-    return out
+def _groups(values: NDArray[np.float64], lo: NDArray[np.int64], hi: NDArray[np.int64]) -> NDArray[np.float64]:
+    """The samples ``lo[g] … hi[g] − 1`` of each row of ``values`` as ``(rows, groups, width)``, +inf past a group's end
+    (no sample: :func:`_nanmedian` and the counts of finite samples leave it out)."""
+    width = int((hi - lo).max()) if lo.size else 0
+    if values.shape[1] == 0:
+        return np.full((values.shape[0], lo.size, width), np.inf)
+    index = lo[:, None] + np.arange(width)
+    gathered = values[:, np.minimum(index, values.shape[1] - 1)]
+    if width and np.any(hi - lo < width):
+        gathered[:, index >= hi[:, None]] = np.inf
+    return gathered
+
+
+def _nanmedian(x: NDArray[np.float64], overwrite: bool = False) -> NDArray[np.float64]:
+    """The median of the finite values along the last axis (NaN where there is none), all rows at once: the others
+    moved past them (as +inf), the middle order statistics of every count of finite values there is put in place by
+    one partition, and each row's two middle ones averaged (numpy's median of the finite values, to the bit);
+    ``overwrite``: ``x`` may be reordered in place (a C-contiguous array of floats the caller no longer needs)."""
+    if not x.shape[-1]:
+        return np.full(x.shape[:-1], np.nan)
+    rows = (x if overwrite else np.array(x, dtype=float)).reshape(-1, x.shape[-1])
+    finite = np.isfinite(rows)
+    n = np.count_nonzero(finite, axis=-1)
+    out = np.full(n.size, np.nan)
+    if not n.any():
+        return out.reshape(x.shape[:-1])
+    if not finite.all():
+        rows[~finite] = np.inf
+    counts = np.unique(n[n > 0])
+    kth = np.unique(np.concatenate([(counts - 1) // 2, counts // 2]))
+    rows.partition(kth, axis=-1)
+    some = n > 0
+    low = np.take_along_axis(rows, ((n - 1) // 2)[:, None].clip(0), axis=-1)[:, 0]
+    high = np.take_along_axis(rows, (n // 2)[:, None].clip(0, rows.shape[1] - 1), axis=-1)[:, 0]
+    out[some] = (low[some] + high[some]) / 2
+    return out.reshape(x.shape[:-1])
 
 
 __all__ = ["BLOCK", "LONGEST_CONTACT", "MIN_NOISE_SAMPLES", "NOISE_BINS", "NOISE_BLOCK", "NOISE_QUANTILE", "NoiseMeter", "RunningBaseline",

@@ -1,18 +1,20 @@
 """Record files read as hostile input: regular files only, nothing read from outside the file named, bounded before allocation.
 
-:mod:`femref.sensing.recordings` reads a recorder's columns through :func:`read_columns`, which keeps to the rules of
+:mod:`femref.sensing.recordings` reads a recorder's columns through :func:`open_columns`, which keeps to the rules of
 docs/design.md §3.7, each refusal a :class:`RecordError` naming the file, the column, channel or dataset and the rule:
 regular files only (:func:`femref.core.files.regular_file`); nothing read from outside the file the case names (each
-reader of :mod:`femref.sensing.formats`, chosen by :func:`open_reader`, opens that file alone); sizes bounded before allocation (:data:`MAX_RECORD_BYTES`
-by ``stat`` for text files, :data:`MAX_RECORD_SAMPLES`, :data:`MAX_RECORD_VALUES`: the sample counts a file's headers
-give are checked before a sample is read; a text file, whose line count bounds its samples, is read no further than one
-row past the limit). Every format is read chunk by chunk (:data:`CHUNK_SAMPLES`) into one array per column.
+reader of :mod:`femref.sensing.formats`, chosen by :func:`open_reader`, opens that file alone); every format read chunk
+by chunk (:data:`CHUNK_SAMPLES`), so memory is bounded by the chunk whatever the file's length. A reader that must hold
+a whole file or column (pyuff for UFF58; an (n, 1) HDF5 dataset) is bounded before allocation: :data:`MAX_RECORD_BYTES`
+by ``stat``, :data:`MAX_RECORD_SAMPLES` on the sample count its headers give. :func:`read_columns` joins a file's
+chunks into arrays within a :class:`SampleLimit` (a file read whole).
 """
 
 from __future__ import annotations
 
+import contextlib
 import importlib
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -24,20 +26,19 @@ from femref.core.files import NotRegularFile, regular_file
 from femref.sensing.formats.base import ColumnInfo, RecordError, RecordReader, Request
 from femref.sensing.formats.hdf5 import MAX_SOFT_LINKS
 
-__all__ = ["CHUNK_SAMPLES", "FORMATS", "MAX_RECORD_BYTES", "MAX_RECORD_SAMPLES", "MAX_RECORD_VALUES", "MAX_SOFT_LINKS", "SUFFIXES", "ColumnInfo",
-           "RecordError", "RecordReader", "Request", "SampleLimit", "format_of", "key_of", "open_reader", "read_columns"]
+__all__ = ["CHUNK_SAMPLES", "FORMATS", "MAX_RECORD_BYTES", "MAX_RECORD_SAMPLES", "MAX_SOFT_LINKS", "SUFFIXES", "WHOLE_FILE_FORMATS", "ColumnInfo",
+           "RecordError", "RecordReader", "Request", "SampleLimit", "format_of", "key_of", "open_columns", "open_reader", "read_columns"]
 
 MAX_RECORD_BYTES = 2**30
-"""Largest text (CSV, UFF58) record file (bytes, 1 GiB), by ``stat`` before it is opened. Two hours at 1 kHz of a
-recorder's time and five channels written with 12 digits is about 0.6 GB."""
+"""Largest record file (bytes, 1 GiB, by ``stat`` before it is opened) of a format whose reader holds the whole file
+(:data:`WHOLE_FILE_FORMATS`: pyuff parses a UFF58 file whole). Streamed formats have no byte bound: memory follows the chunk."""
 MAX_RECORD_SAMPLES = 2**24
-"""Most samples per channel of one file (1.68e7): 4.7 h at 1 kHz, 5.6 min at the highest rate allowed (50 kHz,
-:data:`femref.sensing.recordings.MAX_RECORD_RATE`); a recorder's stream is cut into files shorter than a shift."""
-MAX_RECORD_VALUES = 2**26
-"""Most values (samples × (channels + the time column)) of all record files read together, a case's (6.7e7, 512 MiB as
-floats). Two recorders, five channels, two hours at 1 kHz hold 5.0e7."""
+"""Most samples of a column held whole (1.68e7; 4.7 h at 1 kHz, 128 MiB as floats): a UFF58 record, an (n, 1) HDF5
+dataset, a file read whole by :func:`read_columns`. A streamed column has no sample bound."""
 CHUNK_SAMPLES = 1 << 18
 """Samples per column read at a time (a CSV chunk is about 10 MB of text)."""
+WHOLE_FILE_FORMATS = ("uff58",)
+"""Formats whose reader holds the whole file (pyuff reads a UFF58 file into memory to find its records)."""
 
 
 FORMATS: dict[str, tuple[str, str, str | None]] = {
@@ -78,23 +79,15 @@ def open_reader(path: Path, fmt: str, options: dict[str, Any]) -> RecordReader:
 
 @dataclass(frozen=True)
 class SampleLimit:
-    """The most samples per column a file may hold (``samples``) and the rule that sets it (``rule``, for messages)."""
+    """The most samples per column a file read whole may hold (``samples``) and the rule that sets it (``rule``, for messages)."""
 
     samples: int
     rule: str
 
     @classmethod
-    def for_file(cls, columns: int, values_left: int) -> SampleLimit:
-        """The limit of a file of ``columns`` columns (time and channels) when ``values_left`` of
-        :data:`MAX_RECORD_VALUES` remain for it: :data:`MAX_RECORD_SAMPLES`, or less when the values run out first."""
-        per_file = f"a record file holds at most {_count(MAX_RECORD_SAMPLES)} samples per channel ({MAX_RECORD_SAMPLES / 3.6e6:.2g} h at 1 kHz)"
-        if values_left // columns >= MAX_RECORD_SAMPLES:
-            return cls(MAX_RECORD_SAMPLES, per_file)
-        share = max(values_left, 0) // columns
-        rule = (f"the record files of a case hold at most {_count(MAX_RECORD_VALUES)} values in all, time columns included "
-                f"({MAX_RECORD_VALUES * 8 / 2**20:.3g} MiB as floats); {_count(max(values_left, 0))} are left for this file's {columns} columns, "
-                f"{_count(share)} samples each")
-        return cls(share, rule)
+    def whole(cls) -> SampleLimit:
+        """:data:`MAX_RECORD_SAMPLES`, the bound of a column held whole."""
+        return cls(MAX_RECORD_SAMPLES, f"a column held whole holds at most {_count(MAX_RECORD_SAMPLES)} samples ({MAX_RECORD_SAMPLES / 3.6e6:.2g} h at 1 kHz)")
 
 
 def _count(n: int) -> str:
@@ -105,12 +98,13 @@ def _count(n: int) -> str:
     return f"{mantissa}e{int(exponent)}"
 
 
-def read_columns(path: Path, requests: Sequence[Request], limit: SampleLimit, fmt: str = "csv", options: dict[str, Any] | None = None
-                 ) -> tuple[list[NDArray[np.float64]], list[str | None]]:
-    """``(columns, units)``: each requested column of the ``fmt`` record file at ``path`` as floats, and its unit as the
-    file declares it (None: it does not), read through the format's reader (:mod:`femref.sensing.formats`) chunk by chunk
-    into arrays allocated once for the sample counts its headers give, checked against ``limit`` first (module
-    docstring). No two of the arrays share memory, so the caller may scale them in place."""
+@contextlib.contextmanager
+def open_columns(path: Path, requests: Sequence[Request], fmt: str = "csv", options: dict[str, Any] | None = None, size: int = CHUNK_SAMPLES
+                 ) -> Iterator[tuple[RecordReader, list[ColumnInfo], Iterator[list[NDArray[np.float64]]]]]:
+    """``(reader, infos, chunks)`` of the ``fmt`` record file at ``path`` (module docstring): the columns selected with
+    their units and sample counts from the file's headers, and an iterator over their chunks (``size`` samples each)
+    that checks, once exhausted, that a file's headers told
+    its sample counts true."""
     name = path.name
     try:
         status = regular_file(path)
@@ -120,33 +114,43 @@ def read_columns(path: Path, requests: Sequence[Request], limit: SampleLimit, fm
         raise RecordError(f"{name}: {error} ({path}); a record is read only from a regular file") from None
     except OSError as error:
         raise RecordError(f"{name}: cannot read the file: {error.strerror or error}") from None
-    if fmt not in ("hdf5", "mdf4", "tdms") and status.st_size > MAX_RECORD_BYTES:
-        raise RecordError(f"{name}: the file holds {status.st_size / 2**20:.4g} MiB; a {fmt.upper()} record file may hold at most "
+    if fmt in WHOLE_FILE_FORMATS and status.st_size > MAX_RECORD_BYTES:
+        raise RecordError(f"{name}: the file holds {status.st_size / 2**20:.4g} MiB; a {fmt.upper()} record file, read whole, may hold at most "
                           f"{MAX_RECORD_BYTES // 2**20} MiB: cut the stream into shorter files")
     with open_reader(path, fmt, options or {}) as reader:
         infos = reader.select(requests)
         for info in infos:
+            if (info.whole or fmt in WHOLE_FILE_FORMATS) and info.exact and info.samples > MAX_RECORD_SAMPLES:
+                raise RecordError(f"{info.label}: holds {_count(info.samples)} samples; {SampleLimit.whole().rule}")
+
+        def chunks() -> Iterator[list[NDArray[np.float64]]]:
+            counts = [0] * len(infos)
+            for chunk in reader.chunks(size):
+                for k, part in enumerate(chunk):
+                    counts[k] += part.size
+                yield [np.asarray(part, dtype=float) for part in chunk]
+            for info, count in zip(infos, counts):
+                if info.exact and count != info.samples:
+                    raise RecordError(f"{info.label}: the file's headers give {info.samples} samples, its data {count}: the file is truncated or corrupt")
+
+        yield reader, infos, chunks()
+
+
+def read_columns(path: Path, requests: Sequence[Request], limit: SampleLimit, fmt: str = "csv", options: dict[str, Any] | None = None
+                 ) -> tuple[list[NDArray[np.float64]], list[str | None]]:
+    """``(columns, units)``: each requested column of the ``fmt`` record file at ``path`` read whole, as floats, and
+    its unit as the file declares it (None: it does not), within ``limit`` (checked on the headers' sample counts
+    before a sample is read; a text file is read no further than one row past it)."""
+    with open_columns(path, requests, fmt, options) as (_, infos, chunks):
+        for info in infos:
             if info.exact and info.samples > limit.samples:
                 raise RecordError(f"{info.label}: holds {_count(info.samples)} samples; {limit.rule}")
-        columns = [np.empty(min(info.samples, limit.samples + 1)) for info in infos]
+        parts: list[list[NDArray[np.float64]]] = [[] for _ in infos]
         counts = [0] * len(infos)
-        for chunk in reader.chunks(CHUNK_SAMPLES):
+        for chunk in chunks:
             for k, part in enumerate(chunk):
-                rows = min(part.size, limit.samples + 1 - counts[k])
-                if counts[k] + rows > columns[k].size:  # a line count that underestimates (lone \r line ends)
-                    columns[k] = _grown(columns[k], counts[k], min(max(2 * columns[k].size, counts[k] + rows), limit.samples + 1))
-                columns[k][counts[k] : counts[k] + rows] = part[:rows]
-                counts[k] += rows
+                parts[k].append(part)
+                counts[k] += part.size
             if max(counts, default=0) > limit.samples:
-                raise RecordError(f"{name}: holds more than {_count(limit.samples)} rows of samples; {limit.rule}")
-    for info, count in zip(infos, counts):
-        if info.exact and count != info.samples:
-            raise RecordError(f"{info.label}: the file's headers give {info.samples} samples, its data {count}: the file is truncated or corrupt")
-    return [column[:count] for column, count in zip(columns, counts)], [info.unit for info in infos]
-
-
-def _grown(column: NDArray[np.float64], count: int, capacity: int) -> NDArray[np.float64]:
-    """``column`` with room for ``capacity`` samples, its first ``count`` kept."""
-    grown = np.empty(capacity)
-    grown[:count] = column[:count]
-    return grown
+                raise RecordError(f"{path.name}: holds more than {_count(limit.samples)} rows of samples; {limit.rule}")
+    return [np.concatenate(p) if p else np.empty(0) for p in parts], [info.unit for info in infos]

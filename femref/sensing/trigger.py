@@ -16,9 +16,10 @@ does not count):
 * the event's window is ``[t_trigger − pre, t_last + post]``, ``t_last`` the last sample above
   ``rearm`` before the re-arm: ``post`` is the least record kept after the ringing stops. It is
   capped at ``max_window`` s from its start (the event is flagged ``capped``; the trigger stays
-  disarmed until the ring does go quiet, so its tail is never an event of its own; if it never does
-  while the stream runs on for more than another ``max_window``, the event is flagged ``never re-armed``:
-  an impact after the cap was not looked for, as happens when ``rearm`` lies below the sensor noise), and cut at
+  disarmed until the ring does go quiet, so its tail is never an event of its own; if it does not go quiet
+  within another ``max_window`` after the cap, the event is flagged ``never re-armed``: an impact after the cap
+  was not looked for, as happens when ``rearm`` lies below the sensor noise; a capped window is returned when the
+  ring goes quiet, or then), and cut at
   ``t_next − pre`` (not before ``t_last``) when the next event triggers at ``t_next`` before the
   window ends (flagged ``cut short``): an impact more than ``quiet`` after the previous one's ringing
   fell below ``rearm`` is an event of its own, a sooner one is part of the previous event.
@@ -28,27 +29,26 @@ each window as soon as no later sample can change it: the same windows for any c
 Each chunk is searched with numpy for the few samples where the state changes; Python loops only over triggers
 that do not hold.
 
-:func:`search_events`: every channel merged onto the union of their sample times (:func:`stream_chunks`), each
-less its baseline (:mod:`femref.sensing.baseline`: a bias never opens an event), through the trigger. Each window
-is clipped to the span every channel covers (flagged ``truncated``; a window wholly outside it is no event), and
-every gap or saturated stretch of a channel that overlaps it is named in its flags (``"saturated: hammer/front
-1.2031–1.2050 s"``): the estimates of such an event are not to be trusted silently. With the trigger within
-:data:`NOISE_MARGIN` σ of a channel's noise in the quiet stretches, every event is flagged (:func:`trigger_in_noise`).
+:mod:`femref.sensing.stream` feeds it the recorders' merged stream, each channel less its baseline
+(:mod:`femref.sensing.baseline`: a bias never opens an event), and makes each window an :class:`Event`: clipped to
+the span every channel covers (flagged ``truncated``), every gap or saturated stretch of a channel that overlaps it
+named in its flags (``"saturated: hammer/front 1.2031–1.2050 s"``: the estimates of such an event are not to be
+trusted silently), and, with the trigger within :data:`NOISE_MARGIN` σ of a channel's noise in the quiet stretches,
+flagged (:func:`trigger_in_noise`).
 
-:func:`window`: the event's records linearly interpolated onto one uniform grid (the estimators need one grid for
-all cars).
+:func:`event_grid`: the uniform grid an event's records are interpolated onto (the estimators need one grid for all
+cars); :func:`window` cuts them from records held whole.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from femref.sensing.baseline import NoiseMeter, RunningBaseline
 from femref.sensing.recordings import Recordings
 
 REARM_FRACTION = 0.5
@@ -59,8 +59,6 @@ cars surging through their gear's slack fall quiet for up to 0.44 s between burs
 impacts, tests/measured/test_event_trigger.py), and a burst after a lull of 0.18 s still rose above the trigger."""
 MAX_WINDOW = 5.0
 """The default longest event window (s), from its start ``t_trigger − pre`` to its end."""
-CHUNK_SAMPLES = 1 << 18
-"""Samples of the merged stream per chunk fed to the trigger by :func:`search_events`."""
 HOLD = 0.003
 """The default hold time (s): a single channel opens an event only if its samples stay above the trigger this long
 (module docstring). A third of the shortest plausible contact, ``π √(m*/k) ≈ 10`` ms for 20 t cars (``m* = 10`` t) on the
@@ -120,13 +118,14 @@ class EventWindow:
 
 @dataclass
 class _Ringing:
-    """The open event: its trigger, the last sample above the re-arm level, and whether its capped window
-    was already returned."""
+    """The open event: its trigger, the last sample above the re-arm level, whether its window is decided (capped),
+    and that capped window while it is held back (module docstring)."""
 
     trigger_time: float
     trigger_probe: str
     last_loud: float
     returned: bool = False
+    held: EventWindow | None = None
 
 
 @dataclass
@@ -144,10 +143,6 @@ class EventTrigger:
     """Spikes above the trigger ignored so far: on one channel, held less than ``hold`` (module docstring)."""
     first_glitches: list[tuple[float, str]] = field(default_factory=list, init=False)
     """The first :data:`GLITCHES_NAMED` of them: ``(time, channel)``."""
-    never_rearmed_after: float | None = field(default=None, init=False)
-    """Set by :meth:`finish` when a capped window's ringing never went quiet to the end of the stream, more than
-    another ``max_window`` after the cap: that window's trigger time (s). The trigger never re-armed after it, so an
-    impact after its cap was not looked for."""
 
     def feed(self, time: ArrayLike, channels: Mapping[str, ArrayLike]) -> list[EventWindow]:
         """The windows decided by the chunk ``time`` (s, increasing, after the previous chunk's) with each
@@ -182,7 +177,7 @@ class EventTrigger:
             if self._ringing is None:
                 k = self._armed(t, envelope, magnitude, k, decided, final)
             else:
-                k = self._ring(t, envelope, k)
+                k = self._ring(t, envelope, k, decided)
         if self._carry is None:
             self._settle(float(t[-1]), decided)
         elif self._carry[0][0] > t[0]:
@@ -190,8 +185,8 @@ class EventTrigger:
         return decided
 
     def finish(self) -> list[EventWindow]:
-        """The windows still open at the stream's end (their ends may lie beyond it; :attr:`never_rearmed_after` set);
-        a trigger still within its hold time is decided on the samples there are."""
+        """The windows still open at the stream's end (their ends may lie beyond it); a trigger still within its hold
+        time is decided on the samples there are."""
         decided: list[EventWindow] = []
         if self._carry is not None:
             decided += self._process(*self._carry, final=True)
@@ -200,10 +195,31 @@ class EventTrigger:
         ringing = self._ringing
         if ringing is not None and not ringing.returned:
             decided.append(self._closed(ringing))
-        if ringing is not None and self._last_time - self._cap(ringing) > self.settings.max_window:
-            self.never_rearmed_after = ringing.trigger_time
+        if ringing is not None and ringing.held is not None:
+            never = self._last_time - self._cap(ringing) > self.settings.max_window
+            decided.append(self._never_rearmed(ringing.held) if never else ringing.held)
         self._pending, self._ringing = None, None
         return decided
+
+    def earliest_start(self) -> float:
+        """The earliest start (s) a window not yet returned can have: an open, held or pending one's, or ``pre``
+        before the last sample taken (a later trigger's)."""
+        pre = self.settings.pre
+        found = [self._last_time - pre]
+        if self._carry is not None:
+            found.append(float(self._carry[0][0]) - pre)
+        if self._pending is not None:
+            found.append(self._pending[0].start)
+        ringing = self._ringing
+        if ringing is not None:
+            found.append(ringing.trigger_time - pre)
+        return min(found)
+
+    def _never_rearmed(self, window: EventWindow) -> EventWindow:
+        note = (f"never re-armed: the records stayed above rearm = {self.settings.rearm_level:g} m/s² with no quiet stretch of "
+                f"{self.settings.quiet:g} s for another max_window = {self.settings.max_window:g} s after the cap, so an impact after the cap "
+                f"would not be found (is rearm below the sensor noise?)")
+        return replace(window, flags=(*window.flags, note))
 
     def _armed(self, t: NDArray[np.float64], envelope: NDArray[np.float64], magnitude: NDArray[np.float64],
                k: int, decided: list[EventWindow], final: bool) -> int:
@@ -247,9 +263,9 @@ class EventTrigger:
         if len(self.first_glitches) < GLITCHES_NAMED:
             self.first_glitches.append((time, self._names[int(np.nanargmax(magnitude))]))
 
-    def _ring(self, t: NDArray[np.float64], envelope: NDArray[np.float64], k: int) -> int:
+    def _ring(self, t: NDArray[np.float64], envelope: NDArray[np.float64], k: int, decided: list[EventWindow]) -> int:
         """From sample ``k`` while an event is open: its ringing samples up to the re-arm, if this chunk
-        holds it; the index to go on from."""
+        holds it (a capped window held back is then decided); the index to go on from."""
         ringing = self._ringing
         assert ringing is not None
         loud = np.concatenate([[ringing.last_loud], t[k + np.flatnonzero(envelope[k:] > self.settings.rearm_level)]])
@@ -262,6 +278,8 @@ class EventTrigger:
         rearmed = max(k, int(np.searchsorted(t, ringing.last_loud + self.settings.quiet, side="left")))
         if not ringing.returned:
             self._pending = (self._closed(ringing), ringing.last_loud)
+        elif ringing.held is not None:
+            decided.append(ringing.held)
         self._ringing = None
         return rearmed
 
@@ -285,8 +303,10 @@ class EventTrigger:
             self._pending = None
         ringing = self._ringing
         if ringing is not None and not ringing.returned and ringing.last_loud + self.settings.post > self._cap(ringing) <= now:
-            decided.append(self._closed(ringing))
-            ringing.returned = True
+            ringing.held, ringing.returned = self._closed(ringing), True
+        if ringing is not None and ringing.held is not None and now - self._cap(ringing) > self.settings.max_window:
+            decided.append(self._never_rearmed(ringing.held))
+            ringing.held = None
 
 
 def _holds(magnitude: NDArray[np.float64], level: float) -> bool:
@@ -309,25 +329,6 @@ class Event:
     trigger_time: float
     trigger_probe: str
     flags: tuple[str, ...]
-
-
-def stream_chunks(recordings: Recordings, samples: int = CHUNK_SAMPLES) -> Iterator[tuple[NDArray[np.float64], dict[str, NDArray[np.float64]]]]:
-    """The records as one stream, in chunks of ``samples`` times: ``(t, {probe: a})`` on the union of the
-    channels' sample times (s), each channel's samples at its own times and NaN at the others' (m/s²)."""
-    axes = list({id(channel.time): channel.time for channel in recordings.channels.values()}.values())  # one per recorder
-    time = axes[0] if len(axes) == 1 else np.unique(np.concatenate(axes))
-    for first in range(0, time.size, samples):
-        t = time[first:first + samples]
-        values = {}
-        for probe, channel in recordings.channels.items():
-            lo, hi = np.searchsorted(channel.time, t[0], side="left"), np.searchsorted(channel.time, t[-1], side="right")
-            if hi - lo == t.size:  # sampled at every time of the chunk
-                values[probe] = channel.acceleration[lo:hi]
-                continue
-            a = np.full(t.size, np.nan)
-            a[np.searchsorted(t, channel.time[lo:hi])] = channel.acceleration[lo:hi]
-            values[probe] = a
-        yield t, values
 
 
 @dataclass(frozen=True)
@@ -373,52 +374,6 @@ class EventSearch:
                 f"(largest |a − baseline|: {largest:.3g} m/s² on {probe})")
 
 
-def search_events(recordings: Recordings, settings: TriggerSettings, *, remove_baseline: bool = True, samples: int = CHUNK_SAMPLES) -> EventSearch:
-    """The events of the stream (module docstring): the merged stream (:func:`stream_chunks`, chunks of ``samples``)
-    less each channel's baseline (:class:`femref.sensing.baseline.RunningBaseline`; with ``remove_baseline`` false
-    the records as they are) through the trigger, chunk by chunk."""
-    machine, baseline, meter = EventTrigger(settings), RunningBaseline(), NoiseMeter()
-    loudest: dict[str, float] = {}
-    windows: list[EventWindow] = []
-
-    def trigger(t: NDArray[np.float64], values: dict[str, NDArray[np.float64]]) -> None:
-        if t.size:
-            for probe, a in values.items():
-                finite = np.abs(a[np.isfinite(a)])
-                loudest[probe] = max(loudest.get(probe, 0.0), float(finite.max()) if finite.size else 0.0)
-            meter.feed(t, values)
-            windows.extend(machine.feed(t, values))
-
-    for t, values in stream_chunks(recordings, samples):
-        trigger(*(baseline.feed(t, values) if remove_baseline else (t, values)))
-    if remove_baseline:
-        trigger(*baseline.finish())
-    windows += machine.finish()
-    if machine.never_rearmed_after is not None:
-        k = next(i for i, w in enumerate(windows) if w.trigger_time == machine.never_rearmed_after)
-        note = (f"never re-armed: the records stayed above rearm = {machine.settings.rearm_level:g} m/s² with no quiet stretch of "
-                f"{machine.settings.quiet:g} s to the end of the stream, so an impact after the cap would not be found "
-                f"(is rearm below the sensor noise?)")
-        windows[k] = replace(windows[k], flags=(*windows[k].flags, note))
-    first, last = recordings.span
-    events: list[Event] = []
-    outside: list[float] = []
-    for found in windows:
-        start, end = max(found.start, first), min(found.end, last)
-        if end <= start:
-            outside.append(found.trigger_time)
-            continue
-        flags = (["truncated"] if start > found.start or end < found.end else []) + list(found.flags) + _quality_flags(recordings, start, end)
-        events.append(Event(len(events), start, end, found.trigger_time, found.trigger_probe, tuple(flags)))
-    files = {channel.file: (float(channel.time[0]), float(channel.time[-1])) for channel in recordings.channels.values()}
-    noise = meter.noise()
-    in_noise = trigger_in_noise(settings.level, noise)
-    if in_noise is not None:
-        events = [replace(event, flags=(*event.flags, in_noise)) for event in events]
-    return EventSearch(settings, events, noise, max(loudest.items(), key=lambda item: item[1], default=("", 0.0)), machine.glitches,
-                       tuple(machine.first_glitches), tuple(outside), (first, last), files)
-
-
 def trigger_in_noise(level: float, noise: Mapping[str, float]) -> str | None:
     """The flag of the events of a stream whose trigger ``level`` (m/s²) lies below :data:`NOISE_MARGIN` σ of a channel's
     noise (``noise``: channel → σ, m/s², in the stream's quiet stretches), or None."""
@@ -430,24 +385,20 @@ def trigger_in_noise(level: float, noise: Mapping[str, float]) -> str | None:
             f"({named}); noise alone crosses it, the event may be noise")
 
 
-def window(recordings: Recordings, event: Event, rate: float | None = None) -> tuple[NDArray[np.float64], dict[str, NDArray[np.float64]]]:
-    """``(t, {probe: a})``: the event's records linearly interpolated onto ``t_k = start + k / rate`` (s, m/s²)."""
-    rate = max(channel.rate for channel in recordings.channels.values()) if rate is None else rate
+def event_grid(start: float, end: float, rate: float) -> NDArray[np.float64]:
+    """The event's grid ``t_k = start + k / rate`` (s) up to ``end``."""
     if not (math.isfinite(rate) and rate > 0.0):
         raise ValueError(f"rate must be positive (Hz), got {rate!r}")
-    samples = int(math.floor((event.end - event.start) * rate + 1e-9)) + 1
-    t = event.start + np.arange(samples) / rate
+    return start + np.arange(int(math.floor((end - start) * rate + 1e-9)) + 1) / rate
+
+
+def window(recordings: Recordings, event: Event, rate: float | None = None) -> tuple[NDArray[np.float64], dict[str, NDArray[np.float64]]]:
+    """``(t, {probe: a})``: the event's records held whole linearly interpolated onto its grid (:func:`event_grid`;
+    ``rate`` None: the highest channel rate), as :class:`femref.sensing.stream.EventStream` cuts them from its buffers."""
+    rate = max(channel.rate for channel in recordings.channels.values()) if rate is None else rate
+    t = event_grid(event.start, event.end, rate)
     return t, {probe: np.interp(t, channel.time, channel.acceleration) for probe, channel in recordings.channels.items()}
 
 
-def _quality_flags(recordings: Recordings, start: float, end: float) -> list[str]:
-    return [
-        f"{quality.reason}: {probe} {quality.start:.6g}–{quality.end:.6g} s"
-        for probe, channel in recordings.channels.items()
-        for quality in channel.quality
-        if quality.end >= start and quality.start <= end
-    ]
-
-
-__all__ = ["CHUNK_SAMPLES", "HOLD", "MAX_WINDOW", "NOISE_MARGIN", "QUIET", "REARM_FRACTION", "Event", "EventSearch", "EventTrigger", "EventWindow",
-           "TriggerSettings", "search_events", "stream_chunks", "trigger_in_noise", "window"]
+__all__ = ["HOLD", "MAX_WINDOW", "NOISE_MARGIN", "QUIET", "REARM_FRACTION", "Event", "EventSearch", "EventTrigger", "EventWindow",
+           "TriggerSettings", "event_grid", "trigger_in_noise", "window"]

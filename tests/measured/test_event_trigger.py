@@ -21,7 +21,8 @@ import yaml
 
 from femref.case import load_case
 from femref.scene.build import scene_from_case
-from femref.sensing.trigger import QUIET, EventTrigger, TriggerSettings, stream_chunks
+from femref.sensing.stream import stream_chunks
+from femref.sensing.trigger import QUIET, EventTrigger, TriggerSettings
 from support.measured import find_events
 from femref.sensing.measurement import Measurement, measure
 from femref.sensing.recordings import Channel, Recordings

@@ -29,7 +29,8 @@ from femref.case import load_case
 from femref.cli import main
 from femref.sensing import record_files, recordings
 from femref.sensing.record_files import MAX_RECORD_BYTES, MAX_RECORD_SAMPLES, MAX_SOFT_LINKS
-from femref.sensing.recordings import MAX_EVENT_VALUES, MAX_RECORD_RATE, PLAUSIBLE_ACCELERATION
+from femref.sensing.quality import PLAUSIBLE_ACCELERATION
+from femref.sensing.recordings import MAX_EVENT_VALUES, MAX_RECORD_RATE
 
 G = 9.80665
 RATE = 1000.0  # Hz of the probes' records
@@ -137,10 +138,11 @@ def soft_link_loop(folder: Path) -> tuple[Path, dict, dict]:
 
 
 def gzip_bomb(folder: Path) -> tuple[Path, dict, dict]:
-    """1.25e9 samples (9.3 GiB as floats) in a file of a few kB: one gzip chunk written, the rest fill value."""
+    """1.25e9 samples (9.3 GiB as floats) in a file of a few kB: one gzip chunk written, the rest fill value, as an (n, 1)
+    dataset, which the reader holds whole (a one-dimensional one is streamed: memory bounded by the chunk)."""
     def front(h5: h5py.File) -> None:
-        dataset = h5.create_dataset("front", shape=(1_250_000_000,), chunks=(2**20,), dtype="f8", compression="gzip", compression_opts=9)
-        dataset[: 2**20] = np.zeros(2**20)
+        dataset = h5.create_dataset("front", shape=(1_250_000_000, 1), chunks=(2**20, 1), dtype="f8", compression="gzip", compression_opts=9)
+        dataset[: 2**20] = np.zeros((2**20, 1))
 
     return hdf5_record(folder / "r.h5", front), {"rate": RATE}, HDF5_CHANNELS
 
@@ -155,12 +157,12 @@ def symlink_loop(folder: Path) -> tuple[Path, dict, dict]:
     return folder / "one.csv", {"column": "t", "unit": "s"}, {}
 
 
-def csv_beyond_the_byte_limit(folder: Path) -> tuple[Path, dict, dict]:
-    """A sparse file one byte past the limit: a header, a few rows, then nothing on disk."""
-    record = csv_record(folder / "r.csv", seconds=0.01)
-    with record.open("r+b") as handle:
+def uff_beyond_the_byte_limit(folder: Path) -> tuple[Path, dict, dict]:
+    """A sparse UFF58 file (pyuff reads one whole) one byte past the limit: nothing on disk."""
+    record = folder / "r.uff"
+    with record.open("wb") as handle:
         handle.truncate(MAX_RECORD_BYTES + 1)
-    return record, {"column": "t", "unit": "s"}, {}
+    return record, {"channel": "t", "unit": "s"}, {"a/front": {"channel": "front", "unit": "g"}, "b/rear": {"channel": "rear", "unit": "g"}}
 
 
 def column_named_twice(folder: Path) -> tuple[Path, dict, dict]:
@@ -199,10 +201,10 @@ HOSTILE: dict[str, tuple[Callable[[Path], tuple[Path, dict, dict]], str, str]] =
     "hdf5 virtual dataset": (virtual_dataset, r"records\[0\]", r"r\.h5: channel a/front \(dataset 'front'\): /front is a virtual dataset \(its data live in other files; a missing one reads as the fill value\): only data stored in this file are read \(refused unread\)"),
     "hdf5 blosc filter": (blosc_chunks, r"records\[0\]", r"r\.h5: channel a/front \(dataset 'front'\): /front is stored through chunk filter 32001 \(blosc\); femref reads only deflate \(gzip\), "),
     "hdf5 soft-link loop": (soft_link_loop, r"records\[0\]", rf"r\.h5: channel a/front \(dataset 'front'\): more than {MAX_SOFT_LINKS} soft links in a row \(a loop of soft links"),
-    "hdf5 gzip bomb": (gzip_bomb, r"records\[0\]", r"r\.h5: channel a/front \(dataset 'front'\): holds 1\.25e9 samples; a record file holds at most 1\.68e7 samples per channel"),
+    "hdf5 gzip bomb": (gzip_bomb, r"records\[0\]", r"r\.h5: channel a/front \(dataset 'front'\): holds 1\.25e9 samples; a column held whole holds at most 1\.68e7 samples"),
     "device /dev/zero": (device, r"records\[0\]", r"zero: is not a regular file but a character device \(/dev/zero\); a record is read only from a regular file"),
     "symlink loop": (symlink_loop, r"records\[0\]", r"one\.csv: is a loop of symbolic links"),
-    "csv over 1 GiB": (csv_beyond_the_byte_limit, r"records\[0\]", r"r\.csv: the file holds 1024 MiB; a CSV record file may hold at most 1024 MiB"),
+    "uff58 over 1 GiB": (uff_beyond_the_byte_limit, r"records\[0\]", r"r\.uff: the file holds 1024 MiB; a UFF58 record file, read whole, may hold at most 1024 MiB"),
     "column named twice": (column_named_twice, r"records\[0\]", r"r\.csv: channel a/front \(column 'front'\): the header names 2 columns 'front' \(0-based columns 1, 2\); name each column once"),
     "unbalanced quote": (unbalanced_quote, r"records\[0\]", r"r\.csv: row 101 is not valid CSV \(.*\); check its quotes"),
     "time stamps 1 ns apart": (nanosecond_stamps, r"records\[0\]", r"r\.csv: time: the median step 1e-09 s is a rate of 1e\+09 Hz, above 50000 Hz"),
@@ -318,34 +320,20 @@ def test_a_declared_rate_beyond_the_limit_is_refused_before_reading(tmp_path: Pa
     assert_refused(result, case, tmp_path / "out.h5", r"records\[0\]\.time\.rate", rf"must be <= {MAX_RECORD_RATE:g}|.*less than or equal to {MAX_RECORD_RATE:g}")
 
 
-def test_rows_beyond_the_sample_limit_are_not_read(tmp_path: Path, monkeypatch) -> None:
-    """With the limit at 1000 samples, a 3000-row CSV is refused after 1001 rows (numpy's reader stops there), naming
-    the limit; a 500-row one is read whole. ``MAX_RECORD_SAMPLES`` itself (the real one) holds two hours at 1 kHz."""
+def test_a_streamed_file_has_no_sample_limit_a_file_read_whole_does(tmp_path: Path, monkeypatch) -> None:
+    """With the limit of columns held whole at 1000 samples, a 3000-row CSV is streamed by the run (exit 0, its impact
+    found), and read whole (``read_columns``) it is refused after 1001 rows naming the limit. ``MAX_RECORD_SAMPLES``
+    itself holds two hours at 1 kHz."""
     assert 2 * 3600 * 1000 <= MAX_RECORD_SAMPLES
     monkeypatch.setattr(record_files, "MAX_RECORD_SAMPLES", 1000)
     csv_record(tmp_path / "r.csv")
     case = write_case(tmp_path, tmp_path / "r.csv")
-    assert_refused(run(case, tmp_path / "out.h5"), case, tmp_path / "out.h5", r"records\[0\]",
-                   r"r\.csv: holds more than 1000 rows of samples; a record file holds at most 1000 samples per channel \(0\.00028 h at 1 kHz\)")
-    source = recordings.RecordFile(tmp_path / "r.csv", recordings.TimeSource(column="t"), 0.0, (recordings.ChannelSource("a/front", "front", None, "g"),))
-    monkeypatch.setattr(record_files, "MAX_RECORD_SAMPLES", 3000)
-    assert recordings.read_record_file(source).channels[0].time.size == 3000
-
-
-def test_the_records_of_a_case_share_one_value_limit(tmp_path: Path, monkeypatch) -> None:
-    """Two files of 3000 samples × 2 columns each (12 000 values) against a limit of 10 000: the first is read, the
-    second is refused naming the case-wide rule and what was left for it (4000 values, 2000 samples per column)."""
-    monkeypatch.setattr(record_files, "MAX_RECORD_VALUES", 10_000)
-    t = np.arange(0.0, SECONDS, 1.0 / RATE)
-    for name, column in (("a.csv", "front"), ("b.csv", "rear")):
-        np.savetxt(tmp_path / name, np.column_stack([t, pulse(t) / G]), delimiter=",", header=f"t,{column}", comments="")
-    case = write_case(tmp_path, tmp_path / "a.csv", channels={"a/front": {"column": "front", "unit": "g"}})
-    data = yaml.safe_load(case.read_text())
-    data["records"].append({"file": str(tmp_path / "b.csv"), "time": {"column": "t", "unit": "s"}, "channels": {"b/rear": {"column": "rear", "unit": "g"}}})
-    case.write_text(yaml.safe_dump(data, sort_keys=False))
-    assert_refused(run(case, tmp_path / "out.h5"), case, tmp_path / "out.h5", r"records\[1\]",
-                   r"b\.csv: holds more than 2000 rows of samples; the record files of a case hold at most 10000 values in all, time columns "
-                   r"included \(0\.0763 MiB as floats\); 4000 are left for this file's 2 columns, 2000 samples each")
+    result = run(case, tmp_path / "out.h5")
+    assert result.exit_code == 0, result.output
+    with h5py.File(tmp_path / "out.h5") as h5:
+        assert len(h5["events"]) == 1
+    with pytest.raises(record_files.RecordError, match=r"r\.csv: holds more than 1000 rows of samples; a column held whole holds at most 1000 samples"):
+        record_files.read_columns(tmp_path / "r.csv", [("t", "time")], record_files.SampleLimit.whole(), "csv")
 
 
 def test_an_event_grid_beyond_the_limit_names_max_window(tmp_path: Path) -> None:
@@ -383,32 +371,21 @@ def test_implausible_accelerations_are_flagged_per_channel(tmp_path: Path) -> No
         assert set(flags) <= set(yaml.safe_load(h5["events/0"].attrs["flags"])), h5["events/0"].attrs["flags"]
 
 
-def test_a_run_reads_each_record_once_and_a_changed_one_again(tmp_path: Path, monkeypatch) -> None:
-    """Validation keeps what it read: ``femref run`` parses the record once; a record rewritten after the case was
-    loaded is read again by the run, which sees the new samples."""
-    reads: list[str] = []
-    real = recordings.read_columns
+def test_validation_reads_a_first_chunk_and_the_run_streams_the_file_once(tmp_path: Path, monkeypatch) -> None:
+    """``femref run`` of a 3000-row record: validation (and the budget, for the rate of a time column) asks the file for
+    one chunk of ``PROBE_SAMPLES`` rows; the run reads it once, chunk by chunk."""
+    sizes: list[tuple[str, int]] = []
+    real = recordings.open_columns
 
-    def counting(path, *args):
-        reads.append(path.name)
-        return real(path, *args)
+    def counting(path, requests, fmt="csv", options=None, size=record_files.CHUNK_SAMPLES):
+        sizes.append((path.name, size))
+        return real(path, requests, fmt, options, size=size)
 
-    monkeypatch.setattr(recordings, "read_columns", counting)
+    monkeypatch.setattr(recordings, "open_columns", counting)
     csv_record(tmp_path / "r.csv")
-    case_path = write_case(tmp_path, tmp_path / "r.csv")
-    assert run(case_path, tmp_path / "out.h5").exit_code == 0
-    assert reads == ["r.csv"]
-    reads.clear()
-    case = load_case(case_path)
-    first = recordings.read_records(case.record_sources())
-    assert reads == ["r.csv"]  # by validation; read_records used what it kept
-    assert case == load_case(case_path)  # cases compare as before (what they kept compares by value)
-    reads.clear()
-    csv_record(tmp_path / "r.csv", seconds=2.0)
-    os.utime(tmp_path / "r.csv", ns=(0, 10**9))  # another mtime whatever the clock's resolution
-    again = recordings.read_records(case.record_sources())
-    assert reads == ["r.csv"]
-    assert first.channels["a/front"].time.size == 3000 and again.channels["a/front"].time.size == 2000
+    assert run(write_case(tmp_path, tmp_path / "r.csv"), tmp_path / "out.h5").exit_code == 0
+    probes, streamed = [s for s in sizes if s[1] == recordings.PROBE_SAMPLES], [s for s in sizes if s[1] != recordings.PROBE_SAMPLES]
+    assert 1 <= len(probes) <= 2 and streamed == [("r.csv", record_files.CHUNK_SAMPLES)]
 
 
 def test_numpy_and_row_by_row_readers_agree(tmp_path: Path) -> None:
@@ -421,7 +398,8 @@ def test_numpy_and_row_by_row_readers_agree(tmp_path: Path) -> None:
     lines[1001] = f"{t},,{rear}"
     holed.write_text("\n".join(lines) + "\n")
     channels = (recordings.ChannelSource("a/front", "front", None, "g"), recordings.ChannelSource("b/rear", "rear", None, "g"))
-    clean, gap = (recordings.read_record_file(recordings.RecordFile(path, recordings.TimeSource(column="t"), 0.0, channels)).channels for path in (source, holed))
+    clean, gap = (list(recordings.read_records([recordings.RecordFile(path, recordings.TimeSource(column="t"), 0.0, channels)]).channels.values())
+                  for path in (source, holed))
     assert np.array_equal(clean[1].acceleration, gap[1].acceleration) and np.array_equal(clean[0].time, gap[0].time)
     expected = clean[0].acceleration.copy()
     expected[1000] = np.nan

@@ -10,8 +10,9 @@ from support.measured import yard_case_with_inverse_estimators
 
 
 def test_run_measured_reports_the_records_and_each_step_of_each_event(tmp_path) -> None:
-    """cases/measured_yard.yaml's two events with two inverse estimators: the read stage once done, each event named by
-    its number, the count and its trigger time, its callback at 1 + 2 steps of 3; the events as without the hook."""
+    """cases/measured_yard.yaml's two events with two inverse estimators: the read stage counting the bytes of the files
+    opened up to all of them, each event named by its number and its trigger time as the stream decides it (the count is
+    not known then), its callback at 1 + 2 steps of 3; the events as without the hook."""
     scene = scene_from_case(load_case(yard_case_with_inverse_estimators(tmp_path)), tmp_path)
 
     calls: dict[str, list[tuple[int, int]]] = {}
@@ -22,7 +23,10 @@ def test_run_measured_reports_the_records_and_each_step_of_each_event(tmp_path) 
 
     outcome = run_measured(scene, progress_for)
     steps = [(1, 3), (2, 3), (3, 3)]
-    assert calls == {READ_LABEL: [(1, 1)], "event 1/2 at 1.503 s": steps, "event 2/2 at 3.603 s": steps}
+    total = sum(path.stat().st_size for record in scene.records for path in record.paths)
+    read = calls.pop(READ_LABEL)
+    assert read[-1] == (total, total) and all(done <= total == of for done, of in read) and [d for d, _ in read] == sorted(d for d, _ in read)
+    assert calls == {"event 1 at 1.503 s": steps, "event 2 at 3.603 s": steps}
     assert event_label(2, 7, 3.6034) == "event 2/7 at 3.603 s"
     plain = run_measured(scene)
     assert [e.trigger_time for e in outcome.events] == [e.trigger_time for e in plain.events]

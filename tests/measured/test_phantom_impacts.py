@@ -27,7 +27,8 @@ from femref.cli import main
 from femref.run.measured import run_measured
 from femref.scene.build import scene_from_case
 from femref.sensing.baseline import BLOCK, LONGEST_CONTACT, RunningBaseline, half_blocks
-from femref.sensing.trigger import HOLD, EventTrigger, TriggerSettings, search_events, stream_chunks
+from femref.sensing.stream import search_events, stream_chunks
+from femref.sensing.trigger import HOLD, EventTrigger, TriggerSettings
 from femref.sensing.measurement import Measurement, measure
 from femref.sensing.findings import MOST_DAMPED_COUPLER, STIFFEST_COUPLER, line_reduced_mass, peak_force_bound
 from femref.sensing.recordings import Channel, Recordings

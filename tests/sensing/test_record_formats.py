@@ -15,7 +15,7 @@ import pytest
 
 from femref.sensing import record_files
 from femref.sensing.record_files import RecordError, SampleLimit, read_columns
-from femref.sensing.recordings import ChannelSource, RecordFile, TimeSource, read_record_file
+from femref.sensing.recordings import ChannelSource, RecordFile, TimeSource, read_records
 
 T = np.arange(2000) / 1000.0
 FRONT = np.round(3.0 * np.sin(2 * np.pi * 7.0 * T) + 0.125, 6)  # 7 digits: UFF58's ASCII (12 digits) holds them exactly
@@ -62,7 +62,7 @@ def test_a_decimal_comma_in_a_comma_separated_file_is_refused(tmp_path):
 def test_iso_timestamps_are_seconds_from_the_first(tmp_path):
     path = write_csv(tmp_path / "r.csv", iso=True)
     record = RecordFile(path, TimeSource(column="t", unit="iso8601"), 0.0, (ChannelSource("a/front", "front", None, "g"),))
-    channel = read_record_file(record).channels[0]
+    channel = next(iter(read_records([record]).channels.values()))
     np.testing.assert_allclose(channel.time, T, rtol=0, atol=1e-12)
     np.testing.assert_array_equal(channel.acceleration, FRONT * 9.80665)
 
@@ -74,12 +74,12 @@ def test_an_unparseable_or_backward_iso_time_names_the_row(tmp_path):
     path.write_text("\n".join(lines) + "\n")
     record = RecordFile(path, TimeSource(column="t", unit="iso8601"), 0.0, (ChannelSource("a/front", "front", None, "g"),))
     with pytest.raises(RecordError, match=r"r\.csv: time \(column 't'\): row 6 is not an ISO-8601 timestamp"):
-        read_record_file(record)
+        read_records([record])
     lines = write_csv(tmp_path / "r.csv", iso=True).read_text().splitlines()
     lines[5], lines[6] = lines[6], lines[5]
     path.write_text("\n".join(lines) + "\n")
     with pytest.raises(RecordError, match=r"r\.csv: time must increase strictly; sample 6 \(t = 0\.004 s\) goes back"):
-        read_record_file(record)
+        read_records([record])
 
 
 def test_an_iso_time_not_declared_says_how_to_declare_it(tmp_path):
@@ -162,10 +162,10 @@ def test_the_files_unit_is_taken_and_a_declared_one_must_agree(tmp_path, fmt):
     path = written(tmp_path, fmt)
     _, keys, _ = FILES[fmt]
     record = RecordFile(path, TimeSource(channel=keys[0]), 0.0, (ChannelSource("a/front", None, None, None, channel=keys[1]),))
-    np.testing.assert_allclose(read_record_file(record).channels[0].acceleration, FRONT * 9.80665, rtol=1e-12, atol=1e-11)
+    np.testing.assert_allclose(next(iter(read_records([record]).channels.values())).acceleration, FRONT * 9.80665, rtol=1e-12, atol=1e-11)
     record = RecordFile(path, TimeSource(channel=keys[0]), 0.0, (ChannelSource("a/front", None, None, "m/s^2", channel=keys[1]),))
     with pytest.raises(RecordError, match=r"channel a/front: the case declares unit 'm/s\^2', the file gives 'g'; they must agree"):
-        read_record_file(record)
+        read_records([record])
 
 
 @pytest.mark.parametrize("fmt", ["mdf4", "tdms", "uff58"])
@@ -220,3 +220,37 @@ def test_without_its_package_a_format_names_the_extra(tmp_path, fmt, monkeypatch
     monkeypatch.setitem(sys.modules, PACKAGE[fmt], None)  # import raises ImportError
     with pytest.raises(RecordError, match=rf"r{SUFFIX[fmt]}: reading {fmt.upper()} files needs the package {PACKAGE[fmt]}: pip install 'femref\[formats\]'"):
         read_columns(path, [("front", "channel a/front")], LIMIT, fmt)
+
+
+def uff58_record(values: np.ndarray, precision: int, spacing: int) -> dict:
+    """A pyuff dataset-58 record of ``values`` at 1 kHz from 0.25 s (``precision`` 2 single, 4 double; ``spacing`` 1 even)."""
+    axis = {f"{axis}_{key}": value for axis in ("abscissa", "ordinate", "orddenom", "z_axis")
+            for key, value in (("spec_data_type", 0), ("len_unit_exp", 0), ("force_unit_exp", 0), ("temp_unit_exp", 0), ("axis_lab", "NONE"),
+                               ("axis_units_lab", "NONE"))}
+    return axis | {"type": 58, "binary": 0, "func_type": 1, "func_id": 1, "ver_num": 0, "load_case_id": 0, "id1": "front", "id2": "NONE",
+                   "id3": "NONE", "id4": "NONE", "id5": "NONE", "rsp_ent_name": "car", "rsp_node": 1, "rsp_dir": 1, "ref_ent_name": "NONE",
+                   "ref_node": 0, "ref_dir": 0, "ord_data_type": precision, "num_pts": values.size, "abscissa_spacing": spacing,
+                   "abscissa_min": 0.25, "abscissa_inc": 1e-3, "z_axis_value": 0.0, "n_bytes": 0, "x": 0.25 + np.arange(values.size) * 1e-3,
+                   "data": values, "abscissa_axis_units_lab": "s", "ordinate_axis_units_lab": "g"}
+
+
+@pytest.mark.parametrize("precision", [2, 4], ids=["single 6E13.5", "double 4E20.12"])
+def test_uff58_ascii_records_are_read_as_pyuff_reads_them(tmp_path, precision):
+    """An ASCII UFF58 record written by pyuff in single and in double precision (2000 and 1999 points: a full and a
+    partial last line): the reader's numpy conversion of its fields and of its abscissa equals pyuff's own reading,
+    to the bit; a record it cannot take that way (uneven abscissa) is left to pyuff."""
+    pyuff = pytest.importorskip("pyuff")
+    from femref.sensing.formats.uff58 import Reader
+
+    for points in (2000, 1999):
+        path = tmp_path / f"r{points}.uff"
+        pyuff.UFF(str(path)).write_sets([uff58_record(FRONT[:points] * (1 + 1e-7 * np.arange(points)), precision, 1)], mode="overwrite")
+        reader = Reader(path)
+        ((number, _),) = reader.headers.values()
+        truth = reader.uff.read_sets(number)
+        for field in ("data", "x"):
+            fast = reader.ascii_column(number, field)
+            assert fast is not None and np.array_equal(fast, np.asarray(truth[field], dtype=float)), (points, field)
+    pyuff.UFF(str(tmp_path / "u.uff")).write_sets([uff58_record(FRONT[:100], 4, 0)], mode="overwrite")
+    reader = Reader(tmp_path / "u.uff")
+    assert reader.ascii_column(next(iter(reader.headers.values()))[0], "data") is None

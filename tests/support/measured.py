@@ -21,7 +21,8 @@ from femref.events import EventResult, event_file
 from femref.run.runner import run_scene
 from femref.scene.build import scene_from_case
 from femref.sensing.recordings import Recordings
-from femref.sensing.trigger import HOLD, MAX_WINDOW, QUIET, Event, TriggerSettings, search_events
+from femref.sensing.stream import search_events
+from femref.sensing.trigger import HOLD, MAX_WINDOW, QUIET, Event, TriggerSettings
 
 G = 9.80665
 

