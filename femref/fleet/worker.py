@@ -11,7 +11,6 @@ other error make the recording ``failed`` with its message; its event file is th
 
 from __future__ import annotations
 
-import os
 import time
 from pathlib import Path
 from typing import Any
@@ -66,8 +65,7 @@ def run_recording(recording: Recording, base_dir: str, source: str, out_dir: str
 
             outcome = run_measured(scene, sink=sink, source=source)
         result = {"status": "ok", "message": "", "events": events, "estimates": estimates, "event_count": len(outcome.events),
-                  "samples": sum(int(channel.time.size) for channel in outcome.recordings.channels.values()),
-                  "bytes_read": sum(os.stat(file).st_size for file in recording.record_files), "femref_version": __version__}
+                  "samples": outcome.stream.samples, "bytes_read": outcome.stream.bytes, "femref_version": __version__}
     except (CaseError, RecordError) as error:
         result = failed(str(error))
     except Exception as error:  # the recording is stored as failed with why, and the fleet goes on
