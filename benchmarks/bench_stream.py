@@ -12,14 +12,16 @@ against its truth.json:
   phantom; the impact type is compared with the truth's, and the trigger's delay after the contact is reported;
 * **transients**: the events at a track joint or noise burst (its time in the window or :data:`TRANSIENT_LEAD` before
   it), and whether each is ``not_an_impact``;
-* **hand cut**: each event's window (``start``–``end`` on the reference clock, :data:`MARGIN` either side, at least
-  ``pre + post`` long as a case's records must be; an event cut short by the next runs into it) is cut from
-  the recorders' files (read by femref's reader), recorder r2's with its declared ``clock_offset`` plus the clock
-  correction the run reports for the event (``/events/<i>/clock/r2`` ``correction``) as the cut's ``clock_offset``, as
-  a short single-file case (HDF5,
-  the values as read) run in process (:func:`femref.run.measured.run_measured`); every number, string and history of
-  the run's event and the cut's event nearest its trigger (but wall times, the clock group and estimator settings) is
-  compared, numbers to :data:`RTOL`.
+* **hand cut**: each event's samples are cut by hand from the recorders' files (read by femref's reader, the
+  samples of the event's grid and :data:`MARGIN` either side), recorder r2's times shifted by its declared
+  ``clock_offset`` and the clock correction the run reports for the event (``/events/<i>/clock/r2`` ``correction``),
+  linearly interpolated onto the event's grid, and run through the event pipeline
+  (:func:`femref.run.measured.event_result`: classification, estimators, closing speed, closure, wear, alarm) with the
+  window and flags the stream decided; every number, string and history of the run's event and the cut's (but wall
+  times, the clock group and estimator settings) is compared, numbers to :data:`RTOL`. What it checks: that the
+  stream's buffers, chunk and file boundaries and clock mapping hand the estimators the same samples as a plain slice of
+  the files (a cut re-triggered as a short case of its own would differ by design: its running baseline has no
+  stream around it).
 
 Then the day is written and run at each of ``--lengths`` hours in ``--length-format``: the wall time's slope (s per
 hour of recording, least squares) and the peak memory at each length (flat: the longest over the shortest). A table
@@ -189,39 +191,37 @@ class RecorderFiles:
         return [np.concatenate([p[k] for p in parts]) for k in range(len(parts[0]))]
 
 
-def hand_cut(folder: Path, case: dict[str, Any], files: list[RecorderFiles], event: dict[str, Any], margin: float = MARGIN) -> dict[str, Any]:
-    """The event's window cut from the recorders' files (module docstring), run in process; the cut's event (flat)."""
-    from femref.case import load_case
+def hand_cut(folder: Path, scene: Any, case: dict[str, Any], files: list[RecorderFiles], event: dict[str, Any], margin: float = MARGIN
+             ) -> dict[str, Any]:
+    """The event's window cut by hand from the recorders' files (module docstring) and run through the event pipeline
+    (:func:`femref.run.measured.event_result`) of ``scene`` (the day's case); the cut's event, flat as
+    :func:`read_event_file` gives it."""
+    from femref.estimators import plug_ins
     from femref.events import event_file
-    from femref.run.measured import run_measured
-    from femref.scene.build import scene_from_case
+    from femref.run.measured import event_result
+    from femref.sensing.recordings import ACCELERATION_UNITS
+    from femref.sensing.stream import CutEvent
+    from femref.sensing.trigger import Event
 
-    cut = {key: value for key, value in case.items() if key != "records"}
-    cut["records"] = []
-    settings = case["events"]
-    end = max(event["end"], event["start"] + settings.get("pre", 0.05) + settings["post"] + margin)  # a case's records span pre + post
-    folder.mkdir(parents=True, exist_ok=True)
+    t = np.asarray(event["records/time"], dtype=float)
+    records: dict[str, np.ndarray] = {}
     for recorder in files:
         record = recorder.record
-        correction = record.get("clock_offset", 0.0) + (0.0 if record is case["records"][0] else float(event[f"clock/{record['recorder']}@correction"]))
-        columns = recorder.window(event["start"] - correction - margin, end - correction + margin)
+        offset = float(record.get("clock_offset", 0.0))
+        correction = 0.0 if record is case["records"][0] else float(event[f"clock/{record['recorder']}@correction"])
+        grid = t - correction
+        columns = recorder.window(grid[0] - offset - margin, grid[-1] - offset + margin)
+        own = columns[0] + offset
         _, _, probes = requests(record)
-        with h5py.File(folder / f"{record['recorder']}.h5", "w") as h5:
-            h5["time"] = columns[0]
-            for probe, values in zip(probes, columns[1:]):
-                h5[probe.replace("/", "_")] = values
-        entry = {"file": f"{record['recorder']}.h5", "time": {"dataset": "time", "unit": "s"}, "clock_offset": correction,
-                 "channels": {p: {"dataset": p.replace("/", "_"), "unit": record["channels"][p]["unit"]} for p in probes}}
-        if "anti_alias" in record:
-            entry["anti_alias"] = record["anti_alias"]
-        cut["records"].append(entry)
-    (folder / "cut.yaml").write_text(yaml.safe_dump(cut, sort_keys=False))
+        for probe, values in zip(probes, columns[1:]):
+            records[probe] = np.interp(grid, own, values * ACCELERATION_UNITS[record["channels"][probe]["unit"]])
+    flags = tuple(json.loads(event["flags"])) if isinstance(event.get("flags"), str) else tuple(event.get("flags", ()))
+    cut = CutEvent(Event(event["index"], event["start"], event["end"], event["trigger_time"], event["trigger_probe"], flags), t, records)
+    folder.mkdir(parents=True, exist_ok=True)
     with event_file(folder / "cut.h5", {}) as sink:
-        run_measured(scene_from_case(load_case(folder / "cut.yaml")), sink=sink)
-    found = read_event_file(folder / "cut.h5")
-    if not found:
-        raise RuntimeError(f"event {event['index']} (trigger {event['trigger_time']:.3f} s): its hand cut finds no event")
-    return min(found, key=lambda e: abs(e["trigger_time"] - event["trigger_time"]))
+        sink(event_result(scene, plug_ins(scene), cut))
+    (found,) = read_event_file(folder / "cut.h5")
+    return found
 
 
 def differences(run: dict[str, Any], cut: dict[str, Any]) -> tuple[float, list[str]]:
@@ -271,11 +271,15 @@ def bench_format(out: Path, fmt: str, hours: float, cut: bool, margin: float = M
     events = read_event_file(output)
     result.update(score(events, truth))
     if cut:
+        from femref.case import load_case
+        from femref.scene.build import scene_from_case
+
         case = yaml.safe_load((folder / fmt / "day.yaml").read_text())
+        scene = scene_from_case(load_case(folder / fmt / "day.yaml"))
         files = [RecorderFiles(folder / fmt, record) for record in case["records"]]
         worst, failing = 0.0, {}
         for event in sorted(events, key=lambda e: e["start"]):
-            found = hand_cut(folder / "cut", case, files, event, margin)
+            found = hand_cut(folder / "cut", scene, case, files, event, margin)
             relative, differ = differences(event, found)
             worst = max(worst, relative)
             if differ:

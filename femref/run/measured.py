@@ -85,7 +85,7 @@ def run_measured(scene: MeasuredScene, progress_for: ProgressFor | None = None, 
             budget = EventBudget(scene, stream.rate, sum(len(r.channels) for r in scene.records), key, source)
         budget.check(cut.event)
         step = progress_for(event_label(number, None, cut.event.trigger_time)) if progress_for else None
-        result = _event(scene, estimators, cut, step)
+        result = event_result(scene, estimators, cut, step)
         events.append(result if sink is None else sink(result))
     if read is not None:
         read(total, total)
@@ -100,8 +100,10 @@ def event_label(number: int, count: int | None, trigger_time: float) -> str:
     return f"event {number}{of} at {trigger_time:.3f} s"
 
 
-def _event(scene: MeasuredScene, estimators: list[Estimator], cut: CutEvent, progress: Progress | None = None) -> EventResult:
-    """One event's result (module docstring); ``progress(done, total)`` after its classification and each estimator."""
+def event_result(scene: MeasuredScene, estimators: list[Estimator], cut: CutEvent, progress: Progress | None = None) -> EventResult:
+    """One event's result from its records as cut (module docstring): what :func:`run_measured` does with each event the
+    stream decides, and what a window cut by hand from the files is run through to check the stream
+    (benchmarks/bench_stream.py); ``progress(done, total)`` after its classification and each estimator."""
     cars, couplers, event, t = scene.cars, scene.couplers, cut.event, cut.time
     records, noise_std, quiet = quiet_corrected(t, cut.records, event.trigger_time)
     result = EventResult(index=event.index, start=event.start, end=event.end, trigger_time=event.trigger_time,
@@ -152,4 +154,4 @@ def _not_an_impact(result: EventResult, progress: Progress | None) -> EventResul
     return result
 
 
-__all__ = ["READ_LABEL", "MeasuredOutcome", "event_label", "run_measured"]
+__all__ = ["READ_LABEL", "MeasuredOutcome", "event_label", "event_result", "run_measured"]

@@ -9,10 +9,13 @@ the stream's start or a logger restart, a gap of either recorder) it is a line
 fitted by least squares to the lags measured at the segment's events. The lag at an event (:func:`measure_lag`):
 each recorder's first car's mean acceleration (its channels less their medians), low-passed at :data:`LAG_CORNER`
 (zero phase) to what is left of the rigid-body pulse, the two cross-correlated over the event's window; the lag is
-the peak of ``|ρ|``, the normalised correlation, within ``±w`` of the fit's prediction, refined by a parabola through
-its three samples. A coupling impact moves both cars at once, equal and opposite (``ρ`` near −1), so both
-recorders see its pulse at the same instant; a transient one car alone feels, or both at other times (a track joint
-under each car's axles in turn), does not correlate (``|ρ| <`` :data:`MIN_CORRELATION`: no lag, the prediction kept).
+the peak of ``s ρ``, ``ρ`` the normalised correlation, within ``±w`` of the fit's prediction, refined by a parabola
+through its three samples. A coupling impact moves the two cars at once, equal and opposite: two recorders on
+different cars see its pulse at the same instant with ``ρ`` near −1 (``s = −1``), two on the same car with ``ρ``
+near +1 (``s = +1``). A transient one car alone feels does not correlate, and one both cars feel at other times — a
+track joint under each car's axles in turn, the same sign on both — correlates with the sign an impact does not give:
+with ``s ρ <`` :data:`MIN_CORRELATION` there is no lag and the prediction is kept. (Read by ``|ρ|``, a joint 1.4 s
+after the restart of a synthetic day's logger was taken as the lag and every later impact of the day was cut apart.)
 The search half-width ``w`` follows what the fit does not know: :data:`INITIAL_SEARCH` with no lag in the segment,
 :data:`MIN_SEARCH` plus :data:`MAX_DRIFT` times the time since the one lag there is, :data:`MIN_SEARCH` plus
 :data:`FIT_DRIFT` times the time since the last lag once the drift is fitted; a lag further than
@@ -167,12 +170,13 @@ def lag_signal(t: NDArray[np.float64], records: NDArray[np.float64], rate: float
     return sosfiltfilt(butter(2, corner, fs=rate, output="sos"), a) if a.size > 15 else a
 
 
-def measure_lag(reference: NDArray[np.float64], other: NDArray[np.float64], rate: float, predicted: float) -> tuple[float, float]:
+def measure_lag(reference: NDArray[np.float64], other: NDArray[np.float64], rate: float, predicted: float, sign: float = -1.0
+                ) -> tuple[float, float]:
     """``(lag, ρ)``: the correction (s) at which the ``other`` recorder's signal best matches the ``reference``'s
-    (module docstring), ``ρ`` the normalised correlation there (negative: the cars moved opposite ways, as a coupling
-    impact moves them). ``reference`` is on a grid ``t_j`` (``rate`` Hz); ``other`` on the recorder's clock at
+    (module docstring), ``ρ`` the normalised correlation there, of the ``sign`` a coupling impact gives (−1: the two
+    signals are of different cars, which it moves opposite ways; +1: of the same car). ``reference`` is on a grid ``t_j`` (``rate`` Hz); ``other`` on the recorder's clock at
     ``t_j − predicted − K/rate + m/rate``, ``2K`` samples longer (``K`` samples each side: the search), so shift ``k``
-    is the correction ``predicted + (K − k)/rate``. NaN lag when the peak is at the search's edge or ``|ρ|`` falls
+    is the correction ``predicted + (K − k)/rate``. NaN lag when the peak of ``sign · ρ`` is at the search's edge or
     below :data:`MIN_CORRELATION`."""
     k_max = other.size - reference.size
     energy = float(np.dot(reference, reference))
@@ -182,11 +186,11 @@ def measure_lag(reference: NDArray[np.float64], other: NDArray[np.float64], rate
     squares = np.concatenate([[0.0], np.cumsum(other * other)])
     window = squares[reference.size:] - squares[: k_max + 1]
     rho = r / np.sqrt(energy * np.maximum(window, 1e-300))
-    k = int(np.argmax(np.abs(rho)))
+    k = int(np.argmax(sign * rho))
     best = float(rho[k])
-    if k == 0 or k == k_max or abs(best) < MIN_CORRELATION:
+    if k == 0 or k == k_max or sign * best < MIN_CORRELATION:
         return math.nan, best
-    left, centre, right = np.sign(best) * rho[k - 1 : k + 2]
+    left, centre, right = sign * rho[k - 1 : k + 2]
     curvature = left - 2.0 * centre + right
     shift = 0.5 * (left - right) / curvature if curvature < 0.0 else 0.0
     return predicted + (0.5 * k_max - k - shift) / rate, best

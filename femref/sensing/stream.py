@@ -341,7 +341,8 @@ class EventStream:
         ref = lag_signal(t, np.array([np.interp(t, reference.own, reference.values[i]) for i in _first_car(reference.recorder.probes)]), rate)
         grid = t[0] - predicted - k / rate + np.arange(t.size + 2 * k) / rate
         other = lag_signal(grid, np.array([np.interp(grid, lane.own, lane.values[i]) for i in _first_car(lane.recorder.probes)]), rate)
-        lag, rho = measure_lag(ref, other, rate, predicted)
+        same_car = _car(reference.recorder.probes[0]) == _car(lane.recorder.probes[0])
+        lag, rho = measure_lag(ref, other, rate, predicted, 1.0 if same_car else -1.0)
         taken = math.isfinite(lag) and track.take(at, lag)
         correction = track.predict(at)
         if not math.isfinite(lag):
@@ -363,10 +364,14 @@ class EventStream:
                 lane.own, lane.mapped, lane.values = lane.own[n:], lane.mapped[n:], lane.values[:, n:]
 
 
+def _car(probe: str) -> str:
+    """The car of probe ``<car>/<sensor>``."""
+    return probe.split("/")[0]
+
+
 def _first_car(probes: list[str]) -> list[int]:
     """The indices of the probes (``<car>/<sensor>``) on the first car a recorder records."""
-    car = probes[0].split("/")[0]
-    return [i for i, probe in enumerate(probes) if probe.split("/")[0] == car]
+    return [i for i, probe in enumerate(probes) if _car(probe) == _car(probes[0])]
 
 
 def _union(parts: list[tuple[NDArray[np.float64], NDArray[np.float64]]], probes: list[list[str]]) -> Chunk:

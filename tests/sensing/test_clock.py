@@ -46,6 +46,22 @@ def test_a_transient_one_recorder_alone_saw_gives_no_lag():
     assert math.isnan(lag) and abs(rho) < 0.5
 
 
+def test_a_track_joint_under_both_cars_gives_no_lag():
+    """A track joint jolts both cars the same way, the second 0.4 s after the first (its axles reach the joint later):
+    the two signals correlate near +1 at that delay, the sign no coupling impact gives between two cars, so there is no
+    lag; two recorders on the same car, where an impact does correlate near +1, read the same signals as a lag."""
+    rng = np.random.default_rng(5)
+    t = 10.0 + np.arange(1500) / RATE
+    reference = lag_signal(t, (pulse(t, 10.2) + rng.normal(0, 0.05, t.size))[None, :], RATE)
+    k = int(INITIAL_SEARCH * RATE)
+    grid = t[0] - k / RATE + np.arange(t.size + 2 * k) / RATE
+    other = lag_signal(grid, (pulse(grid, 10.6) + rng.normal(0, 0.05, grid.size))[None, :], RATE)
+    lag, rho = measure_lag(reference, other, RATE, 0.0)
+    assert math.isnan(lag), (lag, rho)
+    lag, rho = measure_lag(reference, other, RATE, 0.0, sign=1.0)
+    assert rho > 0.9 and abs(lag - (-0.4)) < 1e-4, (lag, rho)
+
+
 def test_the_fit_follows_a_drifting_clock_across_a_restart():
     """Lags on the line ``c = 0.01 − 50e-6 t`` (a clock 50 ppm fast): the drift read 50 ppm and the line predicted
     exactly; the search narrows from 1 s to 50 ms plus 200 ppm, then 5 ppm, of the time since the last lag. A restart
