@@ -41,8 +41,13 @@ LAG_CORNER = 10.0
 """Corner (Hz) of the zero-phase low-pass (2nd-order Butterworth, forward and back) the lag is measured through: the
 cars' rigid-body pulse (a contact of 50–1200 ms) passes, their axial modes (15–30 Hz and up) and the noise are damped,
 so what is left of the two cars is one pulse shape, scaled by their masses."""
-MIN_CORRELATION = 0.5
-"""Least normalised correlation of the two recorders' signals for an event's lag to count."""
+MIN_CORRELATION = 0.8
+"""Least normalised correlation ``s ρ`` of the two recorders' signals for an event's lag to count. A coupling impact's
+rigid-body pulse gives ``s ρ`` 0.99–1.00 (a synthetic day's 202 fem impacts); a track joint's ring, slid half a period
+over its twin, gave 0.50 and misplaced a day's clock after a restart when 0.5 counted."""
+AMBIGUITY = 0.8
+"""A lag counts only if no other peak of ``s ρ`` in the search, outside the main one's lobe (down to half its height),
+reaches this fraction of it: a pulse has one peak, a ring a row of nearly equal ones a period apart."""
 INITIAL_SEARCH = 1.0
 """Search half-width (s) with no lag in the segment: the declared clock offset's own uncertainty, or a restart's jump."""
 MIN_SEARCH = 0.05
@@ -176,8 +181,8 @@ def measure_lag(reference: NDArray[np.float64], other: NDArray[np.float64], rate
     (module docstring), ``ρ`` the normalised correlation there, of the ``sign`` a coupling impact gives (−1: the two
     signals are of different cars, which it moves opposite ways; +1: of the same car). ``reference`` is on a grid ``t_j`` (``rate`` Hz); ``other`` on the recorder's clock at
     ``t_j − predicted − K/rate + m/rate``, ``2K`` samples longer (``K`` samples each side: the search), so shift ``k``
-    is the correction ``predicted + (K − k)/rate``. NaN lag when the peak of ``sign · ρ`` is at the search's edge or
-    below :data:`MIN_CORRELATION`."""
+    is the correction ``predicted + (K − k)/rate``. NaN lag when the peak of ``sign · ρ`` is at the search's edge,
+    below :data:`MIN_CORRELATION` or not alone (:data:`AMBIGUITY`)."""
     k_max = other.size - reference.size
     energy = float(np.dot(reference, reference))
     if k_max < 2 or energy <= 0.0:
@@ -186,9 +191,10 @@ def measure_lag(reference: NDArray[np.float64], other: NDArray[np.float64], rate
     squares = np.concatenate([[0.0], np.cumsum(other * other)])
     window = squares[reference.size:] - squares[: k_max + 1]
     rho = r / np.sqrt(energy * np.maximum(window, 1e-300))
-    k = int(np.argmax(sign * rho))
+    score = sign * rho
+    k = int(np.argmax(score))
     best = float(rho[k])
-    if k == 0 or k == k_max or sign * best < MIN_CORRELATION:
+    if k == 0 or k == k_max or score[k] < MIN_CORRELATION or _ambiguous(score, k):
         return math.nan, best
     left, centre, right = sign * rho[k - 1 : k + 2]
     curvature = left - 2.0 * centre + right
@@ -196,5 +202,15 @@ def measure_lag(reference: NDArray[np.float64], other: NDArray[np.float64], rate
     return predicted + (0.5 * k_max - k - shift) / rate, best
 
 
-__all__ = ["FIT_DRIFT", "INITIAL_SEARCH", "JOIN_TIME", "LAG_CORNER", "MAX_DRIFT", "MIN_CORRELATION", "MIN_SEARCH", "OUTLIER",
+def _ambiguous(score: NDArray[np.float64], k: int) -> bool:
+    """Whether ``score`` peaks a second time outside the lobe of its peak ``k`` (down to half its height) at
+    :data:`AMBIGUITY` of it or more."""
+    half = score < 0.5 * score[k]
+    left = int(np.flatnonzero(half[:k])[-1]) if half[:k].any() else 0
+    right = k + int(np.argmax(half[k:])) if half[k:].any() else score.size
+    rest = np.concatenate([score[:left], score[right:]])
+    return bool(rest.size and rest.max() >= AMBIGUITY * score[k])
+
+
+__all__ = ["AMBIGUITY", "FIT_DRIFT", "INITIAL_SEARCH", "JOIN_TIME", "LAG_CORNER", "MAX_DRIFT", "MIN_CORRELATION", "MIN_SEARCH", "OUTLIER",
            "ClockTrack", "lag_signal", "measure_lag"]

@@ -62,6 +62,24 @@ def test_a_track_joint_under_both_cars_gives_no_lag():
     assert rho > 0.9 and abs(lag - (-0.4)) < 1e-4, (lag, rho)
 
 
+def test_a_ring_on_both_cars_gives_no_lag():
+    """Both cars ringing at 8 Hz (a track joint's bounce, under the lag signal's 10 Hz low-pass), in opposite phase:
+    ``−ρ`` peaks near 1 at every period within the search, so no one lag stands out and none is taken."""
+    rng = np.random.default_rng(6)
+    t = 10.0 + np.arange(1500) / RATE
+
+    def ring(x, start):
+        s = x - start
+        return np.where(s > 0, 8.0 * np.exp(-s / 1.5) * np.sin(2 * np.pi * 8.0 * s), 0.0)
+
+    reference = lag_signal(t, (ring(t, 10.2) + rng.normal(0, 0.05, t.size))[None, :], RATE)
+    k = int(INITIAL_SEARCH * RATE)
+    grid = t[0] - k / RATE + np.arange(t.size + 2 * k) / RATE
+    other = lag_signal(grid, (-ring(grid, 10.3) + rng.normal(0, 0.05, grid.size))[None, :], RATE)
+    lag, rho = measure_lag(reference, other, RATE, 0.0)
+    assert math.isnan(lag) and rho < -0.8, (lag, rho)
+
+
 def test_the_fit_follows_a_drifting_clock_across_a_restart():
     """Lags on the line ``c = 0.01 − 50e-6 t`` (a clock 50 ppm fast): the drift read 50 ppm and the line predicted
     exactly; the search narrows from 1 s to 50 ms plus 200 ppm, then 5 ppm, of the time since the last lag. A restart
