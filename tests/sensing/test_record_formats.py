@@ -254,3 +254,31 @@ def test_uff58_ascii_records_are_read_as_pyuff_reads_them(tmp_path, precision):
     pyuff.UFF(str(tmp_path / "u.uff")).write_sets([uff58_record(FRONT[:100], 4, 0)], mode="overwrite")
     reader = Reader(tmp_path / "u.uff")
     assert reader.ascii_column(next(iter(reader.headers.values()))[0], "data") is None
+
+
+@pytest.mark.parametrize("scan_bytes", [97, 1000, 1 << 24])
+def test_uff58_records_are_found_as_pyuff_finds_them_a_piece_at_a_time(tmp_path, monkeypatch, scan_bytes):
+    """The reader finds a file's records by a scan a piece at a time (femref.sensing.formats.uff58._ScannedUFF): for pieces
+    of 97 and 1000 bytes (every tag near a piece's edge somewhere) and one piece, the record bounds, types and formats
+    equal those of pyuff's own scan of the whole file (three records, single and double precision, and a dataset 151
+    header before them), and the channels read back."""
+    pyuff = pytest.importorskip("pyuff")
+    from femref.sensing.formats import uff58
+
+    path = tmp_path / "three.uff"
+    header = {"type": 151, "model_name": "car", "description": "femref test", "db_app": "femref", "date_db_created": "", "time_db_created": "",
+              "version_db1": "0", "version_db2": "0", "file_type": "0", "date_db_saved": "", "time_db_saved": "", "program": "femref",
+              "date_db_written": "", "time_db_written": ""}
+    records = [uff58_record(FRONT[:1999], 2, 1), uff58_record(REAR[:2000], 4, 1), uff58_record(FRONT[:5], 2, 1)]
+    for k, record in enumerate(records):
+        record["id1"] = f"channel {k}"
+    pyuff.UFF(str(path)).write_sets([header, *records], mode="overwrite")
+    monkeypatch.setattr(uff58, "SCAN_BYTES", scan_bytes)
+    mine, theirs = uff58._ScannedUFF(str(path)), pyuff.UFF(str(path))
+    np.testing.assert_array_equal(np.asarray(mine._block_ind), np.asarray(theirs._block_ind))
+    np.testing.assert_array_equal(mine._set_types, theirs._set_types)
+    np.testing.assert_array_equal(mine._set_formats, theirs._set_formats)
+    assert list(mine._set_types) == [151, 58, 58, 58]
+    with uff58.Reader(path) as reader:
+        reader.select([("channel 1", "channel rear")])
+        np.testing.assert_array_equal(np.concatenate([chunk[0] for chunk in reader.chunks(512)]), np.asarray(theirs.read_sets(2)["data"], dtype=float))
