@@ -98,8 +98,7 @@ def run_plan(plan: CasePlan, output: Path | None = None, progress_for: ProgressF
 
         if output is None:
             return CaseOutcome("measure", measured=run_measured(scene, progress_for, source=plan.source))
-        facts = {"cars": [car.name for car in scene.cars], "couplers": [c.name for c in scene.couplers], "estimators": list(scene.estimators)}
-        with event_file(output, facts, resolved_yaml(case)) as write:
+        with event_file(output, scene.facts(), resolved_yaml(case)) as write:
             measured = run_measured(scene, progress_for, sink=write, source=plan.source)
         return CaseOutcome("measure", (output,), measured=measured)
     from femref.results import write_results

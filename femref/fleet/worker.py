@@ -54,9 +54,7 @@ def run_recording(recording: Recording, base_dir: str, source: str, out_dir: str
         case = parse_case(recording.case, source=source, base_dir=Path(base_dir))
         scene = plan_case(case, Path(base_dir), source).scene
         facts = RecordingFacts.of(recording, Path(base_dir), path.relative_to(Path(out_dir)).as_posix())
-
-        scene_facts = {"cars": [car.name for car in scene.cars], "couplers": [c.name for c in scene.couplers], "estimators": list(scene.estimators)}
-        with event_file(path, scene_facts, recording.resolved) as writer:
+        with event_file(path, scene.facts(), recording.resolved) as writer:
             def sink(event: EventResult) -> EventResult:
                 rows = event_rows(facts, scene.couplers, event)
                 events.extend(rows[0])

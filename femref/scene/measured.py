@@ -98,5 +98,10 @@ class MeasuredScene:
         """``"<car>/<sensor>"`` → (car index, x)."""
         return {f"{car.name}/{name}": (i, x) for i, car in enumerate(self.cars) for name, x in car.sensors.items()}
 
+    def facts(self) -> dict[str, list[str]]:
+        """The ``/scene`` attributes of the event file (:class:`femref.events.EventWriter`): the cars', couplers' and
+        estimators' names."""
+        return {"cars": [car.name for car in self.cars], "couplers": [c.name for c in self.couplers], "estimators": list(self.estimators)}
+
 
 __all__ = ["Checks", "KalmanModel", "MeasuredCar", "MeasuredCoupler", "MeasuredScene"]

@@ -290,14 +290,16 @@ class EventStream:
         return max(lane.first for lane in self.lanes), min(lane.last for lane in self.lanes)
 
     def _decided(self, windows: list[EventWindow]) -> Iterator[CutEvent]:
+        if not windows:
+            return
         first, last = self._span()
+        in_noise = trigger_in_noise(self.settings.level, self.noise())  # the noise so far: the same for the windows of one chunk
         for found in windows:
             start, end = max(found.start, first), min(found.end, last)
             if end <= start:
                 self.outside.append(found.trigger_time)
                 continue
             flags = (["truncated"] if start > found.start or end < found.end else []) + list(found.flags) + self._quality_flags(start, end)
-            in_noise = trigger_in_noise(self.settings.level, self.noise())
             if in_noise is not None:
                 flags.append(in_noise)
             event = Event(len(self.events), start, end, found.trigger_time, found.trigger_probe, tuple(flags))
