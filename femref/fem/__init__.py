@@ -1,4 +1,4 @@
-"""Finite elements for Kelvin-Voigt rods and Euler-Bernoulli beams (scikit-fem)."""
+"""Finite elements for Kelvin-Voigt rods and Euler-Bernoulli beams."""
 
 from femref.fem.harmonic import HarmonicResponse, harmonic_response
 from femref.fem.mesh import body_nodes, graded_nodes

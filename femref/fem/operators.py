@@ -1,6 +1,7 @@
 """Mass, stiffness and Voigt damping operators of rods and beams.
 
-Rod (P1/P2 Lagrange, assembled with scikit-fem):
+Rod (P1/P2 Lagrange) and beam alike are assembled from reference-element tensors
+(:mod:`femref.fem.reference`). Rod:
 
     ∫ m u_tt v dx + ∫ (EA u_x + cA u_xt) v_x dx = F2 v(l) − F1 v(−l)
 
@@ -30,14 +31,15 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
-from skfem import Basis, ElementLineP1, ElementLineP2, MeshLine
 
-from femref.fem.shapes import SHAPES
 from femref.core.profiles import Profile
-from femref.core.quadrature import gauss_legendre
+from femref.fem.reference import assemble, pattern
+from femref.fem.shapes import SHAPES
 
 ROD_LOADS = ("F1", "F2")
 BEAM_LOADS = ("N1", "N2", "G1", "G2")
+HERMITE_POINTS = 5
+"""Gauss points per beam element: exact for coefficients up to degree 3 in M."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -102,84 +104,38 @@ def assemble_rod(
     axial_stiffness: Profile,
     axial_viscosity: Profile,
 ) -> Operators:
-    """Rod operators with scikit-fem P1 or P2 elements on the given (sorted) nodes.
+    """Rod operators with P1 or P2 Lagrange elements on the given (sorted) nodes.
 
     ``M = ∫ m φᵢ φⱼ``, ``K = ∫ EA φᵢ' φⱼ'``, ``C = ∫ cA φᵢ' φⱼ'``; ``order + 2`` Gauss points
     per element, exact for linear coefficients (degree ``2·order + 1``); tabulated profiles
     have nodes on their kinks, piecewise profiles on their jumps (see
-    :func:`femref.fem.mesh.body_nodes`). scikit-fem's basis gives ``φᵢ``, their derivatives and
-    the weights ``dx`` at the quadrature points; the element matrices are then one product each,
-    ``Mᵉᵢⱼ = Σ_q m(x_q) φᵢ(x_q) φⱼ(x_q) dx_q`` (scikit-fem's own assembler loops in Python over
-    the local pairs: about a millisecond per matrix, most of a small car's set-up).
+    :func:`femref.fem.mesh.body_nodes`). Each matrix is the profile at the quadrature points times
+    the family's reference-element tensor, computed once per process (:mod:`femref.fem.reference`;
+    a test holds it to scikit-fem's own assembly).
     """
-    element = {1: ElementLineP1, 2: ElementLineP2}.get(order)
+    element = {1: "P1", 2: "P2"}.get(order)
     if element is None:
         raise ValueError(f"rod elements are P1 or P2, got order {order}")
-    mesh = MeshLine(np.asarray(nodes, dtype=float))
-    xi, wi = gauss_legendre(order + 2)
-    basis = Basis(mesh, element(), quadrature=(0.5 * xi[None, :] + 0.5, 0.5 * wi))  # on the reference [0, 1]
-    perm = np.argsort(basis.doflocs[0], kind="stable")
-    renumber = np.empty_like(perm)
-    renumber[perm] = np.arange(perm.size)
-    x = basis.global_coordinates()[0]  # (elements, points)
-    values = np.array([np.asarray(field[0]) for field in basis.basis])  # (local DOFs, elements, points)
-    slopes = np.array([field[0].grad[0] for field in basis.basis])
-    element_dofs = renumber[basis.element_dofs.T]  # (elements, local DOFs), position numbering
-    local_size = element_dofs.shape[1]
-    ndof = basis.N
-    # the three matrices share one sparsity pattern: each element entry's slot in it, found once
-    rows = np.repeat(element_dofs, local_size, axis=1).ravel()
-    cols = np.tile(element_dofs, (1, local_size)).ravel()
-    keys, slot = np.unique(rows * ndof + cols, return_inverse=True)  # row-major, columns sorted
-    indptr = np.searchsorted(keys, np.arange(ndof + 1) * ndof)
-    indices = keys % ndof
-
-    def assemble(profile: Profile, derivative: bool) -> sp.csr_matrix:
-        shapes = slopes if derivative else values
-        local = np.einsum("eq,aeq,beq->eab", profile(x) * basis.dx, shapes, shapes)
-        matrix = sp.csr_matrix((np.bincount(slot, weights=local.ravel(), minlength=keys.size), indices.copy(), indptr.copy()),
-                               shape=(ndof, ndof))
-        if not np.all(matrix.data):
-            matrix.eliminate_zeros()
-        return matrix
-
-    left, right = 0, ndof - 1  # after sorting by position
-    load_matrix = sp.csr_matrix(([-1.0, 1.0], ([left, right], [0, 1])), shape=(ndof, 2))
+    nodes = np.array(nodes, dtype=float)
+    points = order + 2
+    structure = pattern(element, nodes.size - 1)
+    ndof = structure.ndof
+    load_matrix = sp.csr_matrix((np.array([-1.0, 1.0]), np.array([0, 1]), np.array([0, 1, *([1] * (ndof - 2)), 2])), shape=(ndof, 2))
     return Operators(
         kind="rod",
-        element=f"P{order}",
-        nodes=np.asarray(mesh.p[0], dtype=float),
-        mass=assemble(mass_per_length, False),
-        stiffness=assemble(axial_stiffness, True),
-        damping=assemble(axial_viscosity, True),
+        element=element,
+        nodes=nodes,
+        mass=assemble(element, nodes, mass_per_length, 0, points),
+        stiffness=assemble(element, nodes, axial_stiffness, 1, points),
+        damping=assemble(element, nodes, axial_viscosity, 1, points),
         load_names=ROD_LOADS,
         load_matrix=load_matrix,
         rigid_modes=np.ones((ndof, 1)),
-        element_dofs=element_dofs,
+        element_dofs=structure.element_dofs,
         stiffness_profile=axial_stiffness,
         viscosity_profile=axial_viscosity,
         mass_profile=mass_per_length,
     )
-
-
-def _hermite_matrix(nodes: NDArray, coefficient: Profile, derivative: int, points: int = 5) -> sp.csr_matrix:
-    """``∫ c(x) dᵏφᵢ dᵏφⱼ dx`` over all elements at once (Gauss–Legendre, element-local)."""
-    xg, wg = gauss_legendre(points)
-    xi, wq = 0.5 * (xg + 1.0), 0.5 * wg
-    h = np.diff(nodes)[:, None]  # (ne, 1)
-    c = coefficient(nodes[:-1, None] + h * xi[None, :])  # (ne, nq)
-    B = SHAPES["hermite"](xi[None, :], h, derivative)  # (4, ne, nq)
-    local = np.einsum("q,eq,aeq,beq->eab", wq, c * h, B, B)
-    dofs = _hermite_element_dofs(nodes.size - 1)
-    rows = np.repeat(dofs, 4, axis=1).ravel()
-    cols = np.tile(dofs, (1, 4)).ravel()
-    ndof = 2 * nodes.size
-    return sp.csr_matrix((local.ravel(), (rows, cols)), shape=(ndof, ndof))
-
-
-def _hermite_element_dofs(elements: int) -> NDArray[np.int64]:
-    first = 2 * np.arange(elements)
-    return np.stack([first, first + 1, first + 2, first + 3], axis=1)
 
 
 def assemble_beam(
@@ -209,13 +165,13 @@ def assemble_beam(
         kind="beam",
         element="hermite",
         nodes=nodes,
-        mass=_hermite_matrix(nodes, mass_per_length, 0),
-        stiffness=_hermite_matrix(nodes, bending_stiffness, 2),
-        damping=_hermite_matrix(nodes, bending_viscosity, 2),
+        mass=assemble("hermite", nodes, mass_per_length, 0, HERMITE_POINTS),
+        stiffness=assemble("hermite", nodes, bending_stiffness, 2, HERMITE_POINTS),
+        damping=assemble("hermite", nodes, bending_viscosity, 2, HERMITE_POINTS),
         load_names=BEAM_LOADS,
         load_matrix=load_matrix,
         rigid_modes=rigid,
-        element_dofs=_hermite_element_dofs(nodes.size - 1),
+        element_dofs=pattern("hermite", nodes.size - 1).element_dofs,
         stiffness_profile=bending_stiffness,
         viscosity_profile=bending_viscosity,
         mass_profile=mass_per_length,

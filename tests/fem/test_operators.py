@@ -58,44 +58,79 @@ def test_dofs_numbered_by_position_give_narrow_band(kind, order, band):
 
 
 @pytest.mark.parametrize("order", [1, 2])
-def test_rod_matrices_equal_scikit_fems_own_assembly(order):
-    """The rod's einsum over scikit-fem's shape functions gives what scikit-fem's assembler gives for
-    ``∫ m φᵢ φⱼ``, ``∫ EA φᵢ' φⱼ'``, ``∫ cA φᵢ' φⱼ'`` on the same basis and rule, to round-off, in the
-    position numbering (piecewise, linear and tabulated profiles)."""
+@pytest.mark.parametrize("homogeneous", [True, False])
+def test_rod_matrices_equal_scikit_fems_own_assembly(order, homogeneous):
+    """The rod's reference-element tensors broadcast over the profile give what scikit-fem's basis and
+    assembler give for ``∫ m φᵢ φⱼ``, ``∫ EA φᵢ' φⱼ'``, ``∫ cA φᵢ' φⱼ'`` on the same rule, to round-off, in the
+    position numbering (uniform; piecewise, linear and tabulated profiles)."""
     from skfem import ElementLineP1, ElementLineP2
     from skfem.helpers import grad
 
     from femref.core.quadrature import gauss_legendre
 
+    mass, stiff, visc = (Uniform(5000.0), Uniform(2.5e9), Uniform(1.5e6)) if homogeneous else (MASS, STIFF, VISC)
     nodes = body_nodes(L, 24, jumps=MASS.jumps + VISC.kinks)
-    ops = assemble_rod(nodes, order, MASS, STIFF, VISC)
+    ops = assemble_rod(nodes, order, mass, stiff, visc)
     xi, wi = gauss_legendre(order + 2)
     basis = Basis(MeshLine(nodes), (ElementLineP1, ElementLineP2)[order - 1](), quadrature=(0.5 * xi[None, :] + 0.5, 0.5 * wi))
     x = basis.global_coordinates()[0]
     position = np.argsort(basis.doflocs[0], kind="stable")  # scikit-fem DOF of each position
     forms = (
-        (ops.mass, MASS, BilinearForm(lambda u, v, w: w.c * u * v)),
-        (ops.stiffness, STIFF, BilinearForm(lambda u, v, w: w.c * grad(u)[0] * grad(v)[0])),
-        (ops.damping, VISC, BilinearForm(lambda u, v, w: w.c * grad(u)[0] * grad(v)[0])),
+        (ops.mass, mass, BilinearForm(lambda u, v, w: w.c * u * v)),
+        (ops.stiffness, stiff, BilinearForm(lambda u, v, w: w.c * grad(u)[0] * grad(v)[0])),
+        (ops.damping, visc, BilinearForm(lambda u, v, w: w.c * grad(u)[0] * grad(v)[0])),
     )
     for mine, profile, form in forms:
         theirs = sp.csr_matrix(form.assemble(basis, c=profile(x)))[position][:, position]
         assert abs(mine - theirs).max() <= 1e-14 * abs(theirs).max()
 
 
-def test_local_hermite_matches_scikit_fem_on_small_mesh():
-    """Element-local Hermite assembly equals skfem's ElementLineHermite where the latter is accurate."""
-    nodes = np.linspace(-1.0, 1.0, 9)
-    ops = assemble_beam(nodes, Uniform(1.0), Uniform(1.0), Uniform(1.0))
-    basis = Basis(MeshLine(nodes), ElementLineHermite())
-    stiffness = BilinearForm(lambda u, v, w: dd(u)[0, 0] * dd(v)[0, 0]).assemble(basis)
-    mass = BilinearForm(lambda u, v, w: u * v).assemble(basis)
+@pytest.mark.parametrize("homogeneous", [True, False])
+def test_local_hermite_matches_scikit_fem_on_small_mesh(homogeneous):
+    """Element-local Hermite assembly equals skfem's ElementLineHermite where the latter is accurate, for
+    ``∫ m φᵢ φⱼ``, ``∫ EI φᵢ'' φⱼ''`` and ``∫ cI φᵢ'' φⱼ''`` on the same 5-point rule (uniform and
+    piecewise/linear/tabulated coefficients)."""
+    from femref.core.quadrature import gauss_legendre
+
+    nodes = np.linspace(-1.0, 1.0, 9) if homogeneous else body_nodes(L, 8, jumps=MASS.jumps + VISC.kinks)
+    mass, stiff, visc = (Uniform(1.0), Uniform(1.0), Uniform(1.0)) if homogeneous else (MASS, STIFF, VISC)
+    ops = assemble_beam(nodes, mass, stiff, visc)
+    xi, wi = gauss_legendre(5)
+    basis = Basis(MeshLine(nodes), ElementLineHermite(), quadrature=(0.5 * xi[None, :] + 0.5, 0.5 * wi))
+    x = basis.global_coordinates()[0]
     # skfem numbers DOFs (w_i, w_i') by node as nodal_dofs[0], nodal_dofs[1]
     order = np.empty(2 * nodes.size, dtype=int)
     order[0::2], order[1::2] = basis.nodal_dofs[0], basis.nodal_dofs[1]
-    for mine, theirs in ((ops.stiffness, stiffness), (ops.mass, mass)):
-        theirs = sp.csr_matrix(theirs)[order][:, order]
+    forms = (
+        (ops.mass, mass, BilinearForm(lambda u, v, w: w.c * u * v)),
+        (ops.stiffness, stiff, BilinearForm(lambda u, v, w: w.c * dd(u)[0, 0] * dd(v)[0, 0])),
+        (ops.damping, visc, BilinearForm(lambda u, v, w: w.c * dd(u)[0, 0] * dd(v)[0, 0])),
+    )
+    for mine, profile, form in forms:
+        theirs = sp.csr_matrix(form.assemble(basis, c=profile(x)))[order][:, order]
         assert abs(mine - theirs).max() <= 1e-10 * abs(theirs).max()
+
+
+def test_reference_tensors_give_the_closed_form_element_matrices():
+    """Uniform coefficient 1 on one element of length h: P1 ``K = (1/h)[[1, −1], [−1, 1]]``, ``M = (h/6)[[2, 1], [1, 2]]``;
+    P2 ``K = (1/3h)[[7, 1, −8], [1, 7, −8], [−8, −8, 16]]``; Hermite ``K = (1/h³)[[12, 6h, −12, 6h], …]``. The tensors are
+    kept per (family, derivative, rule): a different family or derivative gives its own."""
+    from femref.fem.reference import element_matrices, pattern, reference_tensor
+
+    h = 0.7
+    nodes = np.array([0.3, 0.3 + h])
+    one = Uniform(1.0)
+    assert np.allclose(element_matrices("P1", nodes, one, 1, 3).reshape(2, 2), np.array([[1, -1], [-1, 1]]) / h, rtol=1e-14)
+    assert np.allclose(element_matrices("P1", nodes, one, 0, 3).reshape(2, 2), np.array([[2, 1], [1, 2]]) * h / 6, rtol=1e-14)
+    p2 = np.array([[7, 1, -8], [1, 7, -8], [-8, -8, 16]]) / (3 * h)
+    assert np.allclose(element_matrices("P2", nodes, one, 1, 4).reshape(3, 3), p2, rtol=1e-14)
+    hermite = np.array([[12, 6 * h, -12, 6 * h], [6 * h, 4 * h * h, -6 * h, 2 * h * h],
+                        [-12, -6 * h, 12, -6 * h], [6 * h, 2 * h * h, -6 * h, 4 * h * h]]) / h**3
+    assert np.allclose(element_matrices("hermite", nodes, one, 2, 5).reshape(4, 4), hermite, rtol=1e-13)
+    assert reference_tensor("P2", 1, 4) is reference_tensor("P2", 1, 4)
+    assert reference_tensor("P2", 0, 4).shape == reference_tensor("P2", 1, 4).shape
+    assert not np.allclose(reference_tensor("P2", 0, 4), reference_tensor("P2", 1, 4))
+    assert pattern("P2", 3).ndof == 7 and pattern("P2", 4).ndof == 9 and pattern("P1", 4).ndof == 5
 
 
 def test_local_hermite_keeps_digits_on_fine_mesh():
