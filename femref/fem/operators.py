@@ -86,15 +86,27 @@ class Operators:
 
     def interpolation(self, x: NDArray[np.float64], derivative: int = 0) -> sp.csr_matrix:
         """Sparse matrix P with ``(P u)[k] = dⁿu/dxⁿ(x[k])`` for the field u of DOF vector u."""
+        x, dofs, values = self._element_values(x, derivative)
+        row_starts = np.arange(0, values.size + 1, values.shape[0])  # row k: the nb DOFs of its element
+        return sp.csr_matrix((values.T.ravel(), dofs.ravel(), row_starts), shape=(x.size, self.ndof))
+
+    def sampling(self, x: NDArray[np.float64], derivative: int = 0) -> NDArray[np.float64]:
+        """:meth:`interpolation` as a dense array ``(len(x), ndof)``, for a few points."""
+        x, dofs, values = self._element_values(x, derivative)
+        dense = np.zeros((x.size, self.ndof))
+        dense[np.arange(x.size)[:, None], dofs] = values.T
+        return dense
+
+    def _element_values(self, x: NDArray[np.float64], derivative: int) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64]]:
+        """``x`` as an array, the DOFs of the element holding each point ``(npoints, nb)`` and the shape functions' n-th
+        derivatives there ``(nb, npoints)``."""
         x = np.atleast_1d(np.asarray(x, dtype=float))
         if np.any(x < self.nodes[0] - 1e-12 * self.half_length) or np.any(x > self.nodes[-1] + 1e-12 * self.half_length):
             raise ValueError(f"positions {x} lie outside the body [{self.nodes[0]}, {self.nodes[-1]}]")
         e = np.clip(np.searchsorted(self.nodes, x, side="right") - 1, 0, self.elements - 1)
         h = self.nodes[e + 1] - self.nodes[e]
         xi = np.clip((x - self.nodes[e]) / h, 0.0, 1.0)
-        values = SHAPES[self.element](xi, h, derivative)  # (nb, npoints)
-        row_starts = np.arange(0, values.size + 1, values.shape[0])  # row k: the nb DOFs of its element
-        return sp.csr_matrix((values.T.ravel(), self.element_dofs[e].ravel(), row_starts), shape=(x.size, self.ndof))
+        return x, self.element_dofs[e], SHAPES[self.element](xi, h, derivative)
 
 
 def assemble_rod(

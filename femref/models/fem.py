@@ -185,7 +185,7 @@ def car_beam_operators(car: Car, settings: FemSettings) -> Operators:
 def _fem_system(car: Car, settings: FemSettings) -> SecondOrderSystem:
     ops = car_operators(car, settings)
     l = car.body.half_length
-    outputs = ops.interpolation(np.concatenate([[-l, l], car.sensor_x])).toarray()  # the ends, then the sensors
+    outputs = ops.sampling(np.concatenate([[-l, l], car.sensor_x]))  # the ends, then the sensors
     rod = SecondOrderSystem(
         "fem",
         ops.mass,
@@ -207,7 +207,7 @@ def coupler_line(beam: Operators, offset: tuple[float, float], slope: tuple[floa
     (``offset`` h below the neutral axis, ``slope`` s the coupler's inclination; docs/formulas.md §X7)."""
     l = beam.half_length
     ends = np.array([-l, l])
-    rotation, deflection = beam.interpolation(ends, derivative=1).toarray(), beam.interpolation(ends, derivative=0).toarray()
+    rotation, deflection = beam.sampling(ends, derivative=1), beam.sampling(ends, derivative=0)
     return np.array(offset)[:, None] * rotation + np.array(slope)[:, None] * deflection
 
 
@@ -238,8 +238,8 @@ def bending_system(rod: SecondOrderSystem, beam: Operators, sensor_x: np.ndarray
     load_matrix = np.vstack([rod.load_matrix, np.zeros((n_beam, 2))])
     load_matrix[:, 0] -= hooks[0]
     load_matrix[:, 1] += hooks[1]
-    vertical = beam.interpolation(sensor_x, derivative=0).toarray()
-    pitch = beam.interpolation(sensor_x, derivative=1).toarray()
+    vertical = beam.sampling(sensor_x, derivative=0)
+    pitch = beam.sampling(sensor_x, derivative=1)
     sensors = np.vstack([
         np.hstack([rod.sensor_outputs, np.zeros((sensor_x.size, n_beam))]),
         np.hstack([np.zeros((sensor_x.size, n_rod)), vertical]),

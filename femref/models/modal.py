@@ -180,7 +180,7 @@ def _bending_modal_system(car: Car, settings: FemSettings, modes: int, static_co
     x = car.sensor_x
     hooks = coupler_line(beam, car.coupler_offset, car.coupler_slope)  # (2, n_beam): h θ + s w at the ends
     beam_loads = np.column_stack([-hooks[0], hooks[1]])  # columns F1, F2
-    beam_outputs = np.vstack([hooks, beam.interpolation(x, 0).toarray(), beam.interpolation(x, 1).toarray()])
+    beam_outputs = np.vstack([hooks, beam.sampling(x, 0), beam.sampling(x, 1)])
     kept = phi[:, :keep]
     modal_outputs = beam_outputs @ kept
     n_rod, n_beam, S = rod.dofs, keep, x.size

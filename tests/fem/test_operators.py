@@ -168,6 +168,7 @@ def test_interpolation_reproduces_polynomials():
     u[0::2], u[1::2] = cubic(ops.nodes), cubic.deriv()(ops.nodes)
     for k in range(3):
         assert np.allclose(ops.interpolation(x, k) @ u, cubic.deriv(k)(x), rtol=1e-10, atol=1e-10)
+        assert np.array_equal(ops.sampling(x, k), ops.interpolation(x, k).toarray())  # the dense form, entry for entry
 
 
 def test_mesh_has_nodes_on_jumps_and_grading():
