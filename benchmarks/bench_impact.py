@@ -1,11 +1,17 @@
 """Cost of the default impact scene per fidelity, as ratios measured in one run.
 
     python benchmarks/bench_impact.py [--quick]
+    python benchmarks/bench_impact.py --cold 5 [--json PATH]
 
 Reports, for the built-in default scene (two covered hoppers, draft gear, 0.5 s):
 * each fidelity's wall time (median of repeats) for the whole run, steps per second,
   and the fem cost as a multiple of modal, quasi-rigid and rigid cost in the same run;
 * how the fem run grows with elements per car (1e1 … 1e4, P2), at the scene's step.
+
+``--cold N`` measures what ``femref run`` of the default scene meets instead: N fresh processes, each loading the
+compiled loop and then running the scene's model runs once in their order (each model's wall time,
+``ModelResult.wall_time_s``, including building its cars the first time in the process, as the run table's
+speed-up column does), and prints each model's median and the median of the per-process fem / model ratios.
 Nothing here is asserted: the test suite checks correctness, this script measures speed.
 """
 
@@ -13,7 +19,10 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import statistics
+import subprocess
+import sys
 import time
 
 from femref.case import parse_case
@@ -40,10 +49,47 @@ def timed(scene, fidelity: str, repeats: int, dt: float | None = None) -> tuple[
     return statistics.median(times), response.steps
 
 
+def cold_walls() -> dict[str, float]:
+    """One process's cold run of the default scene: each model run's wall time (s), in the scene's order."""
+    from femref.run.runner import load_compiled_loop, run_model
+
+    scene = default_scene()
+    load_compiled_loop(scene)
+    return {run.name: run_model(scene, run).wall_time_s for run in scene.runs}
+
+
+def cold(processes: int, json_path: str | None) -> None:
+    """``processes`` fresh processes of :func:`cold_walls`: medians and fem / model ratios."""
+    runs = []
+    for _ in range(processes):
+        done = subprocess.run([sys.executable, __file__, "--cold-once"], check=True, capture_output=True, text=True)
+        runs.append(json.loads(done.stdout.splitlines()[-1]))
+    print(f"default scene, cold ({processes} processes): median wall per model and of fem / model in each process")
+    print(f"{'model':<14} {'wall ms':>9} {'fem / this':>11}")
+    summary = {}
+    for name in runs[0]:
+        wall = statistics.median(r[name] for r in runs)
+        ratio = statistics.median(r["fem"] / r[name] for r in runs)
+        summary[name] = {"wall_s": wall, "fem_over_this": ratio, "runs_s": [r[name] for r in runs]}
+        print(f"{name:<14} {wall * 1e3:9.3f} {ratio:11.2f}")
+    if json_path:
+        with open(json_path, "w", encoding="utf-8") as out:
+            json.dump(summary, out, indent=2)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="fewer repeats and element counts")
+    parser.add_argument("--cold", type=int, metavar="N", help="N fresh processes of the default scene's run (cold)")
+    parser.add_argument("--cold-once", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--json", metavar="PATH", help="with --cold: also write the numbers as JSON")
     args = parser.parse_args()
+    if args.cold_once:
+        print(json.dumps(cold_walls()))
+        return
+    if args.cold:
+        cold(args.cold, args.json)
+        return
     repeats = 3 if args.quick else 5
     scene = default_scene()
     print(f"default scene: end = {scene.end} s, fem {scene.fem.elements} P{scene.fem.order} elements per car")

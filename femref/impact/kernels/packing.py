@@ -11,13 +11,14 @@ lower band by columns that the compiled Cholesky factorises in place.
 
 from __future__ import annotations
 
+import math
 import weakref
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
-from femref.fem.banded import entries, half_bandwidth
+from femref.fem.banded import entries
 from femref.fem.transient import Integrator
 from femref.impact.kernels.cars import factorise, start
 from femref.impact.kernels.pool import (
@@ -26,10 +27,12 @@ from femref.impact.kernels.pool import (
 )
 from femref.impact.systems import CarSystem, SecondOrderSystem, StateSpaceSystem
 
+FIELDS_AT = {name: f for f, name in enumerate(FIELDS, start=COUPLER_COUNT + 1)}
+"""The layout column of each field by name."""
 
-def _bands(matrix, p: int, n: int) -> NDArray[np.float64]:
-    """``bands[k, i] = A[i, i + k − p]`` of a sparse or dense n × n matrix of half-bandwidth at most p."""
-    rows, cols, data = entries(matrix)
+
+def _bands(rows: NDArray[np.intp], cols: NDArray[np.intp], data: NDArray[np.float64], p: int, n: int) -> NDArray[np.float64]:
+    """``bands[k, i] = A[i, i + k − p]`` of an n × n matrix of half-bandwidth at most p from its entries ``(i, j, A_ij)``."""
     bands = np.zeros((2 * p + 1, n))
     bands[cols - rows + p, rows] = data
     return bands
@@ -42,10 +45,6 @@ def _lower_columns(bands: NDArray[np.float64], p: int, n: int) -> NDArray[np.flo
         # A[j + k, j] = A[j, j + k] (symmetric) = bands[p + k, j]
         low[k, : n - k] = bands[p + k, : n - k]
     return low
-
-
-def _matrix(value, shape: tuple[int, ...]) -> NDArray[np.float64]:
-    return np.zeros(shape) if value is None else np.asarray(value, dtype=float).reshape(shape)
 
 
 @dataclass(frozen=True, eq=False)
@@ -91,11 +90,16 @@ def _prepare(system: CarSystem, integrator: Integrator, dt: float, coupler_loads
     layout[: COUPLER_COUNT + 1] = sizes
     shapes = {}
     offset = 0
-    for f, array in enumerate(fields, start=COUPLER_COUNT + 1):
+    for f, name in enumerate(FIELDS, start=COUPLER_COUNT + 1):
+        shape = fields[name][0] if name in fields else (0,)
         layout[f] = offset
-        shapes[f] = array.shape
-        offset += array.size
-    values = np.concatenate([array.ravel() for array in fields])
+        shapes[f] = shape
+        offset += math.prod(shape)
+    values = np.zeros(offset)  # written straight into: the fields that start at zero (the state, scratch) are left so
+    for name, (shape, value) in fields.items():
+        if value is not None:
+            f = FIELDS_AT[name]
+            values[layout[f]: layout[f] + math.prod(shape)] = np.ravel(value)
     positive_definite = factorise(layout.reshape(1, -1), values, 0)
     J, n_c = coupler_loads.shape
     Y = coupler_outputs.shape[1]
@@ -132,10 +136,15 @@ def pack_cars(
     return CarPool(layout, values, tuple(car.shapes for car in prepared))
 
 
+Field = tuple[tuple[int, ...], "NDArray[np.float64] | float | None"]
+"""A field's shape and its value (anything that ravels to its size; None: zeros)."""
+
+
 def _car_fields(
     system: CarSystem, integrator: Integrator, dt: float, coupler_loads: NDArray, coupler_outputs: NDArray,
-) -> tuple[list[int], list[NDArray[np.float64]]]:
-    """One car's sizes (the layout's first columns) and its fields in the order of FIELDS, its state zero."""
+) -> tuple[list[int], dict[str, Field]]:
+    """One car's sizes (the layout's first columns) and its fields by name, each its shape and value (state zero);
+    a field not named is empty."""
     J, n_c = coupler_loads.shape
     Y = coupler_outputs.shape[1]
     if isinstance(system, StateSpaceSystem):
@@ -143,31 +152,29 @@ def _car_fields(
         n = system.transition.shape[0]
         S = system.sensor_displacement.shape[0]
         sizes = [STATE_SPACE, n, 0, 0, 0, J, Y, S, n_c]
-        fields = {
-            "coefficients": np.array([dt, 0, 0, 0, 0, 0, 0], dtype=float),
-            "load": _matrix(system.input, (n, J)),
-            "transition": _matrix(system.transition, (n, n)),
-            "kinetic_form": _matrix(system.kinetic_form, (n, n)),
-            "strain_form": _matrix(system.strain_form, (n, n)),
-            "work_map": _matrix(system.work_map, (J, Y)),
-            "end_outputs": _matrix(system.end_displacement, (Y, n)),
-            "end_rates": _matrix(system.end_velocity, (Y, n)),
-            "sensor_outputs": _matrix(system.sensor_displacement, (S, n)),
-            "sensor_rates": _matrix(system.sensor_velocity, (S, n)),
-            "sensor_accelerations": _matrix(system.sensor_acceleration, (S, n)),
-            "x": np.zeros(n), "x_free": np.zeros(n),
-            "work1": np.zeros(n), "work2": np.zeros(n), "work3": np.zeros(n),
+        fields: dict[str, Field] = {
+            "coefficients": ((7,), np.array([dt, 0, 0, 0, 0, 0, 0], dtype=float)),
+            "load": ((n, J), system.input),
+            "transition": ((n, n), system.transition),
+            "kinetic_form": ((n, n), system.kinetic_form),
+            "strain_form": ((n, n), system.strain_form),
+            "work_map": ((J, Y), system.work_map),
+            "end_outputs": ((Y, n), system.end_displacement),
+            "end_rates": ((Y, n), system.end_velocity),
+            "sensor_outputs": ((S, n), system.sensor_displacement),
+            "sensor_rates": ((S, n), system.sensor_velocity),
+            "sensor_accelerations": ((S, n), system.sensor_acceleration),
+            **{name: ((n,), None) for name in ("x", "x_free", "work1", "work2", "work3")},
         }
     else:
         sizes, fields = _second_order_fields(system, integrator, dt, J, Y, n_c)
     fields.update({
-        "gain_u": np.zeros((Y, J)), "gain_v": np.zeros((Y, J)),
-        "coupler_loads": coupler_loads, "coupler_outputs": coupler_outputs,
-        "loads": np.zeros(J), "load_rate": np.zeros(J), "new_loads": np.zeros(J),
-        "end_free": np.zeros(Y), "end_rate_free": np.zeros(Y), "end_now": np.zeros(Y), "scalars": np.zeros(5),
+        "gain_u": ((Y, J), None), "gain_v": ((Y, J), None),
+        "coupler_loads": ((J, n_c), coupler_loads), "coupler_outputs": ((n_c, Y), coupler_outputs),
+        "loads": ((J,), None), "load_rate": ((J,), None), "new_loads": ((J,), None),
+        "end_free": ((Y,), None), "end_rate_free": ((Y,), None), "end_now": ((Y,), None), "scalars": ((5,), None),
     })
-    empty = np.zeros(0)
-    return sizes, [np.asarray(fields.get(name, empty), dtype=float) for name in FIELDS]
+    return sizes, fields
 
 
 _banded_forms: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
@@ -179,40 +186,40 @@ def _banded_form(system: SecondOrderSystem) -> tuple[int, NDArray[np.float64], N
     the arrays are only read)."""
     form = _banded_forms.get(system)
     if form is None:
-        M, C, K = system.mass, system.damping, system.stiffness
-        p = max(half_bandwidth(m) for m in (M, C, K))
-        form = (p, *(_bands(m, p, system.dofs) for m in (M, C, K)))
+        matrices = [entries(m) for m in (system.mass, system.damping, system.stiffness)]
+        p = max((int(np.max(np.abs(rows - cols))) if rows.size else 0) for rows, cols, _ in matrices)
+        form = (p, *(_bands(*m, p, system.dofs) for m in matrices))
         _banded_forms[system] = form
     return form
 
 
 def _second_order_fields(
     system: SecondOrderSystem, integrator: Integrator, dt: float, J: int, Y: int, n_c: int,
-) -> tuple[list[int], dict[str, NDArray[np.float64]]]:
+) -> tuple[list[int], dict[str, Field]]:
     n = system.dofs
     S = system.sensor_outputs.shape[0]
     p, mass, damping, stiffness = _banded_form(system)
     am, af, beta, gamma = integrator.alpha_m, integrator.alpha_f, integrator.beta, integrator.gamma
     effective = (1.0 - am) * mass + (1.0 - af) * gamma * dt * damping + (1.0 - af) * beta * dt * dt * stiffness
     translation = np.asarray(system.translation, dtype=float)
+    sensor_outputs = np.asarray(system.sensor_outputs, dtype=float).reshape(S, n)
+    bands, factor = (2 * p + 1, n), (p + 1, n)
     sizes = [SECOND_ORDER, n, p, int(np.argmax(np.abs(translation))), 0, J, Y, S, n_c]
     return sizes, {
-        "coefficients": np.array([dt, af, dt * dt * (0.5 - beta), dt * dt * beta, dt * (1.0 - gamma), dt * gamma,
-                                  float(integrator.alpha_m != integrator.alpha_f)]),
-        "history_u": -stiffness,
-        "history_v": -(damping + (1.0 - af) * dt * stiffness),
-        "history_a": -(am * mass + (1.0 - af) * (1.0 - gamma) * dt * damping + (1.0 - af) * (0.5 - beta) * dt * dt * stiffness),
-        "damping": damping, "stiffness": stiffness, "mass": mass,
-        "effective_factor": _lower_columns(effective, p, n), "mass_factor": _lower_columns(mass, p, n),
-        "load": _matrix(system.load_matrix, (n, J)), "response": np.zeros((n, J)), "translation": translation,
-        "sensor_travel": _matrix(system.sensor_outputs, (S, n)) @ translation,
-        "end_outputs": _matrix(system.end_outputs, (Y, n)), "sensor_outputs": _matrix(system.sensor_outputs, (S, n)),
-        "end_feedthrough": _matrix(system.end_feedthrough, (Y, J)),
-        "sensor_feedthrough": _matrix(system.sensor_feedthrough, (S, J)),
-        "feedthrough_energy": _matrix(system.feedthrough_energy, (J, J)),
-        "u": np.zeros(n), "v": np.zeros(n), "a": np.zeros(n),
-        "u_free": np.zeros(n), "v_free": np.zeros(n), "a_free": np.zeros(n),
-        "work1": np.zeros(n), "work2": np.zeros(n), "work3": np.zeros(n),
+        "coefficients": ((7,), np.array([dt, af, dt * dt * (0.5 - beta), dt * dt * beta, dt * (1.0 - gamma), dt * gamma,
+                                         float(integrator.alpha_m != integrator.alpha_f)])),
+        "history_u": (bands, -stiffness),
+        "history_v": (bands, -(damping + (1.0 - af) * dt * stiffness)),
+        "history_a": (bands, -(am * mass + (1.0 - af) * (1.0 - gamma) * dt * damping + (1.0 - af) * (0.5 - beta) * dt * dt * stiffness)),
+        "damping": (bands, damping), "stiffness": (bands, stiffness), "mass": (bands, mass),
+        "effective_factor": (factor, _lower_columns(effective, p, n)), "mass_factor": (factor, _lower_columns(mass, p, n)),
+        "load": ((n, J), system.load_matrix), "response": ((n, J), None), "translation": ((n,), translation),
+        "sensor_travel": ((S,), sensor_outputs @ translation),
+        "end_outputs": ((Y, n), system.end_outputs), "sensor_outputs": ((S, n), sensor_outputs),
+        "end_feedthrough": ((Y, J), system.end_feedthrough),
+        "sensor_feedthrough": ((S, J), system.sensor_feedthrough),
+        "feedthrough_energy": ((J, J), system.feedthrough_energy),
+        **{name: ((n,), None) for name in ("u", "v", "a", "u_free", "v_free", "a_free", "work1", "work2", "work3")},
     }
 
 
