@@ -424,3 +424,22 @@ def test_quasi_rigid_car_is_a_rod():
     with pytest.raises(ValueError, match="rod"):
         quasi_rigid_rod(beam)
     assert quasi_rigid_rod(car).mass == pytest.approx(2 * L * M_BAR, rel=1e-12)
+
+
+def test_body_mass_and_rigid_pitching_moments_are_exact():
+    """``M = ∫ m dx``, ``S = ∫ m x dx``, ``J = ∫ m x² dx`` of a piecewise and a tabulated mass, against scipy's
+    adaptive quadrature piece by piece: the one-panel Gauss rule between jumps and kinks is exact."""
+    from scipy.integrate import quad
+
+    from femref.core.profiles import Table
+    from femref.models.rigid import rigid_pitching_system
+
+    l = 8.5
+    for mass in (Piecewise(breaks=(-3.0, 2.5), values=(3000.0, 9000.0, 4000.0)), Table(x=(-l, -1.0, 4.0, l), values=(2.0e3, 8.0e3, 5.0e3, 1.0e3))):
+        body = Body("rod", l, mass, Uniform(3.0e9), Uniform(2.0e6), 0.01)
+        edges = [-l, *body.jumps, l]
+        exact = [sum(quad(lambda x: x**k * mass(x), a, b)[0] for a, b in zip(edges[:-1], edges[1:])) for k in range(3)]
+        assert body.total_mass == pytest.approx(exact[0], rel=1e-14)
+        pitching = rigid_pitching_system(body, np.array([0.0]), (0.0, 0.0))
+        assert pitching.mass[1, 2] == pytest.approx(exact[1], rel=1e-12, abs=1e-9 * exact[0] * l)
+        assert pitching.mass[2, 2] == pytest.approx(exact[2], rel=1e-13)

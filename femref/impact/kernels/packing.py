@@ -11,19 +11,21 @@ lower band by columns that the compiled Cholesky factorises in place.
 
 from __future__ import annotations
 
+import functools
 import math
 import weakref
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from femref.fem.banded import entries
 from femref.fem.transient import Integrator
 from femref.impact.kernels.cars import factorise, start
 from femref.impact.kernels.pool import (
-    COUPLER_COUNT, DOFS, FIELDS, GAIN_U, GAIN_V, LOAD_COUNT, LOADS, SECOND_ORDER, SENSOR_START, STATE_SPACE,
-    TRANSLATION, V, X, CarPool,
+    BAND, COUPLER_COUNT, DOFS, END_COUNT, FIELDS, GAIN_U, GAIN_V, LOAD_COUNT, LOADS, SECOND_ORDER, SENSOR_START, STATE_SPACE,
+    KIND, SENSOR_COUNT, TRANSLATION, V, X, CarPool,
 )
 from femref.impact.systems import CarSystem, SecondOrderSystem, StateSpaceSystem
 
@@ -86,26 +88,48 @@ def prepared_car(system: CarSystem, integrator: Integrator, dt: float, coupler_l
 
 def _prepare(system: CarSystem, integrator: Integrator, dt: float, coupler_loads: NDArray, coupler_outputs: NDArray) -> PreparedCar:
     sizes, fields = _car_fields(system, integrator, dt, coupler_loads, coupler_outputs)
-    layout = np.zeros(COUPLER_COUNT + 1 + len(FIELDS), dtype=np.int64)
+    template, shapes, total = _layout(*(sizes[k] for k in (KIND, DOFS, BAND, LOAD_COUNT, END_COUNT, SENSOR_COUNT, COUPLER_COUNT)))
+    layout = template.copy()
     layout[: COUPLER_COUNT + 1] = sizes
-    shapes = {}
-    offset = 0
-    for f, name in enumerate(FIELDS, start=COUPLER_COUNT + 1):
-        shape = fields[name][0] if name in fields else (0,)
-        layout[f] = offset
-        shapes[f] = shape
-        offset += math.prod(shape)
-    values = np.zeros(offset)  # written straight into: the fields that start at zero (the state, scratch) are left so
-    for name, (shape, value) in fields.items():
-        if value is not None:
-            f = FIELDS_AT[name]
-            values[layout[f]: layout[f] + math.prod(shape)] = np.ravel(value)
+    values = np.zeros(total)  # written straight into: the fields that start at zero (the state, scratch) are left so
+    for name, value in fields.items():
+        f = FIELDS_AT[name]
+        values[template[f]: template[f] + math.prod(shapes[f])] = np.ravel(value)
     positive_definite = factorise(layout.reshape(1, -1), values, 0)
     J, n_c = coupler_loads.shape
     Y = coupler_outputs.shape[1]
     gains = [values[layout[f]: layout[f] + Y * J].reshape(Y, J) for f in (GAIN_U, GAIN_V)]
     return PreparedCar(layout, values, shapes, bool(positive_definite),
                        coupler_outputs @ gains[0] @ coupler_loads, coupler_outputs @ gains[1] @ coupler_loads)
+
+
+@functools.lru_cache(maxsize=256)
+def _layout(kind: int, n: int, p: int, J: int, Y: int, S: int, n_c: int) -> tuple[NDArray[np.int64], dict[int, tuple[int, ...]], int]:
+    """A car's layout row with its fields' offsets (sizes zero), their shapes by column and the values' length:
+    once per kind and sizes (read-only, shared)."""
+    if kind == STATE_SPACE:
+        named = {"coefficients": (7,), "load": (n, J), "transition": (n, n), "kinetic_form": (n, n), "strain_form": (n, n),
+                 "work_map": (J, Y), "end_outputs": (Y, n), "end_rates": (Y, n), "sensor_outputs": (S, n), "sensor_rates": (S, n),
+                 "sensor_accelerations": (S, n), **{name: (n,) for name in ("x", "x_free", "work1", "work2", "work3")}}
+    else:
+        bands, factor = (2 * p + 1, n), (p + 1, n)
+        named = {"coefficients": (7,), **{name: bands for name in ("history_u", "history_v", "history_a", "damping", "stiffness", "mass")},
+                 "effective_factor": factor, "mass_factor": factor, "load": (n, J), "response": (n, J), "translation": (n,),
+                 "sensor_travel": (S,), "end_outputs": (Y, n), "sensor_outputs": (S, n), "end_feedthrough": (Y, J),
+                 "sensor_feedthrough": (S, J), "feedthrough_energy": (J, J),
+                 **{name: (n,) for name in ("u", "v", "a", "u_free", "v_free", "a_free", "work1", "work2", "work3")}}
+    named.update({"gain_u": (Y, J), "gain_v": (Y, J), "coupler_loads": (J, n_c), "coupler_outputs": (n_c, Y),
+                  **{name: (J,) for name in ("loads", "load_rate", "new_loads")},
+                  **{name: (Y,) for name in ("end_free", "end_rate_free", "end_now")}, "scalars": (5,)})
+    layout = np.zeros(COUPLER_COUNT + 1 + len(FIELDS), dtype=np.int64)
+    shapes = {}
+    offset = 0
+    for name, f in FIELDS_AT.items():
+        shapes[f] = named.get(name, (0,))
+        layout[f] = offset
+        offset += math.prod(shapes[f])
+    layout.flags.writeable = False
+    return layout, shapes, offset
 
 
 def pack_cars(
@@ -136,15 +160,11 @@ def pack_cars(
     return CarPool(layout, values, tuple(car.shapes for car in prepared))
 
 
-Field = tuple[tuple[int, ...], "NDArray[np.float64] | float | None"]
-"""A field's shape and its value (anything that ravels to its size; None: zeros)."""
-
-
 def _car_fields(
     system: CarSystem, integrator: Integrator, dt: float, coupler_loads: NDArray, coupler_outputs: NDArray,
-) -> tuple[list[int], dict[str, Field]]:
-    """One car's sizes (the layout's first columns) and its fields by name, each its shape and value (state zero);
-    a field not named is empty."""
+) -> tuple[list[int], dict[str, NDArray[np.float64]]]:
+    """One car's sizes (the layout's first columns) and the values of its fields that do not start at zero, by name
+    (each anything that ravels to the size :func:`_layout` gives it)."""
     J, n_c = coupler_loads.shape
     Y = coupler_outputs.shape[1]
     if isinstance(system, StateSpaceSystem):
@@ -152,29 +172,16 @@ def _car_fields(
         n = system.transition.shape[0]
         S = system.sensor_displacement.shape[0]
         sizes = [STATE_SPACE, n, 0, 0, 0, J, Y, S, n_c]
-        fields: dict[str, Field] = {
-            "coefficients": ((7,), np.array([dt, 0, 0, 0, 0, 0, 0], dtype=float)),
-            "load": ((n, J), system.input),
-            "transition": ((n, n), system.transition),
-            "kinetic_form": ((n, n), system.kinetic_form),
-            "strain_form": ((n, n), system.strain_form),
-            "work_map": ((J, Y), system.work_map),
-            "end_outputs": ((Y, n), system.end_displacement),
-            "end_rates": ((Y, n), system.end_velocity),
-            "sensor_outputs": ((S, n), system.sensor_displacement),
-            "sensor_rates": ((S, n), system.sensor_velocity),
-            "sensor_accelerations": ((S, n), system.sensor_acceleration),
-            **{name: ((n,), None) for name in ("x", "x_free", "work1", "work2", "work3")},
+        fields = {
+            "coefficients": np.array([dt, 0, 0, 0, 0, 0, 0], dtype=float), "load": system.input, "transition": system.transition,
+            "kinetic_form": system.kinetic_form, "strain_form": system.strain_form, "work_map": system.work_map,
+            "end_outputs": system.end_displacement, "end_rates": system.end_velocity, "sensor_outputs": system.sensor_displacement,
+            "sensor_rates": system.sensor_velocity, "sensor_accelerations": system.sensor_acceleration,
         }
     else:
         sizes, fields = _second_order_fields(system, integrator, dt, J, Y, n_c)
-    fields.update({
-        "gain_u": ((Y, J), None), "gain_v": ((Y, J), None),
-        "coupler_loads": ((J, n_c), coupler_loads), "coupler_outputs": ((n_c, Y), coupler_outputs),
-        "loads": ((J,), None), "load_rate": ((J,), None), "new_loads": ((J,), None),
-        "end_free": ((Y,), None), "end_rate_free": ((Y,), None), "end_now": ((Y,), None), "scalars": ((5,), None),
-    })
-    return sizes, fields
+    fields.update({"coupler_loads": coupler_loads, "coupler_outputs": coupler_outputs})
+    return sizes, {name: value for name, value in fields.items() if value is not None}
 
 
 _banded_forms: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
@@ -186,16 +193,29 @@ def _banded_form(system: SecondOrderSystem) -> tuple[int, NDArray[np.float64], N
     the arrays are only read)."""
     form = _banded_forms.get(system)
     if form is None:
-        matrices = [entries(m) for m in (system.mass, system.damping, system.stiffness)]
-        p = max((int(np.max(np.abs(rows - cols))) if rows.size else 0) for rows, cols, _ in matrices)
-        form = (p, *(_bands(*m, p, system.dofs) for m in matrices))
+        form = _bands_of(system.dofs, (system.mass, system.damping, system.stiffness))
         _banded_forms[system] = form
     return form
 
 
+def _bands_of(n: int, given: tuple) -> tuple[int, NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """``(p, M, C, K)`` in row bands of the three n × n matrices ``given`` (sparse or dense), p their widest stored
+    (sparse) or nonzero (dense) half-bandwidth."""
+    if n == 1:  # a point mass: its one entry is its band
+        return (0, *(np.asarray(m.toarray() if sp.issparse(m) else m, dtype=float).reshape(1, 1) for m in given))
+    if any(sp.issparse(m) for m in given):
+        matrices = [entries(m) for m in given]
+    else:  # a small dense car: one pattern for the three
+        dense = [np.asarray(m, dtype=float) for m in given]
+        rows, cols = np.nonzero((dense[0] != 0.0) | (dense[1] != 0.0) | (dense[2] != 0.0))
+        matrices = [(rows, cols, m[rows, cols]) for m in dense]
+    p = max((int(np.max(np.abs(rows - cols))) if rows.size else 0) for rows, cols, _ in matrices)
+    return (p, *(_bands(*m, p, n) for m in matrices))
+
+
 def _second_order_fields(
     system: SecondOrderSystem, integrator: Integrator, dt: float, J: int, Y: int, n_c: int,
-) -> tuple[list[int], dict[str, Field]]:
+) -> tuple[list[int], dict[str, NDArray[np.float64] | None]]:
     n = system.dofs
     S = system.sensor_outputs.shape[0]
     p, mass, damping, stiffness = _banded_form(system)
@@ -203,23 +223,18 @@ def _second_order_fields(
     effective = (1.0 - am) * mass + (1.0 - af) * gamma * dt * damping + (1.0 - af) * beta * dt * dt * stiffness
     translation = np.asarray(system.translation, dtype=float)
     sensor_outputs = np.asarray(system.sensor_outputs, dtype=float).reshape(S, n)
-    bands, factor = (2 * p + 1, n), (p + 1, n)
     sizes = [SECOND_ORDER, n, p, int(np.argmax(np.abs(translation))), 0, J, Y, S, n_c]
     return sizes, {
-        "coefficients": ((7,), np.array([dt, af, dt * dt * (0.5 - beta), dt * dt * beta, dt * (1.0 - gamma), dt * gamma,
-                                         float(integrator.alpha_m != integrator.alpha_f)])),
-        "history_u": (bands, -stiffness),
-        "history_v": (bands, -(damping + (1.0 - af) * dt * stiffness)),
-        "history_a": (bands, -(am * mass + (1.0 - af) * (1.0 - gamma) * dt * damping + (1.0 - af) * (0.5 - beta) * dt * dt * stiffness)),
-        "damping": (bands, damping), "stiffness": (bands, stiffness), "mass": (bands, mass),
-        "effective_factor": (factor, _lower_columns(effective, p, n)), "mass_factor": (factor, _lower_columns(mass, p, n)),
-        "load": ((n, J), system.load_matrix), "response": ((n, J), None), "translation": ((n,), translation),
-        "sensor_travel": ((S,), sensor_outputs @ translation),
-        "end_outputs": ((Y, n), system.end_outputs), "sensor_outputs": ((S, n), sensor_outputs),
-        "end_feedthrough": ((Y, J), system.end_feedthrough),
-        "sensor_feedthrough": ((S, J), system.sensor_feedthrough),
-        "feedthrough_energy": ((J, J), system.feedthrough_energy),
-        **{name: ((n,), None) for name in ("u", "v", "a", "u_free", "v_free", "a_free", "work1", "work2", "work3")},
+        "coefficients": np.array([dt, af, dt * dt * (0.5 - beta), dt * dt * beta, dt * (1.0 - gamma), dt * gamma,
+                                  float(integrator.alpha_m != integrator.alpha_f)]),
+        "history_u": -stiffness,
+        "history_v": -(damping + (1.0 - af) * dt * stiffness),
+        "history_a": -(am * mass + (1.0 - af) * (1.0 - gamma) * dt * damping + (1.0 - af) * (0.5 - beta) * dt * dt * stiffness),
+        "damping": damping, "stiffness": stiffness, "mass": mass,
+        "effective_factor": _lower_columns(effective, p, n), "mass_factor": _lower_columns(mass, p, n),
+        "load": system.load_matrix, "translation": translation, "sensor_travel": sensor_outputs @ translation,
+        "end_outputs": system.end_outputs, "sensor_outputs": sensor_outputs, "end_feedthrough": system.end_feedthrough,
+        "sensor_feedthrough": system.sensor_feedthrough, "feedthrough_energy": system.feedthrough_energy,
     }
 
 
