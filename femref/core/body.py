@@ -59,9 +59,8 @@ class Body:
 
     @functools.cached_property
     def total_mass(self) -> float:
-        """``M = ∫ m dx`` (kg) by :meth:`quadrature` with one panel between jumps and kinks: exact, every profile kind
-        being linear there."""
-        x, w = self.quadrature(panels=1)
+        """``M = ∫ m dx`` (kg) by :meth:`quadrature`."""
+        x, w = self.quadrature()
         return float(np.sum(w * self.mass_per_length(x)))
 
     def frequency_to_lambda(self, omega: NDArray) -> NDArray:

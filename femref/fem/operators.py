@@ -1,7 +1,6 @@
 """Mass, stiffness and Voigt damping operators of rods and beams.
 
-Rod (P1/P2 Lagrange) and beam alike are assembled from reference-element tensors
-(:mod:`femref.fem.reference`). Rod:
+Rod (P1/P2 Lagrange, from reference-element tables kept per family, :mod:`femref.fem.reference`):
 
     ∫ m u_tt v dx + ∫ (EA u_x + cA u_xt) v_x dx = F2 v(l) − F1 v(−l)
 
@@ -33,13 +32,12 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from femref.core.profiles import Profile
+from femref.core.quadrature import gauss_legendre
 from femref.fem.reference import assemble, pattern
 from femref.fem.shapes import SHAPES
 
 ROD_LOADS = ("F1", "F2")
 BEAM_LOADS = ("N1", "N2", "G1", "G2")
-HERMITE_POINTS = 5
-"""Gauss points per beam element: exact for coefficients up to degree 3 in M."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -150,6 +148,26 @@ def assemble_rod(
     )
 
 
+def _hermite_matrix(nodes: NDArray, coefficient: Profile, derivative: int, points: int = 5) -> sp.csr_matrix:
+    """``∫ c(x) dᵏφᵢ dᵏφⱼ dx`` over all elements at once (Gauss–Legendre, element-local)."""
+    xg, wg = gauss_legendre(points)
+    xi, wq = 0.5 * (xg + 1.0), 0.5 * wg
+    h = np.diff(nodes)[:, None]  # (ne, 1)
+    c = coefficient(nodes[:-1, None] + h * xi[None, :])  # (ne, nq)
+    B = SHAPES["hermite"](xi[None, :], h, derivative)  # (4, ne, nq)
+    local = np.einsum("q,eq,aeq,beq->eab", wq, c * h, B, B)
+    dofs = _hermite_element_dofs(nodes.size - 1)
+    rows = np.repeat(dofs, 4, axis=1).ravel()
+    cols = np.tile(dofs, (1, 4)).ravel()
+    ndof = 2 * nodes.size
+    return sp.csr_matrix((local.ravel(), (rows, cols)), shape=(ndof, ndof))
+
+
+def _hermite_element_dofs(elements: int) -> NDArray[np.int64]:
+    first = 2 * np.arange(elements)
+    return np.stack([first, first + 1, first + 2, first + 3], axis=1)
+
+
 def assemble_beam(
     nodes: NDArray[np.float64],
     mass_per_length: Profile,
@@ -177,13 +195,13 @@ def assemble_beam(
         kind="beam",
         element="hermite",
         nodes=nodes,
-        mass=assemble("hermite", nodes, mass_per_length, 0, HERMITE_POINTS),
-        stiffness=assemble("hermite", nodes, bending_stiffness, 2, HERMITE_POINTS),
-        damping=assemble("hermite", nodes, bending_viscosity, 2, HERMITE_POINTS),
+        mass=_hermite_matrix(nodes, mass_per_length, 0),
+        stiffness=_hermite_matrix(nodes, bending_stiffness, 2),
+        damping=_hermite_matrix(nodes, bending_viscosity, 2),
         load_names=BEAM_LOADS,
         load_matrix=load_matrix,
         rigid_modes=rigid,
-        element_dofs=pattern("hermite", nodes.size - 1).element_dofs,
+        element_dofs=_hermite_element_dofs(nodes.size - 1),
         stiffness_profile=bending_stiffness,
         viscosity_profile=bending_viscosity,
         mass_profile=mass_per_length,

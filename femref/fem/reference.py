@@ -1,16 +1,16 @@
-"""Reference-element tensors and the assembly that broadcasts them over a mesh.
+"""Reference-element tables of the rod's Lagrange elements and the assembly that broadcasts them over a mesh.
 
-An element matrix of ``∫ c(x) dᵏφᵢ dᵏφⱼ dx`` on an element ``[x₀, x₀ + h]`` is, with ``ξ = (x − x₀)/h`` and
-Gauss–Legendre points ``ξ_q``, weights ``w_q`` on ``[0, 1]``::
+An element matrix of ``∫ c(x) dᵏφᵢ dᵏφⱼ dx`` (k = 0, 1) on an element ``[x₀, x₀ + h]`` is, with Gauss–Legendre
+points ``ξ_q`` and weights ``w_q`` on the reference element ``[0, 1]``::
 
-    Aᵉᵢⱼ = h^(1−2k) sᵢ sⱼ Σ_q c(x₀ + h ξ_q) · w_q Rᵢ(ξ_q) Rⱼ(ξ_q)
+    Aᵉᵢⱼ = Σ_q c(x₀ + h ξ_q) · h w_q · (h⁻ᵏ Rᵢ(ξ_q)) (h⁻ᵏ Rⱼ(ξ_q))
 
-where ``R`` are the k-th ξ-derivatives of the shape functions of :mod:`femref.fem.shapes` on an element of
-length 1 and ``s`` the DOF scaling (1 for values, ``h`` for Hermite slopes). The tensor ``w_q Rᵢ Rⱼ`` depends
-only on the element family, the derivative and the rule: :func:`reference_tensor` computes it once per process;
-the assembly of a mesh is then one matrix product of the coefficient at the points with it
-(:func:`element_matrices`), and the sum into the global matrix goes through a sparsity pattern also computed
-once per family and element count (:func:`pattern`).
+``R`` the k-th ξ-derivatives of the shape functions. ``R`` at the points depend only on the element family and the
+rule: :func:`reference_shapes` tabulates them once per process, with scikit-fem's own formulas (a test holds them
+to ``skfem.ElementLineP1/P2.lbasis`` bit for bit), and :func:`assemble` broadcasts them over the elements in the
+order of operations of scikit-fem's basis, so the matrices are those a ``skfem.Basis`` per car gave, to the last
+bit, without building one. The sum into the global matrix goes through a sparsity pattern also kept per family
+and element count (:func:`pattern`).
 """
 
 from __future__ import annotations
@@ -24,11 +24,6 @@ from numpy.typing import NDArray
 
 from femref.core.profiles import Profile
 from femref.core.quadrature import gauss_legendre
-from femref.fem.shapes import SHAPES
-
-SLOPE_SCALED = {"P1": (False, False), "P2": (False, False, False), "hermite": (False, True, False, True)}
-"""Which local DOFs of each family carry the element length ``h`` (Hermite slopes: ``w' = (1/h) dw/dξ``)."""
-
 
 def _read_only(array: NDArray) -> NDArray:
     array.flags.writeable = False
@@ -43,13 +38,18 @@ def reference_points(points: int) -> tuple[NDArray[np.float64], NDArray[np.float
 
 
 @functools.cache
-def reference_tensor(element: str, derivative: int, points: int) -> NDArray[np.float64]:
-    """``T[q, i·n + j] = w_q Rᵢ(ξ_q) Rⱼ(ξ_q)`` (module docstring), shape ``(points, n²)`` for ``n`` local DOFs;
-    read-only, once per (family, derivative, rule) in a process."""
-    xi, wq = reference_points(points)
-    shapes = SHAPES[element](xi, np.ones_like(xi), derivative)  # (n, points) on an element of length 1
-    tensor = wq[:, None, None] * shapes.T[:, :, None] * shapes.T[:, None, :]
-    return _read_only(tensor.reshape(points, -1))
+def reference_shapes(element: str, points: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``(R, dR/dξ)`` of the family's shape functions at the rule's points, ``(local DOFs, points)`` each, in
+    scikit-fem's formulas (P1 ``1 − x, x``; P2 ``1 − 3x + 2x², −x + 2x², 4x − 4x²``, vertices then midpoint);
+    read-only, once per (family, rule) in a process."""
+    x, _ = reference_points(points)
+    if element == "P1":
+        values, slopes = [1 - x, x], [-1 + 0 * x, 1 + 0 * x]
+    elif element == "P2":
+        values, slopes = [1 - 3 * x + 2 * x**2, -x + 2 * x**2, 4 * x - 4 * x**2], [-3 + 4 * x, -1 + 4 * x, 4 - 8 * x]
+    else:
+        raise ValueError(f"reference shapes are tabulated for P1 and P2, got {element}")
+    return _read_only(np.array(values)), _read_only(np.array(slopes))
 
 
 @dataclass(frozen=True, eq=False)
@@ -66,10 +66,9 @@ class Pattern:
 
 def element_dofs(element: str, elements: int) -> NDArray[np.int64]:
     """Global DOFs of each element's local DOFs, numbered by position along the body: P1 ``[e, e+1]``, P2
-    ``[2e, 2e+2, 2e+1]`` (vertices, then the midpoint), Hermite ``[2e, 2e+1, 2e+2, 2e+3]`` (``w, w'`` per node)."""
+    ``[2e, 2e+2, 2e+1]`` (vertices, then the midpoint)."""
     e = np.arange(elements, dtype=np.int64)[:, None]
-    local = {"P1": (0, 1), "P2": (0, 2, 1), "hermite": (0, 1, 2, 3)}[element]
-    step = 1 if element == "P1" else 2
+    local, step = {"P1": ((0, 1), 1), "P2": ((0, 2, 1), 2)}[element]
     return step * e + np.array(local, dtype=np.int64)
 
 
@@ -78,7 +77,7 @@ def pattern(element: str, elements: int) -> Pattern:
     """The sparsity pattern of a mesh of ``elements`` elements of the family ``element`` (read-only, shared)."""
     dofs = element_dofs(element, elements)
     n = dofs.shape[1]
-    ndof = int(dofs[-1, -1 if element == "hermite" else 1]) + 1
+    ndof = int(dofs[-1, 1]) + 1
     rows = np.repeat(dofs, n, axis=1).ravel()
     cols = np.tile(dofs, (1, n)).ravel()
     keys, slot = np.unique(rows * ndof + cols, return_inverse=True)  # row-major, columns sorted
@@ -86,23 +85,19 @@ def pattern(element: str, elements: int) -> Pattern:
     return Pattern(_read_only(dofs), _read_only(slot.ravel()), _read_only(indptr), _read_only(keys % ndof), ndof)
 
 
-def quadrature_points(nodes: NDArray[np.float64], points: int) -> NDArray[np.float64]:
-    """``x₀ + h ξ_q`` of every element, shape ``(elements, points)``."""
-    xi, _ = reference_points(points)
-    h = np.diff(nodes)
-    return nodes[:-1, None] + h[:, None] * xi[None, :]
-
-
 def element_matrices(element: str, nodes: NDArray[np.float64], coefficient: Profile, derivative: int, points: int) -> NDArray[np.float64]:
-    """``Aᵉ`` of every element (module docstring), shape ``(elements, n²)``."""
+    """``Aᵉ`` of every element (module docstring), shape ``(elements, n, n)``: ``x = h ξ + x₀``, ``dx = |h| w``,
+    slopes ``(1/h) dR/dξ``, and one ``einsum`` over the elements — scikit-fem's basis's arithmetic, op for op."""
+    xi, wq = reference_points(points)
+    values, slopes = reference_shapes(element, points)
     h = np.diff(nodes)
-    c = coefficient(quadrature_points(nodes, points))  # (elements, points)
-    local = (c * h[:, None] ** (1 - 2 * derivative)) @ reference_tensor(element, derivative, points)
-    scaled = SLOPE_SCALED[element]
-    if any(scaled):
-        s = np.where(np.array(scaled)[None, :], h[:, None], 1.0)  # (elements, n)
-        local *= (s[:, :, None] * s[:, None, :]).reshape(h.size, -1)
-    return local
+    x = h[:, None] * xi[None, :] + nodes[:-1, None]
+    dx = np.abs(h)[:, None] * wq[None, :]
+    if derivative == 0:
+        shapes = np.ascontiguousarray(np.broadcast_to(values[:, None, :], (values.shape[0], h.size, xi.size)))
+    else:
+        shapes = (1.0 / h)[None, :, None] * slopes[:, None, :]
+    return np.einsum("eq,aeq,beq->eab", coefficient(x) * dx, shapes, shapes)
 
 
 def assemble(element: str, nodes: NDArray[np.float64], coefficient: Profile, derivative: int, points: int) -> sp.csr_matrix:
@@ -116,5 +111,4 @@ def assemble(element: str, nodes: NDArray[np.float64], coefficient: Profile, der
     return matrix
 
 
-__all__ = ["Pattern", "assemble", "element_dofs", "element_matrices", "pattern", "quadrature_points", "reference_points",
-           "reference_tensor"]
+__all__ = ["Pattern", "assemble", "element_dofs", "element_matrices", "pattern", "reference_points", "reference_shapes"]

@@ -108,7 +108,7 @@ def rigid_pitching_system(body: Body, sensor_x: NDArray, offset: tuple[float, fl
     ``m z̈ + S θ̈ = s₂ F2 − s₁ F1`` and ``S z̈ + J θ̈ = h₂ F2 − h₁ F1 + l (s₁ F1 + s₂ F2)``. Sensors: axial ``x_c``,
     vertical ``z + x θ``, pitch ``θ``. The rigid limit of the bending fem car (its rigid modes).
     """
-    x, w = body.quadrature(panels=1)  # exact, as the body's total mass: m x² is a cubic between jumps and kinks
+    x, w = body.quadrature()
     m = w * body.mass_per_length(x)
     mass, first, second = float(np.sum(m)), float(np.sum(m * x)), float(np.sum(m * x * x))
     (h1, h2), (s1, s2) = offset, slope

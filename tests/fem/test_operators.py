@@ -85,6 +85,26 @@ def test_rod_matrices_equal_scikit_fems_own_assembly(order, homogeneous):
         assert abs(mine - theirs).max() <= 1e-14 * abs(theirs).max()
 
 
+@pytest.mark.parametrize("order", [1, 2])
+def test_rod_matrices_equal_a_scikit_fem_basis_einsum_bit_for_bit(order):
+    """The broadcast reference tables give, to the last bit, what the einsum over a ``skfem.Basis`` per car gave
+    (the assembly before the tables): ``Σ_q c(x_q) dx_q φᵢ φⱼ`` with scikit-fem's ``x``, ``dx`` and shape values."""
+    from skfem import ElementLineP1, ElementLineP2
+
+    from femref.core.quadrature import gauss_legendre
+    from femref.fem.reference import element_matrices
+
+    nodes = body_nodes(L, 24, jumps=MASS.jumps + VISC.kinks)
+    xi, wi = gauss_legendre(order + 2)
+    basis = Basis(MeshLine(nodes), (ElementLineP1, ElementLineP2)[order - 1](), quadrature=(0.5 * xi[None, :] + 0.5, 0.5 * wi))
+    x = basis.global_coordinates()[0]
+    values = np.array([np.asarray(field[0]) for field in basis.basis])
+    slopes = np.array([field[0].grad[0] for field in basis.basis])
+    for profile, shapes, derivative in ((MASS, values, 0), (STIFF, slopes, 1), (VISC, slopes, 1)):
+        theirs = np.einsum("eq,aeq,beq->eab", profile(x) * basis.dx, shapes, shapes)
+        assert np.array_equal(element_matrices(f"P{order}", nodes, profile, derivative, order + 2), theirs)
+
+
 @pytest.mark.parametrize("homogeneous", [True, False])
 def test_local_hermite_matches_scikit_fem_on_small_mesh(homogeneous):
     """Element-local Hermite assembly equals skfem's ElementLineHermite where the latter is accurate, for
@@ -111,25 +131,30 @@ def test_local_hermite_matches_scikit_fem_on_small_mesh(homogeneous):
         assert abs(mine - theirs).max() <= 1e-10 * abs(theirs).max()
 
 
-def test_reference_tensors_give_the_closed_form_element_matrices():
-    """Uniform coefficient 1 on one element of length h: P1 ``K = (1/h)[[1, −1], [−1, 1]]``, ``M = (h/6)[[2, 1], [1, 2]]``;
-    P2 ``K = (1/3h)[[7, 1, −8], [1, 7, −8], [−8, −8, 16]]``; Hermite ``K = (1/h³)[[12, 6h, −12, 6h], …]``. The tensors are
-    kept per (family, derivative, rule): a different family or derivative gives its own."""
-    from femref.fem.reference import element_matrices, pattern, reference_tensor
+def test_reference_shapes_are_scikit_fems_bit_for_bit_and_give_the_closed_form_element_matrices():
+    """The tabulated P1/P2 shapes and ξ-slopes equal ``skfem.ElementLineP1/P2.lbasis`` at the rule's points exactly;
+    uniform coefficient 1 on one element of length h gives P1 ``K = (1/h)[[1, −1], [−1, 1]]``, ``M = (h/6)[[2, 1], [1, 2]]``
+    and P2 ``K = (1/3h)[[7, 1, −8], [1, 7, −8], [−8, −8, 16]]``. Tables are kept per (family, rule): another family or
+    rule gives its own."""
+    from skfem import ElementLineP1, ElementLineP2
 
+    from femref.fem.reference import element_matrices, pattern, reference_points, reference_shapes
+
+    for name, element, points in (("P1", ElementLineP1(), 3), ("P2", ElementLineP2(), 4)):
+        xi, _ = reference_points(points)
+        values, slopes = reference_shapes(name, points)
+        for i in range(values.shape[0]):
+            phi, dphi = element.lbasis(xi[None, :], i)
+            assert np.array_equal(values[i], phi) and np.array_equal(slopes[i], dphi[0])
     h = 0.7
     nodes = np.array([0.3, 0.3 + h])
     one = Uniform(1.0)
-    assert np.allclose(element_matrices("P1", nodes, one, 1, 3).reshape(2, 2), np.array([[1, -1], [-1, 1]]) / h, rtol=1e-14)
-    assert np.allclose(element_matrices("P1", nodes, one, 0, 3).reshape(2, 2), np.array([[2, 1], [1, 2]]) * h / 6, rtol=1e-14)
+    assert np.allclose(element_matrices("P1", nodes, one, 1, 3)[0], np.array([[1, -1], [-1, 1]]) / h, rtol=1e-14)
+    assert np.allclose(element_matrices("P1", nodes, one, 0, 3)[0], np.array([[2, 1], [1, 2]]) * h / 6, rtol=1e-14)
     p2 = np.array([[7, 1, -8], [1, 7, -8], [-8, -8, 16]]) / (3 * h)
-    assert np.allclose(element_matrices("P2", nodes, one, 1, 4).reshape(3, 3), p2, rtol=1e-14)
-    hermite = np.array([[12, 6 * h, -12, 6 * h], [6 * h, 4 * h * h, -6 * h, 2 * h * h],
-                        [-12, -6 * h, 12, -6 * h], [6 * h, 2 * h * h, -6 * h, 4 * h * h]]) / h**3
-    assert np.allclose(element_matrices("hermite", nodes, one, 2, 5).reshape(4, 4), hermite, rtol=1e-13)
-    assert reference_tensor("P2", 1, 4) is reference_tensor("P2", 1, 4)
-    assert reference_tensor("P2", 0, 4).shape == reference_tensor("P2", 1, 4).shape
-    assert not np.allclose(reference_tensor("P2", 0, 4), reference_tensor("P2", 1, 4))
+    assert np.allclose(element_matrices("P2", nodes, one, 1, 4)[0], p2, rtol=1e-14)
+    assert reference_shapes("P2", 4) is reference_shapes("P2", 4)
+    assert reference_shapes("P2", 5)[0].shape == (3, 5) and reference_shapes("P1", 4)[0].shape == (2, 4)
     assert pattern("P2", 3).ndof == 7 and pattern("P2", 4).ndof == 9 and pattern("P1", 4).ndof == 5
 
 

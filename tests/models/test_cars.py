@@ -428,7 +428,7 @@ def test_quasi_rigid_car_is_a_rod():
 
 def test_body_mass_and_rigid_pitching_moments_are_exact():
     """``M = ∫ m dx``, ``S = ∫ m x dx``, ``J = ∫ m x² dx`` of a piecewise and a tabulated mass, against scipy's
-    adaptive quadrature piece by piece: the one-panel Gauss rule between jumps and kinks is exact."""
+    adaptive quadrature piece by piece: the body's Gauss rule, its panels ending on every jump and kink, is exact."""
     from scipy.integrate import quad
 
     from femref.core.profiles import Table
