@@ -25,6 +25,7 @@ from numpy.typing import NDArray
 from femref.core.profiles import Profile
 from femref.core.quadrature import gauss_legendre
 
+
 def _read_only(array: NDArray) -> NDArray:
     array.flags.writeable = False
     return array

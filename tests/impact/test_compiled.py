@@ -233,3 +233,48 @@ def test_one_blas_thread_limits_and_restores_every_blas_library():
         with one_blas_thread():
             assert blas_threads() == [1] * len(before)
         assert blas_threads() == before
+
+
+@pytest.mark.parametrize("fidelity", ["fem", "modal", "quasi_rigid", "rigid"])
+def test_a_prepared_car_holds_its_system_field_by_field(fidelity):
+    """Packed straight into its values, a car reads back its system: the load, end and sensor maps as given, a
+    second-order car's mass, damping and stiffness as row bands ``bands[k, i] = A[i, i + k − p]`` (from the dense
+    matrices, entry by entry), a state-space car's transition; its state starts at zero. The layout kept per kind
+    and sizes differs between cars of other sizes."""
+    from femref.fem import INTEGRATORS
+    from femref.impact.kernels import pool
+    from femref.impact.kernels.loop import line_plan
+    from femref.impact.kernels.packing import prepared_car
+    from femref.impact.systems import StateSpaceSystem
+
+    impact = scene((fidelity, "rigid"), elements=5)
+    dt = 5e-4
+    systems = [model_form(f, "impact")(car, impact, dt) for car, f in zip(impact.cars, impact.runs[0].fidelity)]
+    integrator = INTEGRATORS[impact.integrator](impact.rho_inf)
+    cars = [prepared_car(s, integrator, dt, *m) for s, m in zip(systems, line_plan(impact).maps)]
+    car, system = cars[0], systems[0]
+    packed = pool.CarPool(car.layout.reshape(1, -1), car.values, (car.shapes,))
+
+    def dense(matrix):
+        return matrix.toarray() if hasattr(matrix, "toarray") else np.asarray(matrix, dtype=float)
+
+    if isinstance(system, StateSpaceSystem):
+        np.testing.assert_array_equal(packed.field(0, pool.TRANSITION), system.transition)
+        np.testing.assert_array_equal(packed.field(0, pool.LOAD), system.input)
+        np.testing.assert_array_equal(packed.field(0, pool.SENSOR_OUTPUTS), system.sensor_displacement)
+        assert not np.any(packed.field(0, pool.X))
+    else:
+        n, p = system.dofs, int(car.layout[pool.BAND])
+        for field, matrix in ((pool.MASS, system.mass), (pool.DAMPING, system.damping), (pool.STIFFNESS, system.stiffness)):
+            full, bands = dense(matrix), packed.field(0, field)
+            for k in range(2 * p + 1):
+                for i in range(n):
+                    j = i + k - p
+                    assert bands[k, i] == (full[i, j] if 0 <= j < n else 0.0)
+        np.testing.assert_array_equal(packed.field(0, pool.LOAD), dense(system.load_matrix))
+        np.testing.assert_array_equal(packed.field(0, pool.SENSOR_OUTPUTS), system.sensor_outputs)
+        np.testing.assert_array_equal(packed.field(0, pool.END_OUTPUTS), system.end_outputs)
+        for field in (pool.U, pool.V, pool.A):
+            assert not np.any(packed.field(0, field))
+    if fidelity != "rigid":
+        assert not np.array_equal(car.layout[pool.COUPLER_COUNT + 1:], cars[1].layout[pool.COUPLER_COUNT + 1:])
