@@ -140,3 +140,31 @@ def printed(script: str) -> str:
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, cwd=REPO, timeout=600)
     assert done.returncode == 0, done.stderr[-3000:]
     return done.stdout.splitlines()[-1]
+
+
+def test_run_freezes_the_collector_at_exit_only(tmp_path) -> None:
+    """``femref run`` in-process leaves the garbage collector as it was when it returns (nothing frozen: a test session
+    keeps collecting) and freezes it at the process's exit (femref.cli.run.freeze_at_exit: an exit handler registered
+    before the runs, so run after theirs, finds the objects frozen), once however many runs."""
+    case = tmp_path / "case.yaml"
+    case.write_text(yaml.safe_dump(coarse_default_scene() | {"models": ["rigid"], "estimators": []}))
+    script = "\n".join([
+        "import atexit, gc, types",
+        "import femref.cli.run as command",
+        "calls = []",
+        "def freeze():",
+        "    calls.append(gc.get_freeze_count())",
+        "    gc.freeze()",
+        "command.gc = types.SimpleNamespace(freeze=freeze)",
+        "atexit.register(lambda: print('at exit:', len(calls), gc.get_freeze_count() > 0))",
+        "from femref.cli import main",
+        "for _ in range(3):",
+        "    try:",
+        f"        main(['run', {str(case)!r}, '-o', {str(tmp_path / 'out.h5')!r}])",
+        "    except SystemExit as done:",
+        "        assert done.code == 0, done.code",
+        "print('after the runs:', len(calls), gc.get_freeze_count())",
+    ])
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, cwd=REPO, timeout=600)
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert done.stdout.splitlines()[-2:] == ["after the runs: 0 0", "at exit: 1 True"]
