@@ -27,6 +27,7 @@ also keeps it below the record's Nyquist ``rate/2``, where it does its anti-alia
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -72,13 +73,14 @@ def lowpass_filter(acceleration: NDArray[np.float64], dt: float, corner: float) 
     return causal_filter(butterworth_sections(corner, 1.0 / dt), acceleration)
 
 
-def butterworth_sections(corner: float, rate: float) -> NDArray[np.float64]:
+@functools.lru_cache(maxsize=64)
+def butterworth_sections(corner: float, rate: float) -> tuple[tuple[float, ...], ...]:
     """``H(z) = Π_k g_k (1 + z⁻¹)² / (1 − 2 Re(z_k) z⁻¹ + |z_k|² z⁻²)``, ``z_k = (4 + s_k)/(4 − s_k)``,
     ``s_k = −w e^{iπm/8}`` (m = −3, −1, 1, 3), ``w = 4 tan(π corner/rate)``: the order-4 Butterworth low-pass at
     ``corner`` (Hz) for samples at ``rate`` (Hz) by the bilinear transform with pre-warping, as second-order sections
     ``(b0, b1, b2, 1, a1, a2)`` — the poles nearest the unit circle last, the gain ``w⁴ / Π(4 − s)`` in the first — as
     ``scipy.signal.butter(4, corner, fs=rate, output="sos")`` gives them (equal to rounding in
-    ``tests/sensing/test_measurement.py``)."""
+    ``tests/sensing/test_measurement.py``). Designed once per corner and rate: a sweep's samples share them."""
     warped = 4.0 * math.tan(math.pi * corner / rate)
     analog = -np.exp(1j * math.pi * np.arange(-FILTER_ORDER + 1, FILTER_ORDER, 2) / (2 * FILTER_ORDER)) * warped
     digital = (4.0 + analog) / (4.0 - analog)
@@ -86,10 +88,10 @@ def butterworth_sections(corner: float, rate: float) -> NDArray[np.float64]:
     upper = upper[np.argsort(np.abs(upper))]
     sections = np.array([[1.0, 2.0, 1.0, 1.0, -2.0 * z.real, (z * z.conjugate()).real] for z in upper])
     sections[0, :3] *= warped**FILTER_ORDER * np.real(1.0 / np.prod(4.0 - analog))
-    return sections
+    return tuple(map(tuple, sections.tolist()))
 
 
-def causal_filter(sections: NDArray[np.float64], values: NDArray[np.float64]) -> NDArray[np.float64]:
+def causal_filter(sections: ArrayLike, values: ArrayLike) -> NDArray[np.float64]:
     """``y[n] = b0 x[n] + b1 x[n−1] + b2 x[n−2] − a1 y[n−1] − a2 y[n−2]`` for each section in turn, along axis 0, from
     rest (``x`` and ``y`` zero before the first sample): ``scipy.signal.sosfilt(sections, values, axis=0)``. Each
     section's recursion is the forward substitution of the banded lower-triangular system ``A y = B x`` (LAPACK
