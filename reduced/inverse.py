@@ -47,7 +47,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.integrate import quad
 
 from reduced import _checks
 from reduced.signal_tools import SavitzkyGolay, SpectralLowPass, integrate_twice
@@ -121,6 +120,8 @@ class CoupledImpactInversion:
         ``span = (x1, x2)``: accelerometers at ``x1 < x2`` instead of the ends; both integrals then run
         over ``[x1, x2]`` (``μ`` still counts from ``−l``); tests/models/test_inverse.py.
         """
+        from scipy.integrate import quad  # scipy.integrate costs ~0.3 s to import: only a flexible car's inversion needs it
+
         l = _checks.positive("half_length", half_length)
         if not callable(mass_per_length) or not callable(axial_stiffness):
             raise ValueError("mass_per_length and axial_stiffness must be callables of x (m)")

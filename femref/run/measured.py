@@ -28,6 +28,7 @@ from femref.estimators import Estimator, Recorded, capture, plug_ins
 from femref.events import EventResult
 from femref.models import Progress, ProgressFor
 from femref.run.event_budget import EventBudget
+from femref.run.runner import load_one_off_imports
 from femref.scene.measured import MeasuredScene
 from femref.sensing import trigger
 from femref.sensing import findings
@@ -69,6 +70,7 @@ def run_measured(scene: MeasuredScene, progress_for: ProgressFor | None = None, 
     """
     settings = trigger.TriggerSettings(scene.trigger, scene.pre, scene.post, scene.rearm, scene.quiet, scene.max_window)
     estimators = plug_ins(scene)
+    load_one_off_imports(scene.kind, scene.estimators)
     readers = [RecorderReader(record) for record in scene.records]
     total = sum(path.stat().st_size for record in scene.records for path in record.paths if path.exists())
     read = progress_for(READ_LABEL) if progress_for else None

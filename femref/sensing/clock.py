@@ -34,7 +34,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.signal import butter, correlate, sosfiltfilt
 
 
 LAG_CORNER = 10.0
@@ -170,6 +169,8 @@ class ClockTrack:
 def lag_signal(t: NDArray[np.float64], records: NDArray[np.float64], rate: float) -> NDArray[np.float64]:
     """``lowpass(mean over channels of (a − median a))``: a car's rigid-body acceleration, low-passed (``records``: the
     car's channels × samples on the grid ``t`` at ``rate`` Hz; NaN read as 0): the signal whose lag is measured."""
+    from scipy.signal import butter, sosfiltfilt  # scipy.signal costs ~0.5 s to import: only a clock track needs it
+
     a = np.nan_to_num(records - np.nanmedian(records, axis=1, keepdims=True)).mean(axis=0)
     corner = min(LAG_CORNER, 0.4 * rate)
     return sosfiltfilt(butter(2, corner, fs=rate, output="sos"), a) if a.size > 15 else a
@@ -183,6 +184,8 @@ def measure_lag(reference: NDArray[np.float64], other: NDArray[np.float64], rate
     ``t_j − predicted − K/rate + m/rate``, ``2K`` samples longer (``K`` samples each side: the search), so shift ``k``
     is the correction ``predicted + (K − k)/rate``. NaN lag when the peak of ``sign · ρ`` is at the search's edge,
     below :data:`MIN_CORRELATION` or not alone (:data:`AMBIGUITY`)."""
+    from scipy.signal import correlate
+
     k_max = other.size - reference.size
     energy = float(np.dot(reference, reference))
     if k_max < 2 or energy <= 0.0:

@@ -15,10 +15,13 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.interpolate import CubicSpline
+
+if TYPE_CHECKING:
+    from scipy.interpolate import CubicSpline
 
 #: The flank fitted: from ``QUIET_SAMPLES`` before the last crossing of ``RISE[0]`` of the peak to the first of ``RISE[1]``.
 RISE = (0.05, 0.5)
@@ -67,6 +70,8 @@ def onset_time(time: ArrayLike, record: ArrayLike, lags: ArrayLike, step_respons
         raise ValueError(f"fewer than {QUIET_SAMPLES} quiet samples before the record rises")
     low = int(below_start[-1]) - QUIET_SAMPLES
     ts, ds = t[low : high + 1], d[low : high + 1]
+    from scipy.interpolate import CubicSpline  # scipy.interpolate costs ~0.3 s to import: only a contact fit needs it
+
     splines = [CubicSpline(lag, shape) for shape in shapes]
     _, start = _best_start(ts, ds, lag, splines, np.arange(ts[0], ts[-1], 0.1 * dt))
     rss, start = _best_start(ts, ds, lag, splines, np.arange(start - 0.1 * dt, start + 0.1 * dt, 0.005 * dt))

@@ -46,7 +46,6 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.integrate import cumulative_trapezoid
 
 from femref.events import ClosureResult, ForceEstimate
 from femref.sensing.noise_gate import QuietNoise
@@ -348,6 +347,8 @@ def coupler_stroke(cars: Cars, couplers: Couplers, coupler: Any, primaries: Mapp
     closing speed 10 % off the closure force moved by up to 3.5 % on the tests' gears (docs/formulas.md
     §A5). A centre-of-mass stroke: on elastic cars it also holds the bodies' compression, in series with
     the gear on both branches."""
+    from scipy.integrate import cumulative_trapezoid  # scipy.integrate costs ~0.3 s to import: only a measured event needs it
+
     t = primaries[coupler.name].time
     force = {name: np.nan_to_num(e.force) for name, e in primaries.items() if e.time.shape == t.shape and np.array_equal(e.time, t)}
     behind = next((c.name for c in couplers if c.front == coupler.rear), None)

@@ -3,9 +3,10 @@
 Three steps, in the order a data-acquisition system applies them, each optional
 (:class:`Measurement`):
 
-1. **anti-alias low-pass** at ``lowpass`` Hz: causal Butterworth of order 4
-   (``scipy.signal.butter(4, lowpass, fs=1/dt, output='sos')`` and ``sosfilt``, from
-   rest — the records start before the impact), applied at the model's sampling rate
+1. **anti-alias low-pass** at ``lowpass`` Hz: causal Butterworth of order 4, from rest — the
+   records start before the impact (:func:`butterworth_sections`, the sections of
+   ``scipy.signal.butter(4, lowpass, fs=1/dt, output='sos')``, run by :func:`causal_filter`,
+   ``scipy.signal.sosfilt``'s recursion, without importing ``scipy.signal``), applied at the model's sampling rate
    ``1/dt``. Its magnitude is that of the bilinear-transformed analogue prototype,
    ``|H(f)| = 1/√(1 + (tan(πf dt)/tan(π f_c dt))^8)``, and it delays the signal (group
    delay 2.61/(2π f_c) ≈ 0.42/f_c at low frequencies), as a real anti-alias filter does;
@@ -69,18 +70,45 @@ def measure(time: ArrayLike, acceleration: ArrayLike, measurement: Measurement, 
 def lowpass_filter(acceleration: NDArray[np.float64], dt: float, corner: float) -> NDArray[np.float64]:
     """``|H(f)| = 1/√(1 + (tan(πf dt)/tan(π f_c dt))^8)``: causal order-4 Butterworth low-pass at ``corner`` (Hz) along
     axis 0, from rest (checked on filtered tones in ``tests/sensing/test_measurement.py``)."""
-    from scipy.signal import sosfilt  # scipy.signal costs ~1 s to import: only where a record is filtered
-
-    return sosfilt(np.array(_butterworth(corner, 1.0 / dt)), acceleration, axis=0)
+    return causal_filter(butterworth_sections(corner, 1.0 / dt), acceleration)
 
 
 @functools.lru_cache(maxsize=64)
-def _butterworth(corner: float, rate: float) -> tuple[tuple[float, ...], ...]:
-    """Second-order sections of the low-pass, designed once per corner and rate (a sweep's samples
-    share them, and the design costs about a millisecond)."""
-    from scipy.signal import butter
+def butterworth_sections(corner: float, rate: float) -> tuple[tuple[float, ...], ...]:
+    """``H(z) = Π_k g_k (1 + z⁻¹)² / (1 − 2 Re(z_k) z⁻¹ + |z_k|² z⁻²)``, ``z_k = (4 + s_k)/(4 − s_k)``,
+    ``s_k = −w e^{iπm/8}`` (m = −3, −1, 1, 3), ``w = 4 tan(π corner/rate)``: the order-4 Butterworth low-pass at
+    ``corner`` (Hz) for samples at ``rate`` (Hz) by the bilinear transform with pre-warping, as second-order sections
+    ``(b0, b1, b2, 1, a1, a2)`` — the poles nearest the unit circle last, the gain ``w⁴ / Π(4 − s)`` in the first — as
+    ``scipy.signal.butter(4, corner, fs=rate, output="sos")`` gives them (equal to rounding in
+    ``tests/sensing/test_measurement.py``). Designed once per corner and rate: a sweep's samples share them."""
+    warped = 4.0 * math.tan(math.pi * corner / rate)
+    analog = -np.exp(1j * math.pi * np.arange(-FILTER_ORDER + 1, FILTER_ORDER, 2) / (2 * FILTER_ORDER)) * warped
+    digital = (4.0 + analog) / (4.0 - analog)
+    upper = digital[digital.imag > 0.0]
+    upper = upper[np.argsort(np.abs(upper))]
+    sections = np.array([[1.0, 2.0, 1.0, 1.0, -2.0 * z.real, (z * z.conjugate()).real] for z in upper])
+    sections[0, :3] *= warped**FILTER_ORDER * np.real(1.0 / np.prod(4.0 - analog))
+    return tuple(map(tuple, sections.tolist()))
 
-    return tuple(map(tuple, butter(FILTER_ORDER, corner, btype="low", fs=rate, output="sos")))
+
+def causal_filter(sections: ArrayLike, values: ArrayLike) -> NDArray[np.float64]:
+    """``y[n] = b0 x[n] + b1 x[n−1] + b2 x[n−2] − a1 y[n−1] − a2 y[n−2]`` for each section in turn, along axis 0, from
+    rest (``x`` and ``y`` zero before the first sample): ``scipy.signal.sosfilt(sections, values, axis=0)``. Each
+    section's recursion is the forward substitution of the banded lower-triangular system ``A y = B x`` (LAPACK
+    ``dtbtrs``): every column in one call, O(samples) and no Python loop over them."""
+    from scipy.linalg.lapack import dtbtrs  # scipy.linalg, which the models load anyway; not scipy.signal (~0.5 s)
+
+    x = np.asarray(values, dtype=float)
+    y = x.reshape(x.shape[0], -1)
+    for b0, b1, b2, _, a1, a2 in sections:
+        forced = b0 * y
+        forced[1:] += b1 * y[:-1]
+        forced[2:] += b2 * y[:-2]
+        band = np.empty((3, y.shape[0]))
+        band[0], band[1], band[2] = 1.0, a1, a2
+        y, info = dtbtrs(band, forced, uplo="L", diag="U")
+        assert info == 0, info
+    return y.reshape(x.shape)
 
 
 def resample(time: NDArray[np.float64], values: NDArray[np.float64], rate: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -139,4 +167,4 @@ def _positive(name: str, value: float, unit: str) -> float:
     return x
 
 
-__all__ = ["FILTER_ORDER", "lowpass_filter", "measure", "resample"]
+__all__ = ["FILTER_ORDER", "butterworth_sections", "causal_filter", "lowpass_filter", "measure", "resample"]

@@ -31,14 +31,12 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.special import betainc, betaincinv, ndtr, ndtri
 
 MAD_SCALE = 1.4826
 """``1/Φ⁻¹(3/4)``: the median absolute deviation of a Gaussian is ``σ/1.4826``."""
 FALSE_REJECT = 0.01
 """The gate's false-reject rate per event: the probability that an event recorded at exactly the calibrated
 noise on every channel is refused."""
-_Z = float(ndtri(0.75))
 
 
 @dataclass(frozen=True)
@@ -108,17 +106,21 @@ def noise_limit(effective_samples: float, channels: int = 1, false_reject: float
     channels tested together at ``false_reject`` per event."""
     if not effective_samples > 0.0:
         raise ValueError(f"the noise gate needs quiet samples; effective count {effective_samples!r}")
+    from scipy.special import betaincinv, ndtri  # scipy.special costs ~0.2 s to import: only a noise gate needs it
+
     per_channel = 1.0 - (1.0 - false_reject) ** (1.0 / max(channels, 1))
     a = 0.5 * (effective_samples + 1.0)
     median_quantile = float(betaincinv(a, a, 1.0 - per_channel))
-    return float(ndtri(0.5 * (1.0 + median_quantile))) / _Z
+    return float(ndtri(0.5 * (1.0 + median_quantile))) / float(ndtri(0.75))
 
 
 def exceedance(ratio: float, effective_samples: float) -> float:
     """``P(σ̂ > ratio · σ)`` for ``effective_samples`` independent Gaussian samples (module docstring): the
     p-value of a channel's noise ``ratio`` times the calibrated one."""
+    from scipy.special import betainc, ndtr, ndtri
+
     a = 0.5 * (effective_samples + 1.0)
-    return float(1.0 - betainc(a, a, 2.0 * ndtr(ratio * _Z) - 1.0))
+    return float(1.0 - betainc(a, a, 2.0 * ndtr(ratio * float(ndtri(0.75))) - 1.0))
 
 
 __all__ = ["FALSE_REJECT", "MAD_SCALE", "MIN_QUIET_SAMPLES", "QuietNoise", "correlation_time", "exceedance", "noise_limit", "quiet_corrected",

@@ -23,7 +23,6 @@ from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import brentq
 
 from reduced import _checks
 
@@ -99,6 +98,8 @@ def tabulation_nodes(loading: LoadingCurve, solid_closure: float, tolerance: flo
     ``∫₀^{δ_c} √L'' / √(8 tolerance L(δ_c))`` nodes: at most ~230 at the default 1e-5 for
     either curve family (fewer when the linear part dominates; one segment for a linear curve).
     """
+    from scipy.optimize import brentq  # scipy.optimize costs ~0.3 s to import: only a friction gear needs it
+
     closure_c = _checks.positive("solid_closure", solid_closure)
     tolerance = _checks.positive("tolerance", tolerance)
     bound = 8.0 * tolerance * rated_closure_force(loading, closure_c)

@@ -34,7 +34,6 @@ from typing import Callable, Mapping
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.signal import lfilter
 
 from .correction import CreepCorrection
 from .creep import CreepKernel, harmonic_factor, update_coefficients
@@ -222,6 +221,8 @@ class QuasiRigidBody:
                            np.stack([d2 for _, _, d2 in sampled])])               # (3, J, Nt + 1)
 
         # creep correction: one recursive filter per time-constant group, O(1) per step
+        from scipy.signal import lfilter  # scipy.signal costs ~0.5 s to import: only a transient response filters
+
         C = self.coefficients(x, derivative)
         decay, a, b = update_coefficients(dt, self.tau_groups)
         filtered = np.empty((self.tau_groups.size, *inputs.shape))

@@ -31,8 +31,6 @@ from typing import Callable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import nnls
-from scipy.signal import lfilter
 
 
 @dataclass(frozen=True)
@@ -79,6 +77,8 @@ class CreepKernel:
         result is a valid kernel (a completely monotone fit). Check the fit with
         ``max|fit(s) − K(s)|`` before use.
         """
+        from scipy.optimize import nnls  # scipy.optimize costs ~0.3 s to import: only a kernel fit needs it
+
         if not s_max > 0.0:
             raise ValueError("s_max must be > 0")
         s = np.concatenate([[0.0], np.geomspace(1e-3 * s_max, s_max, 399)])
@@ -171,6 +171,8 @@ def filter_piecewise_linear(samples: ArrayLike, dt: float, tau: float, initial_o
     y0 = np.broadcast_to(np.asarray(initial_output, dtype=float), x.shape[:-1])
     if b == 1.0 and decay == 0.0:  # τ = 0: the identity, exactly
         return x.copy()
+    from scipy.signal import lfilter  # scipy.signal costs ~0.5 s to import: only a transient response filters
+
     zi = (y0 - b * x[..., 0])[..., None]
     y, _ = lfilter([b, a], [1.0, -decay], x, axis=-1, zi=zi)
     return y

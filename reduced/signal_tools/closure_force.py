@@ -12,9 +12,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import minimize_scalar
-from scipy.stats import chi2
-from scipy.stats import f as f_distribution
 
 from reduced import _checks
 
@@ -175,6 +172,8 @@ def detect_closure_force(time: ArrayLike, force: ArrayLike, stroke: ArrayLike) -
     sigma2 = inflation * best.rss / dof
     effective_dof = max(dof / inflation, 1.0)
     statistic = max(null.rss - best.rss, 0.0) / 2.0 / max(sigma2, np.finfo(float).tiny)
+    from scipy.stats import chi2, f as f_distribution  # scipy.stats costs ~0.5 s to import: only where a closure is sought
+
     p_value = float(f_distribution.sf(statistic, 2, effective_dof))
     near = stiffer[rss[stiffer] <= best.rss + chi2.ppf(0.95, 1) * sigma2]
     low = min(float(grid[near].min()), best.change) if near.size else best.change
@@ -233,6 +232,8 @@ def _search(x: NDArray[np.float64], y: NDArray[np.float64], grid: NDArray[np.flo
         return None
     k = int(stiffer[np.argmin(rss[stiffer])])
     bounds = (float(grid[max(k - 1, 0)]), float(grid[min(k + 1, grid.size - 1)]))
+    from scipy.optimize import minimize_scalar
+
     refined = minimize_scalar(lambda c: _two_branch_fit(x, y, c).rss, bounds=bounds, method="bounded", options={"xatol": 1e-5})
     best = _two_branch_fit(x, y, float(refined.x)) if refined.fun < rss[k] else fits[k]
     return _Search(rss, stiffer, best)

@@ -17,9 +17,6 @@ from typing import Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.ndimage import gaussian_filter1d
-from scipy.fft import next_fast_len
-from scipy.signal import savgol_filter
 
 from reduced import _checks
 
@@ -55,6 +52,8 @@ class SavitzkyGolay:
         return y, _checks.sample_step("dt", dt)
 
     def smooth(self, signal: ArrayLike, dt: float) -> NDArray[np.float64]:
+        from scipy.signal import savgol_filter  # scipy.signal costs ~0.5 s to import: only where a smoother runs
+
         y, _ = self._check(signal, dt)
         return savgol_filter(y, self.window_length, self.polyorder, mode="interp")
 
@@ -63,6 +62,8 @@ class SavitzkyGolay:
         y, dt = self._check(signal, dt)
         if order < 0 or order > self.polyorder:
             raise ValueError(f"order must be in [0, polyorder={self.polyorder}], got {order!r}")
+        from scipy.signal import savgol_filter
+
         return savgol_filter(y, self.window_length, self.polyorder, deriv=order, delta=dt, mode="interp")
 
 
@@ -149,6 +150,8 @@ class GaussianKernel:
         _checks.positive("sigma", self.sigma)
 
     def smooth(self, signal: ArrayLike, dt: float) -> NDArray[np.float64]:
+        from scipy.ndimage import gaussian_filter1d
+
         y = _checks.record("signal", signal)
         dt = _checks.sample_step("dt", dt)
         return gaussian_filter1d(y, self.sigma / dt, mode="nearest", truncate=4.0)
@@ -253,6 +256,8 @@ class AdaptiveBandwidth:
 
     def fit(self, signal: ArrayLike, dt: float) -> AdaptiveFit:
         """The smoothed record with the bandwidths chosen at each sample."""
+        from scipy.fft import next_fast_len
+
         y = _checks.record("signal", signal, min_length=2 * self.degree + 3)
         ladder = self.ladder(dt)
         dt = float(dt)
