@@ -41,6 +41,8 @@ Environment:
                           every run (repeated at dt/2, dt/4), not only when
                           the case under-resolves it
   FEMREF_PROGRESS=1|0     as --progress / --no-progress
+  NUMBA_CACHE_DIR=<dir>   where the compiled kernels are cached (default:
+                          $XDG_CACHE_HOME/femref, else ~/.cache/femref)
   COLUMNS=<n>             width of the summary tables (default: the terminal's;
                           piped: one line per row)
 """

@@ -212,7 +212,36 @@ def model_progress(console: Console, keep_finished: bool = True) -> Iterator:
 
     A stage is a model of a run, an event of a measured case, an estimator being calibrated.
     ``keep_finished=False`` hides a finished stage's bar when the next starts (many stages: events).
+    Why a first run waits is said on ``console`` whatever the progress setting (:func:`compile_notices`).
     """
+    with compile_notices(console), _stages(console, keep_finished) as progress_for:
+        yield progress_for
+
+
+@contextmanager
+def compile_notices(console: Console) -> Iterator[None]:
+    """Print the library's compile notices (INFO on the logger ``femref.compile``: the first run after an install
+    compiles the impact kernels, :func:`femref.run.runner.load_compiled_loop`) on ``console`` while in the block."""
+    import logging
+
+    class ToConsole(logging.Handler):
+        def emit(self, record: logging.LogRecord) -> None:
+            console.print(record.getMessage(), markup=False, highlight=False, soft_wrap=True)
+
+    logger, handler = logging.getLogger("femref.compile"), ToConsole(logging.INFO)
+    level = logger.level
+    logger.setLevel(logging.INFO)
+    logger.addHandler(handler)
+    try:
+        yield
+    finally:
+        logger.removeHandler(handler)
+        logger.setLevel(level)
+
+
+@contextmanager
+def _stages(console: Console, keep_finished: bool) -> Iterator:
+    """:func:`model_progress`'s bars or status lines."""
     if not _show_progress(console):
         yield lambda model: None
         return

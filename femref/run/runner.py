@@ -278,13 +278,29 @@ def load_compiled_loop(scene: ImpactScene) -> None:
     """Load the compiled impact loop (compiling it, the first time after an install) by stepping
     ``scene``'s cars once as rigid bodies, so that no model's timing pays the one-off loading (about
     a second per process). Callers that time runs call it first; after the first call in a process
-    (the loop's argument types are the same for every scene) it does nothing."""
+    (the loop's argument types are the same for every scene) it does nothing.
+
+    Before a compile it logs why the process waits — "compiling femref's impact kernels, once (about
+    N s; cached in DIR)" — at INFO on the logger ``femref.compile`` (the library never prints; the
+    CLI shows it), N the last compile time on this machine (:func:`femref.impact.kernels.cache.compile_seconds`)."""
     global _loop_loaded
     if _loop_loaded:
         return
+    import logging  # noqa: PLC0415 (only where the loop is loaded)
+
+    from femref.impact.kernels import cache  # noqa: PLC0415 (numba only where an impact is stepped)
+    from femref.impact.kernels.loop import ENTRY_POINTS  # noqa: PLC0415
+
+    compiling = not cache.cached(ENTRY_POINTS)
+    if compiling:
+        logging.getLogger("femref.compile").info(
+            "compiling femref's impact kernels, once (about %.0f s; cached in %s)", cache.compile_seconds(), cache.cache_directory())
+    started = time.perf_counter()
     dt = scene.contact_time() / 100.0 if math.isfinite(scene.contact_time()) else 1e-3
     one_step = dataclasses.replace(scene, end=dt, output_stride=1)
     step_cars(one_step, ModelRun("load", ("rigid",) * len(scene.cars)), dt)
+    if compiling and cache.cached(ENTRY_POINTS):
+        cache.record_compile_seconds(time.perf_counter() - started)
     _loop_loaded = True
 
 

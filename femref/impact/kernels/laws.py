@@ -22,14 +22,13 @@ its table (both zero-padded to the widest law).
 
 numba's on-disk cache checks only the file of a cached function, and the generated
 dispatchers and the law copies have none: the cached kernels that call them are kept true by
-the package's stamp over :func:`engine_sources` (:mod:`femref.impact.kernels`).
+the stamp over :func:`~femref.impact.kernels.sources.engine_sources` (:mod:`femref.impact.kernels.cache`).
 """
 
 from __future__ import annotations
 
 import types
 from collections.abc import Sequence
-from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
@@ -37,15 +36,13 @@ from numba import njit
 from numpy.typing import NDArray
 
 from femref.impact.couplers import BRACKET_EXPANSIONS, JUMP_FRACTION, MAX_NEWTON_ITERATIONS, MAX_SWEEPS, NEWTON_ITERATIONS, STATE_TOLERANCE
-from reduced.couplers import CONTACT_KINDS, COUPLER_LAWS, OPERATIONS, Coupling, compiled_form_rule, law_module
+from femref.impact.kernels.sources import LAW_MODULES, engine_sources, reachable_functions
+from reduced.couplers import CONTACT_KINDS, OPERATIONS, Coupling, compiled_form_rule, law_module
 
 _JIT = dict(cache=True, _nrt=False)  # every cached kernel's options (femref.impact.kernels.couplers: no reference counting)
 
 COMPRESSION_ONLY, BILATERAL = 0, 1
 """Values of :attr:`CouplerLaws.contact` (the order of :data:`reduced.couplers.CONTACT_KINDS`)."""
-
-LAW_MODULES: tuple[types.ModuleType, ...] = tuple(dict.fromkeys(law_module(cls) for cls in COUPLER_LAWS.values()))
-"""The registered law modules; a law's kind is its module's index here."""
 
 ARGUMENTS = {
     "piece": "closure, state, strict",
@@ -56,25 +53,6 @@ ARGUMENTS = {
     "dissipation_rate": "closure, rate, state, transmitted, engaged, piece",
 }
 """Each operation's arguments after the law's ``(p, table)``: its one signature (reduced.couplers.base)."""
-
-
-def reachable_functions(functions: Sequence[types.FunctionType]) -> list[types.FunctionType]:
-    """``functions`` and every plain function they call through their globals, transitively."""
-    found: dict[types.FunctionType, None] = {}
-    stack = list(functions)
-    while stack:
-        func = stack.pop()
-        if func in found:
-            continue
-        found[func] = None
-        stack += [g for name in func.__code__.co_names if isinstance(g := func.__globals__.get(name), types.FunctionType)]
-    return list(found)
-
-
-def engine_sources() -> list[Path]:
-    """The source files of every function the compiled laws are made of (for the cache stamp)."""
-    roots = [getattr(module, name) for module in LAW_MODULES for name in OPERATIONS]
-    return sorted({Path(f.__code__.co_filename) for f in reachable_functions(roots)})
 
 
 def jitted(func: types.FunctionType, done: dict) -> object:

@@ -228,7 +228,7 @@ def run_steps(layout, w, laws, couplers, dt, tolerance, gain_u, gain_v, outputs,
     ``counters[WORST]`` (the coupler) and ``counters[FAILURE_KIND]`` set."""
     n_c = couplers.force.size
     if counters[OUTPUT] == 0:
-        record(layout, w, couplers, 0, displacement, velocity, acceleration, force, closure, energy, coupler_work)
+        record(layout, w, couplers, counters[OUTPUT], displacement, velocity, acceleration, force, closure, energy, coupler_work)
         counters[OUTPUT] = 1
     for step in range(counters[STEP], stop + 1):
         for j in range(n_c):
@@ -272,4 +272,7 @@ def run_steps(layout, w, laws, couplers, dt, tolerance, gain_u, gain_v, outputs,
     counters[STEP] = stop + 1
 
 
-__all__ = ["CHUNK_SECONDS", "FIRST_CHUNK", "LinePlan", "chunk_after", "coupler_maps", "line_plan", "record", "run_steps", "solve_compiled"]
+ENTRY_POINTS = (run_steps, car_kernels.factorise, car_kernels.start, coupler_kernels.start)
+"""The compiled functions a run calls from Python (:func:`solve_compiled`, :func:`line_plan`, :mod:`.packing`): cached, the loop only loads."""
+
+__all__ = ["CHUNK_SECONDS", "ENTRY_POINTS", "FIRST_CHUNK", "LinePlan", "chunk_after", "coupler_maps", "line_plan", "record", "run_steps", "solve_compiled"]
