@@ -3,6 +3,7 @@
     python benchmarks/bench_records.py [--minutes 10,60] [--rate 1000] [--channels 3] [--repeats 5]
                                        [--dialects comma,semicolon,tab,decimal_comma,quoted,iso8601,bom]
                                        [--trees /path/before,/path/after] [--out build/bench_records] [--json build/bench_records.json]
+                                       [--cases cases/measured_yard.yaml,...]
 
 For each length and dialect a file of a time column and ``--channels`` acceleration columns at ``--rate`` Hz is written
 once (seeded): ``comma`` (``,``), ``semicolon`` (``;``), ``tab``, ``decimal_comma`` (``;`` and ``3,14``), ``quoted``
@@ -12,15 +13,21 @@ reads every file through :func:`femref.sensing.record_files.open_columns`, the p
 ``--repeats`` times, the trees alternating within each repeat; the child's CPU time (``time.process_time``) of the read
 is the measure. The table gives the median CPU time, MB/s and samples/s (rows × columns read) per tree and the ratio.
 The first tree's columns are checked bit for bit against every other tree's (a digest of each column, whatever the chunks).
+
+``--cases``: instead, each measured case is run by ``femref run CASE -o <out>/<tree>.h5`` in a child process of each
+tree, ``--repeats`` times alternating, and the child's CPU time (user + system, from ``getrusage``) and wall time
+are compared: what a user's run of the case costs, validation, reading, estimators and the event file together.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import resource
 import statistics
 import subprocess
 import sys
+import time
 from datetime import datetime, timedelta
 from pathlib import Path
 
@@ -86,6 +93,38 @@ def read_cost(tree: str, path: Path, channels: int, dialect: str) -> dict:
     return json.loads(done.stdout.strip().splitlines()[-1])
 
 
+def run_cost(tree: str, case: Path, out: Path) -> tuple[float, float]:
+    """``(cpu, wall)`` (s) of ``femref run case -o out`` in a child process running the femref of ``tree``."""
+    code = f"import sys; sys.path.insert(0, {tree!r}); from femref.cli import main; main()"
+    before, start = resource.getrusage(resource.RUSAGE_CHILDREN), time.perf_counter()
+    subprocess.run([sys.executable, "-c", code, "run", str(case), "-o", str(out)], capture_output=True, check=True,
+                   env={"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "PATH": "/usr/bin:/bin"})
+    wall, after = time.perf_counter() - start, resource.getrusage(resource.RUSAGE_CHILDREN)
+    return after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime, wall
+
+
+def compare_cases(cases: list[Path], trees: list[str], repeats: int, out: Path) -> list[dict]:
+    """Each case run by every tree, ``repeats`` times alternating: median CPU and wall time per tree."""
+    report = []
+    for case in cases:
+        costs: dict[str, list[tuple[float, float]]] = {tree: [] for tree in trees}
+        for _ in range(repeats):
+            for k, tree in enumerate(trees):
+                costs[tree].append(run_cost(tree, case, out / f"{case.stem}_{k}.h5"))
+        line: dict = {"case": str(case)}
+        text = f"{case.name:<24}"
+        for tree in trees:
+            cpu, wall = statistics.median(c for c, _ in costs[tree]), statistics.median(w for _, w in costs[tree])
+            line[tree] = {"cpu_s": cpu, "wall_s": wall, "all": costs[tree]}
+            text += f" | CPU {cpu:7.2f} s wall {wall:7.2f} s"
+        if len(trees) > 1:
+            line["ratio"] = line[trees[0]]["cpu_s"] / line[trees[-1]]["cpu_s"]
+            text += f" | CPU {line['ratio']:5.2f}x"
+        print(text, flush=True)
+        report.append(line)
+    return report
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--minutes", default="10,60")
@@ -96,9 +135,15 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--trees", default=str(Path(__file__).resolve().parents[1]))
     parser.add_argument("--out", type=Path, default=Path("build/bench_records"))
     parser.add_argument("--json", type=Path, default=Path("build/bench_records.json"))
+    parser.add_argument("--cases", default="")
     args = parser.parse_args(argv)
     trees = args.trees.split(",")
     args.out.mkdir(parents=True, exist_ok=True)
+    if args.cases:
+        found = compare_cases([Path(case).resolve() for case in args.cases.split(",")], trees, args.repeats, args.out)
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(found, indent=1))
+        return
     report = []
     for minutes in [float(m) for m in args.minutes.split(",")]:
         for dialect in args.dialects.split(","):

@@ -41,6 +41,7 @@ PARSERS = ("pandas", "numpy", "rows")
 """How a chunk is parsed: pandas' or numpy's C reader (a chunk it cannot take: row by row), or row by row only."""
 BLOCK_BYTES = 1 << 23
 """Most bytes read at a time by the pandas parse (8 MiB; a chunk's lines are read in as many reads as they need)."""
+_BOM = b"\xef\xbb\xbf"
 GAP_SPELLINGS = ["", *(a + b + c for a in "nN" for b in "aA" for c in "nN")]
 """Cells that are gaps (NaN) as the C reader matches them: empty or ``nan`` in any case (a cell with blanks around it
 goes to the row-by-row reading, which strips it)."""
@@ -57,6 +58,8 @@ class Reader:
             raise ValueError(f"parser {parser!r}: one of {', '.join(PARSERS)} or None")
         self.parser = parser  # None: by the file's size (module docstring)
         try:
+            with path.open("rb") as raw:
+                bom = raw.read(len(_BOM)) == _BOM
             with path.open(newline="", encoding="utf-8-sig") as handle:
                 first = next((line for line in handle if line.strip()), "")
                 self.separator = separator or next((s for s in ("\t", ";") if s in first), ",")
@@ -66,7 +69,7 @@ class Reader:
                 self.header_lines = rows.line_num
                 handle.seek(0)
                 head = [handle.readline() for _ in range(self.header_lines)]
-                self.header_bytes = len("".join(head).encode("utf-8")) + (3 if self._bom() else 0)
+                self.header_bytes = len("".join(head).encode("utf-8")) + (len(_BOM) if bom else 0)  # where the samples start
                 self.line_end = "\r" if head and head[-1].endswith("\r") else "\n"  # a file of lone \r line ends is read line by line
         except csv.Error as error:
             raise RecordError(f"{self.name}: the header row is not valid CSV ({error})") from None
@@ -83,10 +86,6 @@ class Reader:
         self.labels: dict[int, str] = {}
         self.clock: int | None = None
         self.origin = origin  # the stamp timestamps count from (None: this file's first)
-
-    def _bom(self) -> bool:
-        with self.path.open("rb") as handle:
-            return handle.read(3) == b"\xef\xbb\xbf"
 
     def __enter__(self) -> Reader:
         return self
@@ -108,14 +107,14 @@ class Reader:
         count = 0
         parser = self.parser or ("pandas" if "pandas" in sys.modules or self.path.stat().st_size >= PANDAS_BYTES else "numpy")
         try:
-            pieces = self._byte_pieces(size) if parser == "pandas" and self.line_end != "\r" else self._line_pieces(size)
-            for lines, rows in pieces:
-                block = None
-                if parser == "pandas" and isinstance(lines, bytes):
-                    block = self._by_pandas(lines, rows, count)
-                    lines = list(io.StringIO(lines.decode("utf-8"), newline="")) if block is None else []
-                elif parser != "rows":
-                    block = self._by_numpy(lines)
+            pieces: Iterator[tuple[bytes | list[str], int]] = (
+                self._byte_pieces(size) if parser == "pandas" and self.line_end != "\r" else self._line_pieces(size))
+            for piece, rows in pieces:
+                if isinstance(piece, bytes):  # pandas' piece; read again as text lines if it cannot take it
+                    block = self._by_pandas(piece, rows, count)
+                    lines = list(io.StringIO(piece.decode("utf-8"), newline="")) if block is None else []
+                else:
+                    block, lines = (self._by_numpy(piece) if parser != "rows" else None), piece
                 block = block if block is not None else self._by_rows(lines, count)
                 count += block.shape[1]
                 yield [block[self.used.index(index)] for index in self.selection]
@@ -178,7 +177,7 @@ class Reader:
         a line of blanks, which Python's ``csv`` reads as a row of gaps; it ends a line at a lone ``\\r`` too)."""
         import pandas as pd
 
-        if data.startswith(b"\xef\xbb\xbf"):  # a byte-order mark past the header is a cell's (pandas would drop it)
+        if data.startswith(_BOM):  # a byte-order mark past the header is a cell's (pandas would drop it)
             return None
         types = {index: str if index == self.clock else np.float64 for index in self.used}
         try:
