@@ -11,7 +11,15 @@ run of a fleet manifest into its event store.
 >>> fem["force"].sel(coupler="c1").max()                                      # doctest: +SKIP
 
 :func:`open_result` (xarray) and :func:`open_frames` (pandas) read the datasets by their paths with h5py,
-so they read every femref result file, with or without HDF5 dimension scales. Nothing here prints.
+so they read every femref result file, with or without HDF5 dimension scales. A measured case's event file is read
+by :func:`open_events` (its table: one row per event × estimator × coupler) and :func:`open_event_histories` (one
+event's records and force histories):
+
+>>> events = open_events("yard.h5")                                            # doctest: +SKIP
+>>> events[events.above_alarm_limit][["event", "estimator", "peak_force_N"]]   # doctest: +SKIP
+>>> open_event_histories("yard.h5", 1)["force"].sel(estimator="kalman")        # doctest: +SKIP
+
+Nothing here prints.
 """
 
 from __future__ import annotations
@@ -20,6 +28,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from femref.events import FileKindError
 from femref.results import AXIS_NAMES
 from femref.core.publishing import OutputPathError
 from femref.flow import plan_case, run_plan
@@ -30,7 +39,8 @@ if TYPE_CHECKING:  # the readers' return types; neither library is needed to run
     import pandas
     import xarray
 
-__all__ = ["OutputPathError", "RunOutcome", "check_run_output", "open_frames", "open_result", "result_models", "run_case", "run_fleet", "run_scene"]
+__all__ = ["FileKindError", "OutputPathError", "RunOutcome", "check_run_output", "open_event_histories", "open_events", "open_frames", "open_result",
+           "result_models", "run_case", "run_fleet", "run_scene"]
 
 #: The extra that installs what :func:`open_result` and :func:`open_frames` need.
 READ_EXTRA = "femref[xarray]"
@@ -225,6 +235,8 @@ def open_result(path: str | Path, model: str | None = None) -> "xarray.Dataset":
         xarray is missing (the message names the extra to install).
     KeyError
         No such model in the file.
+    femref.events.FileKindError
+        The file is a measured case's event file (the message points to :func:`open_events`).
     """
     try:
         import xarray as xr
@@ -288,11 +300,14 @@ def open_frames(path: str | Path) -> dict[str, "pandas.DataFrame"]:
     ------
     ImportError
         pandas is missing (the message names the extra to install).
+    femref.events.FileKindError
+        The file is a measured case's event file (the message points to :func:`open_events`).
     """
     try:
         import pandas as pd
     except ImportError as error:
         raise ImportError(f"femref.api.open_frames needs pandas: pip install '{READ_EXTRA}'") from error
+    _refuse_event_file(path)
     frames = {}
     for model in result_models(path):
         group = _read_model(path, model)
@@ -316,6 +331,130 @@ def open_frames(path: str | Path) -> dict[str, "pandas.DataFrame"]:
     return frames
 
 
+def open_events(path: str | Path) -> "pandas.DataFrame":
+    """A measured case's event file as a table: one row per event × estimator × coupler.
+
+    Parameters
+    ----------
+    path : str or Path
+        An event file (``femref run`` of a ``kind: measured`` case, or a fleet's ``events/<recording>.h5``).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns :data:`femref.events.TABLE_COLUMNS`, in event order: the event (``event``, ``trigger_time_s``,
+        ``start_s``, ``end_s``, ``type``, the closing speed and its 95 % interval, ``alarm``, ``wear``, ``flags`` and
+        a column each for ``gap``, ``saturated``, ``implausible`` and ``clock_corrected``), the estimate
+        (``estimator``, ``coupler``, ``status``, ``peak_force_N`` with its band ``peak_force_lower_N`` /
+        ``peak_force_upper_N``, ``time_of_peak_s``, ``above_alarm_limit`` against ``alarm_limit_N``) and the
+        coupler's closure (``closure_status``, ``closure_force_N`` …). A unit is in each name (``_s``, ``_N``,
+        ``_m_per_s``; none: a ratio or text) and in ``df.attrs["units"]``; ``df.attrs`` also holds the file's
+        ``femref_version``, whether it is ``complete`` and its ``events``. An event that ran no estimator
+        (``not_an_impact``) is one row with ``estimator`` and ``coupler`` None.
+
+    Raises
+    ------
+    ImportError
+        pandas is missing (the message names the extra to install).
+    femref.events.FileKindError
+        The file is a simulated result, not an event file (the message points to :func:`open_result`).
+    """
+    try:
+        import pandas as pd
+    except ImportError as error:
+        raise ImportError(f"femref.api.open_events needs pandas: pip install '{READ_EXTRA}'") from error
+    from femref.events import TABLE_COLUMNS, TABLE_UNITS, event_rows
+
+    rows, facts = event_rows(path)
+    frame = pd.DataFrame(rows, columns=list(TABLE_COLUMNS))
+    frame = frame.astype({"event": "int64", **{flag: "bool" for flag in ("gap", "saturated", "implausible", "clock_corrected", "above_alarm_limit")},
+                          **{column: "float64" for column in TABLE_UNITS}})
+    frame.attrs.update(facts, units=dict(TABLE_UNITS))
+    return frame
+
+
+def open_event_histories(path: str | Path, event: int) -> "xarray.Dataset":
+    """One event of an event file as an :class:`xarray.Dataset`: its records and every estimator's force with its band.
+
+    Parameters
+    ----------
+    path : str or Path
+        An event file (see :func:`open_events`).
+    event : int
+        The event's index (``open_events(path).event``).
+
+    Returns
+    -------
+    xarray.Dataset
+        ``acceleration`` ``(time, probe)`` (m/s², the records on the event's grid, offsets removed); ``force``,
+        ``force_lower``, ``force_upper`` ``(time, estimator, coupler)`` (N, compression positive; NaN where an
+        estimator has no number or no band); an estimate on a time axis of its own (a network's peak: one sample)
+        is NaN there and given as ``force_<estimator>`` … ``(time_<estimator>, coupler)``;
+        ``peak_force``, ``peak_force_lower``, ``peak_force_upper`` and ``status`` ``(estimator, coupler)`` for
+        every estimate. Each keeps its ``units``; the event's attributes (type, closing speed, alarm, wear, flags …)
+        are the Dataset's.
+
+    Raises
+    ------
+    ImportError
+        xarray is missing (the message names the extra to install).
+    femref.events.FileKindError
+        The file is not an event file (the message points to :func:`open_result`), or holds no such event (the
+        message lists the events it holds).
+    """
+    try:
+        import xarray as xr
+    except ImportError as error:
+        raise ImportError(f"femref.api.open_event_histories needs xarray: pip install '{READ_EXTRA}'") from error
+    import numpy as np
+
+    from femref.events import event_histories
+
+    found = event_histories(path, event)
+    time, time_units = found["time"]
+    probes = list(found["records"])
+    coords: dict[str, Any] = {"time": ("time", time, {"units": time_units}), "probe": probes}
+    variables: dict[str, Any] = {}
+    if probes:
+        variables["acceleration"] = (("time", "probe"), np.stack([found["records"][p][0] for p in probes], axis=1),
+                                     {"units": found["records"][probes[0]][1]})
+    estimates = found["estimates"]
+    estimators = list(dict.fromkeys(e for e, _ in estimates))
+    couplers = list(dict.fromkeys(c for _, c in estimates))
+    if estimates:
+        coords.update(estimator=estimators, coupler=couplers)
+        shared = [e for e in estimators if all(np.array_equal(d["time"][0], time) for (k, _), d in estimates.items() if k == e)]
+        for name in ("force", "force_lower", "force_upper"):
+            units = next(iter(estimates.values()))[name][1]
+            stacked = np.full((time.size, len(estimators), len(couplers)), np.nan)
+            for (e, c), data in estimates.items():
+                if e in shared:
+                    stacked[:, estimators.index(e), couplers.index(c)] = data[name][0]
+            variables[name] = (("time", "estimator", "coupler"), stacked, {"units": units})
+            for e in (e for e in estimators if e not in shared):
+                own = next(d["time"] for (k, _), d in estimates.items() if k == e)
+                coords[f"time_{e}"] = (f"time_{e}", own[0], {"units": own[1]})
+                columns = [estimates[(e, c)][name][0] if (e, c) in estimates else np.full(own[0].size, np.nan) for c in couplers]
+                variables[f"{name}_{e}"] = ((f"time_{e}", "coupler"), np.stack(columns, axis=1), {"units": units})
+        for name, key, units in (("peak_force", "peak_force", "N"), ("peak_force_lower", "peak_lower", "N"), ("peak_force_upper", "peak_upper", "N"),
+                                 ("status", "status", "")):
+            table = [[estimates[(e, c)]["attrs"].get(key, np.nan) if (e, c) in estimates else (np.nan if units else "") for c in couplers] for e in estimators]
+            variables[name] = (("estimator", "coupler"), np.array(table, dtype=float if units else object), {"units": units} if units else {})
+    return xr.Dataset(variables, coords=coords, attrs=found["attrs"])
+
+
+def _refuse_event_file(path: str | Path) -> None:
+    """FileKindError naming ``path`` when it is an event file: a reader of simulated results does not read it."""
+    import h5py
+
+    from femref.events import is_event_file
+
+    with h5py.File(path, "r") as h5:
+        if is_event_file(h5):
+            raise FileKindError(f"{path}: the event file of a measured case, not a simulated result: read its table with "
+                                "femref.api.open_events and an event's histories with femref.api.open_event_histories")
+
+
 def _read_model(path: str | Path, model: str | None) -> dict[str, Any]:
     """The arrays and attributes of ``/<model>`` as plain dicts of ``(values, units)``, by the file's paths.
 
@@ -326,6 +465,7 @@ def _read_model(path: str | Path, model: str | None) -> dict[str, Any]:
     """
     import h5py
 
+    _refuse_event_file(path)
     with h5py.File(path, "r") as h5:
         models = [name for name, item in h5.items() if isinstance(item, h5py.Group) and "status" in item.attrs]
         if model is None:

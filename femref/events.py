@@ -8,7 +8,12 @@ and ``events_written = 0``; each event is added as soon as it is found (the file
 ``events_written`` raised, the file closed again); when the last event is in, ``complete = true`` and the temporary
 is renamed to the final name. A run killed loses at most the event in hand: its temporary is an event file of the
 ``events_written`` events finished before the kill, readable as it is (``femref report`` reads it), and the next run
-into the same output removes it as a leftover (:func:`femref.core.publishing.remove_leftovers`).
+into the same output removes it as a leftover (:func:`femref.core.publishing.remove_leftovers`). Each history's
+``time`` is its group's HDF5 dimension scale, attached to the histories along it (xarray, h5netcdf and HDFView read
+it as their coordinate).
+
+**Read back** by :func:`event_rows` (one row per event × estimator × coupler, :data:`TABLE_UNITS`) and
+:func:`event_histories` (one event's records and force histories), plain values for :mod:`femref.api`.
 """
 
 from __future__ import annotations
@@ -16,6 +21,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import json
+import math
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
@@ -268,7 +274,160 @@ def _write_event(group: h5py.Group, event: EventResult) -> None:
 def _dataset(group: h5py.Group, name: str, data: NDArray, units: str) -> None:
     dataset = group.create_dataset(name, data=np.asarray(data, dtype=float))
     dataset.attrs["units"] = units
+    if name == "time":
+        dataset.make_scale("time")
+    elif "time" in group and group["time"].shape == dataset.shape:
+        dataset.dims[0].attach_scale(group["time"])
 
 
-__all__ = ["BOUNDS", "CLOCK_UNITS", "COMPLETE", "ClockCorrection", "EVENTS_GROUP", "EVENTS_WRITTEN", "ClosureResult", "EventResult", "EventWriter", "ForceEstimate", "event_file",
-           "without_histories"]
+#: The groups of an event that are no estimator's.
+NOT_ESTIMATES = ("records", "closure", "clock")
+#: The columns of :func:`event_rows`, in order.
+TABLE_COLUMNS = (
+    "event", "trigger_time_s", "start_s", "end_s", "trigger_probe", "type", "zero_harmonic_ratio", "classification_confidence",
+    "closing_speed_m_per_s", "closing_speed_lower_m_per_s", "closing_speed_upper_m_per_s", "closing_speed_source", "epsilon", "alarm",
+    "alarm_limit_N", "wear", "flags", "gap", "saturated", "implausible", "clock_corrected", "estimator", "coupler", "status", "bound",
+    "peak_force_N", "peak_force_lower_N", "peak_force_upper_N", "time_of_peak_s", "in_calibrated_range", "above_alarm_limit",
+    "closure_status", "closure_force_N", "closure_force_lower_N", "closure_force_upper_N", "closure_time_s", "closure_estimator", "message",
+    "wall_time_s",
+)
+#: The columns of :func:`event_rows` with units, and their units.
+TABLE_UNITS = {
+    "trigger_time_s": "s", "start_s": "s", "end_s": "s", "closing_speed_m_per_s": "m/s", "closing_speed_lower_m_per_s": "m/s",
+    "closing_speed_upper_m_per_s": "m/s", "epsilon": "1", "zero_harmonic_ratio": "1", "classification_confidence": "1", "peak_force_N": "N",
+    "peak_force_lower_N": "N", "peak_force_upper_N": "N", "time_of_peak_s": "s", "closure_force_N": "N", "closure_force_lower_N": "N",
+    "closure_force_upper_N": "N", "closure_time_s": "s", "alarm_limit_N": "N", "wall_time_s": "s",
+}
+#: The quality flags of an event (``<reason>: <probe> <from>–<to> s``) that :func:`event_rows` gives a column each.
+QUALITY_FLAGS = ("gap", "saturated", "implausible")
+
+
+class FileKindError(ValueError):
+    """A femref file of another kind than its reader reads (an event file given to a reader of simulated results, or
+    the reverse), or an event the event file does not hold: the message names the file and the reader to use."""
+
+
+def is_event_file(h5: h5py.File) -> bool:
+    """Whether an open femref file is a measured case's event file."""
+    return SCENE_GROUP in h5 and h5[SCENE_GROUP].attrs.get("kind") == "measured"
+
+
+def _plain(value: Any) -> Any:
+    """An HDF5 attribute as a Python value (bytes decoded, numpy scalars unwrapped)."""
+    if isinstance(value, bytes):
+        return value.decode()
+    return value.item() if isinstance(value, np.generic) else value
+
+
+def _open_events(path: str | Path) -> h5py.File:
+    """The event file at ``path`` opened for reading; FileKindError naming it and its reader when it is not one."""
+    h5 = h5py.File(path, "r")
+    if not is_event_file(h5):
+        models = [name for name, item in h5.items() if isinstance(item, h5py.Group) and "status" in item.attrs]
+        h5.close()
+        what = f"a simulated result file (models {', '.join(models)})" if models else "not a femref event file"
+        raise FileKindError(f"{path}: {what}, not the event file of a measured case: read a simulated result with "
+                            "femref.api.open_result (a model as xarray) or femref.api.open_frames (pandas)")
+    return h5
+
+
+def _alarm_limit(h5: h5py.File) -> float:
+    """The case's alarm limit (N, ``checks.alarm``), NaN where it sets none."""
+    import yaml
+
+    case = yaml.safe_load(_plain(h5.attrs.get("case_yaml", "")) or "{}") or {}
+    limit = (case.get("checks") or {}).get("alarm")
+    return math.nan if limit is None else float(limit)
+
+
+def event_rows(path: str | Path) -> tuple[list[dict[str, Any]], dict[str, Any]]:
+    """``(rows, facts)`` of the event file at ``path``: a row per event × estimator × coupler (an event that ran no
+    estimator, ``not_an_impact``: one row, estimator and coupler None) in event order, then the case's order of the
+    estimators, columns :data:`TABLE_COLUMNS`
+    (units: :data:`TABLE_UNITS`); ``facts``: the file's name, version, completeness, events and alarm limit.
+
+    ``time_of_peak_s`` is the history's time at its largest compression; the closure columns are the event's closure of
+    the row's coupler (one estimator's, ``closure_estimator``); ``above_alarm_limit`` whether the peak exceeds the
+    case's alarm limit; ``gap``, ``saturated``, ``implausible``: a flag of that quality problem; ``clock_corrected``:
+    an estimated clock corrected at the event."""
+    rows = []
+    with _open_events(path) as h5:
+        limit = _alarm_limit(h5)
+        order = json.loads(_plain(h5[SCENE_GROUP].attrs.get("estimators", "[]")))  # the case's order (its networks: after, by name)
+        events = h5[EVENTS_GROUP]
+        for name in sorted(events, key=int):
+            group = events[name]
+            a = {key: _plain(value) for key, value in group.attrs.items()}
+            flags = json.loads(a.get("flags", "[]"))
+            event = {
+                "event": int(name), "trigger_time_s": a["trigger_time"], "start_s": a["start"], "end_s": a["end"], "trigger_probe": a["trigger_probe"],
+                "type": a["impact_type"], "zero_harmonic_ratio": a["zero_harmonic_ratio"], "classification_confidence": a.get("classification_confidence", math.nan),
+                "closing_speed_m_per_s": a["closing_speed"], "closing_speed_lower_m_per_s": a.get("closing_speed_lower", math.nan),
+                "closing_speed_upper_m_per_s": a.get("closing_speed_upper", math.nan), "closing_speed_source": a.get("closing_speed_source", ""),
+                "epsilon": a["epsilon"], "alarm": a["alarm"], "alarm_limit_N": limit, "wear": a["wear"], "flags": "; ".join(flags),
+                **{reason: any(flag.startswith(f"{reason}:") for flag in flags) for reason in QUALITY_FLAGS},
+                "clock_corrected": "clock" in group,
+            }
+            closures = {coupler: {key: _plain(value) for key, value in sub.attrs.items()} for coupler, sub in group.get("closure", {}).items()}
+            names = sorted((name for name in group if name not in NOT_ESTIMATES), key=lambda name: (order.index(name) if name in order else len(order), name))
+            estimates = [(estimator, coupler, data) for estimator in names for coupler, data in group[estimator].items()]
+            if not estimates:
+                rows.append(event | _estimate_columns(None, None, None, {}, limit))
+            for estimator, coupler, data in estimates:
+                rows.append(event | _estimate_columns(estimator, coupler, data, closures.get(coupler, {}), limit))
+        facts = {"file": str(path), "femref_version": _plain(h5.attrs.get("femref_version", "")), "complete": bool(h5.attrs.get(COMPLETE, True)),
+                 "events": len(events), "alarm_limit_N": limit}
+    return rows, facts
+
+
+def _estimate_columns(estimator: str | None, coupler: str | None, data: h5py.Group | None, closure: dict[str, Any], limit: float) -> dict[str, Any]:
+    """The estimate's part of a row (module docstring of :func:`event_rows`); ``data`` None: no estimate."""
+    e = {} if data is None else {key: _plain(value) for key, value in data.attrs.items()}
+    peak = e.get("peak_force", math.nan)
+    time_of_peak = math.nan
+    if data is not None and e.get("status") == "ok":
+        force = data["force"][()]
+        time_of_peak = float(data["time"][int(np.nanargmax(force))]) if np.isfinite(force).any() else math.nan
+    return {
+        "estimator": estimator, "coupler": coupler, "status": e.get("status", "not run"), "bound": e.get("bound", "none"),
+        "peak_force_N": peak, "peak_force_lower_N": e.get("peak_lower", math.nan), "peak_force_upper_N": e.get("peak_upper", math.nan),
+        "time_of_peak_s": time_of_peak, "in_calibrated_range": e.get("in_calibrated_range", "n/a"),
+        "above_alarm_limit": bool(peak > limit) if math.isfinite(peak) and math.isfinite(limit) else False,
+        "closure_status": closure.get("status", ""), "closure_force_N": closure.get("closure_force", math.nan),
+        "closure_force_lower_N": closure.get("force_lower", math.nan), "closure_force_upper_N": closure.get("force_upper", math.nan),
+        "closure_time_s": closure.get("closure_time", math.nan), "closure_estimator": closure.get("estimator", ""),
+        "message": e.get("message", ""), "wall_time_s": e.get("wall_time_s", math.nan),
+    }
+
+
+def event_histories(path: str | Path, event: int) -> dict[str, Any]:
+    """Event ``event`` of the event file at ``path``: ``{"time": (t, units), "records": {probe: (a, units)},
+    "estimates": {(estimator, coupler): {"time", "force", "force_lower", "force_upper": (values, units)} | attrs},
+    "attrs": the event's attributes}``; FileKindError naming the file and its events when it has no such event."""
+    with _open_events(path) as h5:
+        events = h5[EVENTS_GROUP]
+        if str(event) not in events:
+            held = sorted(events, key=int)
+            raise FileKindError(f"{path}: no event {event}; the file holds events {', '.join(held) if held else 'none'}")
+        group = events[str(event)]
+
+        def read(dataset: h5py.Dataset) -> tuple[NDArray[np.float64], str]:
+            return dataset[()], str(_plain(dataset.attrs.get("units", "")))
+
+        records = group["records"]
+        probes: dict[str, tuple[NDArray[np.float64], str]] = {}
+        records.visititems(lambda name, item: probes.__setitem__(name, read(item)) if isinstance(item, h5py.Dataset) and name != "time" else None)
+        estimates = {}
+        for estimator, sub in group.items():
+            if estimator in NOT_ESTIMATES:
+                continue
+            for coupler, data in sub.items():
+                estimates[(estimator, coupler)] = {key: read(data[key]) for key in ("time", "force", "force_lower", "force_upper")}
+                estimates[(estimator, coupler)]["attrs"] = {key: _plain(value) for key, value in data.attrs.items()}
+        return {"time": read(records["time"]), "records": probes, "estimates": estimates,
+                "attrs": {key: _plain(value) for key, value in group.attrs.items()}}
+
+
+__all__ = ["BOUNDS", "CLOCK_UNITS", "COMPLETE", "ClockCorrection", "EVENTS_GROUP", "EVENTS_WRITTEN", "ClosureResult", "FileKindError", "EventResult",
+           "EventWriter", "ForceEstimate", "NOT_ESTIMATES", "QUALITY_FLAGS", "TABLE_COLUMNS", "TABLE_UNITS", "event_file", "event_histories", "event_rows",
+           "is_event_file", "without_histories"]
