@@ -31,7 +31,6 @@ from typing import Any
 
 import numpy as np
 
-from femref.case import CaseError
 from femref.core.cluster import IN_FLIGHT_PER_THREAD, Task, bounded_results, dask_client, in_flight_slots
 from femref.sweep.spec import Sweep, load_sweep
 from femref.sweep.store import FAILED, SweepLayout, SweepStore, partial_path
@@ -138,49 +137,26 @@ def batch_size(samples: int, threads: int) -> int:
 
 
 def _run(client: Any, sweep: Sweep, store: SweepStore, todo: list[int], summary: SweepSummary, progress: Progress | None) -> None:
-    """Submit ``todo`` in batches with a bounded number of futures in flight; store each batch as it finishes."""
-    outputs = sweep.spec.outputs
+    """Ship the sweep to every worker once, submit ``todo`` in batches of drawn values with a bounded number of
+    futures in flight; store each batch as it finishes."""
     threads = max(1, sum(client.nthreads().values()))
     size = batch_size(len(todo), threads)
-    queue = iter(todo)
-
-    def stored(samples: list[Any], records: list[dict[str, Any]]) -> None:
-        errors = store.store_batch([s.index for s in samples], [s.stored for s in samples], records)
-        summary.failures.extend((sample.index, error) for sample, error in zip(samples, errors) if error)
-        summary.run += len(samples)
-        if progress is not None:
-            progress(summary.run, len(todo))
-
-    def valid(index: int) -> Any | None:
-        """Sample ``index`` if its case is valid; else None, the sample stored as failed."""
-        sample = sweep.sample(index)
-        error = sample.error
-        if not error:
-            try:
-                sweep.sample_case(sample)
-            except CaseError as invalid:
-                error = str(invalid)
-        if error:
-            stored([sample], [{"error": error}])
-            return None
-        return sample
+    shipped = client.scatter(sweep, broadcast=True, hash=False)
+    tag = uuid.uuid4().hex[:8]
 
     def tasks() -> Iterator[Task]:
-        while True:
-            batch = []
-            while len(batch) < size and (index := next(queue, None)) is not None:
-                sample = valid(index)
-                if sample is not None:
-                    batch.append(sample)
-            if not batch:
-                return
-            cases = [sample.case_data for sample in batch]
-            yield Task(run_samples, (cases, str(sweep.base_dir), outputs.record_length, outputs.force_length),
-                       key=f"femref-samples-{batch[0].index}-{uuid.uuid4().hex[:8]}", tag=batch)
+        for start in range(0, len(todo), size):
+            batch = [sweep.sample(index) for index in todo[start : start + size]]
+            yield Task(run_samples, (shipped, [(s.index, s.substitutions) for s in batch]), key=f"femref-samples-{batch[0].index}-{tag}", tag=batch)
 
     with closing(bounded_results(client, tasks(), in_flight_slots(client))) as finished:
         for batch, future in finished:
-            stored(batch, _records_of(future, len(batch)))
+            records = _records_of(future, len(batch))
+            errors = store.store_batch([s.index for s in batch], [s.stored for s in batch], records)
+            summary.failures.extend((sample.index, error) for sample, error in zip(batch, errors) if error)
+            summary.run += len(batch)
+            if progress is not None:
+                progress(summary.run, len(todo))
 
 
 def _records_of(future: Any, samples: int) -> list[dict[str, Any]]:

@@ -1,9 +1,13 @@
-"""The work of one sweep sample, run on a Dask worker: case data in, fixed-length arrays out.
+"""The work of a sweep's samples on a Dask worker: the sweep (once per worker) and each sample's values in,
+fixed-length arrays out.
 
-:func:`run_sample` is a top-level function (Dask pickles it by reference; a sweep sends its
-samples in batches through :func:`run_samples`) that never raises: any failure — a case
-the worker cannot parse, a model run that fails, an exception anywhere — comes back as the
-``error`` text of the returned record, so one bad sample never stops a sweep. The record is a plain dict (cheap to ship back to the client)::
+:func:`run_samples` takes the sweep — its validated base case, shipped to each worker once
+(``Client.scatter``) — and a batch of samples as ``(index, substitutions)``: each sample's case is derived
+by substitution (:meth:`femref.sweep.spec.Sweep.sample_case`, validated once, here), built and run. It is the
+one place where a batch of samples of one scene structure meets the models: a stepping batched over samples
+plugs in here. It never raises: any failure — a substitution that breaks a rule, a model run that fails, an
+exception anywhere — comes back as the ``error`` text of the sample's record, so one bad sample never stops a
+sweep. A record is a plain dict (cheap to ship back to the client)::
 
     error                       ""  or why the sample failed
     probes, couplers, models    channel, coupler and model-run names in scene order
@@ -11,6 +15,8 @@ the worker cannot parse, a model run that fails, an exception anywhere — comes
     <model>/coupler_force       (couplers, force_length) N, compression positive, np.interp onto record_times
     <model>/peak_coupler_force  (couplers,) N: max of the full force history (not of the resampled one)
     <model>/wall_time_s         () s
+
+:func:`run_sample` runs one case given as data (parsed whole): the path of a case file, for comparison.
 """
 
 from __future__ import annotations
@@ -20,18 +26,43 @@ from typing import Any
 
 import numpy as np
 
-from femref.case import parse_case
-from femref.sensing.records import acceleration_histories, fixed_length_records, record_times
+from femref.case import CaseError, ImpactCase, parse_case
 from femref.run import run_scene
 from femref.scene.build import scene_from_case
+from femref.sensing.records import acceleration_histories, fixed_length_records, record_times
+from femref.sweep.derive import derive_case
+from femref.sweep.spec import Sweep
 
-__all__ = ["run_sample", "run_samples"]
+__all__ = ["run_sample", "run_samples", "sample_records"]
+
+
+def run_samples(sweep: Sweep, samples: list[tuple[int, dict[str, Any]]]) -> list[dict[str, Any]]:
+    """The record of each ``(index, substitutions)`` of ``sweep``, in one task: a cheap sample (a rigid run costs
+    milliseconds) would otherwise cost less than the scheduling and shipping of its own task."""
+    records = []
+    for index, substitutions in samples:
+        try:
+            case = derive_case(sweep.base_case, sweep.resolved_base, substitutions, sweep.base_dir, f"{sweep.source} sample {index}")
+        except CaseError as invalid:
+            records.append({"error": str(invalid)})
+            continue
+        records.append(sample_records(case, sweep.base_dir, sweep.spec.outputs.record_length, sweep.spec.outputs.force_length))
+    return records
 
 
 def run_sample(case_data: dict[str, Any], base_dir: str, record_length: int, force_length: int) -> dict[str, Any]:
-    """Parse, build and run one sample's impact case; its records, coupler forces and wall times per model."""
+    """Parse one case given as data, build and run it: :func:`sample_records` (a case that does not parse: its error)."""
     try:
         case = parse_case(case_data, source="<sample>", base_dir=Path(base_dir))
+    except Exception as error:  # the sweep records it as the sample's failure and goes on
+        return {"error": f"{type(error).__name__}: {error}"}
+    return sample_records(case, Path(base_dir), record_length, force_length)
+
+
+def sample_records(case: ImpactCase, base_dir: Path, record_length: int, force_length: int) -> dict[str, Any]:
+    """Build and run one validated impact case; its records, coupler forces and wall times per model (module
+    docstring). Never raises."""
+    try:
         scene = scene_from_case(case, Path(base_dir))
         outcome = run_scene(scene)
         probes = list(scene.probes)
@@ -50,10 +81,3 @@ def run_sample(case_data: dict[str, Any], base_dir: str, record_length: int, for
         return out
     except Exception as error:  # the sweep records it as the sample's failure and goes on
         return {"error": f"{type(error).__name__}: {error}"}
-
-
-def run_samples(cases: list[dict[str, Any]], base_dir: str, record_length: int, force_length: int) -> list[dict[str, Any]]:
-    """:func:`run_sample` of each case, in one task: a cheap sample (a rigid run costs milliseconds)
-    would otherwise cost less than the scheduling and shipping of its own task."""
-    return [run_sample(case, base_dir, record_length, force_length) for case in cases]
-

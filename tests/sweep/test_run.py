@@ -249,7 +249,7 @@ def test_failed_samples_are_stored_with_their_error_and_not_rerun(client, folder
 def test_worker_records_run_time_failures(monkeypatch):
     """``run_sample`` never raises: an exception or a failed model run comes back as the sample's error."""
     sweep = parse_sweep({"case": base_case(), "samples": 1, "seed": 0})
-    case_data = sweep.sample(0).case_data
+    case_data = sweep.sample_data(sweep.sample(0))
     ok = worker.run_sample(case_data, str(sweep.base_dir), 20, 20)
     assert ok["error"] == "" and ok["fem/records"].shape == (4, 20) and ok["rigid/coupler_force"].shape == (1, 20)
 
