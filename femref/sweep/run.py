@@ -24,7 +24,7 @@ from __future__ import annotations
 import time
 import uuid
 from collections.abc import Callable, Iterator
-from contextlib import closing
+from contextlib import ExitStack, closing
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -114,7 +114,9 @@ def run_sweep(
         summary.skipped = store.size - len(pending)
         todo = pending if limit is None else pending[: max(0, limit)]
         if todo:
-            with dask_client(scheduler, workers, client) as connected:
+            with ExitStack() as cluster:
+                with store.released():  # a local cluster's workers are forks of this process: not of an open HDF5 file
+                    connected = cluster.enter_context(dask_client(scheduler, workers, client, fork=True))
                 started = time.perf_counter()  # the rate of the runs, without the cluster's start and stop
                 _run(connected, sweep, store, todo, summary, progress)
                 summary.wall_time_s = time.perf_counter() - started
