@@ -12,6 +12,8 @@ fit      ``femref sweep``'s cost as one call of ``run_sweep(..., workers=1)`` �
          the runner in the worker), its mean over the N = 100 sweeps; the target is ``a ≤ 3 s``, ``b ≤ 1.1 ×`` it.
 scaling  the rate (samples/s) of a 200-sample fem + rigid sweep on warmed local clusters of 1 and 2 workers
          (``run_sweep(..., client=)``; cluster start-up and a 2-sample warm-up sweep apart): 2 workers ≥ 1.6× 1.
+         ``busy_<n>`` = rate × models' time / n, the share of each worker's wall spent in the models: a speed-up
+         short of 2× with busy ≈ 1 is the models slowed by the machine's other load, not the sweep machinery.
 rigid    the whole ``run_sweep`` call of a 1000-sample rigid sweep on a warmed cluster of 2 workers (its start-up
          reported apart): ≥ 1000 samples/s.
 
@@ -75,14 +77,13 @@ def warmed_client(workers: int):
     return cluster, Client(cluster), time.perf_counter() - started
 
 
-def warm_rate(client, sweep, folder: Path, name: str) -> tuple[float, float]:
-    """(samples/s of ``sweep``'s runs, whole call s) after a 2-sample warm-up sweep on ``client``."""
+def warm_rate(client, sweep, folder: Path, name: str) -> tuple[float, float, float]:
+    """(samples/s of ``sweep``'s runs, whole call s, models' ms per sample) after a 2-sample warm-up sweep on ``client``."""
     run_sweep(bench_sweep(2, sweep.spec.models, seed=99), folder / f"{name}_warm.h5", client=client)
     started = time.perf_counter()
     summary = run_sweep(sweep, folder / f"{name}.h5", client=client)
     whole = time.perf_counter() - started
-    checked(summary, folder / f"{name}.h5")
-    return summary.runs_per_second, whole
+    return summary.runs_per_second, whole, 1e3 * checked(summary, folder / f"{name}.h5")
 
 
 def scaling(folder: Path) -> dict[str, float]:
@@ -90,7 +91,8 @@ def scaling(folder: Path) -> dict[str, float]:
     for workers in (1, 2):
         cluster, client, _ = warmed_client(workers)
         with cluster, client:
-            out[f"rate_{workers}"], _ = warm_rate(client, bench_sweep(200, ["fem", "rigid"]), folder, f"scaling_{workers}")
+            out[f"rate_{workers}"], _, out[f"model_ms_{workers}"] = warm_rate(client, bench_sweep(200, ["fem", "rigid"]), folder, f"scaling_{workers}")
+        out[f"busy_{workers}"] = out[f"rate_{workers}"] * out[f"model_ms_{workers}"] / (1e3 * workers)
     out["speed_up"] = out["rate_2"] / out["rate_1"]
     return out
 
@@ -98,8 +100,8 @@ def scaling(folder: Path) -> dict[str, float]:
 def rigid(folder: Path) -> dict[str, float]:
     cluster, client, startup = warmed_client(2)
     with cluster, client:
-        rate, whole = warm_rate(client, bench_sweep(1000, ["rigid"]), folder, "rigid")
-    return {"cluster_start_s": startup, "rigid_whole_s": whole, "rigid_whole_rate": 1000.0 / whole, "rigid_run_rate": rate}
+        rate, whole, model = warm_rate(client, bench_sweep(1000, ["rigid"]), folder, "rigid")
+    return {"cluster_start_s": startup, "rigid_whole_s": whole, "rigid_whole_rate": 1000.0 / whole, "rigid_run_rate": rate, "rigid_model_ms": model}
 
 
 def main() -> None:

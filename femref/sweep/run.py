@@ -1,19 +1,20 @@
 """Run a sweep on dask.distributed and stream the samples into the sweep file as they finish.
 
-The client (this process) draws each sample (:meth:`Sweep.sample`), validates its case —
-a sample whose case fails validation is stored as failed right away — and submits the
-rest in batches (:func:`batch_size`, up to 32 samples) as
-:func:`femref.sweep.worker.run_samples` tasks, keeping about two per worker thread in flight
-(``distributed.as_completed`` with ``add``), so a sweep of 10⁵ samples never queues
-everything at once. Only the client writes the file (:class:`femref.sweep.store.SweepStore`),
-one flushed write of a batch's rows as it finishes. Batches matter since the stepping was
-compiled: a rigid sample runs in about 3 ms, less than the scheduling, shipping and HDF5
-writing of a task of its own (measured: a 1000-sample rigid sweep on 2 workers ran at 53
-samples/s with a task per sample, against 336 samples/s in a plain process pool).
+The client (this process) ships the sweep — its base case, validated once — to every worker once
+(``Client.scatter``), draws each sample (:meth:`Sweep.sample`) and submits the samples in batches of their
+drawn values (:func:`batch_size`, up to 32 samples) as :func:`femref.sweep.worker.run_samples` tasks, keeping
+about two per worker thread in flight (``distributed.as_completed`` with ``add``), so a sweep of 10⁵ samples
+never queues everything at once. A worker derives each sample's case by substitution and validates it there,
+once; a sample whose substitution breaks a rule comes back failed with the key path and the rule. Only the client
+writes the file (:class:`femref.sweep.store.SweepStore`), one flushed write of a batch's rows as it finishes.
+Batches matter since the stepping was compiled: a rigid sample runs in milliseconds, less than the scheduling,
+shipping and HDF5 writing of a task of its own (a 1000-sample rigid sweep on 2 workers ran 7× slower with a
+task per sample).
 
 Where the work runs (:func:`femref.core.cluster.dask_client`): a ``distributed.LocalCluster`` of ``workers``
-single-threaded processes (default: one per CPU), an existing scheduler (``scheduler="tcp://host:8786"``),
-or a given ``distributed.Client``; the batches stream back through :func:`femref.core.cluster.bounded_results`.
+single-threaded processes (default: one per CPU) forked from this one — its imports done, the sweep file closed
+while they start —, an existing scheduler (``scheduler="tcp://host:8786"``), or a given ``distributed.Client``;
+the batches stream back through :func:`femref.core.cluster.bounded_results`.
 
 >>> summary = run_sweep("cases/sweeps/free_roll_speeds.yaml", "speeds.h5", workers=2)  # doctest: +SKIP
 >>> summary.run, summary.failed, f"{summary.runs_per_second:.2f} runs/s"                  # doctest: +SKIP

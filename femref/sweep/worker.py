@@ -21,13 +21,18 @@ sweep. A record is a plain dict (cheap to ship back to the client)::
 
 from __future__ import annotations
 
+import functools
+import os
+import re
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from femref.case import CaseError, ImpactCase, parse_case
-from femref.run import run_scene
+from femref.run.budget import check_budget
+from femref.run.costs import BUDGET_VARIABLE
+from femref.run.runner import add_measured_records, load_compiled_loop, run_model
 from femref.scene.build import scene_from_case
 from femref.sensing.records import acceleration_histories, fixed_length_records, record_times
 from femref.sweep.derive import derive_case
@@ -40,14 +45,37 @@ def run_samples(sweep: Sweep, samples: list[tuple[int, dict[str, Any]]]) -> list
     """The record of each ``(index, substitutions)`` of ``sweep``, in one task: a cheap sample (a rigid run costs
     milliseconds) would otherwise cost less than the scheduling and shipping of its own task."""
     records = []
+    base_checked = _budget_checked_once(sweep, os.environ.get(BUDGET_VARIABLE, ""))
     for index, substitutions in samples:
+        source = f"{sweep.source} sample {index}"
         try:
-            case = derive_case(sweep.base_case, sweep.resolved_base, substitutions, sweep.base_dir, f"{sweep.source} sample {index}")
+            case = derive_case(sweep.base_case, sweep.resolved_base, substitutions, sweep.base_dir, source)
         except CaseError as invalid:
             records.append({"error": str(invalid)})
             continue
-        records.append(sample_records(case, sweep.base_dir, sweep.spec.outputs.record_length, sweep.spec.outputs.force_length))
+        records.append(sample_records(case, sweep.base_dir, sweep.spec.outputs.record_length, sweep.spec.outputs.force_length,
+                                      source=source, budget_checked=base_checked))
     return records
+
+
+#: Key paths whose values no work-budget prediction reads (:func:`femref.run.budget.predict`): a sweep that draws
+#: only these has every sample's budget equal to its base case's (tests/sweep/test_run.py checks the prediction).
+BUDGET_NEUTRAL = re.compile(r"cars\.\d+\.velocity|measurement\.(seed|noise|pitch_rate_noise)")
+
+
+@functools.lru_cache(maxsize=8)
+def _budget_checked_once(sweep: Sweep, budget: str) -> bool:
+    """Whether the base case's budget check holds for every sample: no parameter can change the prediction
+    (:data:`BUDGET_NEUTRAL`) and the base scene is within the budget (``budget``: ``FEMREF_BUDGET`` as set) —
+    checked once per worker, sweep and budget (the scattered sweep is one object on a worker: the cache is keyed
+    on it)."""
+    if not all(BUDGET_NEUTRAL.fullmatch(path) for path in sweep.spec.parameters):
+        return False
+    try:
+        check_budget(scene_from_case(sweep.base_case, sweep.base_dir), sweep.source)
+    except CaseError:
+        return False  # each sample is refused with its own name
+    return True
 
 
 def run_sample(case_data: dict[str, Any], base_dir: str, record_length: int, force_length: int) -> dict[str, Any]:
@@ -59,19 +87,26 @@ def run_sample(case_data: dict[str, Any], base_dir: str, record_length: int, for
     return sample_records(case, Path(base_dir), record_length, force_length)
 
 
-def sample_records(case: ImpactCase, base_dir: Path, record_length: int, force_length: int) -> dict[str, Any]:
-    """Build and run one validated impact case; its records, coupler forces and wall times per model (module
-    docstring). Never raises."""
+def sample_records(case: ImpactCase, base_dir: Path, record_length: int, force_length: int, *, source: str = "<sample>",
+                   budget_checked: bool = False) -> dict[str, Any]:
+    """Build and run one validated impact case — its budget checked (unless ``budget_checked``), its model runs
+    and their measured records, no estimators, scores or self-check (the sweep file keeps none of them) — and give
+    its records, coupler forces and wall times per model (module docstring). Never raises."""
     try:
         scene = scene_from_case(case, Path(base_dir))
-        outcome = run_scene(scene)
+        if not budget_checked:
+            check_budget(scene, source)
+        load_compiled_loop(scene)
+        results = [run_model(scene, run) for run in scene.runs]
         probes = list(scene.probes)
         couplers = [coupler.name for coupler in scene.couplers]
-        out: dict[str, Any] = {"error": "", "probes": probes, "couplers": couplers, "models": [r.model for r in outcome.results]}
+        out: dict[str, Any] = {"error": "", "probes": probes, "couplers": couplers, "models": [r.model for r in results]}
         force_times = record_times(force_length, scene.end)
-        for result in outcome.results:
+        for result in results:
             if not result.ok:
                 return {"error": f"model {result.model} failed: {result.message}"}
+            if scene.measurement is not None:
+                add_measured_records(scene, result)
             time, histories = acceleration_histories(result)
             forces = [result.couplers[c]["force"] for c in couplers]
             out[f"{result.model}/records"] = fixed_length_records(time, histories, probes, record_length, scene.end)
