@@ -3,6 +3,7 @@ the same sweep on 1 and 2 local workers and on a scheduler given by address; the
 worker only where no sample can change it."""
 
 import dataclasses
+import os
 
 import h5py
 import numpy as np
@@ -131,3 +132,22 @@ def test_a_budget_checked_once_follows_the_budget(folder, monkeypatch):
     assert all(r["error"].startswith(f"CaseError: neutral.yaml sample {i}: ") and "budget" in r["error"] for i, r in enumerate(refused))
     monkeypatch.delenv("FEMREF_BUDGET")
     assert [r["error"] for r in run_samples(neutral, samples)] == ["", ""]
+
+
+def test_forked_workers_start_with_the_default_signal_handlers(monkeypatch):
+    """A command's SIGTERM handler (an interrupt) stays in the command: a forked worker terminates on SIGTERM."""
+    import signal
+
+    from femref.core.cluster import dask_client
+
+    def command_handler(signum, frame):
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, command_handler)
+    try:
+        with dask_client(workers=1, fork=True) as client:
+            handlers = next(iter(client.run(lambda: repr((signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGINT)))).values()))
+            pid = next(iter(client.run(os.getpid).values()))
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    assert "command_handler" not in handlers and pid != os.getpid()
