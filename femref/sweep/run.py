@@ -1,7 +1,7 @@
 """Run a sweep on dask.distributed and stream the samples into the sweep file as they finish.
 
-The client (this process) ships the sweep — its base case, validated once — to every worker once
-(``Client.scatter``), draws each sample (:meth:`Sweep.sample`) and submits the samples in batches of their
+The client (this process) ships the sweep — its base case, validated once — pickled with each task (a few kB,
+unpickled once per worker: :func:`femref.sweep.worker.sweep_of`), draws each sample (:meth:`Sweep.sample`) and submits the samples in batches of their
 drawn values (:func:`batch_size`, up to 32 samples) as :func:`femref.sweep.worker.run_samples` tasks, keeping
 about two per worker thread in flight (``distributed.as_completed`` with ``add``), so a sweep of 10⁵ samples
 never queues everything at once. A worker derives each sample's case by substitution and validates it there,
@@ -22,6 +22,7 @@ the batches stream back through :func:`femref.core.cluster.bounded_results`.
 
 from __future__ import annotations
 
+import pickle
 import time
 import uuid
 from collections.abc import Callable, Iterator
@@ -140,11 +141,11 @@ def batch_size(samples: int, threads: int) -> int:
 
 
 def _run(client: Any, sweep: Sweep, store: SweepStore, todo: list[int], summary: SweepSummary, progress: Progress | None) -> None:
-    """Ship the sweep to every worker once, submit ``todo`` in batches of drawn values with a bounded number of
+    """Submit ``todo`` in batches of drawn values with a bounded number of
     futures in flight; store each batch as it finishes."""
     threads = max(1, sum(client.nthreads().values()))
     size = batch_size(len(todo), threads)
-    shipped = client.scatter(sweep, broadcast=True, hash=False)
+    shipped = pickle.dumps(sweep)  # unpickled once per worker (femref.sweep.worker.sweep_of)
     tag = uuid.uuid4().hex[:8]
 
     def tasks() -> Iterator[Task]:

@@ -1,8 +1,8 @@
 """The work of a sweep's samples on a Dask worker: the sweep (once per worker) and each sample's values in,
 fixed-length arrays out.
 
-:func:`run_samples` takes the sweep — its validated base case, shipped to each worker once
-(``Client.scatter``) — and a batch of samples as ``(index, substitutions)``: each sample's case is derived
+:func:`run_samples` takes the sweep — its validated base case, pickled, unpickled once per worker
+(:func:`sweep_of`) — and a batch of samples as ``(index, substitutions)``: each sample's case is derived
 by substitution (:meth:`femref.sweep.spec.Sweep.sample_case`, validated once, here), built and run. It is the
 one place where a batch of samples of one scene structure meets the models: a stepping batched over samples
 plugs in here. It never raises: any failure — a substitution that breaks a rule, a model run that fails, an
@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import functools
 import os
+import pickle
 import re
 from pathlib import Path
 from typing import Any
@@ -41,9 +42,11 @@ from femref.sweep.spec import Sweep
 __all__ = ["run_sample", "run_samples", "sample_records"]
 
 
-def run_samples(sweep: Sweep, samples: list[tuple[int, dict[str, Any]]]) -> list[dict[str, Any]]:
-    """The record of each ``(index, substitutions)`` of ``sweep``, in one task: a cheap sample (a rigid run costs
-    milliseconds) would otherwise cost less than the scheduling and shipping of its own task."""
+def run_samples(sweep: Sweep | bytes, samples: list[tuple[int, dict[str, Any]]]) -> list[dict[str, Any]]:
+    """The record of each ``(index, substitutions)`` of ``sweep`` (or of the sweep pickled: :func:`sweep_of`), in one
+    task: a cheap sample (a rigid run costs milliseconds) would otherwise cost less than the scheduling and shipping
+    of its own task."""
+    sweep = sweep_of(sweep) if isinstance(sweep, bytes) else sweep
     records = []
     base_checked = _budget_checked_once(sweep, os.environ.get(BUDGET_VARIABLE, ""))
     for index, substitutions in samples:
@@ -58,6 +61,13 @@ def run_samples(sweep: Sweep, samples: list[tuple[int, dict[str, Any]]]) -> list
     return records
 
 
+@functools.lru_cache(maxsize=4)
+def sweep_of(pickled: bytes) -> Sweep:
+    """The sweep of its pickled bytes, unpickled once per worker process (a task carries the bytes, a few kB: a
+    worker that its nanny restarts gets them with its next task, where data scattered to it would be lost)."""
+    return pickle.loads(pickled)  # noqa: S301 - the client's own sweep, through Dask's own pickling
+
+
 #: Key paths whose values no work-budget prediction reads (:func:`femref.run.budget.predict`): a sweep that draws
 #: only these has every sample's budget equal to its base case's (tests/sweep/test_run.py checks the prediction).
 BUDGET_NEUTRAL = re.compile(r"cars\.\d+\.velocity|measurement\.(seed|noise|pitch_rate_noise)")
@@ -67,8 +77,8 @@ BUDGET_NEUTRAL = re.compile(r"cars\.\d+\.velocity|measurement\.(seed|noise|pitch
 def _budget_checked_once(sweep: Sweep, budget: str) -> bool:
     """Whether the base case's budget check holds for every sample: no parameter can change the prediction
     (:data:`BUDGET_NEUTRAL`) and the base scene is within the budget (``budget``: ``FEMREF_BUDGET`` as set) —
-    checked once per worker, sweep and budget (the scattered sweep is one object on a worker: the cache is keyed
-    on it)."""
+    checked once per worker, sweep and budget (a sweep is one object on a worker, :func:`sweep_of`: the cache is
+    keyed on it)."""
     if not all(BUDGET_NEUTRAL.fullmatch(path) for path in sweep.spec.parameters):
         return False
     try:

@@ -151,3 +151,14 @@ def test_forked_workers_start_with_the_default_signal_handlers(monkeypatch):
     finally:
         signal.signal(signal.SIGTERM, previous)
     assert "command_handler" not in handlers and pid != os.getpid()
+
+
+def test_a_worker_unpickles_each_sweep_once(sweep, folder):
+    import pickle
+
+    from femref.sweep.worker import sweep_of
+
+    other = parse_sweep({"case": base_case(), "samples": 2, "seed": 22, "parameters": PARAMETERS}, source="other.yaml", base_dir=folder)
+    first = sweep_of(pickle.dumps(sweep))
+    assert sweep_of(pickle.dumps(sweep)) is first and first.spec_hash == sweep.spec_hash
+    assert sweep_of(pickle.dumps(other)).spec_hash == other.spec_hash != sweep.spec_hash
