@@ -1,19 +1,20 @@
 """Run a sweep on dask.distributed and stream the samples into the sweep file as they finish.
 
-The client (this process) draws each sample (:meth:`Sweep.sample`), validates its case —
-a sample whose case fails validation is stored as failed right away — and submits the
-rest in batches (:func:`batch_size`, up to 32 samples) as
-:func:`femref.sweep.worker.run_samples` tasks, keeping about two per worker thread in flight
-(``distributed.as_completed`` with ``add``), so a sweep of 10⁵ samples never queues
-everything at once. Only the client writes the file (:class:`femref.sweep.store.SweepStore`),
-one flushed write of a batch's rows as it finishes. Batches matter since the stepping was
-compiled: a rigid sample runs in about 3 ms, less than the scheduling, shipping and HDF5
-writing of a task of its own (measured: a 1000-sample rigid sweep on 2 workers ran at 53
-samples/s with a task per sample, against 336 samples/s in a plain process pool).
+The client (this process) ships the sweep — its base case, validated once — pickled with each task (a few kB,
+unpickled once per worker: :func:`femref.sweep.worker.sweep_of`), draws each sample (:meth:`Sweep.sample`) and submits the samples in batches of their
+drawn values (:func:`batch_size`, up to 32 samples) as :func:`femref.sweep.worker.run_samples` tasks, keeping
+about two per worker thread in flight (``distributed.as_completed`` with ``add``), so a sweep of 10⁵ samples
+never queues everything at once. A worker derives each sample's case by substitution and validates it there,
+once; a sample whose substitution breaks a rule comes back failed with the key path and the rule. Only the client
+writes the file (:class:`femref.sweep.store.SweepStore`), one flushed write of a batch's rows as it finishes.
+Batches matter since the stepping was compiled: a rigid sample runs in milliseconds, less than the scheduling,
+shipping and HDF5 writing of a task of its own (a 1000-sample rigid sweep on 2 workers ran 7× slower with a
+task per sample).
 
 Where the work runs (:func:`femref.core.cluster.dask_client`): a ``distributed.LocalCluster`` of ``workers``
-single-threaded processes (default: one per CPU), an existing scheduler (``scheduler="tcp://host:8786"``),
-or a given ``distributed.Client``; the batches stream back through :func:`femref.core.cluster.bounded_results`.
+single-threaded processes (default: one per CPU) forked from this one — its imports done, the sweep file closed
+while they start —, an existing scheduler (``scheduler="tcp://host:8786"``), or a given ``distributed.Client``;
+the batches stream back through :func:`femref.core.cluster.bounded_results`.
 
 >>> summary = run_sweep("cases/sweeps/free_roll_speeds.yaml", "speeds.h5", workers=2)  # doctest: +SKIP
 >>> summary.run, summary.failed, f"{summary.runs_per_second:.2f} runs/s"                  # doctest: +SKIP
@@ -21,17 +22,17 @@ or a given ``distributed.Client``; the batches stream back through :func:`femref
 
 from __future__ import annotations
 
+import pickle
 import time
 import uuid
 from collections.abc import Callable, Iterator
-from contextlib import closing
+from contextlib import ExitStack, closing
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from femref.case import CaseError
 from femref.core.cluster import IN_FLIGHT_PER_THREAD, Task, bounded_results, dask_client, in_flight_slots
 from femref.sweep.spec import Sweep, load_sweep
 from femref.sweep.store import FAILED, SweepLayout, SweepStore, partial_path
@@ -115,7 +116,9 @@ def run_sweep(
         summary.skipped = store.size - len(pending)
         todo = pending if limit is None else pending[: max(0, limit)]
         if todo:
-            with dask_client(scheduler, workers, client) as connected:
+            with ExitStack() as cluster:
+                with store.released():  # a local cluster's workers are forks of this process: not of an open HDF5 file
+                    connected = cluster.enter_context(dask_client(scheduler, workers, client, fork=True))
                 started = time.perf_counter()  # the rate of the runs, without the cluster's start and stop
                 _run(connected, sweep, store, todo, summary, progress)
                 summary.wall_time_s = time.perf_counter() - started
@@ -138,49 +141,26 @@ def batch_size(samples: int, threads: int) -> int:
 
 
 def _run(client: Any, sweep: Sweep, store: SweepStore, todo: list[int], summary: SweepSummary, progress: Progress | None) -> None:
-    """Submit ``todo`` in batches with a bounded number of futures in flight; store each batch as it finishes."""
-    outputs = sweep.spec.outputs
+    """Submit ``todo`` in batches of drawn values with a bounded number of
+    futures in flight; store each batch as it finishes."""
     threads = max(1, sum(client.nthreads().values()))
     size = batch_size(len(todo), threads)
-    queue = iter(todo)
-
-    def stored(samples: list[Any], records: list[dict[str, Any]]) -> None:
-        errors = store.store_batch([s.index for s in samples], [s.stored for s in samples], records)
-        summary.failures.extend((sample.index, error) for sample, error in zip(samples, errors) if error)
-        summary.run += len(samples)
-        if progress is not None:
-            progress(summary.run, len(todo))
-
-    def valid(index: int) -> Any | None:
-        """Sample ``index`` if its case is valid; else None, the sample stored as failed."""
-        sample = sweep.sample(index)
-        error = sample.error
-        if not error:
-            try:
-                sweep.sample_case(sample)
-            except CaseError as invalid:
-                error = str(invalid)
-        if error:
-            stored([sample], [{"error": error}])
-            return None
-        return sample
+    shipped = pickle.dumps(sweep)  # unpickled once per worker (femref.sweep.worker.sweep_of)
+    tag = uuid.uuid4().hex[:8]
 
     def tasks() -> Iterator[Task]:
-        while True:
-            batch = []
-            while len(batch) < size and (index := next(queue, None)) is not None:
-                sample = valid(index)
-                if sample is not None:
-                    batch.append(sample)
-            if not batch:
-                return
-            cases = [sample.case_data for sample in batch]
-            yield Task(run_samples, (cases, str(sweep.base_dir), outputs.record_length, outputs.force_length),
-                       key=f"femref-samples-{batch[0].index}-{uuid.uuid4().hex[:8]}", tag=batch)
+        for start in range(0, len(todo), size):
+            batch = [sweep.sample(index) for index in todo[start : start + size]]
+            yield Task(run_samples, (shipped, [(s.index, s.substitutions) for s in batch]), key=f"femref-samples-{batch[0].index}-{tag}", tag=batch)
 
     with closing(bounded_results(client, tasks(), in_flight_slots(client))) as finished:
         for batch, future in finished:
-            stored(batch, _records_of(future, len(batch)))
+            records = _records_of(future, len(batch))
+            errors = store.store_batch([s.index for s in batch], [s.stored for s in batch], records)
+            summary.failures.extend((sample.index, error) for sample, error in zip(batch, errors) if error)
+            summary.run += len(batch)
+            if progress is not None:
+                progress(summary.run, len(todo))
 
 
 def _records_of(future: Any, samples: int) -> list[dict[str, Any]]:

@@ -19,7 +19,9 @@ whose seed the sweep does not set gets :func:`noise_seed`.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
+import functools
 import hashlib
 import json
 import math
@@ -36,8 +38,9 @@ from femref.case import CaseError, ImpactCase, Problem, load_case, parse_case
 from femref.case.errors import problems_error, problems_from
 from femref.case.fields import CaseModel, Count, reject_bool
 from femref.case.loader import read_yaml_file
+from femref.sweep.derive import SubstitutionError, derive_case, substituted_data
 from femref.sweep.distributions import AnyDistribution, Choice, Distribution, Grid
-from femref.sweep.keypaths import assign, parent_of, key_parts, PathError
+from femref.sweep.keypaths import parent_of, key_parts, PathError
 
 __all__ = [
     "FIXED_KEYS",
@@ -108,16 +111,13 @@ _SWEEP_ADAPTER: TypeAdapter[SweepFile] = TypeAdapter(SweepFile)
 
 @dataclass(frozen=True)
 class Sample:
-    """Sample ``index``: its parameter values, what the file stores for them, and its case.
-
-    ``case_data`` is None when the parameters cannot be applied (``error`` says why).
-    """
+    """Sample ``index``: its parameter values, what the file stores for them, and what its case substitutes into the
+    base case (the values, then its noise seed: ``measurement.seed``, :func:`noise_seed`, unless the values set it)."""
 
     index: int
     values: dict[str, Any]
     stored: dict[str, float | int]
-    case_data: dict[str, Any] | None
-    error: str = ""
+    substitutions: dict[str, Any]
 
 
 @dataclass(frozen=True, eq=False)
@@ -129,10 +129,15 @@ class Sweep:
     base_case: ImpactCase
     base_dir: Path
 
+    @functools.cached_property
+    def resolved_base(self) -> dict[str, Any]:
+        """The resolved base case (models replaced, estimators dropped) as plain data, dumped once: read only."""
+        return self.base_case.model_dump(mode="json")
+
     @property
     def base_data(self) -> dict[str, Any]:
-        """The resolved base case (models replaced, estimators dropped) as plain data."""
-        return self.base_case.model_dump(mode="json")
+        """A copy of :attr:`resolved_base`, the caller's to change."""
+        return copy.deepcopy(self.resolved_base)
 
     @property
     def grid(self) -> dict[str, Grid]:
@@ -165,7 +170,7 @@ class Sweep:
         Where the base case came from (file name or inline) does not enter; its content does.
         """
         sweep = {k: v for k, v in self.resolved_data().items() if k not in ("samples", "base", "case")}
-        text = json.dumps({"sweep": sweep, "base_case": self.base_data}, sort_keys=True, separators=(",", ":"))
+        text = json.dumps({"sweep": sweep, "base_case": self.resolved_base}, sort_keys=True, separators=(",", ":"))
         return hashlib.sha256(text.encode()).hexdigest()
 
     def sample(self, index: int) -> Sample:
@@ -180,19 +185,24 @@ class Sweep:
         stored: dict[str, float | int] = {}
         for path, distribution in self.spec.parameters.items():
             values[path], stored[path] = distribution.point(int(point[path])) if isinstance(distribution, Grid) else distribution.draw(rng)
-        data = self.base_data
-        for path, value in values.items():
-            try:
-                assign(data, key_parts(path), value)
-            except PathError as error:
-                return Sample(index, values, stored, None, f"{self.source}: parameters.{path}: {error} in this sample")
-        if isinstance(data.get("measurement"), Mapping) and not self._sets_measurement_seed(values):
-            data["measurement"]["seed"] = noise_seed(self.spec.seed, index)
-        return Sample(index, values, stored, data)
+        substitutions = dict(values)
+        measured = values["measurement"] if "measurement" in values else self.resolved_base.get("measurement")
+        if isinstance(measured, Mapping) and not self._sets_measurement_seed(values):
+            substitutions["measurement.seed"] = noise_seed(self.spec.seed, index)
+        return Sample(index, values, stored, substitutions)
 
     def sample_case(self, sample: Sample) -> ImpactCase:
-        """Validate a sample's case; raises :class:`CaseError` naming the sample."""
-        return parse_case(sample.case_data, source=f"{self.source} sample {sample.index}", base_dir=self.base_dir)
+        """A sample's case by substitution into the validated base case (:func:`femref.sweep.derive.derive_case`);
+        raises :class:`CaseError` naming the sample and the key path."""
+        return derive_case(self.base_case, self.resolved_base, sample.substitutions, self.base_dir, f"{self.source} sample {sample.index}")
+
+    def sample_data(self, sample: Sample) -> dict[str, Any]:
+        """A sample's whole case as data (what a case file of the sample holds); raises :class:`CaseError` for a key
+        path that does not lead anywhere in this sample."""
+        try:
+            return substituted_data(self.resolved_base, sample.substitutions)
+        except SubstitutionError as error:
+            raise CaseError(Problem(("parameters", error.path), f"{error} in this sample"), f"{self.source} sample {sample.index}") from None
 
     @staticmethod
     def _sets_measurement_seed(values: Mapping[str, Any]) -> bool:
@@ -263,7 +273,7 @@ def _base_data(spec: SweepFile, source: str, base_dir: Path) -> tuple[dict[str, 
 
 def _key_path_problems(sweep: Sweep) -> list[Problem]:
     """Each parameter's key path against the base case and the earlier parameters' possible values."""
-    base = sweep.base_data
+    base = sweep.resolved_base
     problems = []
     earlier: list[tuple[tuple[str, ...], Distribution]] = []
     for path, distribution in sweep.spec.parameters.items():

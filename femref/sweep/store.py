@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import json
 import os
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
@@ -242,6 +244,15 @@ class SweepStore:
         h5["samples/status"][selection] = np.array([FAILED if error else OK for error in errors], dtype=np.int8)
         h5.flush()
         return errors
+
+    @contextmanager
+    def released(self) -> Iterator[None]:
+        """The file closed during the block (no handle for a forked process to inherit), open again after it."""
+        self.h5.close()
+        try:
+            yield
+        finally:
+            self.h5 = h5py.File(partial_path(self.output), "r+")
 
     def close(self) -> bool:
         """Close the file; rename ``.partial`` to the output when every sample is stored. True if renamed."""

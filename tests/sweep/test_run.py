@@ -19,7 +19,7 @@ from click.testing import CliRunner
 from femref.case import CaseError, parse_case
 from femref.cli import main
 from femref.sensing.records import acceleration_histories, fixed_length_records, record_times
-from femref.run import run_scene
+from femref.run import run_model, run_scene
 from femref.scene.build import scene_from_case
 from femref.sweep import SweepInterrupted, load_sweep, parse_sweep, read_sweep, run_sweep
 from femref.sweep import worker
@@ -249,14 +249,14 @@ def test_failed_samples_are_stored_with_their_error_and_not_rerun(client, folder
 def test_worker_records_run_time_failures(monkeypatch):
     """``run_sample`` never raises: an exception or a failed model run comes back as the sample's error."""
     sweep = parse_sweep({"case": base_case(), "samples": 1, "seed": 0})
-    case_data = sweep.sample(0).case_data
+    case_data = sweep.sample_data(sweep.sample(0))
     ok = worker.run_sample(case_data, str(sweep.base_dir), 20, 20)
     assert ok["error"] == "" and ok["fem/records"].shape == (4, 20) and ok["rigid/coupler_force"].shape == (1, 20)
 
-    def broken(scene):
+    def broken(scene, run):
         raise RuntimeError("the stepper diverged")
 
-    monkeypatch.setattr(worker, "run_scene", broken)
+    monkeypatch.setattr(worker, "run_model", broken)
     assert worker.run_sample(case_data, str(sweep.base_dir), 20, 20) == {"error": "RuntimeError: the stepper diverged"}
     monkeypatch.undo()
 
@@ -279,12 +279,12 @@ def test_worker_records_run_time_failures(monkeypatch):
 def test_a_worker_failure_is_stored_and_the_sweep_goes_on(folder, monkeypatch):
     """On an in-process cluster (so the monkeypatch reaches the worker): samples above 2 m/s fail at run time."""
 
-    def slow_ones_fail(scene):
+    def slow_ones_fail(scene, run):
         if scene.cars[0].velocity > 2.0:
             raise RuntimeError("run-time failure")
-        return run_scene(scene)
+        return run_model(scene, run)
 
-    monkeypatch.setattr(worker, "run_scene", slow_ones_fail)
+    monkeypatch.setattr(worker, "run_model", slow_ones_fail)
     path = write_sweep(folder / "inprocess")
     with distributed.LocalCluster(n_workers=1, processes=False, dashboard_address=None) as local, distributed.Client(local) as threads:
         summary = run_sweep(path, folder / "inprocess.h5", client=threads)

@@ -88,7 +88,7 @@ def test_choice_frequencies_follow_the_weights():
     assert set(index) == {0, 1}  # weight 0: never
     assert abs(np.mean(index == 0) - 0.75) < 4 * math.sqrt(0.75 * 0.25 / 1000)
     sample = sweep.sample(0)
-    assert sample.case_data["couplers"][0]["law"] == laws[sample.stored["couplers.0.law"]]
+    assert sweep.sample_data(sample)["couplers"][0]["law"] == laws[sample.stored["couplers.0.law"]]
 
 
 def test_equal_weights_by_default_and_any_yaml_values():
@@ -177,11 +177,12 @@ def test_a_choice_that_removes_a_later_path_fails_those_samples_only():
     laws = {"choice": [{"kelvin_voigt": {"stiffness": 4.0e7}}, {"draft_gear": {"gear_stiffness": 1.7e7, "stroke": 0.165}}]}
     sweep = sweep_of({"couplers.0.law": laws, "couplers.0.law.kelvin_voigt.damping": {"uniform": [1.0e5, 5.0e5]}}, samples=20)
     samples = [sweep.sample(i) for i in range(sweep.size)]
-    failed = [s for s in samples if s.case_data is None]
+    failed = [s for s in samples if s.stored["couplers.0.law"] == 1]
     assert 0 < len(failed) < len(samples)
-    assert all(s.stored["couplers.0.law"] == 1 for s in failed)
-    assert "parameters.couplers.0.law.kelvin_voigt.damping" in failed[0].error and "no key 'kelvin_voigt'" in failed[0].error
-    ok = next(s for s in samples if s.case_data is not None)
+    for derived in (sweep.sample_case, sweep.sample_data):
+        with pytest.raises(CaseError, match=rf"sample {failed[0].index}: parameters.couplers.0.law.kelvin_voigt.damping: no key 'kelvin_voigt'"):
+            derived(failed[0])
+    ok = next(s for s in samples if s.stored["couplers.0.law"] == 0)
     assert sweep.sample_case(ok).couplers[0].law.damping == ok.values["couplers.0.law.kelvin_voigt.damping"]
 
 
@@ -197,20 +198,21 @@ def test_models_replaced_and_estimators_dropped():
     case = small_impact()
     case["estimators"] = ["inverse_rigid"]
     sweep = parse_sweep({"case": case, "samples": 2, "seed": 0, "models": ["rigid"]})
-    data = sweep.sample(1).case_data
+    data = sweep.sample_data(sweep.sample(1))
     assert data["models"] == ["rigid"] and data["estimators"] == []
-    assert parse_sweep({"case": case, "samples": 2, "seed": 0}).sample(0).case_data["models"] == ["fem", "rigid"]
+    default = parse_sweep({"case": case, "samples": 2, "seed": 0})
+    assert default.sample_data(default.sample(0))["models"] == ["fem", "rigid"]
 
 
 def test_each_sample_gets_its_own_noise_seed():
     sweep = sweep_of(PARAMETERS, samples=6)
-    seeds = [sweep.sample(i).case_data["measurement"]["seed"] for i in range(6)]
+    seeds = [sweep.sample_data(sweep.sample(i))["measurement"]["seed"] for i in range(6)]
     assert seeds == [noise_seed(7, i) for i in range(6)] and len(set(seeds)) == 6
     assert seeds[2] == int(np.random.SeedSequence([7, 2]).generate_state(1)[0])
     own = sweep_of({**PARAMETERS, "measurement.seed": {"grid": [11, 12]}}, samples=2)
-    assert [own.sample(i).case_data["measurement"]["seed"] for i in range(4)] == [11, 12, 11, 12]
+    assert [own.sample_data(own.sample(i))["measurement"]["seed"] for i in range(4)] == [11, 12, 11, 12]
     quiet = parse_sweep({"case": small_impact(measurement=False), "samples": 2, "seed": 7})
-    assert quiet.sample(1).case_data["measurement"] is None
+    assert quiet.sample_data(quiet.sample(1))["measurement"] is None
 
 
 def test_spec_hash_covers_what_fixes_the_samples():
