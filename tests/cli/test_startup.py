@@ -89,7 +89,7 @@ def test_run_of_models_without_estimators_imports_no_solvers(tmp_path) -> None:
     modules = run_imports(tmp_path, data)
     loaded = sorted(m for m in (*SIGNAL_TOOLS, *SOLVERS) if m in modules)
     assert not loaded, f"femref run of models that need no signal tool imported {loaded}"
-    assert "numba" in modules and "skfem" in modules
+    assert "numba" in modules and "femref.fem.operators" in modules  # the test can fail: the fem cars were built
 
 
 def test_one_off_imports_are_loaded_before_the_runs_that_import_them() -> None:
