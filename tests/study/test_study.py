@@ -115,6 +115,18 @@ def test_study_file_holds_every_estimate_and_its_errors(ran: Ran) -> None:
         assert f"| {name} |" in table
 
 
+def test_study_table_fits_80_columns_with_every_error_whole(ran: Ran, monkeypatch, capsys) -> None:
+    """The table ``femref study`` prints, at ``COLUMNS=80``: no wider line, every figure whole, among them each
+    estimator's mean held-out error (per cent, two decimals) as the study computed it."""
+    from femref.cli.tables import study_table
+
+    from support.tables import assert_printed_whole
+
+    text = assert_printed_whole(study_table(ran.outcome), 80, monkeypatch, capsys)
+    for name, summary in ran.outcome.sets["test"].summaries.items():
+        assert f"{summary.mean:.2%}" in text.split(), name
+
+
 def test_out_of_range_set_is_faster_than_training(ran: Ran) -> None:
     """The out-of-range sweep really samples 4–6 m/s, outside the training speeds 0.5–4 m/s."""
     from femref.sweep import read_sweep
