@@ -11,9 +11,9 @@ TEST_STAMP := $(VENV)/.installed-test
 
 .PHONY: demo test test-slow bench snapshot env clean
 
+# The pip that venv bundles (Python >= 3.11) installs an editable pyproject package; upgrading it cost seconds.
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install -q --upgrade pip
 
 $(DEMO_STAMP): pyproject.toml | $(BIN)/python
 	@$(BIN)/python -c "import tomllib; d = tomllib.load(open('pyproject.toml', 'rb'))['project']['dependencies']; \

@@ -67,11 +67,9 @@ def reduced_study(size: StudySize = REDUCED) -> tuple[StudyFile, Path]:
 
 
 @pytest.fixture(scope="module")
-def cluster():
-    distributed = pytest.importorskip("distributed")
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None) as local:
-        with distributed.Client(local) as client:
-            yield client
+def cluster(dask_client):
+    """The session's cluster of two worker processes (tests/conftest.py)."""
+    return dask_client
 
 
 @pytest.fixture(scope="module", params=[QUICK, pytest.param(REDUCED, marks=pytest.mark.slow)], ids=["quick", "reduced"])
