@@ -324,6 +324,8 @@ def fit(table: Table, width: int) -> list[Table | Text]:
     if sum(narrowest) + len(narrowest) - 1 <= width:
         return [compact]
     keys = next((k for k, column in enumerate(table.columns) if column.justify == "right"), 1) or 1
+    if keys >= len(table.columns):  # nothing to split off
+        return [compact]
     panels: list[list[int]] = []
     for k in range(keys, len(table.columns)):
         taken = [*range(keys), *(panels[-1][keys:] if panels else ()), k]

@@ -103,11 +103,14 @@ def test_fit_splits_into_panels_of_whole_columns(monkeypatch, capsys) -> None:
     assert_printed_whole(table, 60, monkeypatch, capsys)
 
 
-def test_a_table_that_fits_is_left_as_it_is() -> None:
+def test_a_table_that_fits_is_left_as_it_is_and_one_too_wide_without_a_column_to_split_off_loses_its_frame() -> None:
     table = Table()
     table.add_column("a")
     table.add_row("1")
     assert fit(table, WIDTH) == [table]
+    table.add_row("x" * 100)
+    (compact,) = fit(table, WIDTH)
+    assert compact.row_count == 2 and not compact.show_edge
 
 
 def test_summary_lines_wrap_at_spaces(monkeypatch, capsys) -> None:
