@@ -15,11 +15,13 @@ TEST_STAMP := $(VENV)/.installed-test
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 
+# --no-compile: the ~7000 modules of the dependencies are not byte-compiled at install (22 s of CPU); Python compiles
+# those a command imports on first use.
 $(DEMO_STAMP): pyproject.toml | $(BIN)/python
 	@$(BIN)/python -c "import tomllib; d = tomllib.load(open('pyproject.toml', 'rb'))['project']['dependencies']; \
 	print('installing femref (editable) and its core dependencies:', ', '.join(d)); \
 	print('not installed by make demo: the test extras, off-screen GL, Chromium (make test adds them)')"
-	$(BIN)/python -m pip install -q -e .
+	$(BIN)/python -m pip install -q --no-compile -e .
 	touch $(DEMO_STAMP)
 
 $(TEST_STAMP): pyproject.toml | $(BIN)/python
