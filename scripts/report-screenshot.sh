@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The README's picture of the report: the default scene run, its report written, and the top of the page
 # as headless Chromium shows it at 1280 px (what the browser test checks), halved, into docs/figures/.
-# Run after `make demo` has made .venv:   bash scripts/report-screenshot.sh
+# Run after `make env` (or `make test`) has made .venv with Chromium:   bash scripts/report-screenshot.sh
 set -euo pipefail
 cd "$(dirname "$0")/.."
 browser=$(command -v chromium || command -v chromium-browser || command -v google-chrome || true)

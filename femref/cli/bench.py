@@ -11,7 +11,8 @@ from pathlib import Path
 import click
 from rich.console import Console
 
-from femref.cli.common import EXIT_RUN_FAILURE, case_input_files, check_output, configuration_progress, fail, finish, load_case_or_default, print_table
+from femref.cli.common import (EXIT_RUN_FAILURE, case_input_files, check_output, configuration_progress, echo_summary, fail, finish,
+                               load_case_or_default, print_table)
 from femref.cli.tables import bench_table
 
 IMPACT_ONLY = "femref bench serves impact cases"
@@ -62,7 +63,7 @@ def bench_command(case_path: Path | None, output: Path | None, repeats: int, plo
         name = case_path.name if case_path else DEFAULT_SCENE_SOURCE
         written.append(plot_pareto(plot_path, outcome, title=f"femref bench {name}: peak coupler force error vs wall time"))
     print_table(bench_table(outcome))
-    click.echo("Pareto-optimal (fastest first): " + ", ".join(row.configuration.label for row in outcome.pareto_rows))
+    echo_summary("Pareto-optimal (fastest first): " + ", ".join(row.configuration.label for row in outcome.pareto_rows))
     for note in outcome.notes:
-        click.echo(f"note: {note}")
+        echo_summary(f"note: {note}")
     finish(written, [(f"configuration {row.configuration.label}", row.message) for row in outcome.failed])

@@ -25,6 +25,8 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
 
+from femref.cli.tables import fit, natural_width
+
 EXIT_BAD_INPUT = 2
 EXIT_RUN_FAILURE = 1
 EXIT_INTERRUPTED = 130
@@ -166,35 +168,31 @@ def print_table(table: Table) -> None:
     """Print a summary table (its legend is its caption) on stdout, fitted to where it goes.
 
     On a terminal, or with ``COLUMNS`` set, the table takes that width (rich's own detection; at
-    least :data:`MIN_TABLE_WIDTH`): a table wider than that loses its frame and padding (columns one
-    space apart), then cells wrap at spaces, and a word longer than its column folds.
-    Piped without ``COLUMNS`` no width is forced on it: it keeps its natural width, one line per
-    row, for grep, logs and the tests that read rows.
+    least :data:`MIN_TABLE_WIDTH`), laid out by :func:`femref.cli.tables.fit`: every figure whole, a table too
+    wide split into panels one under another. Piped without ``COLUMNS`` no width is forced on it: it keeps its
+    natural width, one line per row, for grep, logs and the tests that read rows.
     """
     console = Console()
-    natural = _natural_width(table)
     if not (console.is_terminal or os.environ.get("COLUMNS")):
-        console = Console(width=natural)
+        console = Console(width=max(MIN_TABLE_WIDTH, natural_width(table)))
     elif console.width < MIN_TABLE_WIDTH:
         console = Console(width=MIN_TABLE_WIDTH)
-    if natural > console.width:  # too wide: one space between columns, no frame, before any cell wraps
-        import copy
-
-        from rich import box
-
-        table = copy.copy(table)
-        table.box, table.show_edge, table.padding = box.SIMPLE_HEAD, False, (0, 0)
-    console.print(table)
+    for k, part in enumerate(fit(table, console.width)):
+        if k and isinstance(part, Table):
+            console.print()
+        console.print(part)
 
 
-def _natural_width(table: Table) -> int:
-    """The width ``table`` takes when nothing limits it (every cell on one line)."""
-    import io
+def echo_summary(line: str) -> None:
+    """Echo a summary line on stdout, wrapped at spaces to the terminal's width (or ``COLUMNS``) so that no figure is
+    cut; piped without ``COLUMNS`` it stays one line, for grep and logs."""
+    console = Console()
+    if console.is_terminal or os.environ.get("COLUMNS"):
+        import textwrap
 
-    from rich.measure import Measurement
-
-    unlimited = Console(width=100_000, file=io.StringIO())
-    return max(MIN_TABLE_WIDTH, Measurement.get(unlimited, unlimited.options, table).maximum)
+        line = "\n".join(textwrap.wrap(line, max(console.width, MIN_TABLE_WIDTH), break_long_words=False, break_on_hyphens=False,
+                                        subsequent_indent="  "))
+    click.echo(line)
 
 
 def _show_progress(console: Console) -> bool:

@@ -13,7 +13,7 @@ from pathlib import Path
 import click
 from rich.console import Console
 
-from femref.cli.common import EXIT_INTERRUPTED, EXIT_RUN_FAILURE, PROGRESS_KEY, check_output, fail, recording_progress
+from femref.cli.common import EXIT_INTERRUPTED, EXIT_RUN_FAILURE, PROGRESS_KEY, check_output, echo_summary, fail, recording_progress
 
 #: Failed recordings listed after a run (the store holds every message).
 SHOWN_FAILURES = 5
@@ -86,13 +86,13 @@ def fleet_command(context: click.Context, manifest_path: Path, out_dir: Path, wo
 
 def _summary(summary) -> None:
     """Counts of recordings and events, alarms, throughput and wall time, and where the store is."""
-    click.echo(f"recordings: {summary.total} in the manifest, {summary.run} run now, {summary.skipped} skipped (stored, unchanged), "
+    echo_summary(f"recordings: {summary.total} in the manifest, {summary.run} run now, {summary.skipped} skipped (stored, unchanged), "
                f"{summary.failed} failed")
     if summary.run:
         types = ", ".join(f"{kind} {count}" for kind, count in sorted(summary.events.items())) or "none"
         alarms = ", ".join(f"{level} {count}" for level, count in sorted(summary.alarms.items())) or "none"
-        click.echo(f"events: {summary.event_count} ({types}); alarms: {alarms}")
-        click.echo(f"throughput: {summary.events_per_second:.2f} events/s, {summary.megabytes_per_second:.2f} MB/s of record files, "
+        echo_summary(f"events: {summary.event_count} ({types}); alarms: {alarms}")
+        echo_summary(f"throughput: {summary.events_per_second:.2f} events/s, {summary.megabytes_per_second:.2f} MB/s of record files, "
                    f"{summary.samples_per_second:.3g} samples/s; wall time {summary.wall_time_s:.1f} s")
     click.echo(f"store: {summary.store}")
 

@@ -13,7 +13,8 @@ from pathlib import Path
 import click
 from rich.console import Console
 
-from femref.cli.common import EXIT_INTERRUPTED, EXIT_RUN_FAILURE, case_input_files, check_output, fail, model_progress, print_table, sample_progress
+from femref.cli.common import (EXIT_INTERRUPTED, EXIT_RUN_FAILURE, case_input_files, check_output, echo_summary, fail, model_progress, print_table,
+                               sample_progress)
 from femref.cli.tables import study_table
 
 #: Failed samples listed after a sweep (the file holds every error).
@@ -107,10 +108,10 @@ def _sweep_report(summary) -> None:
     """One line of counts and speed, the first failures, and where the samples are."""
     if summary.run == 0 and summary.complete:
         failed = f" ({summary.stored_failed} failed; --retry-failed runs them again)" if summary.stored_failed else ""
-        click.echo(f"all {summary.total} samples already stored in {summary.path}{failed}")
+        echo_summary(f"all {summary.total} samples already stored in {summary.path}{failed}")
         return
     failed = f"{summary.failed} failed" + (f" ({summary.stored_failed} stored as failed in all)" if summary.stored_failed != summary.failed else "")
-    click.echo(
+    echo_summary(
         f"samples: {summary.total} total, {summary.run} run now, {summary.skipped} skipped (already stored), {failed}; "
         f"wall time {summary.wall_time_s:.1f} s, {summary.runs_per_second:.2f} runs/s"
     )

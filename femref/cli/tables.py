@@ -1,14 +1,24 @@
-"""The summary tables the commands print: a run (single body or impact), the network study, the bench.
+"""The summary tables the commands print: a run (single body or impact), the network study, the bench, the events
+of a measured case; and how a table too wide for the terminal is laid out (:func:`fit`).
 
 Headers are short; a legend under each table (its caption) defines every column, with units.
 Every relative error is a percentage in one format (:func:`_percent`, ``12.34%``).
+A column of figures never wraps (``no_wrap``): a table wider than the terminal is split into panels of whole
+columns, each repeating the columns that name a row; only titles, legends and words of text columns wrap.
 """
 
 from __future__ import annotations
 
+import copy
+import dataclasses
+import io
 import math
 
+from rich import box
+from rich.console import Console
+from rich.measure import Measurement
 from rich.table import Table
+from rich.text import Text
 
 
 def run_table(outcome) -> Table:
@@ -19,7 +29,7 @@ def run_table(outcome) -> Table:
     against = f"; errors against {reference}" if reference else ""
     table = Table(title=f"{outcome.scene.kind} scene, ε = {outcome.scene.epsilon:.3g}{against}", title_justify="left", caption_justify="left")
     for column in ("model", "status", "wall ms", "work", "|a| peak", "|F| peak", "a err max", "a err rms"):
-        table.add_column(column, justify="left" if column in ("model", "status") else "right", no_wrap=column == "model", overflow="fold")
+        table.add_column(column, justify="left" if column in ("model", "status") else "right", no_wrap=column != "status", overflow="fold")
     notes: list[str] = []
     for result in outcome.results:
         work = ""
@@ -87,7 +97,7 @@ def impact_table(outcome) -> Table:
     columns = ("model", "status", "steps", "wall ms", "speed-up", "P peak kN", "P peak err", "t peak err ms", "P rms err", "a rms err",
                *(("a_v rms err", "pitch rms err") if vertical else ()), "E err")
     for column in columns:
-        table.add_column(column, justify="left" if column in ("model", "status") else "right", no_wrap=column in ("model", "P peak kN"), overflow="fold")
+        table.add_column(column, justify="left" if column in ("model", "status") else "right", no_wrap=column != "status", overflow="fold")
     notes: list[str] = []
     for result in outcome.results:
         score = outcome.scores.get(result.model, {})
@@ -143,7 +153,7 @@ def study_table(outcome) -> Table:
         ("µs/record", f"estimate time per record on the {sets[0]} set, µs"),
     )
     for column in ("estimator", "trained on", "own source", *sets, "train s", "µs/record"):
-        table.add_column(column, justify="left" if column in ("estimator", "trained on") else "right", overflow="fold")
+        table.add_column(column, justify="left" if column in ("estimator", "trained on") else "right", no_wrap=column != "trained on", overflow="fold")
     timing = {t.name: t.training_time_s for t in outcome.networks}
     first = outcome.sets[sets[0]]
     for row in outcome.table_rows():
@@ -168,7 +178,7 @@ def bench_table(outcome) -> Table:
     vertical = any(math.isfinite(row.vertical_error) for row in outcome.rows)
     columns = ("configuration", "dt ms", "steps", "wall ms", "× rigid", "peak err", "rms err", *(("a_v err",) if vertical else ()), "Pareto", "status")
     for column in columns:
-        table.add_column(column, justify="left" if column in ("configuration", "status", "Pareto") else "right", no_wrap=column == "configuration",
+        table.add_column(column, justify="left" if column in ("configuration", "status", "Pareto") else "right", no_wrap=column != "status",
                          overflow="fold")
     for row in outcome.rows:
         c = row.configuration
@@ -246,18 +256,22 @@ def _closing_speed(event) -> str:
 
 
 def event_table(outcome) -> Table:
-    """One row per event and estimator of a measured case: type, closing speed with its interval, peak force with its 95 %
-    band (blank without a bound), closure, wear and alarm; flags below the table's rows of their event."""
+    """One row per event and estimator of a measured case: the event's trigger time, type, closing speed with its interval,
+    closure, wear and alarm; then each estimator's peak force with its 95 % band (blank without a bound). The events'
+    flags and notes, ``event <k>: …``, above the legend."""
     several = len(outcome.scene.couplers) > 1
-    table = Table(title=f"measured records: {len(outcome.events)} event(s); peak force with its 95 % band", title_justify="left")
-    for column in ("event", "t trigger s", "type", "ρ0", "v m/s", "estimator", "status", "peak kN", "band kN", "closure", "wear", "alarm"):
-        table.add_column(column, justify="right" if column in ("event", "t trigger s", "ρ0", "v m/s", "peak kN", "band kN") else "left", no_wrap=True)
+    table = Table(title=f"measured records: {len(outcome.events)} event(s); peak force with its 95 % band", title_justify="left",
+                  caption_justify="left")
+    figures = ("t trigger s", "ρ0", "v m/s", "peak kN", "band kN")
+    for column in ("event", "t trigger s", "type", "ρ0", "v m/s", "closure", "wear", "alarm", "estimator", "status", "peak kN", "band kN"):
+        table.add_column(column, justify="right" if column in figures else "left", no_wrap=column not in ("closure", "status"), overflow="fold")
+    notes: list[str] = []
     for event in outcome.events:
         closure = ", ".join(c.status + (f" at {c.closure_force / 1e3:.0f} kN" if c.status == "closed" else "") for c in event.closures)
-        head = [str(event.index), f"{event.trigger_time:.4f}", event.impact_type, _fmt(event.zero_harmonic_ratio, "{:.2f}"), _closing_speed(event)]
-        tail = [closure, event.wear, event.alarm]
-        if not event.estimates:  # not an impact: the event's own row, its evidence below
-            table.add_row(*head, "none run", "", "", "", *tail)
+        head = [str(event.index), f"{event.trigger_time:.4f}", event.impact_type, _fmt(event.zero_harmonic_ratio, "{:.2f}"), _closing_speed(event),
+                closure, event.wear, event.alarm]
+        if not event.estimates:  # not an impact: the event's own row, its evidence in the notes
+            table.add_row(*head, "none run", "", "", "")
         for k, estimate in enumerate(event.estimates):
             peak, lower, upper = estimate.peak
             table.add_row(
@@ -266,14 +280,83 @@ def event_table(outcome) -> Table:
                 estimate.status,
                 _fmt(peak / 1e3, "{:.1f}"),
                 f"{lower / 1e3:.0f}–{upper / 1e3:.0f}" if math.isfinite(lower) else "",
-                *(tail if k == 0 else [""] * len(tail)),
             )
-        notes = list(event.flags) + [f"{e.estimator}: {e.message}" for e in event.estimates if not e.ok]
-        notes += [event.classification_basis] if not event.estimates and event.classification_basis else []
+        event_notes = list(event.flags) + [f"{e.estimator}: {e.message}" for e in event.estimates if not e.ok]
+        event_notes += [event.classification_basis] if not event.estimates and event.classification_basis else []
         if event.closing_speed_source == "none":
-            notes.append(f"no closing speed: {event.closing_speed_basis}")
-        notes += [f"clock {c.recorder}: correction {c.correction:+.6f} s, drift {c.drift:+.2f} ppm, lag {c.lag:+.6f} s (residual {c.residual:+.2e} s)"
-                  for c in event.clock_corrections]
-        for note in notes:
-            table.add_row("", "", "", "", "", f"[yellow]{note}[/yellow]", "", "", "", "", "", "")
+            event_notes.append(f"no closing speed: {event.closing_speed_basis}")
+        event_notes += [f"clock {c.recorder}: correction {c.correction:+.6f} s, drift {c.drift:+.2f} ppm, lag {c.lag:+.6f} s (residual {c.residual:+.2e} s)"
+                        for c in event.clock_corrections]
+        notes += [f"[yellow]event {event.index}: {note}[/yellow]" for note in event_notes]
+    table.caption = with_notes(notes, legend(
+        ("t trigger s", "time the event triggers, s"),
+        ("type", "free_to_roll, coupled or not_an_impact"),
+        ("ρ0", "zero-harmonic ratio of the coupler's relative acceleration, which decides the type"),
+        ("v m/s", "closing speed [95 % interval], m/s; given: from the case"),
+        ("closure", "the draft gear's closure, with its force"),
+        ("peak kN", "peak coupler force, kN"),
+        ("band kN", "its 95 % band, kN"),
+    ))
     return table
+
+
+def natural_width(table: Table) -> int:
+    """The width ``table`` takes when nothing limits it (every cell on one line)."""
+    unlimited = Console(width=100_000, file=io.StringIO())
+    return Measurement.get(unlimited, unlimited.options, table).maximum
+
+
+def fit(table: Table, width: int) -> list[Table | Text]:
+    """``table`` laid out in ``width`` columns with every figure whole, as renderables printed one under another.
+
+    As it is when its natural width fits; else without frame and padding (columns one space apart); else split into
+    panels of whole columns, left to right, each led by the columns that name a row (those before the first
+    right-justified column, at least one), a row whose cells are all blank in a panel left out of it: the title above
+    the first panel, the legend under the last at the full ``width``. Only text columns (not ``no_wrap``), the title
+    and the legend wrap, at spaces. A panel holds at least one column besides its keys, so a single column wider than
+    ``width`` overflows.
+    """
+    if natural_width(table) <= width:
+        return [table]
+    compact = copy.copy(table)
+    compact.box, compact.show_edge, compact.padding = box.SIMPLE_HEAD, False, (0, 0)
+    narrowest = _narrowest_widths(compact)
+    if sum(narrowest) + len(narrowest) - 1 <= width:
+        return [compact]
+    keys = next((k for k, column in enumerate(table.columns) if column.justify == "right"), 1) or 1
+    if keys >= len(table.columns):  # nothing to split off
+        return [compact]
+    panels: list[list[int]] = []
+    for k in range(keys, len(table.columns)):
+        taken = [*range(keys), *(panels[-1][keys:] if panels else ()), k]
+        if panels and sum(narrowest[j] for j in taken) + len(taken) - 1 <= width:
+            panels[-1].append(k)
+        else:
+            panels.append([*range(keys), k])
+    legend_text = [Text.from_markup(table.caption)] if isinstance(table.caption, str) else [table.caption] if table.caption else []
+    return [*(_panel(compact, columns, first=n == 0) for n, columns in enumerate(panels)), *legend_text]
+
+
+def _narrowest_widths(table: Table) -> list[int]:
+    """Per column, the narrowest it can be laid out: its widest cell (header included) if it does not wrap, else its
+    longest word."""
+    console = Console(width=100_000, file=io.StringIO())
+    widths = []
+    for column in table.columns:
+        cells = [console.render_str(cell) if isinstance(cell, str) else cell for cell in (column.header, *column.cells)]
+        measured = [Measurement.get(console, console.options, cell) for cell in cells]
+        widths.append(max(m.maximum if column.no_wrap else m.minimum for m in measured))
+    return widths
+
+
+def _panel(table: Table, columns: list[int], first: bool) -> Table:
+    """The table of ``table``'s ``columns`` (indices), with its title if ``first``; no legend."""
+    panel = Table(title=table.title if first else None, title_justify=table.title_justify,
+                  caption_justify=table.caption_justify, box=table.box, show_edge=table.show_edge, padding=table.padding)
+    kept = [table.columns[k] for k in columns]
+    for column in kept:
+        panel.add_column(**{f.name: getattr(column, f.name) for f in dataclasses.fields(column) if not f.name.startswith("_")})
+    for row in zip(*(list(column.cells) for column in kept), strict=True):
+        if any(cell != "" for cell in row):
+            panel.add_row(*row)
+    return panel

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 import yaml
 from click.testing import CliRunner
+from rich.cells import cell_len
 
 from support.paths import CASES
 from femref.cli.bench import IMPACT_ONLY, bench_command
@@ -24,6 +25,9 @@ from femref.bench.configurations import Configuration
 from femref.bench.output import COLUMNS, plot_pareto
 from femref.bench.pareto import pareto_mask
 from femref.bench.run import BenchOutcome, BenchRow
+
+
+WIDTH = 80  # the terminal width the bench is printed at (COLUMNS)
 
 
 def small_impact() -> dict:
@@ -57,16 +61,23 @@ def write_case(folder: Path, data: dict, name: str = "small.yaml") -> Path:
 
 @pytest.fixture(scope="module")
 def bench(tmp_path_factory):
-    """The bench of :func:`small_impact` through the command: (result, table rows, /bench attrs, folder)."""
+    """The bench of :func:`small_impact` through the command, printed at ``COLUMNS=80``: (result, table rows, /bench
+    attrs, folder)."""
     folder = tmp_path_factory.mktemp("bench")
     case = write_case(folder, small_impact())
-    result = CliRunner().invoke(bench_command, [str(case), "-o", str(folder / "bench.h5"), "--repeats", "3", "--plot", str(folder / "bench.png")])
+    result = CliRunner().invoke(bench_command, [str(case), "-o", str(folder / "bench.h5"), "--repeats", "3", "--plot", str(folder / "bench.png")],
+                                env={"COLUMNS": str(WIDTH)})
     assert result.exit_code == 0, result.output
     with h5py.File(folder / "bench.h5", "r") as h5:
         table = h5["bench"][()]
         attrs = dict(h5["bench"].attrs)
         repeat_times = h5["bench_wall_times_s"][()]
     return SimpleNamespace(result=result, table=table, attrs=attrs, repeat_times=repeat_times, folder=folder)
+
+
+def flat(output: str) -> str:
+    """The output with every run of white space one space: lines wrapped at the width joined again."""
+    return " ".join(output.split())
 
 
 def text(value) -> str:
@@ -123,7 +134,7 @@ def test_pareto_flags_equal_a_brute_force_check(bench):
         for i in range(len(t))
     ]
     assert list(bench.table["pareto"]) == expected
-    shown = bench.result.output.split("Pareto-optimal (fastest first): ")[1].splitlines()[0].split(", ")
+    shown = flat(bench.result.output).split("Pareto-optimal (fastest first): ")[1].split(" note: ")[0].split(" wrote ")[0].split(", ")
     assert sorted(shown) == sorted(np.array(labels(bench.table))[bench.table["pareto"]])
 
 
@@ -132,7 +143,7 @@ def test_estimators_have_a_peak_and_rms_error_and_no_steps(bench):
     assert [text(m) for m in rows["model"]] == ["inverse_rigid", "inverse_quasi_rigid"]
     assert np.all(rows["steps"] == 0) and np.all(np.isnan(rows["dt_s"]))
     assert np.all(np.isfinite(rows["rms_error"]))
-    assert "estimators read the records of fem N=8" in bench.result.output
+    assert "estimators read the records of fem N=8" in flat(bench.result.output)
 
 
 def test_plot_is_a_png_that_decodes(bench):
@@ -145,6 +156,17 @@ def test_the_table_is_printed(bench):
     for label in ("fem dt×4", "modal k=4", "quasi_rigid", "inverse_rigid"):
         assert label in bench.result.output
     assert "wrote" in bench.result.output
+
+
+def test_the_printed_table_fits_80_columns_with_every_figure_whole(bench):
+    """At ``COLUMNS=80`` no line is wider, and every row's wall time (ms), ratio to rigid and steps, as stored in
+    /bench, are whole words of the output."""
+    lines = bench.result.output.splitlines()
+    assert max(cell_len(line) for line in lines) <= WIDTH, bench.result.output
+    words = bench.result.output.split()
+    for row in bench.table:
+        assert f"{row['wall_time_s'] * 1e3:.2f}" in words and f"{row['time_ratio_rigid']:.3g}" in words, text(row["label"])
+        assert row["steps"] == 0 or str(row["steps"]) in words, text(row["label"])
 
 
 # ------------------------------------------------------------------- bad input

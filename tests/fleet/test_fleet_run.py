@@ -55,10 +55,9 @@ def reference(fleet_dir):
 
 
 @pytest.fixture(scope="module")
-def client():
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=":0") as cluster:
-        with distributed.Client(cluster) as connected:
-            yield connected
+def client(dask_client):
+    """The session's cluster of two worker processes (tests/conftest.py)."""
+    return dask_client
 
 
 def _tables(store) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:

@@ -24,6 +24,7 @@ from support.fleet_events import RATED, START, WEAR_LIMIT, fleet_events, linear_
 
 NOW = START + pd.Timedelta(days=30)
 WEARING = "G0007"
+CARS = 10  # in the module's fleet: one gear and one figure (~1 s busy) per car
 
 
 def estimates_of(events: pd.DataFrame) -> pd.DataFrame:
@@ -62,8 +63,8 @@ def rows_of(page: str, table: str) -> list[dict[str, str]]:
 
 @pytest.fixture(scope="module")
 def fleet(tmp_path_factory):
-    """20 cars × 30 days with alarms, flags and a gear crossing its wear limit at day 20, reported at day 30."""
-    events = fleet_events(cars=20, days=30, seed=11, closure=linear_gear(WEARING, RATED, 20.0), saturated=0.01, gaps=0.02)
+    """CARS cars × 30 days with alarms, flags and a gear crossing its wear limit at day 20, reported at day 30."""
+    events = fleet_events(cars=CARS, days=30, seed=11, closure=linear_gear(WEARING, RATED, 20.0), saturated=0.01, gaps=0.02)
     folder = tmp_path_factory.mktemp("fleet") / "report"
     index = write_fleet_report(events, estimates_of(events), folder, now=NOW)
     return events, folder, index.read_text(encoding="utf-8")
@@ -136,9 +137,9 @@ def test_the_traffic_lights_follow_the_rule(fleet):
 
 @pytest.mark.parametrize(("day", "light"), [(14, "amber"), (30, "red")])
 def test_a_wearing_gear_is_amber_before_it_crosses_and_red_after(tmp_path, day, light):
-    """20 cars × 30 days, no alarm nor flag, gear G0007 falling through its wear limit at day 20: the report at day 14 shows
+    """8 cars × 30 days, no alarm nor flag, gear G0007 falling through its wear limit at day 20: the report at day 14 shows
     it amber (wearing; its closures still above the limit), at day 30 red (worn); every other gear green both days."""
-    events = fleet_events(cars=20, days=30, seed=2, closure=linear_gear(WEARING, RATED, 20.0), hot=0.0, saturated=0.0)
+    events = fleet_events(cars=8, days=30, seed=2, closure=linear_gear(WEARING, RATED, 20.0), hot=0.0, saturated=0.0)
     now = START + pd.Timedelta(days=day)
     page = write_fleet_report(events, estimates_of(events), tmp_path / "report", now=now).read_text(encoding="utf-8")
     gears = {r["data-gear"]: r["light"] for r in rows_of(page, "lights gears")}
@@ -247,7 +248,7 @@ def test_the_page_renders_in_chromium(fleet, tmp_path):
     facts = {key: match.group(1) for key, match in found.items()}
     assert facts["sections"] == "lights exceedances distributions not-impacts wear events"
     images = page.count("<img ")
-    assert images == 2 + 20 and facts["images"] == f"{images}/{images}"
+    assert images == 2 + CARS and facts["images"] == f"{images}/{images}"
     assert facts["errors"] == ""
     assert [line for line in done.stderr.splitlines() if ":CONSOLE" in line] == []
     assert facts["width"] == "1280/1280"

@@ -67,11 +67,9 @@ def reduced_study(size: StudySize = REDUCED) -> tuple[StudyFile, Path]:
 
 
 @pytest.fixture(scope="module")
-def cluster():
-    distributed = pytest.importorskip("distributed")
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None) as local:
-        with distributed.Client(local) as client:
-            yield client
+def cluster(dask_client):
+    """The session's cluster of two worker processes (tests/conftest.py)."""
+    return dask_client
 
 
 @pytest.fixture(scope="module", params=[QUICK, pytest.param(REDUCED, marks=pytest.mark.slow)], ids=["quick", "reduced"])
@@ -113,6 +111,18 @@ def test_study_file_holds_every_estimate_and_its_errors(ran: Ran) -> None:
     table = (outcome.out_dir / "study.md").read_text()
     for name in ("fem_mlp", "rigid_rbf", "inverse_quasi_rigid"):
         assert f"| {name} |" in table
+
+
+def test_study_table_fits_80_columns_with_every_error_whole(ran: Ran, monkeypatch, capsys) -> None:
+    """The table ``femref study`` prints, at ``COLUMNS=80``: no wider line, every figure whole, among them each
+    estimator's mean held-out error (per cent, two decimals) as the study computed it."""
+    from femref.cli.tables import study_table
+
+    from support.tables import assert_printed_whole
+
+    text = assert_printed_whole(study_table(ran.outcome), 80, monkeypatch, capsys)
+    for name, summary in ran.outcome.sets["test"].summaries.items():
+        assert f"{summary.mean:.2%}" in text.split(), name
 
 
 def test_out_of_range_set_is_faster_than_training(ran: Ran) -> None:

@@ -1,7 +1,7 @@
 """Sweeps on a real dask.distributed cluster: the stored arrays, resume, failures, the CLI.
 
-One local cluster of two single-threaded worker processes on loopback serves every test
-of the module. The base case is small (2 cars, 8 P1 elements, 0.3 s): a sample takes
+One local cluster of two single-threaded worker processes on loopback (the session's, tests/conftest.py)
+serves every test of the module. The base case is small (2 cars, 8 P1 elements, 0.3 s): a sample takes
 well under a second, so each sweep here runs in a few seconds.
 """
 
@@ -76,15 +76,13 @@ def file_digest(path: Path) -> str:
 
 
 @pytest.fixture(scope="module")
-def cluster():
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None) as local:
-        yield local
+def client(dask_client):
+    return dask_client
 
 
 @pytest.fixture(scope="module")
-def client(cluster):
-    with distributed.Client(cluster) as dask_client:
-        yield dask_client
+def cluster(dask_client):
+    return dask_client.cluster
 
 
 @pytest.fixture(scope="module")
