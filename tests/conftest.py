@@ -2,7 +2,16 @@
 
 from __future__ import annotations
 
+import os
+
 import pytest
+
+# `make test` runs the suite in two processes (pytest-xdist, one per core of the 2-core box); its workers inherit
+# COLUMNS=80 and LINES=24 from execnet, which would force a width on every CLI test that leaves COLUMNS unset
+# (piped output is one line per row). The tests that check a width set their own.
+if os.environ.get("PYTEST_XDIST_WORKER"):
+    for name in ("COLUMNS", "LINES"):
+        os.environ.pop(name, None)
 
 
 @pytest.fixture(scope="session")
