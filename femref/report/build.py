@@ -8,7 +8,8 @@ from pathlib import Path
 
 import h5py
 
-from femref.report.measured import event_pages, event_report, is_event_file
+from femref.events import is_event_file
+from femref.report.measured import event_pages, event_report
 from femref.report.field_map import field_map_picture
 from femref.report.figures import Picture, figures_for
 from femref.report.html import render_page

@@ -20,7 +20,6 @@ import h5py
 import numpy as np
 from numpy.typing import NDArray
 
-from femref.core.catalog import SCENE_GROUP
 from femref.events import COMPLETE, EVENTS_GROUP, EVENTS_WRITTEN
 from femref.report.figures import MODEL_COLORS, Picture, figure_legend, new_figure, figure_png
 from femref.report.html import hide_local_paths, page, pictures_html, table_row
@@ -49,11 +48,6 @@ class EventData:
     estimates: list[EstimateData] = field(default_factory=list)
     closures: dict[str, dict[str, Any]] = field(default_factory=dict)
     clocks: dict[str, dict[str, Any]] = field(default_factory=dict)
-
-
-def is_event_file(h5: h5py.File) -> bool:
-    """Whether an open femref file is a measured case's event file."""
-    return SCENE_GROUP in h5 and h5[SCENE_GROUP].attrs.get("kind") == "measured"
 
 
 def event_report(path: Path, h5: h5py.File, output: str | None = None) -> str:
@@ -250,4 +244,4 @@ def _number(value: float, pattern: str) -> str:
     return "" if value is None or not math.isfinite(float(value)) else pattern.format(value)
 
 
-__all__ = ["EVENTS_PER_PAGE", "event_pages", "event_report", "is_event_file", "page_name"]
+__all__ = ["EVENTS_PER_PAGE", "event_pages", "event_report", "page_name"]
