@@ -15,8 +15,6 @@ sweep. A record is a plain dict (cheap to ship back to the client)::
     <model>/coupler_force       (couplers, force_length) N, compression positive, np.interp onto record_times
     <model>/peak_coupler_force  (couplers,) N: max of the full force history (not of the resampled one)
     <model>/wall_time_s         () s
-
-:func:`run_sample` runs one case given as data (parsed whole): the path of a case file, for comparison.
 """
 
 from __future__ import annotations
@@ -30,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from femref.case import CaseError, ImpactCase, parse_case
+from femref.case import CaseError, ImpactCase
 from femref.run.budget import check_budget
 from femref.run.costs import BUDGET_VARIABLE
 from femref.run.runner import add_measured_records, load_compiled_loop, run_model
@@ -39,7 +37,7 @@ from femref.sensing.records import acceleration_histories, fixed_length_records,
 from femref.sweep.derive import derive_case
 from femref.sweep.spec import Sweep
 
-__all__ = ["run_sample", "run_samples", "sample_records"]
+__all__ = ["run_samples", "sample_records"]
 
 
 def run_samples(sweep: Sweep | bytes, samples: list[tuple[int, dict[str, Any]]]) -> list[dict[str, Any]]:
@@ -86,15 +84,6 @@ def _budget_checked_once(sweep: Sweep, budget: str) -> bool:
     except CaseError:
         return False  # each sample is refused with its own name
     return True
-
-
-def run_sample(case_data: dict[str, Any], base_dir: str, record_length: int, force_length: int) -> dict[str, Any]:
-    """Parse one case given as data, build and run it: :func:`sample_records` (a case that does not parse: its error)."""
-    try:
-        case = parse_case(case_data, source="<sample>", base_dir=Path(base_dir))
-    except Exception as error:  # the sweep records it as the sample's failure and goes on
-        return {"error": f"{type(error).__name__}: {error}"}
-    return sample_records(case, Path(base_dir), record_length, force_length)
 
 
 def sample_records(case: ImpactCase, base_dir: Path, record_length: int, force_length: int, *, source: str = "<sample>",

@@ -245,17 +245,18 @@ def test_failed_samples_are_stored_with_their_error_and_not_rerun(client, folder
 
 
 def test_worker_records_run_time_failures(monkeypatch):
-    """``run_sample`` never raises: an exception or a failed model run comes back as the sample's error."""
+    """``sample_records`` never raises: an exception or a failed model run comes back as the sample's error (a sample
+    that breaks a rule: tests/sweep/test_derive.py)."""
     sweep = parse_sweep({"case": base_case(), "samples": 1, "seed": 0})
-    case_data = sweep.sample_data(sweep.sample(0))
-    ok = worker.run_sample(case_data, str(sweep.base_dir), 20, 20)
+    case = parse_case(sweep.sample_data(sweep.sample(0)), source="<sample>", base_dir=sweep.base_dir)
+    ok = worker.sample_records(case, sweep.base_dir, 20, 20)
     assert ok["error"] == "" and ok["fem/records"].shape == (4, 20) and ok["rigid/coupler_force"].shape == (1, 20)
 
     def broken(scene, run):
         raise RuntimeError("the stepper diverged")
 
     monkeypatch.setattr(worker, "run_model", broken)
-    assert worker.run_sample(case_data, str(sweep.base_dir), 20, 20) == {"error": "RuntimeError: the stepper diverged"}
+    assert worker.sample_records(case, sweep.base_dir, 20, 20) == {"error": "RuntimeError: the stepper diverged"}
     monkeypatch.undo()
 
     import femref.run.runner
@@ -268,9 +269,7 @@ def test_worker_records_run_time_failures(monkeypatch):
         return step(scene, run, *args, **kwargs)
 
     monkeypatch.setattr(femref.run.runner, "step_cars", fem_fails)
-    assert worker.run_sample(case_data, str(sweep.base_dir), 20, 20) == {"error": "model fem failed: FloatingPointError: non-finite acceleration"}
-    bad = dict(case_data, time={"end": -1.0})
-    assert worker.run_sample(bad, str(sweep.base_dir), 20, 20)["error"].startswith("CaseError: <sample>: time.end: must be > 0")
+    assert worker.sample_records(case, sweep.base_dir, 20, 20) == {"error": "model fem failed: FloatingPointError: non-finite acceleration"}
 
 
 @pytest.mark.filterwarnings("ignore:Port 8787 is already in use")  # the module's cluster has it
