@@ -268,13 +268,16 @@ folder, name, other = Path(sys.argv[1]), sys.argv[2], sys.argv[3]
 def wait(flag):
     while not (folder / flag).exists():
         time.sleep(0.01)
+def flag(name, text):  # whole when it appears: the test reads a flag as soon as it exists
+    part = folder / (name + ".part")
+    part.write_text(text)
+    part.replace(folder / name)
 with atomic_path(folder / "out.h5") as temporary:
     temporary.write_text(name)
-    (folder / f"{name}.ready").write_text(json.dumps([temporary.name, os.getpid()]))
+    flag(f"{name}.ready", json.dumps([temporary.name, os.getpid()]))
     wait(f"{other}.ready")
     cleanup = clean_leftovers(folder / "out.h5")
-    (folder / f"{name}.cleaned").write_text(json.dumps({"killed": [p.name for p in cleanup.killed],
-                                                        "unseen": [p.name for p, _ in cleanup.unseen]}))
+    flag(f"{name}.cleaned", json.dumps({"killed": [p.name for p in cleanup.killed], "unseen": [p.name for p, _ in cleanup.unseen]}))
     wait(f"{name}.go")
 """
 
