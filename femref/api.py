@@ -28,7 +28,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from femref.events import FileKindError
+from femref.events import FileKindError, attribute_value
 from femref.results import AXIS_NAMES
 from femref.core.publishing import OutputPathError
 from femref.flow import plan_case, run_plan
@@ -482,9 +482,9 @@ def _read_model(path: str | Path, model: str | None) -> dict[str, Any]:
             if axis is not None and name != axis_name and isinstance(g.get(name), h5py.Dataset) and g[name].shape == axis[1].shape
         }
         scores = dict(h5[f"scores/{model}"].attrs) if f"scores/{model}" in h5 else {}
-        attrs = {key: _plain(g.attrs[key]) for key in ("status", "message", "wall_time_s", "settings") if key in g.attrs}
-        attrs.update(model=model, scores={k: _plain(v) for k, v in scores.items()})
-        attrs.update({key: _plain(h5.attrs[key]) for key in ("femref_version", "case_yaml") if key in h5.attrs})
+        attrs = {key: attribute_value(g.attrs[key]) for key in ("status", "message", "wall_time_s", "settings") if key in g.attrs}
+        attrs.update(model=model, scores={k: attribute_value(v) for k, v in scores.items()})
+        attrs.update({key: attribute_value(h5.attrs[key]) for key in ("femref_version", "case_yaml") if key in h5.attrs})
         measured: dict[str, Any] = {"time": None, "probes": {}}
         if isinstance(g.get("measured"), h5py.Group):
             m = g["measured"]
@@ -529,14 +529,7 @@ def _datasets(group: Any, skip: tuple[str, ...] = AXIS_NAMES) -> dict[str, tuple
 
 
 def _units(dataset: Any) -> str:
-    return str(_plain(dataset.attrs.get("units", "")))
-
-
-def _plain(value: Any) -> Any:
-    """An HDF5 attribute as a Python value (bytes decoded, numpy scalars unwrapped)."""
-    if isinstance(value, bytes):
-        return value.decode()
-    return value.item() if hasattr(value, "item") and getattr(value, "ndim", 1) == 0 else value
+    return str(attribute_value(dataset.attrs.get("units", "")))
 
 
 def _quantities(members: dict[str, dict[str, tuple[Any, str]]]) -> list[str]:

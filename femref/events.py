@@ -312,11 +312,11 @@ def is_event_file(h5: h5py.File) -> bool:
     return SCENE_GROUP in h5 and h5[SCENE_GROUP].attrs.get("kind") == "measured"
 
 
-def _plain(value: Any) -> Any:
+def attribute_value(value: Any) -> Any:
     """An HDF5 attribute as a Python value (bytes decoded, numpy scalars unwrapped)."""
     if isinstance(value, bytes):
         return value.decode()
-    return value.item() if isinstance(value, np.generic) else value
+    return value.item() if hasattr(value, "item") and getattr(value, "ndim", 1) == 0 else value
 
 
 def _open_events(path: str | Path) -> h5py.File:
@@ -335,7 +335,7 @@ def _alarm_limit(h5: h5py.File) -> float:
     """The case's alarm limit (N, ``checks.alarm``), NaN where it sets none."""
     import yaml
 
-    case = yaml.safe_load(_plain(h5.attrs.get("case_yaml", "")) or "{}") or {}
+    case = yaml.safe_load(attribute_value(h5.attrs.get("case_yaml", "")) or "{}") or {}
     limit = (case.get("checks") or {}).get("alarm")
     return math.nan if limit is None else float(limit)
 
@@ -353,11 +353,11 @@ def event_rows(path: str | Path) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     rows = []
     with _open_events(path) as h5:
         limit = _alarm_limit(h5)
-        order = json.loads(_plain(h5[SCENE_GROUP].attrs.get("estimators", "[]")))  # the case's order (its networks: after, by name)
+        order = json.loads(attribute_value(h5[SCENE_GROUP].attrs.get("estimators", "[]")))  # the case's order (its networks: after, by name)
         events = h5[EVENTS_GROUP]
         for name in sorted(events, key=int):
             group = events[name]
-            a = {key: _plain(value) for key, value in group.attrs.items()}
+            a = {key: attribute_value(value) for key, value in group.attrs.items()}
             flags = json.loads(a.get("flags", "[]"))
             event = {
                 "event": int(name), "trigger_time_s": a["trigger_time"], "start_s": a["start"], "end_s": a["end"], "trigger_probe": a["trigger_probe"],
@@ -368,21 +368,21 @@ def event_rows(path: str | Path) -> tuple[list[dict[str, Any]], dict[str, Any]]:
                 **{reason: any(flag.startswith(f"{reason}:") for flag in flags) for reason in QUALITY_FLAGS},
                 "clock_corrected": "clock" in group,
             }
-            closures = {coupler: {key: _plain(value) for key, value in sub.attrs.items()} for coupler, sub in group.get("closure", {}).items()}
+            closures = {coupler: {key: attribute_value(value) for key, value in sub.attrs.items()} for coupler, sub in group.get("closure", {}).items()}
             names = sorted((name for name in group if name not in NOT_ESTIMATES), key=lambda name: (order.index(name) if name in order else len(order), name))
             estimates = [(estimator, coupler, data) for estimator in names for coupler, data in group[estimator].items()]
             if not estimates:
                 rows.append(event | _estimate_columns(None, None, None, {}, limit))
             for estimator, coupler, data in estimates:
                 rows.append(event | _estimate_columns(estimator, coupler, data, closures.get(coupler, {}), limit))
-        facts = {"file": str(path), "femref_version": _plain(h5.attrs.get("femref_version", "")), "complete": bool(h5.attrs.get(COMPLETE, True)),
+        facts = {"file": str(path), "femref_version": attribute_value(h5.attrs.get("femref_version", "")), "complete": bool(h5.attrs.get(COMPLETE, True)),
                  "events": len(events), "alarm_limit_N": limit}
     return rows, facts
 
 
 def _estimate_columns(estimator: str | None, coupler: str | None, data: h5py.Group | None, closure: dict[str, Any], limit: float) -> dict[str, Any]:
     """The estimate's part of a row (module docstring of :func:`event_rows`); ``data`` None: no estimate."""
-    e = {} if data is None else {key: _plain(value) for key, value in data.attrs.items()}
+    e = {} if data is None else {key: attribute_value(value) for key, value in data.attrs.items()}
     peak = e.get("peak_force", math.nan)
     time_of_peak = math.nan
     if data is not None and e.get("status") == "ok":
@@ -412,7 +412,7 @@ def event_histories(path: str | Path, event: int) -> dict[str, Any]:
         group = events[str(event)]
 
         def read(dataset: h5py.Dataset) -> tuple[NDArray[np.float64], str]:
-            return dataset[()], str(_plain(dataset.attrs.get("units", "")))
+            return dataset[()], str(attribute_value(dataset.attrs.get("units", "")))
 
         records = group["records"]
         probes: dict[str, tuple[NDArray[np.float64], str]] = {}
@@ -423,11 +423,11 @@ def event_histories(path: str | Path, event: int) -> dict[str, Any]:
                 continue
             for coupler, data in sub.items():
                 estimates[(estimator, coupler)] = {key: read(data[key]) for key in ("time", "force", "force_lower", "force_upper")}
-                estimates[(estimator, coupler)]["attrs"] = {key: _plain(value) for key, value in data.attrs.items()}
+                estimates[(estimator, coupler)]["attrs"] = {key: attribute_value(value) for key, value in data.attrs.items()}
         return {"time": read(records["time"]), "records": probes, "estimates": estimates,
-                "attrs": {key: _plain(value) for key, value in group.attrs.items()}}
+                "attrs": {key: attribute_value(value) for key, value in group.attrs.items()}}
 
 
 __all__ = ["BOUNDS", "CLOCK_UNITS", "COMPLETE", "ClockCorrection", "EVENTS_GROUP", "EVENTS_WRITTEN", "ClosureResult", "FileKindError", "EventResult",
-           "EventWriter", "ForceEstimate", "NOT_ESTIMATES", "QUALITY_FLAGS", "TABLE_COLUMNS", "TABLE_UNITS", "event_file", "event_histories", "event_rows",
+           "EventWriter", "ForceEstimate", "NOT_ESTIMATES", "QUALITY_FLAGS", "TABLE_COLUMNS", "TABLE_UNITS", "attribute_value", "event_file", "event_histories", "event_rows",
            "is_event_file", "without_histories"]
