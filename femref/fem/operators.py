@@ -99,11 +99,14 @@ class Operators:
         """``x`` as an array, the DOFs of the element holding each point ``(npoints, nb)`` and the shape functions' n-th
         derivatives there ``(nb, npoints)``."""
         x = np.atleast_1d(np.asarray(x, dtype=float))
-        if np.any(x < self.nodes[0] - 1e-12 * self.half_length) or np.any(x > self.nodes[-1] + 1e-12 * self.half_length):
-            raise ValueError(f"positions {x} lie outside the body [{self.nodes[0]}, {self.nodes[-1]}]")
-        e = np.clip(np.searchsorted(self.nodes, x, side="right") - 1, 0, self.elements - 1)
-        h = self.nodes[e + 1] - self.nodes[e]
-        xi = np.clip((x - self.nodes[e]) / h, 0.0, 1.0)
+        nodes = self.nodes
+        margin = 1e-12 * self.half_length
+        if np.any(x < nodes[0] - margin) or np.any(x > nodes[-1] + margin):
+            raise ValueError(f"positions {x} lie outside the body [{nodes[0]}, {nodes[-1]}]")
+        # np.minimum(np.maximum(…)) is np.clip without its wrappers' microseconds
+        e = np.minimum(np.maximum(np.searchsorted(nodes, x, side="right") - 1, 0), nodes.size - 2)
+        h = nodes[e + 1] - nodes[e]
+        xi = np.minimum(np.maximum((x - nodes[e]) / h, 0.0), 1.0)
         return x, self.element_dofs[e], SHAPES[self.element](xi, h, derivative)
 
 
@@ -130,7 +133,9 @@ def assemble_rod(
     points = order + 2
     structure = pattern(element, nodes.size - 1)
     ndof = structure.ndof
-    load_matrix = sp.csr_matrix((np.array([-1.0, 1.0]), np.array([0, 1]), np.array([0, 1, *([1] * (ndof - 2)), 2])), shape=(ndof, 2))
+    index = structure.indices.dtype
+    load_matrix = sp.csr_matrix((np.array([-1.0, 1.0]), np.array([0, 1], dtype=index), np.array([0, 1, *([1] * (ndof - 2)), 2], dtype=index)),
+                                shape=(ndof, 2))
     return Operators(
         kind="rod",
         element=element,

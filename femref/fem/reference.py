@@ -56,13 +56,19 @@ def reference_shapes(element: str, points: int) -> tuple[NDArray[np.float64], ND
 @dataclass(frozen=True, eq=False)
 class Pattern:
     """Where element entries go in the global CSR matrix: ``slot[e·n² + i·n + j]`` is the position in ``indices``
-    of entry ``(dofs[e, i], dofs[e, j])``; ``indptr``, ``indices`` the CSR structure (rows and columns sorted)."""
+    of entry ``(dofs[e, i], dofs[e, j])``; ``indptr``, ``indices`` the CSR structure (rows and columns sorted), in
+    scipy's index type (:func:`index_dtype`: given another, scipy converts them, a third of a small matrix's cost)."""
 
     element_dofs: NDArray[np.int64]
     slot: NDArray[np.int64]
-    indptr: NDArray[np.int64]
-    indices: NDArray[np.int64]
+    indptr: NDArray[np.int32 | np.int64]
+    indices: NDArray[np.int32 | np.int64]
     ndof: int
+
+
+def index_dtype(ndof: int, entries: int) -> type:
+    """The index type scipy gives a CSR matrix of ``ndof`` rows and ``entries`` stored entries: int32 while both fit."""
+    return np.int32 if max(ndof, entries) <= np.iinfo(np.int32).max else np.int64
 
 
 def element_dofs(element: str, elements: int) -> NDArray[np.int64]:
@@ -83,7 +89,8 @@ def pattern(element: str, elements: int) -> Pattern:
     cols = np.tile(dofs, (1, n)).ravel()
     keys, slot = np.unique(rows * ndof + cols, return_inverse=True)  # row-major, columns sorted
     indptr = np.searchsorted(keys, np.arange(ndof + 1) * ndof)
-    return Pattern(_read_only(dofs), _read_only(slot.ravel()), _read_only(indptr), _read_only(keys % ndof), ndof)
+    index = index_dtype(ndof, keys.size)
+    return Pattern(_read_only(dofs), _read_only(slot.ravel()), _read_only(indptr.astype(index)), _read_only((keys % ndof).astype(index)), ndof)
 
 
 def element_matrices(element: str, nodes: NDArray[np.float64], coefficient: Profile, derivative: int, points: int) -> NDArray[np.float64]:
@@ -112,4 +119,4 @@ def assemble(element: str, nodes: NDArray[np.float64], coefficient: Profile, der
     return matrix
 
 
-__all__ = ["Pattern", "assemble", "element_dofs", "element_matrices", "pattern", "reference_points", "reference_shapes"]
+__all__ = ["Pattern", "assemble", "element_dofs", "element_matrices", "index_dtype", "pattern", "reference_points", "reference_shapes"]

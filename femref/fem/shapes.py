@@ -16,9 +16,16 @@ from numpy.typing import NDArray
 ShapeFunction = Callable[[NDArray, NDArray, int], NDArray]
 
 
+def _broadcast(xi: NDArray, h: NDArray) -> tuple[NDArray, NDArray]:
+    """``xi`` and ``h`` as float arrays of one shape (``np.broadcast_arrays`` only when their shapes differ: it costs a
+    few µs, a sixth of sampling a car at its ends)."""
+    xi, h = np.asarray(xi, dtype=float), np.asarray(h, dtype=float)
+    return (xi, h) if xi.shape == h.shape else np.broadcast_arrays(xi, h)
+
+
 def lagrange_p1(xi: NDArray, h: NDArray, derivative: int) -> NDArray:
     """P1: ``N = [1 − ξ, ξ]``; x-derivatives by ``d/dx = (1/h) d/dξ``. Shape ``(2, *xi.shape)``."""
-    xi, h = np.broadcast_arrays(np.asarray(xi, dtype=float), np.asarray(h, dtype=float))
+    xi, h = _broadcast(xi, h)
     if derivative == 0:
         return np.stack([1.0 - xi, xi])
     if derivative == 1:
@@ -28,7 +35,7 @@ def lagrange_p1(xi: NDArray, h: NDArray, derivative: int) -> NDArray:
 
 def lagrange_p2(xi: NDArray, h: NDArray, derivative: int) -> NDArray:
     """P2: ``N = [(1−ξ)(1−2ξ), ξ(2ξ−1), 4ξ(1−ξ)]`` (vertices, then midpoint)."""
-    xi, h = np.broadcast_arrays(np.asarray(xi, dtype=float), np.asarray(h, dtype=float))
+    xi, h = _broadcast(xi, h)
     if derivative == 0:
         return np.stack([(1.0 - xi) * (1.0 - 2.0 * xi), xi * (2.0 * xi - 1.0), 4.0 * xi * (1.0 - xi)])
     if derivative == 1:
@@ -44,7 +51,7 @@ def hermite_cubic(xi: NDArray, h: NDArray, derivative: int) -> NDArray:
 
     Slope DOFs carry the factor ``h`` so that the DOFs are ``w`` and ``dw/dx``.
     """
-    xi, h = np.broadcast_arrays(np.asarray(xi, dtype=float), np.asarray(h, dtype=float))
+    xi, h = _broadcast(xi, h)
     if derivative == 0:
         return np.stack([1 - 3 * xi**2 + 2 * xi**3, h * (xi - 2 * xi**2 + xi**3), 3 * xi**2 - 2 * xi**3, h * (xi**3 - xi**2)])
     if derivative == 1:

@@ -158,6 +158,21 @@ def test_reference_shapes_are_scikit_fems_bit_for_bit_and_give_the_closed_form_e
     assert pattern("P2", 3).ndof == 7 and pattern("P2", 4).ndof == 9 and pattern("P1", 4).ndof == 5
 
 
+def test_the_rod_matrices_keep_the_index_type_scipy_gives_them():
+    """The pattern's indices are in scipy's own index type (scipy converts any other at every matrix built from them):
+    the assembled mass and load matrices hold the type scipy gives the same matrices built from dense, and their
+    arrays are their own (not the shared pattern's)."""
+    from femref.fem.reference import pattern
+
+    ops = assemble_rod(np.linspace(-1.0, 1.0, 5), 2, Uniform(1.0), Uniform(2.0), Uniform(0.5))
+    for matrix in (ops.mass, ops.load_matrix):
+        scratch = sp.csr_matrix(matrix.toarray())
+        assert matrix.indices.dtype == scratch.indices.dtype and matrix.indptr.dtype == scratch.indptr.dtype
+    shared = pattern("P2", 4)
+    assert shared.indices.dtype == ops.mass.indices.dtype
+    assert not np.shares_memory(ops.mass.indices, shared.indices) and not np.shares_memory(ops.stiffness.indptr, shared.indptr)
+
+
 def test_local_hermite_keeps_digits_on_fine_mesh():
     """Every element of a 1e4-element mesh on [−1, 1] has the analytic stiffness EI/h³·[12, 6h, −12, 6h; …].
 

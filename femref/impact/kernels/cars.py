@@ -116,16 +116,20 @@ def predict(layout: NDArray, w: NDArray, c: int) -> None:
     cf = at[COEFFICIENTS]
     u, v, a, u_free, v_free, a_free = at[U], at[V], at[A], at[U_FREE], at[V_FREE], at[A_FREE]
     hu, hv, ha = at[HISTORY_U], at[HISTORY_V], at[HISTORY_A]
-    result = w[a_free: a_free + n]  # the three history products in one sweep, diagonal by diagonal (see band_product)
-    result[:] = 0.0
-    for k in range(2 * p + 1):
-        first, last = max(0, p - k), min(n, n + p - k)
-        start, shift = k * n + first, first + k - p
-        bu, bv, ba = w[hu + start: hu + start + last - first], w[hv + start: hv + start + last - first], w[ha + start: ha + start + last - first]
-        su, sv, sa = w[u + shift: u + shift + last - first], w[v + shift: v + shift + last - first], w[a + shift: a + shift + last - first]
-        rows = result[first:last]
-        for i in range(last - first):
-            rows[i] += bu[i] * su[i] + bv[i] * sv[i] + ba[i] * sa[i]
+    if p == 0:  # a point mass or a diagonal car: the sweep's one diagonal, without the views
+        for i in range(n):
+            w[a_free + i] = 0.0 + (w[hu + i] * w[u + i] + w[hv + i] * w[v + i] + w[ha + i] * w[a + i])
+    else:  # the three history products in one sweep, diagonal by diagonal (see band_product)
+        result = w[a_free: a_free + n]
+        result[:] = 0.0
+        for k in range(2 * p + 1):
+            first, last = max(0, p - k), min(n, n + p - k)
+            start, shift = k * n + first, first + k - p
+            bu, bv, ba = w[hu + start: hu + start + last - first], w[hv + start: hv + start + last - first], w[ha + start: ha + start + last - first]
+            su, sv, sa = w[u + shift: u + shift + last - first], w[v + shift: v + shift + last - first], w[a + shift: a + shift + last - first]
+            rows = result[first:last]
+            for i in range(last - first):
+                rows[i] += bu[i] * su[i] + bv[i] * sv[i] + ba[i] * sa[i]
     if w[cf + ALPHA_F] != 0.0:
         matvec_add(w, at[LOAD], n, J, at[LOADS], w[cf + ALPHA_F], a_free)
     band_solve(w, at[EFFECTIVE_FACTOR], p, n, a_free)

@@ -20,12 +20,14 @@ or outputs (a beam with its coupler below the neutral axis) changes these maps, 
 
 What a run packs is made once where it can be: what depends only on the scene (the packed
 laws, :func:`coupler_maps`, the couplers' forces at contact, the force tolerance) once per
-scene (:func:`line_plan`), what depends on a car's system, step and maps (its factorised
-form) once per system (:func:`~femref.impact.kernels.packing.prepared_car`). A run then copies
-them: a rigid run's set-up is about 0.1 ms.
+scene (:func:`line_plan`), what depends on a car's system and step (its factorised form) once
+per system, and its coupler maps once per system and maps
+(:func:`~femref.impact.kernels.packing.prepared_car`). A run then copies them: a rigid run's
+set-up is about 0.1 ms.
 
 The steps run in chunks of about :data:`CHUNK_SECONDS` of work (:func:`chunk_after`: the first
-chunk short, each next one sized by the speed of the last), so that Python runs between them: a
+chunk short — :func:`first_chunk`, a small run's whole length — each next one sized by the speed of
+the last), so that Python runs between them: a
 signal (Ctrl-C, SIGTERM: ``KeyboardInterrupt``) stops a run within that time rather than at its
 end, and a progress callback is called (with one, a chunk is at most a hundredth of the run). A call
 costs microseconds: the chunks do not slow a run.
@@ -59,8 +61,12 @@ from femref.scene import ImpactScene
 
 #: Seconds of stepping between two returns to Python (signals, progress): :func:`chunk_after`.
 CHUNK_SECONDS = 0.1
-#: Steps of a run's first chunk, before its speed is known.
+#: Fewest steps of a run's first chunk, before its speed is known (:func:`first_chunk`).
 FIRST_CHUNK = 64
+#: Pool values × steps of a run's first chunk (:func:`first_chunk`): a step costs a few ns per value of the
+#: pool (banded cars' products and solves, state-space cars' dense products) or, for a few values, the
+#: couplers' iteration, under a µs; so this is milliseconds, a small part of :data:`CHUNK_SECONDS`.
+FIRST_CHUNK_WORK = 2**20
 
 # entries of the loop's counters
 STEP, OUTPUT, ITERATIONS, ITERATIONS_MAX, CHANGES, FAILED_STEP, WORST, FAILURE_KIND = range(8)
@@ -159,7 +165,7 @@ def solve_compiled(
     tolerance = line.force_tolerance
     setup_time = _time.perf_counter() - started
     longest = steps if progress is None else max(1, steps // 100)  # a progress bar moves by hundredths at least
-    chunk = min(FIRST_CHUNK, longest)
+    chunk = min(first_chunk(pool.values.size), longest)
     while (counters[STEP] <= steps or counters[OUTPUT] == 0) and counters[WORST] < 0:
         stop = min(steps, int(counters[STEP]) + chunk - 1)
         chunk_started = _time.perf_counter()
@@ -195,6 +201,12 @@ def solve_compiled(
         message=message,
         coupler_work=history["coupler_work"],
     )
+
+
+def first_chunk(values: int) -> int:
+    """Steps of a run's first chunk for a pool of ``values`` floats: ``FIRST_CHUNK_WORK / values``, at least
+    :data:`FIRST_CHUNK` — so that a small run (a rigid line, a coarse mesh) is one call."""
+    return max(FIRST_CHUNK, FIRST_CHUNK_WORK // max(values, 1))
 
 
 def chunk_after(chunk: int, seconds: float) -> int:
@@ -275,4 +287,4 @@ def run_steps(layout, w, laws, couplers, dt, tolerance, gain_u, gain_v, outputs,
 ENTRY_POINTS = (run_steps, car_kernels.factorise, car_kernels.start, coupler_kernels.start)
 """The compiled functions a run calls from Python (:func:`solve_compiled`, :func:`line_plan`, :mod:`.packing`): cached, the loop only loads."""
 
-__all__ = ["CHUNK_SECONDS", "ENTRY_POINTS", "FIRST_CHUNK", "LinePlan", "chunk_after", "coupler_maps", "line_plan", "record", "run_steps", "solve_compiled"]
+__all__ = ["CHUNK_SECONDS", "ENTRY_POINTS", "FIRST_CHUNK", "FIRST_CHUNK_WORK", "LinePlan", "chunk_after", "coupler_maps", "first_chunk", "line_plan", "record", "run_steps", "solve_compiled"]

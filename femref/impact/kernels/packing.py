@@ -24,8 +24,8 @@ from femref.fem.banded import entries
 from femref.fem.transient import Integrator
 from femref.impact.kernels.cars import factorise, start
 from femref.impact.kernels.pool import (
-    BAND, COUPLER_COUNT, DOFS, END_COUNT, FIELDS, GAIN_U, GAIN_V, LOAD_COUNT, LOADS, SECOND_ORDER, SENSOR_START, STATE_SPACE,
-    KIND, SENSOR_COUNT, TRANSLATION, V, X, CarPool,
+    BAND, COUPLER_COUNT, COUPLER_LOADS, COUPLER_OUTPUTS, DOFS, END_COUNT, FIELDS, GAIN_U, GAIN_V, LOAD_COUNT, LOADS, SECOND_ORDER,
+    SENSOR_START, STATE_SPACE, KIND, SENSOR_COUNT, TRANSLATION, V, X, CarPool,
 )
 from femref.impact.systems import CarSystem, SecondOrderSystem, StateSpaceSystem
 
@@ -65,13 +65,15 @@ class PreparedCar:
 
 _prepared: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 PREPARED_PER_SYSTEM = 8
-"""How many prepared forms (steps, integrators, coupler maps) are kept per system."""
+"""How many prepared forms (steps, integrators, coupler maps) are kept per system; as many factorised ones
+(steps, integrators, map sizes)."""
 
 
 def prepared_car(system: CarSystem, integrator: Integrator, dt: float, coupler_loads: NDArray, coupler_outputs: NDArray) -> PreparedCar:
     """``system`` packed and factorised for a step ``dt`` of ``integrator`` with its coupler maps ``(Bc, Cc)``:
     once per system and these arguments (a system is built once per geometry, so the runs of a sweep, a
-    study or the bench factorise each car once); the state fields are zero, :func:`pack_cars` sets them."""
+    study or the bench factorise each car once, and the cars of one geometry in a line share one
+    factorisation: it does not depend on the maps); the state fields are zero, :func:`pack_cars` sets them."""
     coupler_loads = np.ascontiguousarray(coupler_loads, dtype=float)
     coupler_outputs = np.ascontiguousarray(coupler_outputs, dtype=float)
     key = (integrator.alpha_m, integrator.alpha_f, integrator.beta, integrator.gamma, float(dt),
@@ -79,27 +81,53 @@ def prepared_car(system: CarSystem, integrator: Integrator, dt: float, coupler_l
     forms = _prepared.setdefault(system, {})
     car = forms.get(key)
     if car is None:
-        car = _prepare(system, integrator, dt, coupler_loads, coupler_outputs)
-        forms[key] = car
-        if len(forms) > PREPARED_PER_SYSTEM:
-            del forms[next(iter(forms))]
+        car = _with_maps(_factorised(system, integrator, dt, coupler_loads.shape, coupler_outputs.shape[1]), coupler_loads, coupler_outputs)
+        _keep(forms, key, car)
     return car
 
 
-def _prepare(system: CarSystem, integrator: Integrator, dt: float, coupler_loads: NDArray, coupler_outputs: NDArray) -> PreparedCar:
-    sizes, fields = _car_fields(system, integrator, dt, coupler_loads, coupler_outputs)
-    template, shapes, total = _layout(*(sizes[k] for k in (KIND, DOFS, BAND, LOAD_COUNT, END_COUNT, SENSOR_COUNT, COUPLER_COUNT)))
-    layout = template.copy()
-    layout[: COUPLER_COUNT + 1] = sizes
-    values = np.zeros(total)  # written straight into: the fields that start at zero (the state, scratch) are left so
-    for name, value in fields.items():
-        f = FIELDS_AT[name]
-        values[template[f]: template[f] + math.prod(shapes[f])] = np.ravel(value)
-    positive_definite = factorise(layout.reshape(1, -1), values, 0)
-    J, n_c = coupler_loads.shape
+def _keep(forms: dict, key: tuple, value: object) -> None:
+    """``forms[key] = value``, the oldest dropped beyond :data:`PREPARED_PER_SYSTEM`."""
+    forms[key] = value
+    if len(forms) > PREPARED_PER_SYSTEM:
+        del forms[next(iter(forms))]
+
+
+_factorised_forms: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _factorised(system: CarSystem, integrator: Integrator, dt: float, loads_shape: tuple[int, int], outputs: int) -> PreparedCar:
+    """The car packed alone and factorised, its coupler maps and gains zero: once per system, step, integrator and
+    map sizes (``J × n_c`` loads, ``Y`` end outputs), which is all the factorisation depends on."""
+    key = (integrator.alpha_m, integrator.alpha_f, integrator.beta, integrator.gamma, float(dt), loads_shape, outputs)
+    forms = _factorised_forms.setdefault(system, {})
+    car = forms.get(key)
+    if car is None:
+        J, n_c = loads_shape
+        sizes, fields = _car_fields(system, integrator, dt, J, outputs, n_c)
+        template, shapes, total = _layout(*(sizes[k] for k in (KIND, DOFS, BAND, LOAD_COUNT, END_COUNT, SENSOR_COUNT, COUPLER_COUNT)))
+        layout = template.copy()
+        layout[: COUPLER_COUNT + 1] = sizes
+        values = np.zeros(total)  # written straight into: the fields that start at zero (the state, scratch) are left so
+        for name, value in fields.items():
+            f = FIELDS_AT[name]
+            values[template[f]: template[f] + math.prod(shapes[f])] = np.ravel(value)
+        positive_definite = factorise(layout.reshape(1, -1), values, 0)
+        layout.flags.writeable = values.flags.writeable = False
+        car = PreparedCar(layout, values, shapes, bool(positive_definite), np.zeros((n_c, n_c)), np.zeros((n_c, n_c)))
+        _keep(forms, key, car)
+    return car
+
+
+def _with_maps(factorised: PreparedCar, coupler_loads: NDArray, coupler_outputs: NDArray) -> PreparedCar:
+    """The factorised car with its coupler maps ``(Bc, Cc)`` and its share ``Cc G Bc`` of the Schur gains."""
+    layout, values = factorised.layout, factorised.values.copy()
+    for f, value in ((COUPLER_LOADS, coupler_loads), (COUPLER_OUTPUTS, coupler_outputs)):
+        values[layout[f]: layout[f] + value.size] = value.ravel()
+    J = coupler_loads.shape[0]
     Y = coupler_outputs.shape[1]
     gains = [values[layout[f]: layout[f] + Y * J].reshape(Y, J) for f in (GAIN_U, GAIN_V)]
-    return PreparedCar(layout, values, shapes, bool(positive_definite),
+    return PreparedCar(layout, values, factorised.shapes, factorised.positive_definite,
                        coupler_outputs @ gains[0] @ coupler_loads, coupler_outputs @ gains[1] @ coupler_loads)
 
 
@@ -161,12 +189,11 @@ def pack_cars(
 
 
 def _car_fields(
-    system: CarSystem, integrator: Integrator, dt: float, coupler_loads: NDArray, coupler_outputs: NDArray,
+    system: CarSystem, integrator: Integrator, dt: float, J: int, Y: int, n_c: int,
 ) -> tuple[list[int], dict[str, NDArray[np.float64]]]:
-    """One car's sizes (the layout's first columns) and the values of its fields that do not start at zero, by name
-    (each anything that ravels to the size :func:`_layout` gives it)."""
-    J, n_c = coupler_loads.shape
-    Y = coupler_outputs.shape[1]
+    """One car's sizes (the layout's first columns; ``J`` end loads, ``Y`` end outputs, ``n_c`` couplers) and the
+    values of its fields that do not start at zero but the coupler maps, by name (each anything that ravels to the
+    size :func:`_layout` gives it)."""
     if isinstance(system, StateSpaceSystem):
         system.check_step(dt)
         n = system.transition.shape[0]
@@ -180,7 +207,6 @@ def _car_fields(
         }
     else:
         sizes, fields = _second_order_fields(system, integrator, dt, J, Y, n_c)
-    fields.update({"coupler_loads": coupler_loads, "coupler_outputs": coupler_outputs})
     return sizes, {name: value for name, value in fields.items() if value is not None}
 
 

@@ -127,7 +127,12 @@ def band_cholesky(w: NDArray, low: int, p: int, n: int) -> bool:
 @njit(cache=True, _nrt=False)
 def band_solve(w: NDArray, low: int, p: int, n: int, rhs: int) -> None:
     """In place: ``rhs ← A⁻¹ rhs`` with the factor of :func:`band_cholesky`, both sweeps by columns
-    (each finished unknown updates the p after it: the dependency chain is one product per row)."""
+    (each finished unknown updates the p after it: the dependency chain is one product per row); a diagonal
+    matrix (p = 0: a point mass, a modal car) row by row, the same two products."""
+    if p == 0:
+        for j in range(n):
+            w[rhs + j] = w[rhs + j] * w[low + j] * w[low + j]
+        return
     for j in range(n):  # L y = b
         xj = w[rhs + j] * w[low + j]
         w[rhs + j] = xj
@@ -144,7 +149,12 @@ def band_solve(w: NDArray, low: int, p: int, n: int, rhs: int) -> None:
 def band_product(w: NDArray, bands: int, p: int, n: int, x: int, out: int) -> None:
     """``out = A x`` for ``bands[k, i] = A[i, i + k − p]``, diagonal by diagonal: each row still sums
     its diagonals in order k = 0 … 2p, and the inner loop, over views with a zero-based index (so
-    numba adds no negative-index test), vectorises — three times faster than row by row."""
+    numba adds no negative-index test), vectorises — three times faster than row by row; a diagonal one (p = 0)
+    without the views, the same sum ``0 + A_ii x_i``."""
+    if p == 0:
+        for i in range(n):
+            w[out + i] = 0.0 + w[bands + i] * w[x + i]
+        return
     result = w[out: out + n]
     result[:] = 0.0
     for k in range(2 * p + 1):
