@@ -93,6 +93,11 @@ def pattern(element: str, elements: int) -> Pattern:
     return Pattern(_read_only(dofs), _read_only(slot.ravel()), _read_only(indptr.astype(index)), _read_only((keys % ndof).astype(index)), ndof)
 
 
+def forget_patterns() -> None:
+    """Drop the kept patterns (:func:`femref.models.base.forget_built`: a cold run builds its own)."""
+    pattern.cache_clear()
+
+
 def element_matrices(element: str, nodes: NDArray[np.float64], coefficient: Profile, derivative: int, points: int) -> NDArray[np.float64]:
     """``Aᵉ`` of every element (module docstring), shape ``(elements, n, n)``: ``x = h ξ + x₀``, ``dx = |h| w``,
     slopes ``(1/h) dR/dξ``, and one ``einsum`` over the elements — scikit-fem's basis's arithmetic, op for op."""
@@ -119,4 +124,4 @@ def assemble(element: str, nodes: NDArray[np.float64], coefficient: Profile, der
     return matrix
 
 
-__all__ = ["Pattern", "assemble", "element_dofs", "element_matrices", "index_dtype", "pattern", "reference_points", "reference_shapes"]
+__all__ = ["Pattern", "assemble", "element_dofs", "element_matrices", "forget_patterns", "index_dtype", "pattern", "reference_points", "reference_shapes"]

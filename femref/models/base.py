@@ -18,6 +18,7 @@ checks loop over the fidelities and name none.
 from __future__ import annotations
 
 import math
+import sys
 from collections import OrderedDict
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable, ClassVar, Hashable, Protocol, TypeVar
@@ -162,5 +163,10 @@ def built_once(key: Hashable, build: Callable[[], T]) -> T:
 
 def forget_built() -> None:
     """Drop every kept build: the next run of any geometry builds its cars afresh (what a benchmark
-    times when it compares a cold run with a tool that keeps nothing between runs)."""
+    times when it compares a cold run with a tool that keeps nothing between runs) — with what is kept per
+    mesh or car size, the assembly's sparsity patterns and the pool's layouts. What stays is one per process
+    and family, as a tool's code stays loaded: the compiled kernels, the reference-element tables."""
     _BUILT.clear()
+    for module, forget in (("femref.fem.reference", "forget_patterns"), ("femref.impact.kernels.packing", "forget_layouts")):
+        if module in sys.modules:  # a module never imported has kept nothing (and numba is not imported for it)
+            getattr(sys.modules[module], forget)()

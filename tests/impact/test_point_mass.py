@@ -135,3 +135,27 @@ def test_a_small_run_is_one_chunk():
     """The first chunk is ``FIRST_CHUNK_WORK`` pool values × steps, at least ``FIRST_CHUNK`` steps."""
     assert first_chunk(10**9) == FIRST_CHUNK
     assert first_chunk(100) == FIRST_CHUNK_WORK // 100 > 5000
+
+
+def test_forget_built_drops_what_a_cold_run_builds():
+    """After ``forget_built`` (what bench_peer calls before each cold run) nothing built for a size survives: the builds,
+    the factorised and prepared forms kept beside them, the sparsity patterns, the pool layouts; a run then builds them
+    again and repeats the first run's numbers to the bit."""
+    from femref.fem.reference import pattern
+    from femref.impact.kernels import packing
+
+    body = rod(HAMMER_M)
+    cars = (Car("hammer", body, 2.2, {"center": 0.0}), Car("anvil", body, 0.0, {"center": 0.0}))
+    impact = ImpactScene(cars, (Coupler("c1", 0, Coupling(LAWS["kelvin_voigt"], "bilateral", 0.0)),), (ModelRun("fem", ("fem", "fem")),),
+                         end=0.02, integrator="newmark", rho_inf=1.0)
+
+    def run():
+        systems = [model_form("fem", "impact")(car, impact, 1e-4) for car in impact.cars]
+        return solve_impact(impact, systems, 1e-4).couplers["c1"]["force"]
+
+    first = run()
+    assert pattern.cache_info().currsize and packing._layout.cache_info().currsize and len(packing._factorised_forms)
+    forget_built()
+    assert not pattern.cache_info().currsize and not packing._layout.cache_info().currsize
+    assert not packing._factorised_forms and not packing._prepared
+    np.testing.assert_array_equal(run(), first)

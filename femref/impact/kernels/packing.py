@@ -160,6 +160,11 @@ def _layout(kind: int, n: int, p: int, J: int, Y: int, S: int, n_c: int) -> tupl
     return layout, shapes, offset
 
 
+def forget_layouts() -> None:
+    """Drop the layouts kept per kind and sizes (:func:`femref.models.base.forget_built`: a cold run lays out its own)."""
+    _layout.cache_clear()
+
+
 def pack_cars(
     systems: list[CarSystem],
     prepared: list[PreparedCar],
@@ -264,4 +269,4 @@ def _second_order_fields(
     }
 
 
-__all__ = ["PREPARED_PER_SYSTEM", "PreparedCar", "pack_cars", "prepared_car"]
+__all__ = ["PREPARED_PER_SYSTEM", "PreparedCar", "forget_layouts", "pack_cars", "prepared_car"]
