@@ -12,6 +12,7 @@ lower band by columns that the compiled Cholesky factorises in place.
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 import weakref
 from dataclasses import dataclass
@@ -149,15 +150,12 @@ def _layout(kind: int, n: int, p: int, J: int, Y: int, S: int, n_c: int) -> tupl
     named.update({"gain_u": (Y, J), "gain_v": (Y, J), "coupler_loads": (J, n_c), "coupler_outputs": (n_c, Y),
                   **{name: (J,) for name in ("loads", "load_rate", "new_loads")},
                   **{name: (Y,) for name in ("end_free", "end_rate_free", "end_now")}, "scalars": (5,)})
+    shapes = {f: named.get(name, (0,)) for name, f in FIELDS_AT.items()}
+    offsets = [0, *itertools.accumulate(math.prod(shape) for shape in shapes.values())]  # the fields in column order
     layout = np.zeros(COUPLER_COUNT + 1 + len(FIELDS), dtype=np.int64)
-    shapes = {}
-    offset = 0
-    for name, f in FIELDS_AT.items():
-        shapes[f] = named.get(name, (0,))
-        layout[f] = offset
-        offset += math.prod(shapes[f])
+    layout[COUPLER_COUNT + 1:] = offsets[:-1]
     layout.flags.writeable = False
-    return layout, shapes, offset
+    return layout, shapes, offsets[-1]
 
 
 def forget_layouts() -> None:
