@@ -45,13 +45,37 @@ def as_callable(profile: ProfileLike, name: str) -> Callable[[NDArray[np.float64
     return constant
 
 
+def legendre_table(x: NDArray[np.float64], degree: int) -> NDArray[np.float64]:
+    """``P₀ … P_degree`` at x on a new last axis, by Bonnet's recurrence ``m Pₘ = (2m − 1) x Pₘ₋₁ − (m − 1) Pₘ₋₂``."""
+    table = np.empty((*np.shape(x), degree + 1))
+    table[..., 0] = 1.0
+    if degree > 0:
+        table[..., 1] = x
+    for m in range(2, degree + 1):
+        table[..., m] = ((2 * m - 1) * x * table[..., m - 1] - (m - 1) * table[..., m - 2]) / m
+    return table
+
+
 @functools.cache
 def gauss_legendre(points: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Nodes ``ξ`` and weights of the ``points``-point Gauss–Legendre rule ``∫_{−1}^{1} f ≈ Σ wᵢ f(ξᵢ)``.
 
-    Computed once per order (``leggauss`` costs a companion-matrix eigensolve); read-only, shared.
+    Golub–Welsch: the nodes are the eigenvalues of the Jacobi matrix (off-diagonal ``k/√(4k² − 1)``),
+    polished by one Newton step on ``P_n``; the weights ``wᵢ ∝ 1/(P_{n−1}(ξᵢ) P_n'(ξᵢ))`` (``(1 − ξ²) P_n' = n P_{n−1}``
+    at a root), scaled to sum to 2, and both made symmetric. Once per order (a symmetric eigensolve, not
+    the companion matrix's); read-only, shared.
     """
-    nodes, weights = np.polynomial.legendre.leggauss(points)
+    k = np.arange(1.0, points)
+    nodes = np.linalg.eigvalsh(np.diag(k / np.sqrt(4.0 * k * k - 1.0), -1))
+    for polish in (True, False):
+        table = legendre_table(nodes, points)
+        value, previous = table[:, points], table[:, points - 1]
+        slope = points * (previous - nodes * value) / (1.0 - nodes * nodes)
+        if polish:
+            nodes = nodes - value / slope
+    weights = 1.0 / (previous * slope)
+    nodes, weights = 0.5 * (nodes - nodes[::-1]), 0.5 * (weights + weights[::-1])
+    weights *= 2.0 / weights.sum()
     nodes.flags.writeable = weights.flags.writeable = False
     return nodes, weights
 
@@ -68,7 +92,7 @@ def _antiderivative_table(points: int) -> tuple[NDArray[np.float64], NDArray[np.
     angles = np.pi * (np.arange(points + 1) + 0.5) / (points + 1)
     zeta = np.cos(angles)
     bary = (-1.0) ** np.arange(points + 1) * np.sin(angles)
-    legendre = np.polynomial.legendre.legvander(np.concatenate([xi, zeta]), points)   # P₀ … Pₙ
+    legendre = legendre_table(np.concatenate([xi, zeta]), points)   # P₀ … Pₙ
     at_nodes, at_zeta = legendre[:points, :points], legendre[points:]
     integrals = np.concatenate([at_zeta[:, 1:2] + 1.0, at_zeta[:, 2:] - at_zeta[:, :-2]], axis=1)
     values = 0.5 * (integrals @ at_nodes.T) * wi
@@ -103,16 +127,6 @@ def integration_matrix(points: int) -> NDArray[np.float64]:
     matrix = lagrange_antiderivatives(gauss_legendre(points)[0], points)
     matrix.flags.writeable = False
     return matrix
-
-
-@functools.cache
-def nested_antiderivatives(points: int) -> NDArray[np.float64]:
-    """``Aⱼ(η_km)`` at the nodes ``η_km = (1 + ξₖ)(1 + ξₘ)/2 − 1`` of the rule mapped onto ``[−1, ξₖ]``,
-    ``(k, m, j)`` (once per order; read-only): the moments at :meth:`BodyQuadrature.node_partial_rules`."""
-    xi, _ = gauss_legendre(points)
-    table = lagrange_antiderivatives(0.5 * np.multiply.outer(1.0 + xi, 1.0 + xi) - 1.0, points)
-    table.flags.writeable = False
-    return table
 
 
 def _check_profile(name: str, values: NDArray[np.float64], positive: bool) -> None:
@@ -186,7 +200,7 @@ class BodyQuadrature:
         xi, wi = gauss_legendre(gauss_points)
         self._xi, self._wi = xi, wi
         a, b = self.panel_edges[:-1], self.panel_edges[1:]
-        self._half_widths = half = 0.5 * (b - a)
+        self.half_widths = half = 0.5 * (b - a)
         self.nodes = (0.5 * (a + b))[:, None] + half[:, None] * xi
         self.weights = half[:, None] * wi
 
@@ -245,22 +259,9 @@ class BodyQuadrature:
         polynomial of degree < n on the panel, and f is wanted at the nodes only.
         """
         y, p = self._checked_panel(y)
-        half = self._half_widths[p]
+        half = self.half_widths[p]
         eta = (y - self.panel_edges[p]) / half - 1.0
         return p, half[..., None] * lagrange_antiderivatives(eta, self._xi.size)
-
-    def node_partial_rules(self) -> tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-        """:meth:`partial_rule` at every node (in the order of ``nodes.ravel()``) and the moments at the rule's
-        points: panel index ``(P·n,)``, points and weights ``(P·n, n)``, moments ``(P·n, n, 3)``.
-
-        The points sit at the same local coordinates ``η_km = (1 + ξₖ)(1 + ξₘ)/2 − 1`` on every
-        panel, so :meth:`moments` there takes one table per order (:func:`nested_antiderivatives`).
-        """
-        P, n = self.nodes.shape
-        p, points, weights = self.partial_rule(self.nodes.ravel())
-        partial = self._half_widths[:, None, None] * (nested_antiderivatives(n).reshape(n * n, n) @ self._moment_density)
-        moments = self._cumulative[:-1, None] + partial                                   # (P, n·n, 3)
-        return p, points, weights, moments.reshape(P * n, n, 3)
 
     def moments(self, y: ArrayLike) -> NDArray[np.float64]:
         """``(S₀, S₁, S₂)(y) = ∫_{−l}^{y} (1, s, s²) m(s) ds`` on the last axis: the full panels to the left
