@@ -225,7 +225,9 @@ class CreepCorrection:
 def _cumulative_panels(weights: NDArray[np.float64], values: NDArray[np.float64]) -> NDArray[np.float64]:
     """``Σ`` of ``weights · values`` over the panels left of each panel edge, ``(P + 1, …)``: the full panels of ``∫_{−l}^{x}``."""
     panels = np.einsum("pn,pn...->p...", weights, values)
-    return np.concatenate([np.zeros((1, *panels.shape[1:])), np.cumsum(panels, axis=0)])
+    cumulative = np.zeros((panels.shape[0] + 1, *panels.shape[1:]))
+    np.cumsum(panels, axis=0, out=cumulative[1:])
+    return cumulative
 
 
 def _piecewise_constant(values: NDArray[np.float64], panel_segment: NDArray[np.intp], rtol: float = 1e-10) -> bool:

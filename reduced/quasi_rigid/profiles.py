@@ -45,59 +45,48 @@ def as_callable(profile: ProfileLike, name: str) -> Callable[[NDArray[np.float64
     return constant
 
 
-def legendre_table(x: NDArray[np.float64], degree: int) -> NDArray[np.float64]:
-    """``P₀ … P_degree`` at x on a new last axis, by Bonnet's recurrence ``m Pₘ = (2m − 1) x Pₘ₋₁ − (m − 1) Pₘ₋₂``."""
-    table = np.empty((*np.shape(x), degree + 1))
-    table[..., 0] = 1.0
-    if degree > 0:
-        table[..., 1] = x
-    for m in range(2, degree + 1):
-        table[..., m] = ((2 * m - 1) * x * table[..., m - 1] - (m - 1) * table[..., m - 2]) / m
-    return table
-
-
 @functools.cache
-def gauss_legendre(points: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Nodes ``ξ`` and weights of the ``points``-point Gauss–Legendre rule ``∫_{−1}^{1} f ≈ Σ wᵢ f(ξᵢ)``.
+def _jacobi_eigensystem(points: int) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Gauss–Legendre nodes ``ξᵢ``, weights ``wᵢ`` and ``Pₖ(ξᵢ)`` (k < n) from one symmetric eigensolve (Golub–Welsch).
 
-    Golub–Welsch: the nodes are the eigenvalues of the Jacobi matrix (off-diagonal ``k/√(4k² − 1)``),
-    polished by one Newton step on ``P_n``; the weights ``wᵢ ∝ 1/(P_{n−1}(ξᵢ) P_n'(ξᵢ))`` (``(1 − ξ²) P_n' = n P_{n−1}``
-    at a root), scaled to sum to 2, and both made symmetric. Once per order (a symmetric eigensolve, not
-    the companion matrix's); read-only, shared.
+    The Jacobi matrix of the orthonormal Legendre polynomials ``p̂ₖ = √(k + ½) Pₖ`` (off-diagonal ``k/√(4k² − 1)``) has
+    the nodes as eigenvalues; its normalised eigenvector ``v`` of ``ξᵢ`` is ``(p̂ₖ(ξᵢ))ₖ`` scaled, so ``wᵢ = 2 v₀ᵢ²``
+    and ``Pₖ(ξᵢ) = vₖᵢ/(v₀ᵢ √(2k + 1))``. Nodes made antisymmetric, weights symmetric and summing to 2. Read-only.
     """
     k = np.arange(1.0, points)
-    nodes = np.linalg.eigvalsh(np.diag(k / np.sqrt(4.0 * k * k - 1.0), -1))
-    for polish in (True, False):
-        table = legendre_table(nodes, points)
-        value, previous = table[:, points], table[:, points - 1]
-        slope = points * (previous - nodes * value) / (1.0 - nodes * nodes)
-        if polish:
-            nodes = nodes - value / slope
-    weights = 1.0 / (previous * slope)
+    nodes, vectors = np.linalg.eigh(np.diag(k / np.sqrt(4.0 * k * k - 1.0), -1))
+    legendre = (vectors / vectors[0]).T / np.sqrt(2.0 * np.arange(points) + 1.0)
+    weights = 2.0 * vectors[0] ** 2
     nodes, weights = 0.5 * (nodes - nodes[::-1]), 0.5 * (weights + weights[::-1])
     weights *= 2.0 / weights.sum()
-    nodes.flags.writeable = weights.flags.writeable = False
+    for array in (nodes, weights, legendre):
+        array.flags.writeable = False
+    return nodes, weights, legendre
+
+
+def gauss_legendre(points: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Nodes ``ξ`` and weights of the ``points``-point Gauss–Legendre rule ``∫_{−1}^{1} f ≈ Σ wᵢ f(ξᵢ)``
+    (:func:`_jacobi_eigensystem`: once per order; read-only, shared)."""
+    nodes, weights, _ = _jacobi_eigensystem(points)
     return nodes, weights
 
 
 @functools.cache
 def _antiderivative_table(points: int) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """The n + 1 Chebyshev points ``ζᵢ``, their barycentric weights and ``Aⱼ(ζᵢ)`` (once per order; read-only).
+    """The n + 1 Gauss–Legendre points ``ζᵢ`` of order n + 1, their barycentric weights ``(−1)ⁱ √((1 − ζᵢ²) ωᵢ)``
+    (ωᵢ the rule's weights) and ``Aⱼ(ζᵢ)`` (once per order; read-only).
 
     ``ℓⱼ = wⱼ Σ_{m<n} (m + ½) Pₘ(ξⱼ) Pₘ`` (the rule integrates ``ℓⱼ Pₘ`` exactly) and
     ``∫_{−1}^{η} Pₘ = (P_{m+1} − P_{m−1})(η)/(2m + 1)`` (``η + 1`` for m = 0) give
-    ``Aⱼ(η) = wⱼ [(η + 1)/2 + Σ_{1≤m<n} Pₘ(ξⱼ) (P_{m+1} − P_{m−1})(η)/2]``, a polynomial of degree n.
+    ``Aⱼ(η) = wⱼ [(η + 1)/2 + Σ_{1≤m<n} Pₘ(ξⱼ) (P_{m+1} − P_{m−1})(η)/2]``, a polynomial of degree n; the Legendre
+    values at both sets of points come with their rules (:func:`_jacobi_eigensystem`).
     """
-    xi, wi = gauss_legendre(points)
-    angles = np.pi * (np.arange(points + 1) + 0.5) / (points + 1)
-    zeta = np.cos(angles)
-    bary = (-1.0) ** np.arange(points + 1) * np.sin(angles)
-    legendre = legendre_table(np.concatenate([xi, zeta]), points)   # P₀ … Pₙ
-    at_nodes, at_zeta = legendre[:points, :points], legendre[points:]
+    _, wi, at_nodes = _jacobi_eigensystem(points)
+    zeta, omega, at_zeta = _jacobi_eigensystem(points + 1)
+    bary = (-1.0) ** np.arange(points + 1) * np.sqrt((1.0 - zeta * zeta) * omega)
     integrals = np.concatenate([at_zeta[:, 1:2] + 1.0, at_zeta[:, 2:] - at_zeta[:, :-2]], axis=1)
     values = 0.5 * (integrals @ at_nodes.T) * wi
-    for array in (zeta, bary, values):
-        array.flags.writeable = False
+    bary.flags.writeable = values.flags.writeable = False
     return zeta, bary, values
 
 
@@ -105,8 +94,8 @@ def lagrange_antiderivatives(eta: ArrayLike, points: int) -> NDArray[np.float64]
     """``Aⱼ(η) = ∫_{−1}^{η} ℓⱼ(ξ) dξ`` for the Lagrange basis ``ℓⱼ`` on the ``points`` Gauss nodes, on a new last axis.
 
     ``Aⱼ(1) = wⱼ``; ``Σⱼ Aⱼ(η) f(ξⱼ)`` integrates the interpolant of f. A polynomial of degree
-    n, evaluated by the barycentric formula on n + 1 Chebyshev points (stable, no recurrence
-    per point; values there from :func:`_antiderivative_table`).
+    n, evaluated by the barycentric formula on the n + 1 Gauss–Legendre points of order n + 1 (stable, no
+    recurrence per point; values there from :func:`_antiderivative_table`).
     """
     zeta, bary, values = _antiderivative_table(points)
     difference = np.asarray(eta, dtype=float)[..., None] - zeta
@@ -212,9 +201,11 @@ class BodyQuadrature:
         _check_profile("viscosity", self.viscosity, positive=False)
 
         # (1, s, s²) m at the nodes, (P, n, 3): the integrands of the moments
-        self._moment_density = self.mass[..., None] * np.stack([np.ones_like(self.nodes), self.nodes, self.nodes * self.nodes], axis=-1)
+        m, s = self.mass, self.nodes
+        self._moment_density = np.stack([m, m * s, m * (s * s)], axis=-1)
         panel_moments = np.einsum("pn,pnk->pk", self.weights, self._moment_density)
-        self._cumulative = np.vstack([np.zeros(3), np.cumsum(panel_moments, axis=0)])
+        self._cumulative = np.zeros((panel_moments.shape[0] + 1, 3))
+        np.cumsum(panel_moments, axis=0, out=self._cumulative[1:])
         self.total_mass, self.first_moment, self.second_moment = (float(v) for v in self._cumulative[-1])
         # the moments at the nodes, :meth:`interpolant_rule` at the nodes themselves
         self.node_moments = self._cumulative[:-1, None] + half[:, None, None] * (integration_matrix(gauss_points) @ self._moment_density)
