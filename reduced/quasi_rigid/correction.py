@@ -137,11 +137,10 @@ class CreepCorrection:
                     ell = terms / terms.sum(axis=1, keepdims=True)
                 rows = np.any(exact, axis=1)
                 ell[rows] = exact[rows].astype(float)
-            else:
+            else:  # the nearest group in log τ: below the geometric mean of two neighbours, the lower
                 groups = self._all_groups[1:-1]
-                nearest = np.argmin(np.abs(np.log(t)[:, None] - np.log(groups)), axis=1)
-                ell = np.zeros((t.size, groups.size))
-                ell[np.arange(t.size), nearest] = 1.0
+                nearest = np.searchsorted(np.sqrt(groups[1:] * groups[:-1]), t)
+                ell = (nearest[:, None] == np.arange(groups.size)).astype(float)
             out[mid, 1 : G - 1] = ell
         return out
 
@@ -242,6 +241,9 @@ def _distinct(values: NDArray[np.float64], rtol: float = 1e-10) -> NDArray[np.fl
     """Sorted distinct values, merging those within a relative tolerance."""
     if values.size == 0:
         return np.zeros(0)
+    low, high = values.min(), values.max()
+    if high - low <= rtol * low:  # one value (every node's, often): the sort below would merge them all
+        return np.array([low])
     v = np.sort(values.ravel())
     keep = np.concatenate([[True], np.diff(v) > rtol * v[1:]])
     return v[keep]

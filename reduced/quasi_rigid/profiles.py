@@ -178,7 +178,7 @@ class BodyQuadrature:
         inner = [float(p) for p in [*jumps, *declared_breakpoints((mass_per_length, stiffness, viscosity))]]
         inner = sorted({p for p in inner if -l * (1 - 1e-12) < p < l * (1 - 1e-12)})
         segment_edges = np.array([-l, *inner, l])
-        if np.any(np.diff(segment_edges) <= 1e-12 * l):
+        if any(right - left <= 1e-12 * l for left, right in zip([-l, *inner], [*inner, l])):
             segment_edges = np.unique(np.round(segment_edges / (1e-12 * l)) * (1e-12 * l))
         self.segment_edges = segment_edges
         a, b = segment_edges[:-1, None], segment_edges[1:, None]
@@ -214,7 +214,7 @@ class BodyQuadrature:
         compliance = self.integrate(1.0 / self.stiffness)
         self.mean_mass = self.total_mass / (2.0 * l)
         self.mean_compliance = compliance / (2.0 * l)
-        if np.any(np.isinf(tau)):
+        if np.isinf(tau).any():
             self.mean_viscous_time = float(np.inf)
         else:
             self.mean_viscous_time = self.integrate(tau / self.stiffness) / compliance
