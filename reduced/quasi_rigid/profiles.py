@@ -148,7 +148,8 @@ class BodyQuadrature:
 
     Attributes (arrays of shape ``(P, n)`` over P panels and n nodes each):
     ``nodes``, ``weights``, ``mass``, ``stiffness``, ``viscosity``, ``viscous_time``;
-    ``node_moments`` ``(P, n, 3)``, the moments at the nodes (:meth:`moments`). Scalars:
+    ``node_moments`` ``(P, n, 3)``, the moments at the nodes (:meth:`moments`); ``half_widths`` ``(P,)``,
+    the panels' half-widths. Scalars:
     ``total_mass`` ``M = S₀(l)``, ``first_moment`` ``S₁(l)``, ``second_moment``
     ``J = S₂(l)`` (about x = 0), ``mean_mass`` ``M/2l``, ``mean_compliance``
     ``⟨1/k⟩ = (1/2l)∫ dx/k`` and ``mean_viscous_time`` ``∫(c/k)/k dx / ∫ dx/k``.
