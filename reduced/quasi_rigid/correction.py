@@ -35,7 +35,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .creep import CreepKernel
-from .profiles import BodyQuadrature, viscous_time
+from .profiles import BodyQuadrature, integration_matrix, viscous_time
 
 ShapeFunctions = Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]]
 
@@ -48,7 +48,7 @@ class CreepCorrection:
     or 2 (beam). ``psi_at_nodes`` is ``ψ_{j,g} = φ_j λ_g / k`` (:meth:`_psi`, the creep strain
     per unit filtered load: ``∂C/∂x`` of the rod) at the quadrature nodes, ``(P, n, J, G)``;
     the integrals over whole panels are its Gauss sums, those over the partial panel
-    ``[e_p, x]`` the rule mapped onto it (:meth:`BodyQuadrature.partial_rule`), with ψ there.
+    ``[e_p, x]`` the integral of its interpolant through the panel's nodes (:meth:`coefficients`).
     """
 
     def __init__(
@@ -101,11 +101,8 @@ class CreepCorrection:
         """The groups for the time constants ``taus`` at the nodes, ``(P, n, I)``."""
         q = self.quadrature
         positive = taus[(taus > 0.0) & np.isfinite(taus)]
-        # piecewise constant on the segments (every node's as its segment's first node's) → exact groups
-        segment_start = np.searchsorted(q.panel_segment, q.panel_segment)  # each panel's segment's first panel
-        piecewise = bool(np.all(np.isclose(taus, taus[segment_start, :1], rtol=1e-10, atol=0.0)))
         distinct = _distinct(positive)
-        self.interpolated = distinct.size > 1 and not (piecewise and distinct.size <= max_groups)
+        self.interpolated = distinct.size > 1 and not (distinct.size <= max_groups and _piecewise_constant(taus, q.panel_segment))
         if self.interpolated:
             lo, hi = np.log(positive.min()), np.log(positive.max())
             k = np.arange(max_groups)
@@ -140,11 +137,10 @@ class CreepCorrection:
                     ell = terms / terms.sum(axis=1, keepdims=True)
                 rows = np.any(exact, axis=1)
                 ell[rows] = exact[rows].astype(float)
-            else:
+            else:  # the nearest group in log τ: below the geometric mean of two neighbours, the lower
                 groups = self._all_groups[1:-1]
-                nearest = np.argmin(np.abs(np.log(t)[:, None] - np.log(groups)), axis=1)
-                ell = np.zeros((t.size, groups.size))
-                ell[np.arange(t.size), nearest] = 1.0
+                nearest = np.searchsorted(np.sqrt(groups[1:] * groups[:-1]), t)
+                ell = (nearest[:, None] == np.arange(groups.size)).astype(float)
             out[mid, 1 : G - 1] = ell
         return out
 
@@ -177,7 +173,12 @@ class CreepCorrection:
         """``C[x, j, g]``: the correction displacement at x per unit filtered load ``L_{τ_g}[L_j]``.
 
         ``derivative = 1`` gives ``∂C/∂x`` (rod: the strain per unit load; beam: the
-        section rotation), from ``∂Kₙ/∂x`` (no numerical differentiation).
+        section rotation), from ``∂Kₙ/∂x`` (no numerical differentiation). The partial panel
+        ``[e_p, x]`` integrates the interpolant of ψ through the panel's nodes
+        (:meth:`BodyQuadrature.interpolant_rule`: no evaluation off the nodes, exact where ψ is a
+        polynomial of degree below n on the panel) when the time constants are grouped exactly (λ_g
+        constant on each panel); interpolated groups (λ_g of degree up to ``max_tau_groups`` in log τ)
+        take the Gauss rule mapped onto it with ψ evaluated there (:meth:`BodyQuadrature.partial_rule`).
         """
         if derivative not in (0, 1):
             raise ValueError("derivative must be 0 or 1")
@@ -185,20 +186,27 @@ class CreepCorrection:
         x = np.atleast_1d(np.asarray(x, dtype=float))
         if self.order == 1 and derivative == 1:
             return self._psi_at(x, q.moments(x), q.panel_of(x))
+        if not self.interpolated:
+            p, weights = q.interpolant_rule(x)
+            return self._from_rule(x, derivative, p, q.nodes[p], weights, self.psi_at_nodes[p])
         p, points, weights = q.partial_rule(x)
         psi = self._psi_at(points, q.moments(points), np.broadcast_to(p[:, None], points.shape))
-        return self._from_partial_rule(x, derivative, p, points, weights, psi)
+        return self._from_rule(x, derivative, p, points, weights, psi)
 
     def node_coefficients(self) -> NDArray[np.float64]:
-        """:meth:`coefficients` at the quadrature nodes, ``(P·n, J, G)`` in the order of ``nodes.ravel()``
-        (the moments at the partial rules' points from :meth:`BodyQuadrature.node_partial_rules`)."""
+        """:meth:`coefficients` at the quadrature nodes, ``(P·n, J, G)`` in the order of ``nodes.ravel()``: with
+        exact groups the interpolant rule at the nodes themselves is ``h Q[k]`` (:func:`.profiles.integration_matrix`),
+        one table per order."""
         q = self.quadrature
-        p, points, weights, S = q.node_partial_rules()
-        psi = self._psi_at(points, S, np.broadcast_to(p[:, None], points.shape))
-        return self._from_partial_rule(q.nodes.ravel(), 0, p, points, weights, psi)
+        if self.interpolated:
+            return self.coefficients(q.nodes.ravel())
+        P, n = q.nodes.shape
+        p = np.repeat(np.arange(P), n)
+        weights = (q.half_widths[:, None, None] * integration_matrix(n)).reshape(P * n, n)
+        return self._from_rule(q.nodes.ravel(), 0, p, q.nodes[p], weights, self.psi_at_nodes[p])
 
-    def _from_partial_rule(self, x: NDArray[np.float64], derivative: int, p: NDArray[np.intp], nodes: NDArray[np.float64],
-                           weights: NDArray[np.float64], psi: NDArray[np.float64]) -> NDArray[np.float64]:
+    def _from_rule(self, x: NDArray[np.float64], derivative: int, p: NDArray[np.intp], nodes: NDArray[np.float64],
+                   weights: NDArray[np.float64], psi: NDArray[np.float64]) -> NDArray[np.float64]:
         """C (or its x-derivative) at x from a rule for ``∫_{e_p}^{x}`` over each point's partial panel
         (panel p, nodes and weights ``(X, n)``, ψ there ``(X, n, J, G)``) and the full panels left of it."""
         xb = x[:, None, None]
@@ -216,13 +224,26 @@ class CreepCorrection:
 def _cumulative_panels(weights: NDArray[np.float64], values: NDArray[np.float64]) -> NDArray[np.float64]:
     """``Σ`` of ``weights · values`` over the panels left of each panel edge, ``(P + 1, …)``: the full panels of ``∫_{−l}^{x}``."""
     panels = np.einsum("pn,pn...->p...", weights, values)
-    return np.concatenate([np.zeros((1, *panels.shape[1:])), np.cumsum(panels, axis=0)])
+    cumulative = np.zeros((panels.shape[0] + 1, *panels.shape[1:]))
+    np.cumsum(panels, axis=0, out=cumulative[1:])
+    return cumulative
+
+
+def _piecewise_constant(values: NDArray[np.float64], panel_segment: NDArray[np.intp], rtol: float = 1e-10) -> bool:
+    """Whether every node's values ``(P, n, …)`` equal its segment's first node's within ``rtol`` (equal infinities too)."""
+    first = values[np.searchsorted(panel_segment, panel_segment), :1]  # each panel's segment's first panel's first node
+    with np.errstate(invalid="ignore"):  # ∞ − ∞
+        close = (values == first) | (np.abs(values - first) <= rtol * np.abs(first))
+    return bool(np.all(close))
 
 
 def _distinct(values: NDArray[np.float64], rtol: float = 1e-10) -> NDArray[np.float64]:
     """Sorted distinct values, merging those within a relative tolerance."""
     if values.size == 0:
         return np.zeros(0)
+    low, high = values.min(), values.max()
+    if high - low <= rtol * low:  # one value (every node's, often): the sort below would merge them all
+        return np.array([low])
     v = np.sort(values.ravel())
     keep = np.concatenate([[True], np.diff(v) > rtol * v[1:]])
     return v[keep]

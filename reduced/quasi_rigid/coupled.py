@@ -298,23 +298,18 @@ class QuasiRigidStepper:
         A[second:second + J, history + J:history + 2 * J] = weights[1] * eye_j
         A[second:second + J, current] = weights[2] * eye_j
         B[second:second + J] = weights[3] * eye_j
-        for group in range(G):
-            rows = slice(group * J, (group + 1) * J)
-            dg, ag, bg = d[group], a[group], b[group]
-            for start in (y, z, w):
-                block = slice(start + rows.start, start + rows.stop)
-                A[block, block] = dg * eye_j
-            # y: input L (L_n at the start, L_{n+1} at the end)
-            A[y + rows.start:y + rows.stop, current] = ag * eye_j
-            B[y + rows.start:y + rows.stop] = bg * eye_j
-            # z: input L̇ = (L_{n+1} − L_n)/dt at both ends
-            A[z + rows.start:z + rows.stop, current] = -(ag + bg) / dt * eye_j
-            B[z + rows.start:z + rows.stop] = (ag + bg) / dt * eye_j
-            # w: input L̈ (the state's L̈_n at the start, the new estimate at the end)
-            w_rows = slice(w + rows.start, w + rows.stop)
-            A[w_rows, second:second + J] = ag * eye_j
-            A[w_rows] += bg * A[second:second + J]
-            B[w_rows] = bg * B[second:second + J]
+        # the filters, group by group (rows g·J + j): S' = d S + a·(start input) + b·(end input)
+        eye_g = np.tile(eye_j, (G, 1))                                         # (G·J, J)
+        dg, ag, bg = (np.repeat(coefficient, J)[:, None] for coefficient in (d, a, b))
+        filters = np.arange(y, y + 3 * gj)
+        A[filters, filters] = np.tile(dg[:, 0], 3)
+        A[y:y + gj, current] = ag * eye_g                                       # y: input L (L_n, then L_{n+1})
+        B[y:y + gj] = bg * eye_g
+        A[z:z + gj, current] = -(ag + bg) / dt * eye_g                          # z: input L̇ = (L_{n+1} − L_n)/dt
+        B[z:z + gj] = (ag + bg) / dt * eye_g
+        A[w:w + gj, second:second + J] = ag * eye_g                             # w: input L̈ (L̈_n, then its new estimate)
+        A[w:w + gj] += bg * np.tile(A[second:second + J], (G, 1))
+        B[w:w + gj] = bg * np.tile(B[second:second + J], (G, 1))
         # the load history shifts
         A[history:history + J, history + J:history + 2 * J] = eye_j
         A[history + J:history + 2 * J, current] = eye_j

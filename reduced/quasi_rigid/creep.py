@@ -143,17 +143,16 @@ def update_coefficients(dt: float, tau: ArrayLike) -> tuple[NDArray[np.float64],
     Returns ``(d, a, b)`` with the shape of ``tau``.
     """
     tau = np.asarray(tau, dtype=float)
-    with np.errstate(divide="ignore"):
-        h = np.where(tau > 0.0, dt / np.where(tau > 0.0, tau, 1.0), np.inf)
-    h = np.where(np.isinf(tau), 0.0, h)
+    h = np.divide(dt, tau, out=np.full(tau.shape, np.inf), where=tau > 0.0)  # τ = ∞: h = 0
     decay = np.exp(-h)
     phi = -np.expm1(-h)
     small = h < 1e-2
-    hs = np.where(small, h, 0.0)
-    series = hs * (1 / 2 - hs * (1 / 6 - hs * (1 / 24 - hs * (1 / 120 - hs * (1 / 720 - hs / 5040)))))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        direct = 1.0 - phi / np.where(small, 1.0, h)
-    b = np.where(small, series, np.where(np.isinf(h), 1.0, direct))
+    if not np.any(small):
+        b = 1.0 - phi / h  # h = ∞: 1
+    else:
+        hs = np.where(small, h, 0.0)
+        series = hs * (1 / 2 - hs * (1 / 6 - hs * (1 / 24 - hs * (1 / 120 - hs * (1 / 720 - hs / 5040)))))
+        b = np.where(small, series, 1.0 - phi / np.where(small, 1.0, h))
     return decay, phi - b, b
 
 

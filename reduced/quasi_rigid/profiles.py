@@ -46,34 +46,47 @@ def as_callable(profile: ProfileLike, name: str) -> Callable[[NDArray[np.float64
 
 
 @functools.cache
-def gauss_legendre(points: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Nodes ``ξ`` and weights of the ``points``-point Gauss–Legendre rule ``∫_{−1}^{1} f ≈ Σ wᵢ f(ξᵢ)``.
+def _jacobi_eigensystem(points: int) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Gauss–Legendre nodes ``ξᵢ``, weights ``wᵢ`` and ``Pₖ(ξᵢ)`` (k < n) from one symmetric eigensolve (Golub–Welsch).
 
-    Computed once per order (``leggauss`` costs a companion-matrix eigensolve); read-only, shared.
+    The Jacobi matrix of the orthonormal Legendre polynomials ``p̂ₖ = √(k + ½) Pₖ`` (off-diagonal ``k/√(4k² − 1)``) has
+    the nodes as eigenvalues; its normalised eigenvector ``v`` of ``ξᵢ`` is ``(p̂ₖ(ξᵢ))ₖ`` scaled, so ``wᵢ = 2 v₀ᵢ²``
+    and ``Pₖ(ξᵢ) = vₖᵢ/(v₀ᵢ √(2k + 1))``. Nodes made antisymmetric, weights symmetric and summing to 2. Read-only.
     """
-    nodes, weights = np.polynomial.legendre.leggauss(points)
-    nodes.flags.writeable = weights.flags.writeable = False
+    k = np.arange(1.0, points)
+    nodes, vectors = np.linalg.eigh(np.diag(k / np.sqrt(4.0 * k * k - 1.0), -1))
+    legendre = (vectors / vectors[0]).T / np.sqrt(2.0 * np.arange(points) + 1.0)
+    weights = 2.0 * vectors[0] ** 2
+    nodes, weights = 0.5 * (nodes - nodes[::-1]), 0.5 * (weights + weights[::-1])
+    weights *= 2.0 / weights.sum()
+    for array in (nodes, weights, legendre):
+        array.flags.writeable = False
+    return nodes, weights, legendre
+
+
+def gauss_legendre(points: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Nodes ``ξ`` and weights of the ``points``-point Gauss–Legendre rule ``∫_{−1}^{1} f ≈ Σ wᵢ f(ξᵢ)``
+    (:func:`_jacobi_eigensystem`: once per order; read-only, shared)."""
+    nodes, weights, _ = _jacobi_eigensystem(points)
     return nodes, weights
 
 
 @functools.cache
 def _antiderivative_table(points: int) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """The n + 1 Chebyshev points ``ζᵢ``, their barycentric weights and ``Aⱼ(ζᵢ)`` (once per order; read-only).
+    """The n + 1 Gauss–Legendre points ``ζᵢ`` of order n + 1, their barycentric weights ``(−1)ⁱ √((1 − ζᵢ²) ωᵢ)``
+    (ωᵢ the rule's weights) and ``Aⱼ(ζᵢ)`` (once per order; read-only).
 
     ``ℓⱼ = wⱼ Σ_{m<n} (m + ½) Pₘ(ξⱼ) Pₘ`` (the rule integrates ``ℓⱼ Pₘ`` exactly) and
     ``∫_{−1}^{η} Pₘ = (P_{m+1} − P_{m−1})(η)/(2m + 1)`` (``η + 1`` for m = 0) give
-    ``Aⱼ(η) = wⱼ [(η + 1)/2 + Σ_{1≤m<n} Pₘ(ξⱼ) (P_{m+1} − P_{m−1})(η)/2]``, a polynomial of degree n.
+    ``Aⱼ(η) = wⱼ [(η + 1)/2 + Σ_{1≤m<n} Pₘ(ξⱼ) (P_{m+1} − P_{m−1})(η)/2]``, a polynomial of degree n; the Legendre
+    values at both sets of points come with their rules (:func:`_jacobi_eigensystem`).
     """
-    xi, wi = gauss_legendre(points)
-    angles = np.pi * (np.arange(points + 1) + 0.5) / (points + 1)
-    zeta = np.cos(angles)
-    bary = (-1.0) ** np.arange(points + 1) * np.sin(angles)
-    legendre = np.polynomial.legendre.legvander(np.concatenate([xi, zeta]), points)   # P₀ … Pₙ
-    at_nodes, at_zeta = legendre[:points, :points], legendre[points:]
+    _, wi, at_nodes = _jacobi_eigensystem(points)
+    zeta, omega, at_zeta = _jacobi_eigensystem(points + 1)
+    bary = (-1.0) ** np.arange(points + 1) * np.sqrt((1.0 - zeta * zeta) * omega)
     integrals = np.concatenate([at_zeta[:, 1:2] + 1.0, at_zeta[:, 2:] - at_zeta[:, :-2]], axis=1)
     values = 0.5 * (integrals @ at_nodes.T) * wi
-    for array in (zeta, bary, values):
-        array.flags.writeable = False
+    bary.flags.writeable = values.flags.writeable = False
     return zeta, bary, values
 
 
@@ -81,8 +94,8 @@ def lagrange_antiderivatives(eta: ArrayLike, points: int) -> NDArray[np.float64]
     """``Aⱼ(η) = ∫_{−1}^{η} ℓⱼ(ξ) dξ`` for the Lagrange basis ``ℓⱼ`` on the ``points`` Gauss nodes, on a new last axis.
 
     ``Aⱼ(1) = wⱼ``; ``Σⱼ Aⱼ(η) f(ξⱼ)`` integrates the interpolant of f. A polynomial of degree
-    n, evaluated by the barycentric formula on n + 1 Chebyshev points (stable, no recurrence
-    per point; values there from :func:`_antiderivative_table`).
+    n, evaluated by the barycentric formula on the n + 1 Gauss–Legendre points of order n + 1 (stable, no
+    recurrence per point; values there from :func:`_antiderivative_table`).
     """
     zeta, bary, values = _antiderivative_table(points)
     difference = np.asarray(eta, dtype=float)[..., None] - zeta
@@ -103,16 +116,6 @@ def integration_matrix(points: int) -> NDArray[np.float64]:
     matrix = lagrange_antiderivatives(gauss_legendre(points)[0], points)
     matrix.flags.writeable = False
     return matrix
-
-
-@functools.cache
-def nested_antiderivatives(points: int) -> NDArray[np.float64]:
-    """``Aⱼ(η_km)`` at the nodes ``η_km = (1 + ξₖ)(1 + ξₘ)/2 − 1`` of the rule mapped onto ``[−1, ξₖ]``,
-    ``(k, m, j)`` (once per order; read-only): the moments at :meth:`BodyQuadrature.node_partial_rules`."""
-    xi, _ = gauss_legendre(points)
-    table = lagrange_antiderivatives(0.5 * np.multiply.outer(1.0 + xi, 1.0 + xi) - 1.0, points)
-    table.flags.writeable = False
-    return table
 
 
 def _check_profile(name: str, values: NDArray[np.float64], positive: bool) -> None:
@@ -145,7 +148,8 @@ class BodyQuadrature:
 
     Attributes (arrays of shape ``(P, n)`` over P panels and n nodes each):
     ``nodes``, ``weights``, ``mass``, ``stiffness``, ``viscosity``, ``viscous_time``;
-    ``node_moments`` ``(P, n, 3)``, the moments at the nodes (:meth:`moments`). Scalars:
+    ``node_moments`` ``(P, n, 3)``, the moments at the nodes (:meth:`moments`); ``half_widths`` ``(P,)``,
+    the panels' half-widths. Scalars:
     ``total_mass`` ``M = S₀(l)``, ``first_moment`` ``S₁(l)``, ``second_moment``
     ``J = S₂(l)`` (about x = 0), ``mean_mass`` ``M/2l``, ``mean_compliance``
     ``⟨1/k⟩ = (1/2l)∫ dx/k`` and ``mean_viscous_time`` ``∫(c/k)/k dx / ∫ dx/k``.
@@ -175,7 +179,7 @@ class BodyQuadrature:
         inner = [float(p) for p in [*jumps, *declared_breakpoints((mass_per_length, stiffness, viscosity))]]
         inner = sorted({p for p in inner if -l * (1 - 1e-12) < p < l * (1 - 1e-12)})
         segment_edges = np.array([-l, *inner, l])
-        if np.any(np.diff(segment_edges) <= 1e-12 * l):
+        if any(right - left <= 1e-12 * l for left, right in zip([-l, *inner], [*inner, l])):
             segment_edges = np.unique(np.round(segment_edges / (1e-12 * l)) * (1e-12 * l))
         self.segment_edges = segment_edges
         a, b = segment_edges[:-1, None], segment_edges[1:, None]
@@ -186,7 +190,7 @@ class BodyQuadrature:
         xi, wi = gauss_legendre(gauss_points)
         self._xi, self._wi = xi, wi
         a, b = self.panel_edges[:-1], self.panel_edges[1:]
-        self._half_widths = half = 0.5 * (b - a)
+        self.half_widths = half = 0.5 * (b - a)
         self.nodes = (0.5 * (a + b))[:, None] + half[:, None] * xi
         self.weights = half[:, None] * wi
 
@@ -198,9 +202,11 @@ class BodyQuadrature:
         _check_profile("viscosity", self.viscosity, positive=False)
 
         # (1, s, s²) m at the nodes, (P, n, 3): the integrands of the moments
-        self._moment_density = self.mass[..., None] * np.stack([np.ones_like(self.nodes), self.nodes, self.nodes * self.nodes], axis=-1)
+        m, s = self.mass, self.nodes
+        self._moment_density = np.stack([m, m * s, m * (s * s)], axis=-1)
         panel_moments = np.einsum("pn,pnk->pk", self.weights, self._moment_density)
-        self._cumulative = np.vstack([np.zeros(3), np.cumsum(panel_moments, axis=0)])
+        self._cumulative = np.zeros((panel_moments.shape[0] + 1, 3))
+        np.cumsum(panel_moments, axis=0, out=self._cumulative[1:])
         self.total_mass, self.first_moment, self.second_moment = (float(v) for v in self._cumulative[-1])
         # the moments at the nodes, :meth:`interpolant_rule` at the nodes themselves
         self.node_moments = self._cumulative[:-1, None] + half[:, None, None] * (integration_matrix(gauss_points) @ self._moment_density)
@@ -209,7 +215,7 @@ class BodyQuadrature:
         compliance = self.integrate(1.0 / self.stiffness)
         self.mean_mass = self.total_mass / (2.0 * l)
         self.mean_compliance = compliance / (2.0 * l)
-        if np.any(np.isinf(tau)):
+        if np.isinf(tau).any():
             self.mean_viscous_time = float(np.inf)
         else:
             self.mean_viscous_time = self.integrate(tau / self.stiffness) / compliance
@@ -245,22 +251,9 @@ class BodyQuadrature:
         polynomial of degree < n on the panel, and f is wanted at the nodes only.
         """
         y, p = self._checked_panel(y)
-        half = self._half_widths[p]
+        half = self.half_widths[p]
         eta = (y - self.panel_edges[p]) / half - 1.0
         return p, half[..., None] * lagrange_antiderivatives(eta, self._xi.size)
-
-    def node_partial_rules(self) -> tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-        """:meth:`partial_rule` at every node (in the order of ``nodes.ravel()``) and the moments at the rule's
-        points: panel index ``(P·n,)``, points and weights ``(P·n, n)``, moments ``(P·n, n, 3)``.
-
-        The points sit at the same local coordinates ``η_km = (1 + ξₖ)(1 + ξₘ)/2 − 1`` on every
-        panel, so :meth:`moments` there takes one table per order (:func:`nested_antiderivatives`).
-        """
-        P, n = self.nodes.shape
-        p, points, weights = self.partial_rule(self.nodes.ravel())
-        partial = self._half_widths[:, None, None] * (nested_antiderivatives(n).reshape(n * n, n) @ self._moment_density)
-        moments = self._cumulative[:-1, None] + partial                                   # (P, n·n, 3)
-        return p, points, weights, moments.reshape(P * n, n, 3)
 
     def moments(self, y: ArrayLike) -> NDArray[np.float64]:
         """``(S₀, S₁, S₂)(y) = ∫_{−l}^{y} (1, s, s²) m(s) ds`` on the last axis: the full panels to the left

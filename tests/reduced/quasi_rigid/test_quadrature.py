@@ -16,7 +16,6 @@ from reduced.quasi_rigid.profiles import (
     gauss_legendre,
     integration_matrix,
     lagrange_antiderivatives,
-    nested_antiderivatives,
 )
 
 L, M0, SLOPE = 8.0, 5000.0, 0.3
@@ -26,7 +25,7 @@ L, M0, SLOPE = 8.0, 5000.0, 0.3
 def test_lagrange_antiderivatives_integrate_every_polynomial_below_the_node_count(points):
     """``Σⱼ Aⱼ(η) ξⱼ^m = (η^{m+1} − (−1)^{m+1})/(m + 1)`` for m < n, also at η = ±1 and on the table's own points."""
     xi, wi = gauss_legendre(points)
-    eta = np.concatenate([np.linspace(-1.0, 1.0, 23), np.cos(np.pi * (np.arange(points + 1) + 0.5) / (points + 1))])
+    eta = np.concatenate([np.linspace(-1.0, 1.0, 23), gauss_legendre(points + 1)[0]])
     A = lagrange_antiderivatives(eta, points)
     np.testing.assert_allclose(lagrange_antiderivatives(1.0, points), wi, rtol=0.0, atol=1e-14)
     np.testing.assert_allclose(lagrange_antiderivatives(-1.0, points), 0.0, rtol=0.0, atol=1e-14)
@@ -35,12 +34,21 @@ def test_lagrange_antiderivatives_integrate_every_polynomial_below_the_node_coun
         np.testing.assert_allclose(A @ xi**m, exact, rtol=0.0, atol=2e-14, err_msg=f"degree {m}")
 
 
-def test_integration_tables_are_the_antiderivatives_at_their_points():
+def test_integration_matrix_is_the_antiderivatives_at_the_nodes():
     points = 7
     xi, _ = gauss_legendre(points)
     np.testing.assert_array_equal(integration_matrix(points), lagrange_antiderivatives(xi, points))
-    eta = 0.5 * np.multiply.outer(1.0 + xi, 1.0 + xi) - 1.0  # the rule mapped onto [−1, ξ_k]
-    np.testing.assert_array_equal(nested_antiderivatives(points), lagrange_antiderivatives(eta, points))
+
+
+@pytest.mark.parametrize("points", [2, 3, 8, 16, 24])
+def test_gauss_legendre_rule_against_numpy_and_exactness(points):
+    """The Golub–Welsch rule against numpy's (the companion matrix's) and exact for every degree below 2n."""
+    xi, wi = gauss_legendre(points)
+    reference_nodes, reference_weights = np.polynomial.legendre.leggauss(points)
+    np.testing.assert_allclose(xi, reference_nodes, rtol=0.0, atol=4e-15)
+    np.testing.assert_allclose(wi, reference_weights, rtol=3e-13, atol=0.0)
+    for m in range(2 * points):
+        np.testing.assert_allclose(wi @ xi**m, (1.0 - (-1.0) ** (m + 1)) / (m + 1), rtol=0.0, atol=1e-14, err_msg=f"degree {m}")
 
 
 def linear_mass_rule() -> BodyQuadrature:
@@ -62,13 +70,10 @@ def test_moments_at_any_point_and_at_the_nodes_are_exact_for_a_linear_mass():
     scale = np.abs(exact_moments(L))
     np.testing.assert_allclose(q.moments(y) / scale, exact_moments(y) / scale, rtol=0.0, atol=1e-14)
     np.testing.assert_allclose(q.node_moments / scale, exact_moments(q.nodes) / scale, rtol=0.0, atol=1e-14)
-    p, points, _, moments = q.node_partial_rules()  # the moments at every node's partial-panel points
-    np.testing.assert_array_equal(p, q.panel_of(q.nodes.ravel()))
-    np.testing.assert_allclose(moments / scale, exact_moments(points) / scale, rtol=0.0, atol=1e-14)
 
 
 def test_correction_coefficients_at_the_nodes_are_the_coefficients_there():
-    """``node_coefficients`` (one table per order) against ``coefficients`` at the same points (a rule per point)."""
+    """``node_coefficients`` (one table per order) against ``coefficients`` at the same points (an interpolant rule per point)."""
     rod = QuasiRigidRod(L, lambda x: M0 * (1.0 + SLOPE * x / L), lambda x: np.where(x < 2.0, 2.0e9, 3.0e9), 1.0e7, jumps=[2.0])
     correction = rod.correction
     at_nodes = correction.node_coefficients()
