@@ -159,23 +159,25 @@ def batched_floor(factor, history_u, history_v, history_a, u, v, a, work, steps:
                 a[i, b] = work[i, b]
 
 
-def floor_ns(dofs: int, band: int, copies: int, steps: int, repeats: int) -> float:
-    """ns per DOF and step of :func:`batched_floor` on ``copies`` copies of a system of ``dofs`` DOFs and half-bandwidth
-    ``band`` (a diagonally dominant band: the values stay bounded), best of ``repeats``."""
+def floor_copies(dofs: int, band: int, copies: int):
+    """The arguments of :func:`batched_floor` for ``copies`` copies of a system of ``dofs`` DOFs and half-bandwidth
+    ``band`` (a diagonally dominant band: the values stay bounded), compiled once."""
     bands = np.zeros((band + 1, dofs))
     bands[0], bands[1:] = 0.5, -0.1 / band
     factor = np.zeros((band + 1, dofs))
     factor[0], factor[1:] = 0.5, -0.05 / band  # 1/L_jj and L_(j+k)j of a diagonally dominant L
-    state = [np.full((dofs, copies), 1e-3) for _ in range(4)]
-    batched_floor(factor, bands, bands, bands, *state, 2, 1e-4)  # compile
-    best = np.inf
-    for _ in range(repeats):
-        started = time.perf_counter()
-        batched_floor(factor, bands, bands, bands, *state, steps, 1e-4)
-        best = min(best, time.perf_counter() - started)
-    if not np.all(np.isfinite(state[0])):
+    arguments = (factor, bands, bands, bands, *(np.full((dofs, copies), 1e-3) for _ in range(4)))
+    batched_floor(*arguments, 2, 1e-4)
+    return arguments
+
+
+def floor_seconds(arguments, steps: int) -> float:
+    """Wall time (s) of ``steps`` steps of :func:`batched_floor`."""
+    started = time.perf_counter()
+    batched_floor(*arguments, steps, 1e-4)
+    if not np.all(np.isfinite(arguments[4])):
         raise RuntimeError("the floor's copies diverged")
-    return 1e9 * best / (dofs * copies * steps)
+    return time.perf_counter() - started
 
 
 def floor(repeats: int, copies: int = 32) -> dict[str, float]:
@@ -195,15 +197,18 @@ def floor(repeats: int, copies: int = 32) -> dict[str, float]:
     integrator = INTEGRATORS[scenes[0].integrator](scenes[0].rho_inf)
     steps_of = [impact_time_step(scene, scene.runs[0])[0] for scene in scenes]
     systems = [[model_form("fem", "impact")(car, scene, dt) for car in scene.cars] for scene, dt in zip(scenes, steps_of)]
-    batch, alone = np.inf, np.inf
-    for _ in range(repeats):
+    batch, alone, bare = np.inf, np.inf, np.inf
+    for repeat in range(repeats):  # interleaved: a machine whose load drifts moves the three alike
         runs = [prepare_run(scene, cars, integrator, dt) for scene, cars, dt in zip(scenes, systems, steps_of)]
+        if repeat == 0:
+            layout, steps = runs[0].pool.layout, runs[0].steps
+            dofs, band = int(np.sum(layout[:, pool.DOFS])), int(np.max(layout[:, pool.BAND]))
+            arguments = floor_copies(dofs, band, copies)
         batch = min(batch, sum(response.wall_time for response in solve_batch(runs)))
         alone = min(alone, solve_compiled(scenes[0], systems[0], integrator, steps_of[0]).wall_time)
-    layout, steps = runs[0].pool.layout, runs[0].steps
-    dofs, band = int(np.sum(layout[:, pool.DOFS])), int(np.max(layout[:, pool.BAND]))
+        bare = min(bare, floor_seconds(arguments, steps))
     out = {"fem_dofs": dofs, "fem_band": band, "fem_steps": steps, "fem_batch_ns": 1e9 * batch / (copies * dofs * steps),
-           "fem_alone_ns": 1e9 * alone / (dofs * steps), "floor_ns": floor_ns(dofs, band, copies, steps, repeats)}
+           "fem_alone_ns": 1e9 * alone / (dofs * steps), "floor_ns": 1e9 * bare / (copies * dofs * steps)}
     out["fem_batch_over_floor"] = out["fem_batch_ns"] / out["floor_ns"]
     return out
 
