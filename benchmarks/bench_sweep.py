@@ -1,7 +1,7 @@
 """Sweep cost on dask.distributed: the fixed start-up and per-sample cost of a whole sweep, the speed-up of two
 workers, and a long rigid sweep's rate.
 
-    python benchmarks/bench_sweep.py [--part fit scaling rigid] [--repeats 5] [--json]
+    python benchmarks/bench_sweep.py [--part fit scaling rigid floor] [--repeats 5] [--json]
 
 Every sweep is the built-in default scene with its velocity drawn uniform in 1–3.5 m/s, into a fresh file.
 
@@ -16,10 +16,18 @@ scaling  the rate (samples/s) of a 200-sample fem + rigid sweep on warmed local 
          ``busy_<n>`` = rate × models' time / n, the share of each worker's wall spent in the models: a speed-up
          short of 2× with busy ≈ 1 is the models slowed by the machine's other load, not the sweep machinery.
 rigid    the whole ``run_sweep`` call of a 1000-sample rigid sweep on a warmed cluster of 2 workers (its start-up
-         reported apart): ≥ 1000 samples/s.
+         reported apart): ≥ 1000 samples/s. ``rigid_worker_cpu_ms``: the workers' process CPU per sample, the client's
+         apart (``rigid_client_cpu_ms``), figures a machine shared with other work moves less than the rate.
+floor    in this process, no Dask: the fem runs of 32 samples of the default scene (velocity drawn) stepped together
+         (:func:`femref.impact.kernels.batch.solve_batch`) against the **batched floor**, a minimal compiled loop
+         (:func:`batched_floor`, a measuring stick, not femref's) stepping 32 independent copies of a banded system of
+         the same DOFs and bandwidth with one factor, the copies innermost: per step three band products, one banded
+         solve, a Newmark update. Both as ns per DOF and step (``fem_batch_ns``, ``floor_ns``, best of ``repeats``);
+         the target is ``fem_batch_ns ≤ 5 × floor_ns``. ``fem_alone_ns``: one run alone (``solve_compiled``).
 
-Only public API is used, so the same script times another femref on the path (before/after comparisons: run it
-alternately with each on ``PYTHONPATH``; ``--json`` prints one line of figures). Nothing here is asserted: the
+Only public API is used (but ``floor``, which needs femref.impact.kernels.batch), so the same script times another
+femref on the path (before/after comparisons: run it alternately with each on ``PYTHONPATH``; ``--json`` prints one
+line of figures). Nothing here is asserted: the
 tests check correctness, this measures speed.
 """
 
@@ -31,6 +39,9 @@ import statistics
 import tempfile
 import time
 from pathlib import Path
+
+import numpy as np
+from numba import njit
 
 from femref.case.defaults import DEFAULT_SCENE_SOURCE, default_scene_data
 from femref.sweep import parse_sweep, read_sweep, run_sweep
@@ -105,20 +116,114 @@ def scaling(folder: Path) -> dict[str, float]:
 def rigid(folder: Path) -> dict[str, float]:
     cluster, client, startup = warmed_client(2)
     with cluster, client:
+        run_sweep(bench_sweep(2, ["rigid"], seed=99), folder / "rigid_warm.h5", client=client)
+        workers, mine = sum(client.run(time.process_time).values()), time.process_time()
         rate, whole, model = warm_rate(client, bench_sweep(1000, ["rigid"]), folder, "rigid")
-    return {"cluster_start_s": startup, "rigid_whole_s": whole, "rigid_whole_rate": 1000.0 / whole, "rigid_run_rate": rate, "rigid_model_ms": model}
+        workers, mine = sum(client.run(time.process_time).values()) - workers, time.process_time() - mine
+    return {"cluster_start_s": startup, "rigid_whole_s": whole, "rigid_whole_rate": 1000.0 / whole, "rigid_run_rate": rate, "rigid_model_ms": model,
+            "rigid_worker_cpu_ms": workers, "rigid_client_cpu_ms": mine}  # ms per sample: s per 1000 samples
+
+
+@njit(cache=False)
+def batched_floor(factor, history_u, history_v, history_a, u, v, a, work, steps: int, dt: float) -> None:
+    """``steps`` steps of ``B`` copies (``u[:, b]``) of one banded system: ``w = H_u u + H_v v + H_a a`` (symmetric
+    bands, ``H[k, j] = A[j + k, j]``), ``L Lᵀ a_new = w`` (``factor[0, j] = 1/L[j, j]``, ``factor[k, j] = L[j + k, j]``),
+    ``v += dt (a + a_new)/2``, ``u += dt v``; the copies innermost."""
+    n, copies = u.shape
+    p = factor.shape[0] - 1
+    for _ in range(steps):
+        for i in range(n):
+            for b in range(copies):
+                work[i, b] = history_u[0, i] * u[i, b] + history_v[0, i] * v[i, b] + history_a[0, i] * a[i, b]
+        for k in range(1, p + 1):
+            for j in range(n - k):
+                for b in range(copies):
+                    work[j + k, b] += history_u[k, j] * u[j, b] + history_v[k, j] * v[j, b] + history_a[k, j] * a[j, b]
+                    work[j, b] += history_u[k, j] * u[j + k, b] + history_v[k, j] * v[j + k, b] + history_a[k, j] * a[j + k, b]
+        for j in range(n):
+            for b in range(copies):
+                work[j, b] *= factor[0, j]
+            for k in range(1, min(p, n - 1 - j) + 1):
+                for b in range(copies):
+                    work[j + k, b] -= factor[k, j] * work[j, b]
+        for j in range(n - 1, -1, -1):
+            for k in range(1, min(p, n - 1 - j) + 1):
+                for b in range(copies):
+                    work[j, b] -= factor[k, j] * work[j + k, b]
+            for b in range(copies):
+                work[j, b] *= factor[0, j]
+        for i in range(n):
+            for b in range(copies):
+                v[i, b] += 0.5 * dt * (a[i, b] + work[i, b])
+                u[i, b] += dt * v[i, b]
+                a[i, b] = work[i, b]
+
+
+def floor_copies(dofs: int, band: int, copies: int):
+    """The arguments of :func:`batched_floor` for ``copies`` copies of a system of ``dofs`` DOFs and half-bandwidth
+    ``band`` (a diagonally dominant band: the values stay bounded), compiled once."""
+    bands = np.zeros((band + 1, dofs))
+    bands[0], bands[1:] = 0.5, -0.1 / band
+    factor = np.zeros((band + 1, dofs))
+    factor[0], factor[1:] = 0.5, -0.05 / band  # 1/L_jj and L_(j+k)j of a diagonally dominant L
+    arguments = (factor, bands, bands, bands, *(np.full((dofs, copies), 1e-3) for _ in range(4)))
+    batched_floor(*arguments, 2, 1e-4)
+    return arguments
+
+
+def floor_seconds(arguments, steps: int) -> float:
+    """Wall time (s) of ``steps`` steps of :func:`batched_floor`."""
+    started = time.perf_counter()
+    batched_floor(*arguments, steps, 1e-4)
+    if not np.all(np.isfinite(arguments[4])):
+        raise RuntimeError("the floor's copies diverged")
+    return time.perf_counter() - started
+
+
+def floor(repeats: int, copies: int = 32) -> dict[str, float]:
+    """A batched fem sweep's stepping against :func:`batched_floor` (module docstring)."""
+    from femref.fem import INTEGRATORS
+    from femref.impact.kernels import pool
+    from femref.impact.kernels.batch import prepare_run, solve_batch
+    from femref.impact.kernels.loop import solve_compiled
+    from femref.models import model_form
+    from femref.run import load_compiled_loop
+    from femref.run.timestep import impact_time_step
+    from femref.scene.build import scene_from_case
+
+    sweep = bench_sweep(copies, ["fem"])
+    scenes = [scene_from_case(sweep.sample_case(sweep.sample(i)), sweep.base_dir) for i in range(copies)]
+    load_compiled_loop(scenes[0])
+    integrator = INTEGRATORS[scenes[0].integrator](scenes[0].rho_inf)
+    steps_of = [impact_time_step(scene, scene.runs[0])[0] for scene in scenes]
+    systems = [[model_form("fem", "impact")(car, scene, dt) for car in scene.cars] for scene, dt in zip(scenes, steps_of)]
+    batch, alone, bare = np.inf, np.inf, np.inf
+    for repeat in range(repeats):  # interleaved: a machine whose load drifts moves the three alike
+        runs = [prepare_run(scene, cars, integrator, dt) for scene, cars, dt in zip(scenes, systems, steps_of)]
+        if repeat == 0:
+            layout, steps = runs[0].pool.layout, runs[0].steps
+            dofs, band = int(np.sum(layout[:, pool.DOFS])), int(np.max(layout[:, pool.BAND]))
+            arguments = floor_copies(dofs, band, copies)
+        batch = min(batch, sum(response.wall_time for response in solve_batch(runs)))
+        alone = min(alone, solve_compiled(scenes[0], systems[0], integrator, steps_of[0]).wall_time)
+        bare = min(bare, floor_seconds(arguments, steps))
+    out = {"fem_dofs": dofs, "fem_band": band, "fem_steps": steps, "fem_batch_ns": 1e9 * batch / (copies * dofs * steps),
+           "fem_alone_ns": 1e9 * alone / (dofs * steps), "floor_ns": 1e9 * bare / (copies * dofs * steps)}
+    out["fem_batch_over_floor"] = out["fem_batch_ns"] / out["floor_ns"]
+    return out
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--part", nargs="+", default=["fit", "scaling", "rigid"], choices=["fit", "scaling", "rigid"])
+    parser.add_argument("--part", nargs="+", default=["fit", "scaling", "rigid", "floor"], choices=["fit", "scaling", "rigid", "floor"])
     parser.add_argument("--repeats", type=int, default=5, help="whole sweeps per N for the fit (default 5)")
     parser.add_argument("--json", action="store_true", help="print the figures as one JSON line")
     args = parser.parse_args()
     figures: dict[str, float] = {}
     with tempfile.TemporaryDirectory() as tmp:
         for part in args.part:
-            figures.update({"fit": lambda: fit(args.repeats, Path(tmp)), "scaling": lambda: scaling(Path(tmp)), "rigid": lambda: rigid(Path(tmp))}[part]())
+            figures.update({"fit": lambda: fit(args.repeats, Path(tmp)), "scaling": lambda: scaling(Path(tmp)), "rigid": lambda: rigid(Path(tmp)),
+                            "floor": lambda: floor(args.repeats)}[part]())
     if args.json:
         print(json.dumps(figures))
         return

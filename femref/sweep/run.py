@@ -2,7 +2,7 @@
 
 The client (this process) ships the sweep — its base case, validated once — pickled with each task (a few kB,
 unpickled once per worker: :func:`femref.sweep.worker.sweep_of`), draws each sample (:meth:`Sweep.sample`) and submits the samples in batches of their
-drawn values (:func:`batch_size`, up to 32 samples) as :func:`femref.sweep.worker.run_samples` tasks, keeping
+drawn values (:func:`batch_size`, up to :data:`MAX_BATCH` samples) as :func:`femref.sweep.worker.run_samples` tasks, keeping
 about two per worker thread in flight (``distributed.as_completed`` with ``add``), so a sweep of 10⁵ samples
 never queues everything at once. A worker derives each sample's case by substitution and validates it there,
 once; a sample whose substitution breaks a rule comes back failed with the key path and the rule. Only the client
@@ -41,7 +41,7 @@ from femref.sweep.worker import run_samples
 __all__ = ["SweepInterrupted", "SweepSummary", "run_sweep"]
 
 #: Most samples in one task (:func:`batch_size`).
-MAX_BATCH = 32
+MAX_BATCH = 128
 
 #: ``progress(done, to_run)`` after each sample stored in this call.
 Progress = Callable[[int, int], None]

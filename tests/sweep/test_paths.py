@@ -73,19 +73,41 @@ def test_stored_rows_equal_femref_run_of_each_sample_case(sweep, one_worker, fol
     result file by the rule of femref.sensing.records (np.interp onto k·end/(length − 1))."""
     data = read_sweep(one_worker)
     for index in range(sweep.size):
-        case = folder / f"sample_{index}.yaml"
-        case.write_text(yaml.safe_dump(sweep.sample_data(sweep.sample(index)), sort_keys=False))
-        result = folder / f"sample_{index}.h5"
-        run = CliRunner().invoke(main, ["run", str(case), "-o", str(result)])
-        assert run.exit_code == 0, run.output
-        for model in ("fem", "rigid"):
-            alone = open_result(result, model)
-            records = [np.interp(np.linspace(0.0, END, RECORD), alone["measured_time"], alone["measured_acceleration"].sel(probe=p)) for p in data.probes]
-            np.testing.assert_allclose(data.records[model][index], records, rtol=1e-12, atol=1e-9)
-            force = alone["force"].sel(coupler="c1").values
-            np.testing.assert_allclose(data.coupler_force[model][index, 0], np.interp(np.linspace(0.0, END, FORCE), alone["time"], force), rtol=1e-12, atol=1e-6)
-            assert data.peak_coupler_force[model][index, 0] == pytest.approx(force.max(), rel=1e-12)
+        rows = {f"{model}/{name}": getattr(data, name)[model][index] for model in data.models for name in ("records", "coupler_force", "peak_coupler_force")}
+        case = _assert_rows_equal_femref_run(sweep, index, rows, data.probes, folder)
         assert parse_case(yaml.safe_load(case.read_text())).cars[1].body.mass_per_length.value == data.parameters["cars.1.body.mass_per_length"][index]
+
+
+def test_a_chunk_of_mixed_structures_equals_femref_run_of_each_sample(folder):
+    """One task's chunk whose samples draw the mesh too: its fem runs are stepped in a group per structure, its rigid
+    runs in one; each sample's record equals ``femref run`` of its case."""
+    mixed = parse_sweep({"case": base_case(), "samples": 4, "seed": 21, "parameters": {**PARAMETERS, "fem.elements": {"choice": [4, 6]}},
+                         "outputs": {"record_length": RECORD, "force_length": FORCE}}, source="mixed.yaml", base_dir=folder)
+    samples = [mixed.sample(i) for i in range(mixed.size)]
+    assert {s.values["fem.elements"] for s in samples} == {4, 6}
+    records = run_samples(mixed, [(s.index, s.substitutions) for s in samples])
+    for index, record in enumerate(records):
+        assert record["error"] == ""
+        _assert_rows_equal_femref_run(mixed, index, record, record["probes"], folder / "mixed")
+
+
+def _assert_rows_equal_femref_run(sweep, index: int, rows: dict, probes: list[str], folder):
+    """``rows`` (``<model>/records``, ``/coupler_force``, ``/peak_coupler_force``) of sample ``index`` against
+    ``femref run`` of its case file; the case file."""
+    folder.mkdir(parents=True, exist_ok=True)
+    case = folder / f"sample_{index}.yaml"
+    case.write_text(yaml.safe_dump(sweep.sample_data(sweep.sample(index)), sort_keys=False))
+    result = folder / f"sample_{index}.h5"
+    run = CliRunner().invoke(main, ["run", str(case), "-o", str(result)])
+    assert run.exit_code == 0, run.output
+    for model in ("fem", "rigid"):
+        alone = open_result(result, model)
+        records = [np.interp(np.linspace(0.0, END, RECORD), alone["measured_time"], alone["measured_acceleration"].sel(probe=p)) for p in probes]
+        np.testing.assert_allclose(rows[f"{model}/records"], records, rtol=1e-12, atol=1e-9)
+        force = alone["force"].sel(coupler="c1").values
+        np.testing.assert_allclose(rows[f"{model}/coupler_force"][0], np.interp(np.linspace(0.0, END, FORCE), alone["time"], force), rtol=1e-12, atol=1e-6)
+        assert rows[f"{model}/peak_coupler_force"][0] == pytest.approx(force.max(), rel=1e-12)
+    return case
 
 
 def _rows(path) -> dict:

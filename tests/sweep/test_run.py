@@ -19,7 +19,7 @@ from click.testing import CliRunner
 from femref.case import CaseError, parse_case
 from femref.cli import main
 from femref.sensing.records import acceleration_histories, fixed_length_records, record_times
-from femref.run import run_model, run_scene
+from femref.run import run_scene
 from femref.scene.build import scene_from_case
 from femref.sweep import SweepInterrupted, load_sweep, parse_sweep, read_sweep, run_sweep
 from femref.sweep import worker
@@ -252,23 +252,23 @@ def test_worker_records_run_time_failures(monkeypatch):
     ok = worker.sample_records(case, sweep.base_dir, 20, 20)
     assert ok["error"] == "" and ok["fem/records"].shape == (4, 20) and ok["rigid/coupler_force"].shape == (1, 20)
 
-    def broken(scene, run):
+    def broken(scenes):
         raise RuntimeError("the stepper diverged")
 
-    monkeypatch.setattr(worker, "run_model", broken)
+    monkeypatch.setattr(worker, "run_models", broken)
     assert worker.sample_records(case, sweep.base_dir, 20, 20) == {"error": "RuntimeError: the stepper diverged"}
     monkeypatch.undo()
 
-    import femref.run.runner
+    import femref.sweep.batch
 
-    step = femref.run.runner.step_cars
+    solve = femref.sweep.batch.solve_batch
 
-    def fem_fails(scene, run, *args, **kwargs):
-        if run.name == "fem":
+    def fem_fails(runs):
+        if runs[0].systems[0].fidelity == "fem":
             raise FloatingPointError("non-finite acceleration")
-        return step(scene, run, *args, **kwargs)
+        return solve(runs)
 
-    monkeypatch.setattr(femref.run.runner, "step_cars", fem_fails)
+    monkeypatch.setattr(femref.sweep.batch, "solve_batch", fem_fails)
     assert worker.sample_records(case, sweep.base_dir, 20, 20) == {"error": "model fem failed: FloatingPointError: non-finite acceleration"}
 
 
@@ -276,12 +276,16 @@ def test_worker_records_run_time_failures(monkeypatch):
 def test_a_worker_failure_is_stored_and_the_sweep_goes_on(folder, monkeypatch):
     """On an in-process cluster (so the monkeypatch reaches the worker): samples above 2 m/s fail at run time."""
 
-    def slow_ones_fail(scene, run):
+    import femref.sweep.batch
+
+    prepare = femref.sweep.batch.prepare_run
+
+    def fast_ones_fail(scene, systems, integrator, dt):
         if scene.cars[0].velocity > 2.0:
             raise RuntimeError("run-time failure")
-        return run_model(scene, run)
+        return prepare(scene, systems, integrator, dt)
 
-    monkeypatch.setattr(worker, "run_model", slow_ones_fail)
+    monkeypatch.setattr(femref.sweep.batch, "prepare_run", fast_ones_fail)
     path = write_sweep(folder / "inprocess")
     with distributed.LocalCluster(n_workers=1, processes=False, dashboard_address=None) as local, distributed.Client(local) as threads:
         summary = run_sweep(path, folder / "inprocess.h5", client=threads)
@@ -289,7 +293,7 @@ def test_a_worker_failure_is_stored_and_the_sweep_goes_on(folder, monkeypatch):
     fast = data.parameters["cars.0.velocity"] > 2.0
     assert 0 < fast.sum() < SAMPLES and summary.complete and summary.failed == fast.sum()
     np.testing.assert_array_equal(data.status, np.where(fast, FAILED, OK))
-    assert all(data.error[i] == "RuntimeError: run-time failure" for i in np.flatnonzero(fast))
+    assert all(data.error[i] == "model fem failed: RuntimeError: run-time failure" for i in np.flatnonzero(fast))
 
 
 def test_interrupt_cancels_and_keeps_the_stored_samples(client, folder):
