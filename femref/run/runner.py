@@ -259,9 +259,8 @@ def step_cars(scene: ImpactScene, run: ModelRun, dt: float, progress: Progress |
 
 #: ``(scene kind, model or estimator) → module`` that its first run in a process imports (scipy's signal tools and
 #: solvers are imported where they are used: 0.2–0.5 s of CPU each): the quasi-rigid transient response's filter, the
-#: rigid transient's integration, the inverse_quasi_rigid estimator's quadratures of the car's profiles.
-ONE_OFF_IMPORTS = {("transient", "quasi_rigid"): "scipy.signal", ("transient", "rigid"): "scipy.integrate",
-                   ("impact", "inverse_quasi_rigid"): "scipy.integrate", ("measured", "inverse_quasi_rigid"): "scipy.integrate"}
+#: rigid transient's integration.
+ONE_OFF_IMPORTS = {("transient", "quasi_rigid"): "scipy.signal", ("transient", "rigid"): "scipy.integrate"}
 
 
 def load_one_off_imports(kind: str, names: Iterable[str]) -> None:
