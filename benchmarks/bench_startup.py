@@ -7,8 +7,8 @@ groups), split into
 
 * ``imports``: CPU inside the import system (every module loaded, at start-up or later in a function)
   outside the loop's load,
-* ``loop``: CPU of :func:`femref.run.runner.load_compiled_loop` (a run's or a choice's), its imports (numba)
-  included: the compiled loop's load, after its first compilation in the tree,
+* ``loop``: CPU of :func:`femref.run.runner.load_compiled_loop` (the command's, a run's or a choice's), its imports
+  (numba) included: the compiled loop's load, after its first compilation in the tree,
 * ``models``: the models' wall time (as the run table's ``wall ms``),
 * ``rest``: the remainder (interpreter start, validation, scene, measurement, scoring, writing, table).
 
@@ -69,9 +69,10 @@ def timed_load(scene):
 
 
 runner.load_compiled_loop = timed_load
+import femref.run
 from femref.choice import choose
 
-choose.load_compiled_loop = timed_load
+femref.run.load_compiled_loop = choose.load_compiled_loop = timed_load
 try:
     main(sys.argv[2:], standalone_mode=False)
 finally:

@@ -142,10 +142,11 @@ def printed(script: str) -> str:
     return done.stdout.splitlines()[-1]
 
 
-def test_run_freezes_the_collector_at_exit_only(tmp_path) -> None:
-    """``femref run`` in-process leaves the garbage collector as it was when it returns (nothing frozen: a test session
-    keeps collecting) and freezes it at the process's exit (femref.cli.run.freeze_at_exit: an exit handler registered
-    before the runs, so run after theirs, finds the objects frozen), once however many runs."""
+def test_run_leaves_the_collector_as_it_was_and_freezes_it_at_exit(tmp_path) -> None:
+    """``femref run`` in-process leaves the garbage collector as it was when it returns — on with nothing frozen (a test
+    session keeps collecting), or off when it was off — though it froze it once per run when the runs began
+    (femref.cli.run.start_up_uncollected); and it freezes it at the process's exit (femref.cli.run.freeze_at_exit: an
+    exit handler registered before the runs, so run after theirs, finds the objects frozen), once however many runs."""
     case = tmp_path / "case.yaml"
     case.write_text(yaml.safe_dump(coarse_default_scene() | {"models": ["rigid"], "estimators": []}))
     script = "\n".join([
@@ -155,16 +156,46 @@ def test_run_freezes_the_collector_at_exit_only(tmp_path) -> None:
         "def freeze():",
         "    calls.append(gc.get_freeze_count())",
         "    gc.freeze()",
-        "command.gc = types.SimpleNamespace(freeze=freeze)",
+        "names = ('disable', 'enable', 'isenabled', 'get_freeze_count', 'unfreeze')",
+        "command.gc = types.SimpleNamespace(freeze=freeze, **{name: getattr(gc, name) for name in names})",
         "atexit.register(lambda: print('at exit:', len(calls), gc.get_freeze_count() > 0))",
         "from femref.cli import main",
-        "for _ in range(3):",
+        "def run():",
         "    try:",
         f"        main(['run', {str(case)!r}, '-o', {str(tmp_path / 'out.h5')!r}])",
         "    except SystemExit as done:",
         "        assert done.code == 0, done.code",
-        "print('after the runs:', len(calls), gc.get_freeze_count())",
+        "for _ in range(3):",
+        "    run()",
+        "print('after the runs:', len(calls), gc.get_freeze_count(), gc.isenabled())",
+        "gc.disable()",
+        "run()",
+        "print('collector off:', len(calls), gc.get_freeze_count(), gc.isenabled())",
     ])
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, cwd=REPO, timeout=600)
     assert done.returncode == 0, done.stderr[-3000:]
-    assert done.stdout.splitlines()[-2:] == ["after the runs: 0 0", "at exit: 1 True"]
+    said = [line for line in done.stdout.splitlines() if line.startswith(("after the runs:", "collector off:", "at exit:"))]
+    assert said == ["after the runs: 3 0 True", "collector off: 4 0 False", "at exit: 5 True"]
+
+
+def test_the_start_up_of_a_run_is_not_collected(tmp_path) -> None:
+    """``femref run`` of the default scene (coarse) in a fresh process: no full collection (generation 2) from the
+    command's start to its end — the start-up (imports, validation, scene, the compiled loop's load) runs with the
+    collector off, and the runs' collections traverse only what the runs make (femref.cli.run.start_up_uncollected) —
+    yet young collections run (the collector is on during the runs)."""
+    case = tmp_path / "case.yaml"
+    case.write_text(yaml.safe_dump(coarse_default_scene()))
+    script = "\n".join([
+        "import gc, json",
+        "from femref.cli import main",
+        "collections = [0, 0, 0]",
+        "gc.callbacks.append(lambda phase, info: phase == 'start' and collections.__setitem__(info['generation'], collections[info['generation']] + 1))",
+        "try:",
+        f"    main(['run', {str(case)!r}, '-o', {str(tmp_path / 'out.h5')!r}])",
+        "except SystemExit as done:",
+        "    assert done.code == 0, done.code",
+        "print(json.dumps(collections))",
+    ])
+    young, middle, full = json.loads(printed(script))
+    assert full == 0, f"{full} full collection(s) during femref run: the start-up was collected"
+    assert young > 0  # the test can fail: the collector was on during the runs
