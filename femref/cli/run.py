@@ -128,13 +128,12 @@ def _load_compiled_loop(plan, runs_begin: Callable[[], None]) -> None:
     """The last of an impact run's start-up: its compiled loop loaded (:func:`femref.run.runner.load_compiled_loop`),
     then ``runs_begin()``. A compile (the first run after an install) begins the runs first: numba's compiler leaves
     cyclic garbage that the collector must clear."""
-    from femref.impact.kernels import cache
-    from femref.impact.kernels.loop import ENTRY_POINTS
     from femref.run import load_compiled_loop
+    from femref.run.runner import compiled_loop_cached
     from femref.scene import ImpactScene
 
     if isinstance(plan.scene, ImpactScene):
-        if not cache.cached(ENTRY_POINTS):
+        if not compiled_loop_cached():
             runs_begin()
         load_compiled_loop(plan.scene)
     runs_begin()

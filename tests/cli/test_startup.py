@@ -5,6 +5,7 @@ and ``scipy.integrate`` only where a root, a fit or an adaptive quadrature is so
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -199,3 +200,41 @@ def test_the_start_up_of_a_run_is_not_collected(tmp_path) -> None:
     young, middle, full = json.loads(printed(script))
     assert full == 0, f"{full} full collection(s) during femref run: the start-up was collected"
     assert young > 0  # the test can fail: the collector was on during the runs
+
+
+def test_the_compiled_loop_loads_uncollected_and_compiles_collected(tmp_path) -> None:
+    """``femref run`` loads a cached compiled loop with the collector still off (start-up), but compiles one with it on
+    (numba's compiler leaves cyclic garbage): femref.run.runner.compiled_loop_cached decides, as it would be told."""
+    case = tmp_path / "case.yaml"
+    case.write_text(yaml.safe_dump(coarse_default_scene() | {"models": ["rigid"], "estimators": []}))
+    seen = {}
+    for cached in (True, False):
+        script = "\n".join([
+            "import gc",
+            "import femref.run",
+            "from femref.run import runner",
+            "from femref.cli import main",
+            "on = []",
+            "load = femref.run.load_compiled_loop",
+            "def watched(scene):",
+            "    on.append(gc.isenabled())",
+            "    load(scene)",
+            "femref.run.load_compiled_loop = watched",
+            f"runner.compiled_loop_cached = lambda: {cached}",
+            "try:",
+            f"    main(['run', {str(case)!r}, '-o', {str(tmp_path / 'out.h5')!r}])",
+            "except SystemExit as done:",
+            "    assert done.code == 0, done.code",
+            "print(on[0])",
+        ])
+        seen[cached] = printed(script)
+    assert seen == {True: "False", False: "True"}
+
+
+def test_compiled_loop_cached_reads_numbas_cache(tmp_path) -> None:
+    """An empty cache folder (NUMBA_CACHE_DIR): the loop would compile, and it is said before anything compiles."""
+    script = "from femref.run.runner import compiled_loop_cached\nprint(compiled_loop_cached())"
+    empty = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, cwd=REPO, timeout=600,
+                           env={**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)})
+    assert empty.returncode == 0, empty.stderr[-3000:]
+    assert empty.stdout.split() == ["False"]
