@@ -7,8 +7,8 @@ groups), split into
 
 * ``imports``: CPU inside the import system (every module loaded, at start-up or later in a function)
   outside the loop's load,
-* ``loop``: CPU of :func:`femref.run.runner.load_compiled_loop` (a run's or a choice's), its imports (numba)
-  included: the compiled loop's load, after its first compilation in the tree,
+* ``loop``: CPU of :func:`femref.run.runner.load_compiled_loop` (the command's, a run's or a choice's), its imports
+  (numba) included: the compiled loop's load, after its first compilation in the tree,
 * ``models``: the models' wall time (as the run table's ``wall ms``),
 * ``rest``: the remainder (interpreter start, validation, scene, measurement, scoring, writing, table).
 
@@ -33,22 +33,40 @@ import sys
 import tempfile
 from pathlib import Path
 
-#: The child: times its imports and the compiled loop's load, then runs ``femref`` with the given arguments.
+#: The child: times its imports and the compiled loop's load, then runs ``femref`` with the given arguments. It imports
+#: only what the command imports, when it does (``load_compiled_loop`` is wrapped as each module that holds it is
+#: loaded): a module imported ahead of the command would be imported outside its start-up (collected, for one).
 CHILD = r"""
 import importlib._bootstrap as bootstrap, json, sys, time
 
 spent = {"imports": 0.0, "loop": 0.0}
 depth = [0]
 find_and_load = bootstrap._find_and_load
+loaders = []  # the compiled loop's load, as femref.run.runner defines it
+
+
+def timed_load(scene):
+    imported, started = spent["imports"], time.process_time()
+    loaders[0](scene)
+    spent["loop"] += time.process_time() - started
+    spent["imports"] = imported
+
+
+def patched(module):
+    loader = getattr(module, "load_compiled_loop", None) if module.__name__.startswith("femref") else None
+    if loader is not None and loader is not timed_load:
+        loaders[:] = loaders or [loader]
+        module.load_compiled_loop = timed_load
+    return module
 
 
 def timed_find_and_load(name, import_):
     if depth[0]:
-        return find_and_load(name, import_)
+        return patched(find_and_load(name, import_))
     depth[0] += 1
     started = time.process_time()
     try:
-        return find_and_load(name, import_)
+        return patched(find_and_load(name, import_))
     finally:
         spent["imports"] += time.process_time() - started
         depth[0] -= 1
@@ -56,22 +74,7 @@ def timed_find_and_load(name, import_):
 
 bootstrap._find_and_load = timed_find_and_load
 from femref.cli import main
-from femref.run import runner
 
-load_compiled_loop = runner.load_compiled_loop
-
-
-def timed_load(scene):
-    imported, started = spent["imports"], time.process_time()
-    load_compiled_loop(scene)
-    spent["loop"] += time.process_time() - started
-    spent["imports"] = imported
-
-
-runner.load_compiled_loop = timed_load
-from femref.choice import choose
-
-choose.load_compiled_loop = timed_load
 try:
     main(sys.argv[2:], standalone_mode=False)
 finally:

@@ -78,7 +78,7 @@ def validate_collecting(handler: Callable[[Any], Any], data: Any, problems: list
 class CaseModel(BaseModel):
     """Base of every case-file model: frozen, finite numbers, unknown keys refused with a hint."""
 
-    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False, defer_build=True)
 
     @classmethod
     def _shorthand(cls, data: Any) -> Any:

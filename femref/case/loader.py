@@ -12,6 +12,7 @@ stand for 10⁹ values — and no alias inside its own anchor (a recursive struc
 
 from __future__ import annotations
 
+import functools
 import re
 from collections.abc import Mapping
 from pathlib import Path
@@ -33,7 +34,6 @@ MAX_YAML_DEPTH = 64
 #: Most values (scalars and collections) in a document, every alias counting its anchor's values again.
 MAX_YAML_NODES = 1_000_000
 
-_CASE_ADAPTER: TypeAdapter[Case] = TypeAdapter(Case)
 
 _RESOLVED_HEADER = "# femref resolved case: every default filled in\n"
 
@@ -182,10 +182,18 @@ def parse_case(data: Any, *, source: str = "<case>", base_dir: Path | None = Non
     if "kind" not in data:
         raise CaseError(Problem(("kind",), f"required key is missing; one of: {', '.join(CASE_KINDS)}"), source)
     context = {"base_dir": Path(base_dir) if base_dir is not None else Path.cwd()}
+    kind = data["kind"]
     try:
-        return _CASE_ADAPTER.validate_python(data, context=context)
+        if isinstance(kind, str) and kind in CASE_KINDS:
+            return CASE_KINDS[kind].model_validate(data, context=context)
+        return _case_adapter().validate_python(data, context=context)  # the rule for a kind that is none of them
     except ValidationError as error:
         raise CaseError(problems_from(error, data), source) from None
+
+
+@functools.cache
+def _case_adapter() -> TypeAdapter[Case]:
+    return TypeAdapter(Case)
 
 
 def resolved_yaml(case: Case) -> str:

@@ -173,9 +173,10 @@ def print_table(table: Table) -> None:
     natural width, one line per row, for grep, logs and the tests that read rows.
     """
     console = Console()
-    if not (console.is_terminal or os.environ.get("COLUMNS")):
-        console = Console(width=max(MIN_TABLE_WIDTH, natural_width(table)))
-    elif console.width < MIN_TABLE_WIDTH:
+    if not (console.is_terminal or os.environ.get("COLUMNS")):  # its natural width: it fits, as it is (no second layout)
+        Console(width=max(MIN_TABLE_WIDTH, natural_width(table))).print(table)
+        return
+    if console.width < MIN_TABLE_WIDTH:
         console = Console(width=MIN_TABLE_WIDTH)
     for k, part in enumerate(fit(table, console.width)):
         if k and isinstance(part, Table):

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import atexit
 import gc
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import click
@@ -26,14 +28,15 @@ def validate_command(case_path: Path | None) -> None:
 
     Exit codes: 0 valid, 2 not (the message names the key path and the rule).
     """
-    from femref.case import CaseError, resolved_yaml
-
     freeze_at_exit()
-    try:
-        case, _ = load_case_or_default(case_path)
-    except CaseError as error:
-        fail(error)
-    click.echo(resolved_yaml(case), nl=False)
+    with start_up_uncollected():
+        from femref.case import CaseError, resolved_yaml
+
+        try:
+            case, _ = load_case_or_default(case_path)
+        except CaseError as error:
+            fail(error)
+        click.echo(resolved_yaml(case), nl=False)
 
 
 @click.command("run")
@@ -61,28 +64,29 @@ def run_command(case_path: Path | None, output: Path | None, tolerance: float | 
     Exit codes: 0 written, 1 a model failed (the message says where; the file keeps every
     run), 2 bad input (nothing written).
     """
-    from femref.case import CaseError
-    from femref.case.inputs import field_models
-    from femref.flow import plan_case
-    from femref.results import field_file_paths
-
     freeze_at_exit()
-    try:
-        case, base_dir = load_case_or_default(case_path)
-        plan = plan_case(case, base_dir, source_name(case_path), tolerance)
-    except CaseError as error:
-        fail(error)
-    defaulted = output is None
-    output = output or Path(f"{case_path.stem if case_path else 'default'}.h5")
-    check_output(output, "-o", _inputs(plan.case, case_path), default=defaulted, writes=field_file_paths(output, field_models(plan.case)))
-    for note in plan.notes:
-        click.echo(f"note: {note}", err=True)
-    if plan.flow == "measure":
-        _run_measured(plan, output)
-    elif plan.flow == "choose":
-        _run_choice(plan, output)
-    else:
-        _run_simulated(plan, output)
+    with start_up_uncollected() as runs_begin:
+        from femref.case import CaseError
+        from femref.case.inputs import field_models
+        from femref.flow import plan_case
+        from femref.results import field_file_paths
+
+        try:
+            case, base_dir = load_case_or_default(case_path)
+            plan = plan_case(case, base_dir, source_name(case_path), tolerance)
+        except CaseError as error:
+            fail(error)
+        defaulted = output is None
+        output = output or Path(f"{case_path.stem if case_path else 'default'}.h5")
+        check_output(output, "-o", _inputs(plan.case, case_path), default=defaulted, writes=field_file_paths(output, field_models(plan.case)))
+        for note in plan.notes:
+            click.echo(f"note: {note}", err=True)
+        if plan.flow == "measure":
+            _run_measured(plan, output, runs_begin)
+        elif plan.flow == "choose":
+            _run_choice(plan, output, runs_begin)
+        else:
+            _run_simulated(plan, output, runs_begin)
 
 
 def freeze_at_exit() -> None:
@@ -94,22 +98,65 @@ def freeze_at_exit() -> None:
     atexit.register(gc.freeze)
 
 
-def _run_simulated(plan, output: Path) -> None:
+@contextmanager
+def start_up_uncollected() -> Iterator[Callable[[], None]]:
+    """The command's start-up — imports, validation, the scene, the compiled loop's load — with the garbage collector
+    off: what it makes lives to the end (modules, classes, numba's registries, the case), so collecting it is wasted
+    work (0.1–0.2 s of CPU in a run of the default scene, benchmarks/bench_startup.py). Yields ``runs_begin()``, to call
+    when the runs begin: every object alive moves to the permanent generation (``gc.freeze``: the runs' collections
+    traverse only what the runs make) and the collector is on again. On leaving, the collector is as it was, on or off,
+    with nothing left frozen by it (a process that runs the command in-process keeps collecting)."""
+    enabled, frozen_before = gc.isenabled(), gc.get_freeze_count() > 0
+    gc.disable()
+
+    def runs_begin() -> None:
+        if not frozen_before:
+            gc.freeze()
+        if enabled:
+            gc.enable()
+
+    try:
+        yield runs_begin
+    finally:
+        if not frozen_before:
+            gc.unfreeze()
+        if enabled:
+            gc.enable()
+
+
+def _load_compiled_loop(plan, runs_begin: Callable[[], None]) -> None:
+    """The last of an impact run's start-up: its compiled loop loaded (:func:`femref.run.runner.load_compiled_loop`),
+    then ``runs_begin()``. A compile (the first run after an install) begins the runs first: numba's compiler leaves
+    cyclic garbage that the collector must clear."""
+    from femref.run import load_compiled_loop
+    from femref.run.runner import compiled_loop_cached
+    from femref.scene import ImpactScene
+
+    if isinstance(plan.scene, ImpactScene):
+        if not compiled_loop_cached():
+            runs_begin()
+        load_compiled_loop(plan.scene)
+    runs_begin()
+
+
+def _run_simulated(plan, output: Path, runs_begin: Callable[[], None]) -> None:
     """Run every model (femref.run.run_scene), write the results and scores, print the run table."""
     from femref.flow import run_plan
 
     with model_progress(Console(stderr=True)) as progress_for:
+        _load_compiled_loop(plan, runs_begin)
         outcome = run_plan(plan, output, progress_for)
     print_table(run_table(outcome.run))
     finish(outcome.written, outcome.failures)
 
 
-def _run_choice(plan, output: Path) -> None:
+def _run_choice(plan, output: Path, runs_begin: Callable[[], None]) -> None:
     """Choose the model (femref.choice), write every run made and ``/choice``, print the ladder."""
     from femref.choice.output import choice_table
     from femref.flow import run_plan
 
     with model_progress(Console(stderr=True)) as progress_for:
+        _load_compiled_loop(plan, runs_begin)
         try:
             choice = run_plan(plan, output, progress_for)
         except RuntimeError as error:
@@ -128,7 +175,7 @@ def _inputs(case, case_path: Path | None) -> dict[str, Path | None]:
     return {"CASE": case_path, **case_input_files(case)}
 
 
-def _run_measured(plan, output: Path) -> None:
+def _run_measured(plan, output: Path, runs_begin: Callable[[], None]) -> None:
     """Every event of a measured case (femref.run.measured): write /events as each event finishes, print the event table.
 
     Progress: a stage while the records are read, then one per event. The events found over the work budget (exit 2)
@@ -140,6 +187,7 @@ def _run_measured(plan, output: Path) -> None:
 
     try:
         with model_progress(Console(stderr=True), keep_finished=False) as progress_for:
+            runs_begin()
             outcome = run_plan(plan, output, progress_for).measured
     except (RecordError, CaseError) as error:  # a record file changed since the case was validated; the events over the budget
         fail(error)

@@ -259,9 +259,8 @@ def step_cars(scene: ImpactScene, run: ModelRun, dt: float, progress: Progress |
 
 #: ``(scene kind, model or estimator) → module`` that its first run in a process imports (scipy's signal tools and
 #: solvers are imported where they are used: 0.2–0.5 s of CPU each): the quasi-rigid transient response's filter, the
-#: rigid transient's integration, the inverse_quasi_rigid estimator's quadratures of the car's profiles.
-ONE_OFF_IMPORTS = {("transient", "quasi_rigid"): "scipy.signal", ("transient", "rigid"): "scipy.integrate",
-                   ("impact", "inverse_quasi_rigid"): "scipy.integrate", ("measured", "inverse_quasi_rigid"): "scipy.integrate"}
+#: rigid transient's integration.
+ONE_OFF_IMPORTS = {("transient", "quasi_rigid"): "scipy.signal", ("transient", "rigid"): "scipy.integrate"}
 
 
 def load_one_off_imports(kind: str, names: Iterable[str]) -> None:
@@ -272,6 +271,17 @@ def load_one_off_imports(kind: str, names: Iterable[str]) -> None:
 
 
 _loop_loaded = False
+
+
+def compiled_loop_cached() -> bool:
+    """Whether :func:`load_compiled_loop` would load the compiled loop rather than compile it: loaded already in this
+    process, or numba's cache holds every entry point (:func:`femref.impact.kernels.cache.cached`)."""
+    if _loop_loaded:
+        return True
+    from femref.impact.kernels import cache  # noqa: PLC0415 (numba only where an impact is stepped)
+    from femref.impact.kernels.loop import ENTRY_POINTS  # noqa: PLC0415
+
+    return cache.cached(ENTRY_POINTS)
 
 
 def load_compiled_loop(scene: ImpactScene) -> None:
@@ -392,4 +402,4 @@ def _records_source(reference: ModelResult) -> str:
     return f"{reference.model} ({'measured' if reference.measured else 'model'})"
 
 
-__all__ = ["ONE_OFF_IMPORTS", "RunOutcome", "add_measured_records", "load_compiled_loop", "load_one_off_imports", "model_result", "run_estimators", "run_model", "run_networks", "run_scene", "step_cars", "check_reference", "merge_scores"]
+__all__ = ["ONE_OFF_IMPORTS", "RunOutcome", "add_measured_records", "compiled_loop_cached", "load_compiled_loop", "load_one_off_imports", "model_result", "run_estimators", "run_model", "run_networks", "run_scene", "step_cars", "check_reference", "merge_scores"]

@@ -1,10 +1,11 @@
 """Start-up a user does not notice (issue 31): ``femref run`` imports what its case uses and no more — the modules
 held, not the seconds. ``scipy.signal`` (with ``scipy.stats``, about 0.5 s of CPU) only where a signal tool runs, ``scipy.optimize``
-and ``scipy.integrate`` only where a root, a fit or a quadrature is sought (benchmarks/bench_startup.py measures the CPU)."""
+and ``scipy.integrate`` only where a root, a fit or an adaptive quadrature is sought (benchmarks/bench_startup.py measures the CPU)."""
 
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -71,14 +72,14 @@ def test_validating_and_planning_the_default_scene_imports_no_signal_tools_or_so
     assert "femref.flow" in modules and "pydantic" in modules
 
 
-def test_run_of_the_default_scene_imports_no_signal_tools(tmp_path) -> None:
+def test_run_of_the_default_scene_imports_no_signal_tools_or_solvers(tmp_path) -> None:
     """The default scene filters its records (the measurement chain's own low-pass, femref.sensing.measurement) and
-    its inverse_quasi_rigid integrates the car's profiles (scipy.integrate, hence scipy.optimize): no scipy.signal,
-    scipy.stats or scipy.ndimage."""
+    its inverse_quasi_rigid integrates the car's profiles (a fixed Gauss–Legendre rule,
+    femref.estimators.inverse.quasi_rigid_inversion): none of scipy's signal tools or solvers."""
     modules = run_imports(tmp_path, coarse_default_scene())
-    loaded = sorted(m for m in SIGNAL_TOOLS if m in modules)
+    loaded = sorted(m for m in (*SIGNAL_TOOLS, *SOLVERS) if m in modules)
     assert not loaded, f"femref run of the default scene imported {loaded}"
-    assert "scipy.integrate" in modules  # the test can fail: the estimator's quadrature is seen
+    assert "femref.estimators.inverse" in modules  # the test can fail: the estimators ran
 
 
 def test_run_of_models_without_estimators_imports_no_solvers(tmp_path) -> None:
@@ -142,10 +143,11 @@ def printed(script: str) -> str:
     return done.stdout.splitlines()[-1]
 
 
-def test_run_freezes_the_collector_at_exit_only(tmp_path) -> None:
-    """``femref run`` in-process leaves the garbage collector as it was when it returns (nothing frozen: a test session
-    keeps collecting) and freezes it at the process's exit (femref.cli.run.freeze_at_exit: an exit handler registered
-    before the runs, so run after theirs, finds the objects frozen), once however many runs."""
+def test_run_leaves_the_collector_as_it_was_and_freezes_it_at_exit(tmp_path) -> None:
+    """``femref run`` in-process leaves the garbage collector as it was when it returns — on with nothing frozen (a test
+    session keeps collecting), or off when it was off — though it froze it once per run when the runs began
+    (femref.cli.run.start_up_uncollected); and it freezes it at the process's exit (femref.cli.run.freeze_at_exit: an
+    exit handler registered before the runs, so run after theirs, finds the objects frozen), once however many runs."""
     case = tmp_path / "case.yaml"
     case.write_text(yaml.safe_dump(coarse_default_scene() | {"models": ["rigid"], "estimators": []}))
     script = "\n".join([
@@ -155,16 +157,84 @@ def test_run_freezes_the_collector_at_exit_only(tmp_path) -> None:
         "def freeze():",
         "    calls.append(gc.get_freeze_count())",
         "    gc.freeze()",
-        "command.gc = types.SimpleNamespace(freeze=freeze)",
+        "names = ('disable', 'enable', 'isenabled', 'get_freeze_count', 'unfreeze')",
+        "command.gc = types.SimpleNamespace(freeze=freeze, **{name: getattr(gc, name) for name in names})",
         "atexit.register(lambda: print('at exit:', len(calls), gc.get_freeze_count() > 0))",
         "from femref.cli import main",
-        "for _ in range(3):",
+        "def run():",
         "    try:",
         f"        main(['run', {str(case)!r}, '-o', {str(tmp_path / 'out.h5')!r}])",
         "    except SystemExit as done:",
         "        assert done.code == 0, done.code",
-        "print('after the runs:', len(calls), gc.get_freeze_count())",
+        "for _ in range(3):",
+        "    run()",
+        "print('after the runs:', len(calls), gc.get_freeze_count(), gc.isenabled())",
+        "gc.disable()",
+        "run()",
+        "print('collector off:', len(calls), gc.get_freeze_count(), gc.isenabled())",
     ])
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, cwd=REPO, timeout=600)
     assert done.returncode == 0, done.stderr[-3000:]
-    assert done.stdout.splitlines()[-2:] == ["after the runs: 0 0", "at exit: 1 True"]
+    said = [line for line in done.stdout.splitlines() if line.startswith(("after the runs:", "collector off:", "at exit:"))]
+    assert said == ["after the runs: 3 0 True", "collector off: 4 0 False", "at exit: 5 True"]
+
+
+def test_the_start_up_of_a_run_is_not_collected(tmp_path) -> None:
+    """``femref run`` of the default scene (coarse) in a fresh process: no full collection (generation 2) from the
+    command's start to its end — the start-up (imports, validation, scene, the compiled loop's load) runs with the
+    collector off, and the runs' collections traverse only what the runs make (femref.cli.run.start_up_uncollected) —
+    yet young collections run (the collector is on during the runs)."""
+    case = tmp_path / "case.yaml"
+    case.write_text(yaml.safe_dump(coarse_default_scene()))
+    script = "\n".join([
+        "import gc, json",
+        "from femref.cli import main",
+        "collections = [0, 0, 0]",
+        "gc.callbacks.append(lambda phase, info: phase == 'start' and collections.__setitem__(info['generation'], collections[info['generation']] + 1))",
+        "try:",
+        f"    main(['run', {str(case)!r}, '-o', {str(tmp_path / 'out.h5')!r}])",
+        "except SystemExit as done:",
+        "    assert done.code == 0, done.code",
+        "print(json.dumps(collections))",
+    ])
+    young, middle, full = json.loads(printed(script))
+    assert full == 0, f"{full} full collection(s) during femref run: the start-up was collected"
+    assert young > 0  # the test can fail: the collector was on during the runs
+
+
+def test_the_compiled_loop_loads_uncollected_and_compiles_collected(tmp_path) -> None:
+    """``femref run`` loads a cached compiled loop with the collector still off (start-up), but compiles one with it on
+    (numba's compiler leaves cyclic garbage): femref.run.runner.compiled_loop_cached decides, as it would be told."""
+    case = tmp_path / "case.yaml"
+    case.write_text(yaml.safe_dump(coarse_default_scene() | {"models": ["rigid"], "estimators": []}))
+    seen = {}
+    for cached in (True, False):
+        script = "\n".join([
+            "import gc",
+            "import femref.run",
+            "from femref.run import runner",
+            "from femref.cli import main",
+            "on = []",
+            "load = femref.run.load_compiled_loop",
+            "def watched(scene):",
+            "    on.append(gc.isenabled())",
+            "    load(scene)",
+            "femref.run.load_compiled_loop = watched",
+            f"runner.compiled_loop_cached = lambda: {cached}",
+            "try:",
+            f"    main(['run', {str(case)!r}, '-o', {str(tmp_path / 'out.h5')!r}])",
+            "except SystemExit as done:",
+            "    assert done.code == 0, done.code",
+            "print(on[0])",
+        ])
+        seen[cached] = printed(script)
+    assert seen == {True: "False", False: "True"}
+
+
+def test_compiled_loop_cached_reads_numbas_cache(tmp_path) -> None:
+    """An empty cache folder (NUMBA_CACHE_DIR): the loop would compile, and it is said before anything compiles."""
+    script = "from femref.run.runner import compiled_loop_cached\nprint(compiled_loop_cached())"
+    empty = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, cwd=REPO, timeout=600,
+                           env={**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)})
+    assert empty.returncode == 0, empty.stderr[-3000:]
+    assert empty.stdout.split() == ["False"]
