@@ -5,15 +5,16 @@ Each module here is held by the tests to the readable reference engine
 
 Importing this package puts femref's cache locator first among numba's (the kernels' cache
 folder and the stamp that keeps it true: :mod:`femref.impact.kernels.cache`) and removes
-cached machine code of other sources, before any kernel is decorated.
+cached machine code of other sources (copying in what the wheel compiled at its build), before
+any kernel is decorated.
 """
 
 from __future__ import annotations
 
-from femref.impact.kernels.cache import cache_directory, discard_stale_cache, install_locator
+from femref.impact.kernels.cache import cache_directory, install_locator, refresh_cache
 from femref.impact.kernels.sources import engine_stamp
 
 install_locator()
-discard_stale_cache()
+refresh_cache()
 
 __all__ = ["cache_directory", "engine_stamp"]

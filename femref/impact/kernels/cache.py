@@ -14,12 +14,20 @@ it, would run the old coupler code (it happened), and the compiled laws live out
 package. Every kernel's entry is stamped instead with :func:`~femref.impact.kernels.sources.engine_stamp`
 — a hash of this package's sources and of every source the compiled laws are made of, not of
 file times, which an install does not keep — so an entry of other sources is never loaded;
-:func:`discard_stale_cache` removes such entries' files when the package is imported.
+:func:`refresh_cache` removes such entries' files when the package is imported.
+
+**Ahead of time.** A wheel built by ``pip install .`` carries the kernels compiled at its build
+(:data:`COMPILED`, stamped as above: the stamp names sources relative to the install, so a build
+folder's stamp is the installed package's); :func:`refresh_cache` copies them into a cache
+folder that holds none of these sources, and numba loads the entries of this machine's CPU (its
+index is keyed on the signature and the CPU's name and features: a wheel built on another CPU
+compiles on the first run, with the notice).
 """
 
 from __future__ import annotations
 
 import os
+import shutil
 from pathlib import Path
 
 import numba
@@ -31,6 +39,10 @@ COMPILE_SECONDS = 60.0
 """The expected compile time of the loop before one was measured on this machine (s; 28–77 s measured on 2 cores)."""
 
 STAMP_FILE, SECONDS_FILE = "kernels.stamp", "compile.seconds"
+
+COMPILED = PACKAGE / "_compiled"
+"""The kernels compiled when the wheel was built (``scripts/femref_build.py``), with their stamp; absent from a
+checkout. :func:`refresh_cache` copies them into the cache folder, where numba loads those of this machine's CPU."""
 
 
 def cache_root() -> Path:
@@ -82,8 +94,10 @@ def install_locator() -> None:
         locators.insert(0, KernelCacheLocator)
 
 
-def discard_stale_cache() -> None:
-    """Remove the cached ``*.nbi|*.nbc`` in :func:`cache_directory` when its recorded stamp is not :func:`engine_stamp`."""
+def refresh_cache() -> None:
+    """Keep :func:`cache_directory` to entries of these sources: when its recorded stamp is not :func:`engine_stamp`,
+    remove its ``*.nbi|*.nbc`` and copy in the kernels compiled when the wheel was built (:data:`COMPILED`) if they
+    carry the same stamp."""
     cache = cache_directory()
     stamp = engine_stamp()
     recorded = cache / STAMP_FILE
@@ -96,9 +110,27 @@ def discard_stale_cache() -> None:
         cache.mkdir(parents=True, exist_ok=True)
         for path in [*cache.glob("*.nbi"), *cache.glob("*.nbc")]:
             path.unlink(missing_ok=True)
+        if compiled_stamp() == stamp:
+            for path in [*COMPILED.glob("*.nbc"), *COMPILED.glob("*.nbi"), *COMPILED.glob(SECONDS_FILE)]:  # indexes after their data
+                copy_whole(path, cache / path.name)
         recorded.write_text(stamp)
     except OSError:  # a folder that cannot be written: numba caches elsewhere
         pass
+
+
+def compiled_stamp() -> str | None:
+    """The stamp of the kernels the wheel ships in :data:`COMPILED`, None without them."""
+    try:
+        return (COMPILED / STAMP_FILE).read_text()
+    except OSError:
+        return None
+
+
+def copy_whole(source: Path, target: Path) -> None:
+    """Copy ``source`` to ``target`` under a temporary name, then rename: a process reading ``target`` sees it whole."""
+    partial = target.with_name(f"{target.name}.{os.getpid()}.partial")
+    shutil.copyfile(source, partial)
+    os.replace(partial, target)
 
 
 def cached(dispatchers) -> bool:
@@ -134,8 +166,11 @@ __all__ = [
     "cached",
     "cache_directory",
     "cache_root",
+    "COMPILED",
     "compile_seconds",
-    "discard_stale_cache",
+    "compiled_stamp",
+    "copy_whole",
     "install_locator",
     "record_compile_seconds",
+    "refresh_cache",
 ]

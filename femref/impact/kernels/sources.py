@@ -18,6 +18,9 @@ from reduced.couplers import COUPLER_LAWS, OPERATIONS, law_module
 PACKAGE = Path(__file__).parent
 """The kernels' package folder."""
 
+ROOT = PACKAGE.parents[2]
+"""The folder femref and reduced are imported from (a checkout, or site-packages)."""
+
 LAW_MODULES: tuple[types.ModuleType, ...] = tuple(dict.fromkeys(law_module(cls) for cls in COUPLER_LAWS.values()))
 """The registered law modules; a law's kind is its module's index here."""
 
@@ -41,13 +44,19 @@ def engine_sources() -> list[Path]:
     return sorted({Path(f.__code__.co_filename) for f in reachable_functions(roots)})
 
 
+def stamp_name(path: Path) -> str:
+    """``path`` as the stamp names it: relative to :data:`ROOT` when under it (so a wheel's compiled kernels, stamped
+    where the wheel was built, match the installed package's), else absolute."""
+    return path.relative_to(ROOT).as_posix() if path.is_relative_to(ROOT) else str(path)
+
+
 @cache
 def engine_stamp() -> str:
-    """SHA-256 over (path, content) of this package's ``*.py`` and of :func:`engine_sources`, once per process."""
+    """SHA-256 over (:func:`stamp_name`, content) of this package's ``*.py`` and of :func:`engine_sources`, once per process."""
     digest = hashlib.sha256()
     for path in sorted(set(PACKAGE.glob("*.py")) | set(engine_sources())):
-        digest.update(str(path).encode() + b"\0" + path.read_bytes() + b"\0")
+        digest.update(stamp_name(path).encode() + b"\0" + path.read_bytes() + b"\0")
     return digest.hexdigest()
 
 
-__all__ = ["LAW_MODULES", "PACKAGE", "engine_sources", "engine_stamp", "reachable_functions"]
+__all__ = ["LAW_MODULES", "PACKAGE", "ROOT", "engine_sources", "engine_stamp", "reachable_functions", "stamp_name"]
