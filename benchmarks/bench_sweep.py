@@ -184,7 +184,8 @@ def floor(repeats: int, copies: int = 32) -> dict[str, float]:
     """A batched fem sweep's stepping against :func:`batched_floor` (module docstring)."""
     from femref.fem import INTEGRATORS
     from femref.impact.kernels import pool
-    from femref.impact.kernels.batch import prepare_run, solve_batch
+    from femref.impact.kernels.batch import solve_batch
+    from femref.impact.kernels.loop import prepare_run
     from femref.impact.kernels.loop import solve_compiled
     from femref.models import model_form
     from femref.run import load_compiled_loop

@@ -54,14 +54,18 @@ def plan_case(case, base_dir: Path, source: str, tolerance: float | None = None)
     Raises :class:`femref.case.CaseError` naming ``source``: a tolerance on a case that is not an impact,
     a scene that cannot be built, runs over the work budget (:func:`femref.run.budget.check_budget`, or for a
     choice every rung of the ladder it may climb: :func:`femref.choice.check_ladder_budget`)."""
-    from femref.choice import check_ladder_budget
     from femref.run.budget import check_budget
     from femref.scene.build import scene_from_case
 
     case = with_tolerance(case, tolerance, source)
     scene = scene_from_case(case, base_dir)
     flow: Flow = "measure" if case.kind == "measured" else "choose" if case.kind == "impact" and case.tolerance is not None else "simulate"
-    (check_ladder_budget if flow == "choose" else check_budget)(scene, source)
+    if flow == "choose":
+        from femref.choice import check_ladder_budget  # the ladder's modules only where a model is chosen
+
+        check_ladder_budget(scene, source)
+    else:
+        check_budget(scene, source)
     notes = ()
     if flow == "choose" and (scene.estimators or scene.networks):
         notes = ("with a tolerance the estimators are not run (they read the records of the models list's fem run)",)

@@ -3,7 +3,7 @@
     results[i][r] = run r of scene i,  as femref.run.runner.run_model gives it (but its wall time)
 
 Each run is stepped at its own automatic step (:func:`femref.run.timestep.impact_time_step`), its cars built at their
-fidelities (each model's car form, built once per geometry) and packed (:func:`femref.impact.kernels.batch.prepare_run`).
+fidelities (each model's car form, built once per geometry) and packed (:func:`femref.impact.kernels.loop.prepare_run`).
 Runs whose packed arrays share a structure (:func:`~femref.impact.kernels.batch.structure_of`: the samples of a
 velocity sweep do, a swept fidelity or a mass that changes a car's mesh does not) are stepped by one compiled call per
 chunk of steps (:func:`~femref.impact.kernels.batch.solve_batch`); the kernel and its arrays are those of a run alone,
@@ -21,7 +21,8 @@ from dataclasses import dataclass
 
 from femref.core.threads import one_blas_thread
 from femref.fem import INTEGRATORS
-from femref.impact.kernels.batch import PreparedRun, prepare_run, solve_batch, structure_of
+from femref.impact.kernels.batch import solve_batch, structure_of
+from femref.impact.kernels.loop import PreparedRun, prepare_run
 from femref.models import model_form
 from femref.results import ModelResult
 from femref.run.runner import model_result

@@ -4,8 +4,9 @@
 import numpy as np
 import pytest
 
-from femref.impact.kernels.batch import prepare_run, solve_batch, structure_of
 from femref.fem import INTEGRATORS
+from femref.impact.kernels.batch import solve_batch, structure_of
+from femref.impact.kernels.loop import prepare_run
 from femref.models import model_form
 from femref.run import run_model
 from femref.run.timestep import impact_time_step
@@ -13,7 +14,6 @@ from femref.scene.build import scene_from_case
 from femref.sweep import parse_sweep
 from femref.sweep.batch import run_models
 from femref.sweep.worker import run_samples, sample_records, scene_with_values
-
 from tests.sweep.test_run import base_case
 
 

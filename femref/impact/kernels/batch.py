@@ -8,70 +8,36 @@ own pool, coupler laws and state, tolerance and gains, exactly as :func:`~femref
 steps it alone: the same kernel on the same arrays, so the histories are the same numbers. What a batch saves is the
 Python between the kernel calls — a call per run and chunk, each typing its NamedTuple arguments field by field.
 
-:func:`prepare_run` packs a run as ``solve_compiled`` does (the line plan once per scene, each car's factorised form
-once per system), :func:`solve_batch` steps a list of prepared runs of one structure and gives each its
-:class:`~femref.impact.response.ImpactResponse`, its stepping time the batch's share per run.
+:func:`solve_batch` steps runs packed as ``solve_compiled`` packs one (:func:`~femref.impact.kernels.loop.prepare_run`)
+and gives each its :class:`~femref.impact.response.ImpactResponse` (:func:`~femref.impact.kernels.loop.response_of`),
+its stepping time the batch's share per run.
 """
 
 from __future__ import annotations
 
 import time as _time
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from femref.core.timegrid import output_steps, steps_to
-from femref.fem.transient import Integrator
-from femref.impact.kernels import couplers as coupler_kernels
 from femref.impact.kernels.loop import (
-    CHANGES, ENERGY_NAMES, FAILED_STEP, FAILURE_KIND, FIRST_CHUNK, ITERATIONS, ITERATIONS_MAX, OUTPUT, STEP, WORST, LinePlan,
-    chunk_after, line_plan, run_steps,
+    FIRST_CHUNK,
+    HISTORIES,
+    OUTPUT,
+    STEP,
+    WORST,
+    PreparedRun,
+    chunk_after,
+    new_histories,
+    response_of,
+    run_steps,
 )
-from femref.impact.kernels.packing import pack_cars, prepared_car
-from femref.impact.kernels.pool import SCALARS, SUM_LOAD2, SUM_RATE2, CarPool
-from femref.impact.response import ImpactResponse, failure_message, sensor_histories
-from femref.impact.systems import CarSystem, car_settings_after
-from femref.scene import ImpactScene
+from femref.impact.kernels.pool import CarPool
+from femref.impact.response import ImpactResponse
 
-__all__ = ["PreparedRun", "prepare_run", "run_batch", "solve_batch", "structure_of"]
-
-_HISTORIES = ("displacement", "velocity", "acceleration", "force", "closure", "energy", "coupler_work")
-
-
-@dataclass(frozen=True, eq=False)
-class PreparedRun:
-    """One run packed for the kernel: its pool at t = 0, its coupler laws and state, gains, tolerance and output steps."""
-
-    scene: ImpactScene
-    systems: list[CarSystem]
-    dt: float
-    line: LinePlan
-    couplers: coupler_kernels.CouplerState
-    pool: CarPool
-    gain_u: NDArray[np.float64]
-    gain_v: NDArray[np.float64]
-    steps: int
-    outputs: NDArray[np.int64]
-    setup_time: float
-
-
-def prepare_run(scene: ImpactScene, systems: list[CarSystem], integrator: Integrator, dt: float) -> PreparedRun:
-    """The run of ``systems`` (line order) in ``scene`` at step ``dt`` packed as ``solve_compiled`` packs it; ValueError
-    for a car whose mass or step matrix is not positive definite."""
-    started = _time.perf_counter()
-    line = line_plan(scene)
-    couplers = coupler_kernels.CouplerState(*(array.copy() for array in line.couplers_at_contact))
-    prepared = [prepared_car(system, integrator, dt, *car_maps) for system, car_maps in zip(systems, line.maps)]
-    for spec, car in zip(scene.cars, prepared):
-        if not car.positive_definite:
-            raise ValueError(f"car {spec.name}: its mass or step matrix is not positive definite")
-    pool = pack_cars(systems, prepared, line.velocities, line.loads_at_contact, line.sensor_starts)
-    steps = steps_to(scene.end, dt)
-    return PreparedRun(scene, systems, dt, line, couplers, pool, sum(car.gain_u for car in prepared), sum(car.gain_v for car in prepared),
-                       steps, output_steps(steps, scene.output_stride), _time.perf_counter() - started)
+__all__ = ["run_batch", "solve_batch", "structure_of"]
 
 
 def structure_of(run: PreparedRun) -> tuple:
@@ -88,12 +54,11 @@ def solve_batch(runs: Sequence[PreparedRun]) -> list[ImpactResponse]:
     if any(structure_of(run) != structure_of(first) for run in runs[1:]):
         raise ValueError("runs stepped together must share their structure (structure_of)")
     started = _time.perf_counter()
-    b, n_out, n_c, sensors = len(runs), first.outputs.size, first.couplers.force.size, first.line.sensors
+    b, n_c = len(runs), first.couplers.force.size
     values = np.stack([run.pool.values for run in runs])
     laws, law_rows = _rows_of([run.line.laws for run in runs])
     couplers, coupler_rows = _rows_of([run.couplers for run in runs])
-    history = {name: np.full((b, n_out, *shape), np.nan) for name, shape in
-               zip(_HISTORIES, ((sensors,), (sensors,), (sensors,), (n_c,), (n_c,), (len(ENERGY_NAMES),), ()))}
+    history = new_histories(first, b)
     counters = np.zeros((b, 8), dtype=np.int64)
     counters[:, STEP], counters[:, WORST] = 1, -1  # run_steps records row 0 first
     change = np.zeros((b, 1))
@@ -105,11 +70,11 @@ def solve_batch(runs: Sequence[PreparedRun]) -> list[ImpactResponse]:
         stop = min(steps, int(np.min(counters[counters[:, WORST] < 0, STEP])) + chunk - 1)
         chunk_started = _time.perf_counter()
         run_batch(first.pool.layout, values, laws, *law_rows, couplers, *coupler_rows, first.dt, tolerance, gain_u, gain_v, first.outputs, stop,
-                  counters, change, *(history[name] for name in _HISTORIES), *scratch)
+                  counters, change, *(history[name] for name in HISTORIES), *scratch)
         chunk = min(steps, chunk_after(chunk, _time.perf_counter() - chunk_started))
     share = (_time.perf_counter() - started) / b
-    return [_response(run, CarPool(run.pool.layout, values[k], run.pool.shapes), counters[k], float(change[k, 0]),
-                      {name: history[name][k] for name in _HISTORIES}, share) for k, run in enumerate(runs)]
+    return [response_of(run, CarPool(run.pool.layout, values[k], run.pool.shapes), counters[k], float(change[k, 0]),
+                        {name: history[name][k] for name in HISTORIES}, share) for k, run in enumerate(runs)]
 
 
 _Rows = tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64], NDArray[np.int64]]
@@ -134,35 +99,6 @@ def _rows_of(tuples: Sequence[tuple]) -> tuple[tuple, _Rows]:
                             for t in tuples]) for kind in buffers}
     float64, int64 = np.dtype(np.float64), np.dtype(np.int64)
     return type(first)(*views), (buffers[float64], buffers[int64], rows[float64], rows[int64])
-
-
-def _response(run: PreparedRun, pool: CarPool, counters: NDArray[np.int64], change: float, history: dict[str, NDArray], wall_time: float) -> ImpactResponse:
-    """One run's response from its counters and histories, as ``solve_compiled`` makes it."""
-    scene, steps, dt = run.scene, run.steps, run.dt
-    failed = counters[WORST] >= 0
-    message = "reached the end time"
-    if failed:
-        name = scene.couplers[int(counters[WORST])].name
-        message = failure_message(name, int(counters[FAILED_STEP]), steps, dt, coupler_kernels.failure_detail(int(counters[FAILURE_KIND]), change))
-    energy = {name: history["energy"][:, k] for k, name in enumerate(ENERGY_NAMES)}
-    energy["total"] = np.sum(history["energy"], axis=1)
-    return ImpactResponse(
-        dt * run.outputs,
-        sensor_histories(scene.channels, history["displacement"], history["velocity"], history["acceleration"]),
-        {c.name: {"force": history["force"][:, j], "closure": history["closure"][:, j]} for j, c in enumerate(scene.couplers)},
-        energy,
-        steps=steps if not failed else int(counters[FAILED_STEP]) - 1,
-        newton_iterations=int(counters[ITERATIONS]),
-        newton_iterations_max=int(counters[ITERATIONS_MAX]),
-        contact_changes=int(counters[CHANGES]),
-        wall_time=wall_time,
-        setup_time=run.setup_time,
-        car_settings=[car_settings_after(system, float(pool.field(c, SCALARS)[SUM_LOAD2]), float(pool.field(c, SCALARS)[SUM_RATE2]))
-                      for c, system in enumerate(run.systems)],
-        status=-1 if failed else 0,
-        message=message,
-        coupler_work=history["coupler_work"],
-    )
 
 
 @njit(cache=True, _nrt=False)

@@ -53,7 +53,7 @@ from femref.impact.kernels.laws import CouplerLaws, pack_laws
 from femref.impact.kernels.packing import pack_cars, prepared_car
 from femref.impact.kernels.pool import (
     COUPLER_LOADS, COUPLER_OUTPUTS, END_COUNT, END_FREE, END_RATE_FREE, LOAD_COUNT, NEW_LOADS, SCALARS,
-    SUM_LOAD2, SUM_RATE2,
+    SUM_LOAD2, SUM_RATE2, CarPool,
 )
 from femref.impact.response import ImpactResponse, failure_message, sensor_histories
 from femref.impact.systems import CarSystem, car_settings_after
@@ -127,6 +127,52 @@ def line_plan(scene: ImpactScene) -> LinePlan:
     return plan
 
 
+@dataclass(frozen=True, eq=False)
+class PreparedRun:
+    """One run packed for the kernel: its pool at t = 0, its coupler laws and state, gains, tolerance and output steps,
+    and the time its packing took (``setup_time``)."""
+
+    scene: ImpactScene
+    systems: list[CarSystem]
+    dt: float
+    line: LinePlan
+    couplers: coupler_kernels.CouplerState
+    pool: CarPool
+    gain_u: NDArray[np.float64]
+    gain_v: NDArray[np.float64]
+    steps: int
+    outputs: NDArray[np.int64]
+    setup_time: float
+
+
+def prepare_run(scene: ImpactScene, systems: list[CarSystem], integrator: Integrator, dt: float) -> PreparedRun:
+    """The run of ``systems`` (line order) in ``scene`` at step ``dt`` packed: the line plan once per scene, each car's
+    factorised form once per system (:func:`prepared_car`), a pool of their own; ValueError for a car whose mass or step
+    matrix is not positive definite."""
+    started = _time.perf_counter()
+    line = line_plan(scene)
+    couplers = coupler_kernels.CouplerState(*(array.copy() for array in line.couplers_at_contact))
+    prepared = [prepared_car(system, integrator, dt, *car_maps) for system, car_maps in zip(systems, line.maps)]
+    for spec, car in zip(scene.cars, prepared):
+        if not car.positive_definite:
+            raise ValueError(f"car {spec.name}: its mass or step matrix is not positive definite")
+    pool = pack_cars(systems, prepared, line.velocities, line.loads_at_contact, line.sensor_starts)
+    steps = steps_to(scene.end, dt)
+    return PreparedRun(scene, systems, dt, line, couplers, pool, sum(car.gain_u for car in prepared), sum(car.gain_v for car in prepared),
+                       steps, output_steps(steps, scene.output_stride), _time.perf_counter() - started)
+
+
+HISTORIES = ("displacement", "velocity", "acceleration", "force", "closure", "energy", "coupler_work")
+"""The histories :func:`run_steps` records, in its argument order."""
+
+
+def new_histories(run: PreparedRun, *batch: int) -> dict[str, NDArray[np.float64]]:
+    """The run's :data:`HISTORIES`, NaN until recorded; ``batch`` leading axes for runs stepped together."""
+    n_out, sensors, n_c = run.outputs.size, run.line.sensors, run.couplers.force.size
+    shapes = ((sensors,), (sensors,), (sensors,), (n_c,), (n_c,), (len(ENERGY_NAMES),), ())
+    return {name: np.full((*batch, n_out, *shape), np.nan) for name, shape in zip(HISTORIES, shapes)}
+
+
 def solve_compiled(
     scene: ImpactScene,
     systems: list[CarSystem],
@@ -136,56 +182,41 @@ def solve_compiled(
 ) -> ImpactResponse:
     """Step the cars of ``systems`` (line order) from contact to ``scene.end``, with the time of packing
     and factorising (``setup_time``) apart from the stepping (``wall_time``)."""
+    run = prepare_run(scene, systems, integrator, dt)
     started = _time.perf_counter()
-    line = line_plan(scene)
-    laws = line.laws
-    couplers = coupler_kernels.CouplerState(*(array.copy() for array in line.couplers_at_contact))
-    prepared = [prepared_car(system, integrator, dt, *car_maps) for system, car_maps in zip(systems, line.maps)]
-    for spec, car in zip(scene.cars, prepared):
-        if not car.positive_definite:
-            raise ValueError(f"car {spec.name}: its mass or step matrix is not positive definite")
-    pool = pack_cars(systems, prepared, line.velocities, line.loads_at_contact, line.sensor_starts)
-    gain_u = sum(car.gain_u for car in prepared)
-    gain_v = sum(car.gain_v for car in prepared)
-    steps = steps_to(scene.end, dt)
-    outputs = output_steps(steps, scene.output_stride)
-    n_out, n_c = outputs.size, len(scene.couplers)
-    history = {
-        "displacement": np.full((n_out, line.sensors), np.nan),
-        "velocity": np.full((n_out, line.sensors), np.nan),
-        "acceleration": np.full((n_out, line.sensors), np.nan),
-        "force": np.full((n_out, n_c), np.nan),
-        "closure": np.full((n_out, n_c), np.nan),
-        "energy": np.full((n_out, len(ENERGY_NAMES)), np.nan),
-        "coupler_work": np.full(n_out, np.nan),
-    }
+    pool, steps, n_c = run.pool, run.steps, run.couplers.force.size
+    history = new_histories(run)
     counters = np.zeros(8, dtype=np.int64)
     counters[STEP], counters[OUTPUT], counters[WORST] = 1, 0, -1  # run_steps records row 0 first
     change = np.zeros(1)
-    tolerance = line.force_tolerance
-    setup_time = _time.perf_counter() - started
     longest = steps if progress is None else max(1, steps // 100)  # a progress bar moves by hundredths at least
     chunk = min(first_chunk(pool.values.size), longest)
     while (counters[STEP] <= steps or counters[OUTPUT] == 0) and counters[WORST] < 0:
         stop = min(steps, int(counters[STEP]) + chunk - 1)
         chunk_started = _time.perf_counter()
-        run_steps(pool.layout, pool.values, laws, couplers, dt, tolerance, gain_u, gain_v, outputs, stop, counters, change,
-                  history["displacement"], history["velocity"], history["acceleration"], history["force"], history["closure"], history["energy"],
-                  history["coupler_work"], np.zeros(n_c), np.zeros(n_c), np.zeros(n_c, dtype=np.int64))
+        run_steps(pool.layout, pool.values, run.line.laws, run.couplers, dt, run.line.force_tolerance, run.gain_u, run.gain_v, run.outputs,
+                  stop, counters, change, *(history[name] for name in HISTORIES), np.zeros(n_c), np.zeros(n_c), np.zeros(n_c, dtype=np.int64))
         chunk = min(longest, chunk_after(chunk, _time.perf_counter() - chunk_started))
         if progress is not None:
             progress(stop if counters[WORST] < 0 else int(counters[FAILED_STEP]) - 1, steps)
+    return response_of(run, pool, counters, float(change[0]), history, _time.perf_counter() - started)
+
+
+def response_of(run: PreparedRun, pool: CarPool, counters: NDArray[np.int64], change: float, history: dict[str, NDArray],
+                wall_time: float) -> ImpactResponse:
+    """The run's :class:`ImpactResponse` from its pool after the steps, its counters, the last force change of a failed
+    iteration and its :data:`HISTORIES`; ``wall_time`` its stepping time."""
+    scene, steps, dt = run.scene, run.steps, run.dt
     failed = counters[WORST] >= 0
     message = "reached the end time"
     if failed:
-        step = int(counters[FAILED_STEP])
         name = scene.couplers[int(counters[WORST])].name
-        detail = coupler_kernels.failure_detail(int(counters[FAILURE_KIND]), float(change[0]))
-        message = failure_message(name, step, steps, dt, detail)
+        detail = coupler_kernels.failure_detail(int(counters[FAILURE_KIND]), change)
+        message = failure_message(name, int(counters[FAILED_STEP]), steps, dt, detail)
     energy = {name: history["energy"][:, k] for k, name in enumerate(ENERGY_NAMES)}
     energy["total"] = np.sum(history["energy"], axis=1)
     return ImpactResponse(
-        dt * outputs,
+        dt * run.outputs,
         sensor_histories(scene.channels, history["displacement"], history["velocity"], history["acceleration"]),
         {c.name: {"force": history["force"][:, j], "closure": history["closure"][:, j]} for j, c in enumerate(scene.couplers)},
         energy,
@@ -193,10 +224,10 @@ def solve_compiled(
         newton_iterations=int(counters[ITERATIONS]),
         newton_iterations_max=int(counters[ITERATIONS_MAX]),
         contact_changes=int(counters[CHANGES]),
-        wall_time=_time.perf_counter() - started - setup_time,
-        setup_time=setup_time,
+        wall_time=wall_time,
+        setup_time=run.setup_time,
         car_settings=[car_settings_after(system, float(pool.field(c, SCALARS)[SUM_LOAD2]), float(pool.field(c, SCALARS)[SUM_RATE2]))
-                      for c, system in enumerate(systems)],
+                      for c, system in enumerate(run.systems)],
         status=-1 if failed else 0,
         message=message,
         coupler_work=history["coupler_work"],
@@ -287,4 +318,5 @@ def run_steps(layout, w, laws, couplers, dt, tolerance, gain_u, gain_v, outputs,
 ENTRY_POINTS = (run_steps, car_kernels.factorise, car_kernels.start, coupler_kernels.start)
 """The compiled functions a run calls from Python (:func:`solve_compiled`, :func:`line_plan`, :mod:`.packing`): cached, the loop only loads."""
 
-__all__ = ["CHUNK_SECONDS", "ENTRY_POINTS", "FIRST_CHUNK", "FIRST_CHUNK_WORK", "LinePlan", "chunk_after", "coupler_maps", "first_chunk", "line_plan", "record", "run_steps", "solve_compiled"]
+__all__ = ["CHUNK_SECONDS", "ENTRY_POINTS", "FIRST_CHUNK", "FIRST_CHUNK_WORK", "HISTORIES", "LinePlan", "PreparedRun", "chunk_after", "coupler_maps",
+           "first_chunk", "line_plan", "new_histories", "prepare_run", "record", "response_of", "run_steps", "solve_compiled"]
