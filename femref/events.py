@@ -5,9 +5,10 @@ Bands are 95 % (lower, upper); an estimator without a bound stores NaN bands and
 **Written as the events finish** (:func:`event_file`, :class:`EventWriter`). The file is made under a temporary
 name beside the final one (:func:`femref.core.publishing.atomic_path`) with the root attributes ``complete = false``
 and ``events_written = 0``; each event is added as soon as it is found (the file opened, the event's group written,
-``events_written`` raised, the file closed again); when the last event is in, ``complete = true`` and the temporary
-is renamed to the final name. A run killed loses at most the event in hand: its temporary is an event file of the
-``events_written`` events finished before the kill, readable as it is (``femref report`` reads it), and the next run
+the file closed; then opened again to raise ``events_written`` in place: raised in the same close, a kill while HDF5
+flushed could leave the count on disk ahead of the group it counts — a clean-clone CI run saw it). When the last
+event is in, ``complete = true`` and the temporary is renamed to the final name. A run killed loses at most the
+event in hand: its temporary is an event file of the ``events_written`` events finished before the kill, readable as it is (``femref report`` reads it), and the next run
 into the same output removes it as a leftover (:func:`femref.core.publishing.remove_leftovers`). Each history's
 ``time`` is its group's HDF5 dimension scale, attached to the histories along it (xarray, h5netcdf and HDFView read
 it as their coordinate).
@@ -206,9 +207,11 @@ class EventWriter:
             h5.create_group(EVENTS_GROUP)
 
     def write(self, event: EventResult) -> None:
-        """Add ``event`` and count it; the file is closed (flushed) when this returns."""
+        """Add ``event``, then count it once its group is closed (flushed) whole (module docstring); the file is closed
+        when this returns."""
         with hdf5_writer(self.path, "a") as h5:
             _write_event(h5[EVENTS_GROUP].create_group(str(event.index)), event)
+        with hdf5_writer(self.path, "a") as h5:
             h5.attrs[EVENTS_WRITTEN] = self.count + 1
         self.count += 1
 
