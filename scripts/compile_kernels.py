@@ -3,6 +3,9 @@
     python scripts/compile_kernels.py              # into this install's cache folder (make demo, after its install)
     python scripts/compile_kernels.py --into DIR   # into a scratch cache, then copied to DIR (scripts/femref_build.py)
 
+With ``--into`` (a wheel) the kernels of a sweep's batched runs are compiled too (about 10 s more), so that
+a first ``femref sweep`` after ``pip install .`` loads them; the demo needs only the single-run loop.
+
 While it compiles it prints the first run's notice ("compiling femref's impact kernels, once
 (about N s; cached in DIR)"); with the kernels already cached it says so. ``--into`` copies the
 cache folder's entries, its stamp and the measured compile time to DIR, which the build backend
@@ -20,8 +23,9 @@ import tempfile
 from pathlib import Path
 
 
-def compile_default_loop() -> Path:
-    """Load (compiling if needed) the impact loop as ``femref run`` of the default scene does; its cache folder."""
+def compile_default_loop(batched: bool = False) -> Path:
+    """Load (compiling if needed) the impact loop as ``femref run`` of the default scene does, and with ``batched`` the
+    kernels of a sweep's batched runs (:func:`femref.sweep.batch.load_batch_kernels`); its cache folder."""
     from femref.case import parse_case
     from femref.case.defaults import DEFAULT_SCENE_SOURCE, default_scene_data
     from femref.impact.kernels import cache
@@ -30,6 +34,10 @@ def compile_default_loop() -> Path:
 
     scene = scene_from_case(parse_case(default_scene_data(), source=DEFAULT_SCENE_SOURCE), Path.cwd())
     load_compiled_loop(scene)
+    if batched:
+        from femref.sweep.batch import load_batch_kernels
+
+        load_batch_kernels(scene)
     return cache.cache_directory()
 
 
@@ -45,7 +53,7 @@ def main() -> None:
             os.environ["NUMBA_CACHE_DIR"] = scratch  # before numba is imported: a cache of this build only
         from femref.impact.kernels import cache
 
-        folder = compile_default_loop()
+        folder = compile_default_loop(batched=args.into is not None)
         if not args.into:
             print(f"femref's impact kernels are compiled (cached in {folder})", file=sys.stderr)
             return

@@ -13,7 +13,7 @@ from pathlib import Path
 import click
 from rich.console import Console
 
-from femref.cli.common import (EXIT_INTERRUPTED, EXIT_RUN_FAILURE, case_input_files, check_output, echo_summary, fail, model_progress, print_table,
+from femref.cli.common import (EXIT_INTERRUPTED, EXIT_RUN_FAILURE, case_input_files, check_output, compile_notices, echo_summary, fail, model_progress, print_table,
                                sample_progress)
 from femref.cli.tables import study_table
 
@@ -91,7 +91,7 @@ def sweep_command(sweep_path: Path, scheduler: str | None, workers: int | None, 
         loaded = load_sweep(sweep_path)
         output = output or Path(f"{sweep_path.stem}.h5")
         check_output(output, "-o", sweep_inputs(sweep_path, loaded), default=defaulted, writes=[partial_path(output)])
-        with sample_progress(console) as progress:
+        with compile_notices(console), sample_progress(console) as progress:
             summary = run_sweep(loaded, output, scheduler=scheduler, workers=workers, limit=limit, retry_failed=retry_failed, progress=progress)
     except CaseError as error:
         fail(error)
@@ -157,7 +157,7 @@ def study_command(study_path: Path, out_dir: Path | None, scheduler: str | None,
         defaulted = out_dir is None
         out_dir = out_dir or Path(study_path.stem)
         check_output(out_dir, "-o", study_inputs(study_path, spec, study_dir), folder=True, default=defaulted, writes=study_writes(spec, out_dir))
-        with sample_progress(console) as progress:
+        with compile_notices(console), sample_progress(console) as progress:
             outcome = run_study(spec, study_dir, out_dir, source=str(study_path), scheduler=scheduler, workers=workers, progress=progress)
     except CaseError as error:
         fail(error)

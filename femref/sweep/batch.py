@@ -15,13 +15,15 @@ that run's failed result (:meth:`femref.results.ModelResult.failed`).
 from __future__ import annotations
 
 import dataclasses
+import logging
 import math
 import time
 from dataclasses import dataclass
 
 from femref.core.threads import one_blas_thread
 from femref.fem import INTEGRATORS
-from femref.impact.kernels.batch import solve_batch, structure_of
+from femref.impact.kernels import cache
+from femref.impact.kernels.batch import run_batch, solve_batch, structure_of
 from femref.impact.kernels.loop import PreparedRun, prepare_run
 from femref.models import model_form
 from femref.results import ModelResult
@@ -79,10 +81,15 @@ def load_batch_kernels(scene: ImpactScene) -> None:
     """Load the compiled kernels of a batched run (compiling them, the first time after an install) by stepping
     ``scene``'s cars once as rigid bodies in a batch of one, so that no run's timing pays the one-off loading; after
     the first call in a process it does nothing. The single-run loop (:func:`femref.run.runner.load_compiled_loop`) is
-    not loaded: :func:`~femref.impact.kernels.batch.run_batch` carries its own copy of ``run_steps``."""
+    not loaded: :func:`~femref.impact.kernels.batch.run_batch` carries its own copy of ``run_steps``.
+
+    Before a compile it logs why the process waits — "compiling femref's batched impact kernels, once (cached in
+    DIR)" — at INFO on the logger ``femref.compile``, as the single-run loop does (the CLI shows it)."""
     global _loaded
     if _loaded:
         return
+    if not cache.cached((run_batch,)):
+        logging.getLogger("femref.compile").info("compiling femref's batched impact kernels, once (cached in %s)", cache.cache_directory())
     dt = scene.contact_time() / 100.0 if math.isfinite(scene.contact_time()) else 1e-3
     one_step = dataclasses.replace(scene, end=dt, output_stride=1)
     systems = [model_form("rigid", "impact")(car, one_step, dt) for car in scene.cars]

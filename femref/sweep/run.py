@@ -116,6 +116,7 @@ def run_sweep(
         summary.skipped = store.size - len(pending)
         todo = pending if limit is None else pending[: max(0, limit)]
         if todo:
+            _load_kernels(sweep)
             with ExitStack() as cluster:
                 with store.released():  # a local cluster's workers are forks of this process: not of an open HDF5 file
                     connected = cluster.enter_context(dask_client(scheduler, workers, client, fork=True))
@@ -131,6 +132,21 @@ def run_sweep(
     if interrupted:
         raise SweepInterrupted(summary)
     return summary
+
+
+def _load_kernels(sweep: Sweep) -> None:
+    """The batched kernels loaded in this process before the cluster starts (:func:`femref.sweep.batch.load_batch_kernels`:
+    a first sweep after an install compiles them here, once, saying so, rather than silently in every worker; a local
+    cluster's workers are forks of this process and start with them loaded). A base case whose scene cannot be built
+    loads nothing: each sample reports its own failure."""
+    from femref.scene.build import scene_from_case
+    from femref.sweep.batch import load_batch_kernels
+
+    try:
+        scene = scene_from_case(sweep.base_case, sweep.base_dir)
+    except Exception:  # noqa: BLE001 (the samples say why, each with its own key path)
+        return
+    load_batch_kernels(scene)
 
 
 def batch_size(samples: int, threads: int) -> int:

@@ -106,3 +106,26 @@ def test_values_only_samples_share_the_base_scene_and_run_as_built_from_their_ca
         for key, value in alone.items():
             if not key.endswith("wall_time_s"):
                 np.testing.assert_array_equal(record[key], value, err_msg=key)
+
+
+def test_a_sweep_says_it_compiles_its_batched_kernels_in_the_client_before_its_workers_start(tmp_path, monkeypatch):
+    """`femref sweep` with the batched kernels not cached: the client says "compiling femref's batched impact kernels,
+    once" on stderr before any worker runs (the kernels are loaded in the client, whose forks the local workers are);
+    cached, it says nothing about compiling."""
+    import yaml
+    from click.testing import CliRunner
+
+    import femref.sweep.batch as batch
+    from femref.cli import main
+
+    path = tmp_path / "sweep.yaml"
+    path.write_text(yaml.safe_dump({"case": base_case(), "samples": 2, "seed": 5, "parameters": {"cars.0.velocity": {"uniform": [1.0, 3.0]}}}))
+    said = {}
+    for cached in (False, True):
+        monkeypatch.setattr(batch, "_loaded", False)
+        monkeypatch.setattr(batch.cache, "cached", lambda dispatchers, cached=cached: cached)
+        result = CliRunner().invoke(main, ["sweep", str(path), "--workers", "1", "-o", str(tmp_path / f"out_{cached}.h5")])
+        assert result.exit_code == 0, result.output
+        said[cached] = result.output
+    assert "compiling femref's batched impact kernels, once (cached in" in said[False]
+    assert "compiling" not in said[True]
