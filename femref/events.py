@@ -161,6 +161,9 @@ class EventResult:
     wear_basis: str = ""
     clock_corrections: tuple[ClockCorrection, ...] = ()
     """Per recorder whose clock is estimated (``clock_drift: estimate``): its clock at this event."""
+    diagnostics: dict[str, Any] = field(default_factory=dict)
+    """What the records say about themselves (:meth:`femref.sensing.diagnostics.Diagnostics.record`): each car's end
+    sensors' agreement, each channel's offset and drift."""
 
 
 EVENT_UNITS = {
@@ -244,6 +247,7 @@ def _write_event(group: h5py.Group, event: EventResult) -> None:
     for key in ("trigger_probe", "impact_type", "classification_basis", "closing_speed_source", "closing_speed_basis", "alarm", "alarm_basis", "wear", "wear_basis"):
         group.attrs[key] = getattr(event, key)
     group.attrs["flags"] = json.dumps(list(event.flags))
+    group.attrs["diagnostics"] = json.dumps(event.diagnostics)
     records = group.create_group("records")
     _dataset(records, "time", event.time, "s")
     for probe, values in event.records.items():

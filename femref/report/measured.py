@@ -24,6 +24,7 @@ from femref.events import COMPLETE, EVENTS_GROUP, EVENTS_WRITTEN
 from femref.report.figures import MODEL_COLORS, Picture, figure_legend, new_figure, figure_png
 from femref.report.html import hide_local_paths, page, pictures_html, table_row
 from femref.report.read import attrs_of
+from femref.sensing.diagnostics import amplitude_spectrum
 
 NOT_ESTIMATES = ("records", "closure", "clock")
 
@@ -48,6 +49,7 @@ class EventData:
     estimates: list[EstimateData] = field(default_factory=list)
     closures: dict[str, dict[str, Any]] = field(default_factory=dict)
     clocks: dict[str, dict[str, Any]] = field(default_factory=dict)
+    records: dict[str, NDArray[np.float64]] = field(default_factory=dict)
 
 
 def event_report(path: Path, h5: h5py.File, output: str | None = None) -> str:
@@ -65,6 +67,8 @@ def event_report(path: Path, h5: h5py.File, output: str | None = None) -> str:
             _event_table(events, path.resolve().parent) if events else "<p>No event: no channel exceeds the trigger level.</p>",
             "<h2>Coupler forces</h2>",
             pictures_html([picture for event in events for picture in _force_pictures(event)], "no force estimate to draw"),
+            "<h2>Data quality</h2>",
+            pictures_html([picture for event in events for picture in _quality_pictures(event)], "no car with two sensors to check"),
         ]
         return page(title, facts, [*body, _case_section(path, h5)])
     index = output or f"{path.stem}.html"
@@ -110,10 +114,11 @@ def event_pages(path: Path, h5: h5py.File, output: str | None = None, progress_f
     for first, chunk in _pages(names):
         label = f"events {first + 1}–{first + len(chunk)} of {len(names)}"
         step = progress_for(label) if progress_for is not None else None
-        events, pictures = [], []
+        events, pictures, quality = [], [], []
         for done, name in enumerate(chunk, start=1):
             event = _event(name, h5[EVENTS_GROUP][name])
             pictures += _force_pictures(event)
+            quality += _quality_pictures(event)
             events.append(event)
             if step is not None:
                 step(done, len(chunk))
@@ -121,6 +126,7 @@ def event_pages(path: Path, h5: h5py.File, output: str | None = None, progress_f
             f'<p><a href="{escape(Path(index).name)}">index of all {len(names)} events</a></p>',
             "<h2>Events</h2>", _event_table(events, path.resolve().parent),
             "<h2>Coupler forces</h2>", pictures_html(pictures, "no force estimate to draw"),
+            "<h2>Data quality</h2>", pictures_html(quality, "no car with two sensors to check"),
         ]
         yield page_name(index, first, len(chunk), len(names)), page(f"femref report — {path.name}, {label}", [("result file", path.name)], body)
 
@@ -170,7 +176,18 @@ def _event(name: str, group: h5py.Group, histories: bool = True) -> EventData:
         event.closures = {coupler: attrs_of(sub.attrs) for coupler, sub in group["closure"].items()}
     if "clock" in group:
         event.clocks = {recorder: attrs_of(sub.attrs) for recorder, sub in group["clock"].items()}
+    if histories and "records" in group:
+        event.records = {name: np.asarray(data[()], dtype=float) for name, data in _datasets(group["records"])}
     return event
+
+
+def _datasets(group: h5py.Group, prefix: str = "") -> Iterator[tuple[str, h5py.Dataset]]:
+    """Every dataset under ``group`` by its path there (a probe ``car/sensor`` is a dataset in a car's group)."""
+    for name, item in group.items():
+        if isinstance(item, h5py.Dataset):
+            yield prefix + name, item
+        else:
+            yield from _datasets(item, f"{prefix}{name}/")
 
 
 def _closing_speed(attrs: dict[str, Any]) -> str:
@@ -238,6 +255,46 @@ def _force_pictures(event: EventData) -> list[Picture]:
                    f"its 95 % band shaded where it has one; drawn: {', '.join(drawn) or 'none'}.")
         pictures.append(Picture(f"event {event.index} — {coupler}", caption, figure_png(figure)))
     return pictures
+
+
+SPECTRUM_TOP = 250.0
+"""Hz: the spectra are drawn up to this frequency (or the records' Nyquist frequency), past a car's first modes."""
+
+
+def _quality_pictures(event: EventData) -> list[Picture]:
+    """The source's data-quality view of an event: the amplitude spectra of each car's rear-most record ``a₁``, of its
+    end difference ``a₂ − a₁`` and of the first coupler's first estimate, each scaled to its largest value, with the
+    diagnostics' findings in the caption (:mod:`femref.sensing.diagnostics`)."""
+    diagnostics = json.loads(event.attrs.get("diagnostics", "{}") or "{}")
+    ends = diagnostics.get("ends", [])
+    if not ends or "time" not in event.records:
+        return []
+    time = event.records["time"]
+    dt = float(time[1] - time[0])
+    figure, (ax,) = new_figure()
+    k = 0
+    for end in ends:
+        rear, front = (event.records.get(f"{end['car']}/{sensor}") for sensor in (end["rear"], end["front"]))
+        if rear is None or front is None:
+            continue
+        for label, signal in ((f"{end['car']} a1 ({end['rear']})", rear), (f"{end['car']} a2 − a1 ({end['front']} − {end['rear']})", front - rear)):
+            frequency, amplitude = amplitude_spectrum(signal, dt)
+            ax.semilogy(frequency, amplitude / max(float(amplitude.max()), 1e-300), color=MODEL_COLORS[k % len(MODEL_COLORS)], lw=1.1, label=label)
+            k += 1
+    force = next((e for e in event.estimates if e.attrs["status"] == "ok" and e.time.size > 1), None)
+    if force is not None:
+        frequency, amplitude = amplitude_spectrum(force.force, float(force.time[1] - force.time[0]))
+        ax.semilogy(frequency, amplitude / max(float(amplitude.max()), 1e-300), color="black", lw=1.1, ls="--",
+                    label=f"force, {force.estimator} at {force.coupler}")
+    ax.set(xlim=(0.0, min(SPECTRUM_TOP, 0.5 / dt)), ylim=(1e-4, 2.0), xlabel="frequency (Hz)", ylabel="|A(f)| / max |A|",
+           title=f"event {event.index}: spectra")
+    figure_legend(ax)
+    findings = "; ".join(f"{end['car']}: the ends' velocities differ by {end['elongation_rate']:.3g} m/s after the contact "
+                         f"(allowed {end['allowed']:.3g}), |D(0)|/max|D| = {end['zero_ratio']:.3g}" for end in ends)
+    caption = (f"Event {event.index}: amplitude spectra, each scaled to its largest value. A car's a2 − a1 should start at the "
+               f"origin (its body returns to its length); zero-frequency content there is a gain mismatch or an offset between "
+               f"its end sensors. {findings}.")
+    return [Picture(f"event {event.index} — spectra", caption, figure_png(figure))]
 
 
 def _number(value: float, pattern: str) -> str:

@@ -6,7 +6,9 @@ stream decides it (:class:`femref.sensing.stream.EventStream`: its records on on
 clock's correction), checks its cost against the work budget (:class:`femref.run.event_budget.EventBudget`) and:
 
 * removes each channel's offset before the trigger and measures its noise there
-  (:func:`femref.sensing.noise_gate.quiet_corrected`);
+  (:func:`femref.sensing.noise_gate.quiet_corrected`), and checks what the records say about themselves — each car's
+  end sensors against each other, each channel's offset and drift (:func:`femref.sensing.diagnostics.diagnose`; its
+  findings are the event's flags);
 * classifies it from the zero-harmonic ratio of the relative acceleration of the first coupler's cars
   (:func:`femref.sensing.findings.classify_event`), or as ``not_an_impact`` when the cars' forces are not internal
   to the line or the coupler did not close (:func:`femref.sensing.findings.momentum_records`; not when a channel
@@ -32,6 +34,7 @@ from femref.run.runner import load_one_off_imports
 from femref.scene.measured import MeasuredScene
 from femref.sensing import trigger
 from femref.sensing import findings
+from femref.sensing.diagnostics import diagnose
 from femref.sensing.findings import stated_speed
 from femref.sensing.noise_gate import quiet_corrected
 from femref.sensing.recordings import RecorderReader
@@ -110,6 +113,8 @@ def event_result(scene: MeasuredScene, estimators: list[Estimator], cut: CutEven
     records, noise_std, quiet = quiet_corrected(t, cut.records, event.trigger_time)
     result = EventResult(index=event.index, start=event.start, end=event.end, trigger_time=event.trigger_time,
                          trigger_probe=event.trigger_probe, flags=tuple(event.flags), time=t, records=records, clock_corrections=cut.clocks)
+    diagnosed = diagnose(cars, t, cut.records, records, quiet, event.trigger_time)
+    result.diagnostics, result.flags = diagnosed.record(), (*result.flags, *diagnosed.flags)
     saturated = [flag for flag in event.flags if flag.startswith("saturated")]
     found = findings.classify_event(cars, couplers[0], t, records, noise_std, scene.kalman.mass_tolerance, bool(saturated))
     result.impact_type, result.zero_harmonic_ratio, result.classification_confidence = found.kind, found.zero_frequency_ratio, found.confidence

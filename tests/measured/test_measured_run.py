@@ -130,8 +130,8 @@ def test_a_record_file_broken_after_validation_exits_2_and_writes_nothing(tmp_pa
 
 
 def test_the_report_of_an_event_file_shows_the_events_and_their_bands(tmp_path):
-    """``femref report`` on a measured case's file: the event table (type, estimators, band, alarm) and one
-    force plot per event and coupler; no model sections of a simulated run."""
+    """``femref report`` on a measured case's file: the event table (type, estimators, band, alarm), one force plot
+    per event and coupler and one of the event's spectra (data quality); no model sections of a simulated run."""
     event = simulated_event(tmp_path, default_scene_data(), estimators=("inverse_rigid", "kalman"), checks={"alarm": 1.5e6})
     out = tmp_path / "events.h5"
     assert CliRunner().invoke(main, ["run", str(event.path), "-o", str(out)]).exit_code == 0
@@ -139,4 +139,5 @@ def test_the_report_of_an_event_file_shows_the_events_and_their_bands(tmp_path):
     assert result.exit_code == 0, result.output
     page = (tmp_path / "events.html").read_text()
     assert "<h2>Events</h2>" in page and "free_to_roll" in page and "covariance" in page and "certain" in page
-    assert page.count("<img ") == 1 and "alt=\"event 0 — c1\"" in page and "<h2>Scores</h2>" not in page
+    assert page.count("<img ") == 2 and "alt=\"event 0 — c1\"" in page and "<h2>Scores</h2>" not in page
+    assert "alt=\"event 0 — spectra\"" in page and "<h2>Data quality</h2>" in page and "a2 − a1 should start at the origin" in page

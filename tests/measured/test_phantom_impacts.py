@@ -280,11 +280,13 @@ def clean(tmp_path_factory) -> list[dict]:
 
 
 def test_a_biased_channel_gives_only_the_two_impacts(tmp_path, clean):
-    """100 m/s² added to hammer/center: the two events of the clean records, their trigger times and peaks, no flag
-    (before: one event from the first sample, capped at 5 s, holding both impacts)."""
+    """100 m/s² added to hammer/center: the two events of the clean records, their trigger times and peaks, and one
+    flag each, the offset said (before: one event from the first sample, capped at 5 s, holding both impacts)."""
     code, stderr, events = run(yard(tmp_path, hammer=lambda h: h.__setitem__("center", h["center"] + BIAS / G)))
     assert code == 0 and "warning" not in stderr
-    assert peaks(events) == pytest.approx(peaks(clean), rel=1e-6) and all(e["flags"] == [] for e in events)
+    assert peaks(events) == pytest.approx(peaks(clean), rel=1e-6) and all(e["flags"] == [] for e in clean)
+    for event in events:
+        assert len(event["flags"]) == 1 and event["flags"][0].startswith("offset: hammer/center reads 100 m/s² at rest"), event["flags"]
 
 
 def test_a_one_sample_glitch_is_ignored_and_said(tmp_path, clean):
