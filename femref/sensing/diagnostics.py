@@ -141,11 +141,14 @@ def end_sensors(car: Any) -> tuple[str, str] | None:
 def end_agreement(car: Any, time: NDArray[np.float64], records: Mapping[str, NDArray[np.float64]], noise: Mapping[str, Any],
                   trigger_time: float) -> EndAgreement | None:
     """``car``'s :class:`EndAgreement` (module docstring) from offset-free ``records`` on the uniform ``time`` and each
-    channel's quiet noise (``std``, ``samples``, ``effective_samples``); None when the car has no two end sensors recorded."""
+    channel's quiet noise (``std``, ``samples``, ``effective_samples``); None when the car has no two end sensors recorded,
+    or a gap (NaN) in either."""
     ends = end_sensors(car)
     if ends is None or any(f"{car.name}/{end}" not in records for end in ends):
         return None
     rear, front = (np.asarray(records[f"{car.name}/{end}"], dtype=float) for end in ends)
+    if not (np.all(np.isfinite(rear)) and np.all(np.isfinite(front))):
+        return None  # a gap (flagged by the stream's quality tracker) leaves no integral to check
     dt = float(time[1] - time[0])
     difference = front - rear
     elongation_rate = np.cumsum(difference) * dt
@@ -169,10 +172,10 @@ def end_agreement(car: Any, time: NDArray[np.float64], records: Mapping[str, NDA
 def channel_zero(probe: str, time: NDArray[np.float64], raw: NDArray[np.float64], trigger_time: float, velocity_change: float,
                  correlation: float = 1.0) -> ChannelZero | None:
     """``probe``'s :class:`ChannelZero` (module docstring) from its ``raw`` record (offset kept) on ``time``: the median and
-    the least-squares slope of the samples before ``trigger_time`` (None with fewer than 10), the slope's standard error
+    the least-squares slope of the finite samples before ``trigger_time`` (None with fewer than 10), the slope's standard error
     from the fit's residuals (× √``correlation``, the noise's correlation time in samples), the velocity error
     ``b T²/2`` over the window of length ``T``, and ``velocity_change`` the car's |Δv| that sets the allowance."""
-    quiet = time < trigger_time
+    quiet = (time < trigger_time) & np.isfinite(raw)
     if np.count_nonzero(quiet) < 10:
         return None
     t, y = time[quiet] - float(np.mean(time[quiet])), np.asarray(raw, dtype=float)[quiet]
@@ -195,7 +198,7 @@ def diagnose(cars: Sequence[Any], time: NDArray[np.float64], raw: Mapping[str, N
         if not probes:
             continue
         dt = float(time[1] - time[0])
-        velocity_change = abs(float(np.mean([np.sum(corrected[p]) * dt for p in probes])))
+        velocity_change = abs(float(np.mean([np.nansum(corrected[p]) * dt for p in probes])))
         for probe in probes:
             quiet = noise.get(probe)
             correlation = quiet.samples / quiet.effective_samples if quiet is not None and quiet.effective_samples > 0 else 1.0

@@ -147,3 +147,17 @@ def test_a_car_with_one_sensor_has_no_end_check(fem_event):
     one = SimpleNamespace(name="hammer", sensors={"center": 0.0})
     corrected, _, noise = quiet_corrected(fem_event.time, fem_event.records, fem_event.trigger)
     assert end_agreement(one, fem_event.time, corrected, noise, fem_event.trigger) is None
+
+
+def test_a_gap_leaves_its_car_unchecked_and_raises_nothing(fem_event):
+    """NaN samples (a gap, flagged by the stream's quality tracker) in the anvil's front record: no end check for the
+    anvil, the hammer's still made; the gap's channel still gets its zero from its finite quiet samples."""
+    records = dict(fem_event.records)
+    front = records["anvil/front"].copy()
+    front[100:120] = np.nan  # before the trigger
+    front[400:450] = np.nan  # during the contact
+    records["anvil/front"] = front
+    found, _, _ = diagnosed(fem_event, records)
+    assert [end.car for end in found.ends] == ["hammer"] and found.flags == ()
+    zero = next(z for z in found.zeros if z.probe == "anvil/front")
+    assert math.isfinite(zero.offset) and math.isfinite(zero.drift)
