@@ -8,8 +8,8 @@ in the frequency domain (``harmonic``) and in the time domain (``transient``); t
 
 from .beam import QuasiRigidBeam
 from .body import HarmonicResponse, LoadHistory, TransientResponse
-from .coupled import QuasiRigidStepper, StepMatrices, StepPrediction
-from .creep import VOIGT, CreepKernel, filter_piecewise_linear, harmonic_factor, update_coefficients
+from .coupled import QuasiRigidStepper, StepMatrices, StepPrediction, step_matrices
+from .creep import VOIGT, CreepKernel, filter_piecewise_linear, harmonic_factor, harmonic_factor_at, update_coefficients
 from .rod import QuasiRigidRod
 
 __all__ = [
@@ -25,5 +25,7 @@ __all__ = [
     "VOIGT",
     "filter_piecewise_linear",
     "harmonic_factor",
+    "harmonic_factor_at",
+    "step_matrices",
     "update_coefficients",
 ]

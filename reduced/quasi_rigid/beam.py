@@ -35,7 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 from .body import HarmonicResponse, LoadLike, QuasiRigidBody, TransientResponse
 from .coupled import QuasiRigidStepper
 from .creep import VOIGT, CreepKernel
-from .profiles import BodyQuadrature, ProfileLike
+from .profiles import GAUSS_POINTS, BodyQuadrature, ProfileLike
 
 
 class QuasiRigidBeam(QuasiRigidBody):
@@ -59,7 +59,7 @@ class QuasiRigidBeam(QuasiRigidBody):
         *,
         jumps: Iterable[float] = (),
         creep: CreepKernel = VOIGT,
-        gauss_points: int = 16,
+        gauss_points: int = GAUSS_POINTS,
         panels_per_segment: int = 4,
         max_tau_groups: int = 24,
     ) -> None:

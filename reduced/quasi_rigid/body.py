@@ -36,7 +36,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .correction import CreepCorrection
-from .creep import CreepKernel, harmonic_factor, update_coefficients
+from .creep import CreepKernel, harmonic_factor, harmonic_factor_at, update_coefficients
 from .profiles import BodyQuadrature
 
 
@@ -168,12 +168,16 @@ class QuasiRigidBody:
         return (omega * self.wave_travel_time) ** 2 * np.abs(self.creep_factor(omega))
 
     def epsilon_of_time_scale(self, load_time_scale: float) -> float:
-        """``ε = (T_wave/T_load)² |h(1/T_load)|`` for a load time scale ``T_load`` (s); 0 for ∞."""
+        """``ε = (T_wave/T_load)² |h(1/T_load)|`` for a load time scale ``T_load`` (s); 0 for ∞: :meth:`epsilon` at
+        ``ω = 1/T_load``, its sum over the τ groups in plain complex arithmetic (:func:`.creep.harmonic_factor_at`)."""
         if not load_time_scale > 0.0:
             raise ValueError("load_time_scale must be > 0")
         if math.isinf(load_time_scale):
             return 0.0
-        return float(self.epsilon(1.0 / load_time_scale)[0])
+        omega = 1.0 / load_time_scale
+        factor = sum(share * harmonic_factor_at(omega, tau)
+                     for share, tau in zip(self.correction.group_compliance.tolist(), self.tau_groups.tolist()))
+        return (omega * self.wave_travel_time) ** 2 * abs(factor)
 
     def _check_load_names(self, loads: Mapping[str, object]) -> None:
         unknown = set(loads) - set(self.load_names)

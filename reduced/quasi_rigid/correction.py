@@ -29,6 +29,7 @@ its error: tests/reduced/quasi_rigid/test_frequency.py).
 
 from __future__ import annotations
 
+import sys
 from typing import Callable
 
 import numpy as np
@@ -70,12 +71,14 @@ class CreepCorrection:
         self.kernel = kernel
         weights, taus = kernel.time_constants(q.viscous_time)             # (P, n, I)
         self._choose_groups(taus, max_tau_groups)
-        lam = np.einsum("...i,...ig->...g", weights, self._membership(taus))   # (P, n, G)
+        lam = self._sum_over_terms(weights, self._membership(taus))      # (P, n, G)
 
         psi = self._psi(q.nodes, q.node_moments, q.stiffness, lam)      # (P, n, J, G)
         # keep only the groups that carry weight somewhere (τ = 0 and τ = ∞ are often empty)
-        self._keep = np.any(psi != 0.0, axis=(0, 1, 2))
-        self._keep[1:-1] |= self.interpolated
+        G = lam.shape[-1]
+        self._keep = (psi != 0.0).reshape(-1, G).any(axis=0)
+        if self.interpolated:
+            self._keep[1:-1] = True
         self.tau_groups = self.tau_groups[self._keep]
         psi = psi[..., self._keep]
         self.psi_at_nodes = psi
@@ -94,7 +97,7 @@ class CreepCorrection:
             self._proj1 = q.integrate(b[..., None, None] * psi) / J
         self.n_loads = psi.shape[2]
         # compliance share of each group, ∫ Σ_i k_i ℓ_g(τ_i)/k dx ÷ ∫ dx/k (for ε and the creep factor)
-        self.group_compliance = q.integrate(lam[..., self._keep] / q.stiffness[..., None]) / q.integrate(1.0 / q.stiffness)
+        self.group_compliance = q.integrate(lam[..., self._keep] / q.stiffness[..., None]) / q.compliance
 
     # -- time-constant groups -------------------------------------------------------
     def _choose_groups(self, taus: NDArray[np.float64], max_groups: int) -> None:
@@ -114,12 +117,18 @@ class CreepCorrection:
             finite = np.exp(nodes)
         else:
             finite = distinct
+            # a time constant's group: 0 for τ = 0, the nearest in log τ (below the geometric mean of two
+            # neighbours, the lower), the last for τ = ∞: its index among these edges
+            middle = np.sqrt(finite[1:] * finite[:-1])
+            self._group_edges = np.array([0.0, *middle, sys.float_info.max]) if finite.size else np.zeros(1)
         self._all_groups = np.concatenate([[0.0], finite, [np.inf]])  # group 0: τ = 0, last: τ = ∞
         self.tau_groups = self._all_groups
 
     def _membership(self, taus: NDArray[np.float64]) -> NDArray[np.float64]:
         """Weights ``ℓ_g(τ)`` of each time constant on the groups, shape ``(..., G)``."""
         G = self._all_groups.size
+        if not self.interpolated:  # each τ wholly in its group (:meth:`_choose_groups`)
+            return (np.searchsorted(self._group_edges, taus)[..., None] == np.arange(G)).astype(float)
         out = np.zeros((*taus.shape, G))
         zero = taus == 0.0
         inf = np.isinf(taus)
@@ -128,26 +137,26 @@ class CreepCorrection:
         out[inf, G - 1] = 1.0
         t = taus[mid]
         if t.size:
-            if self.interpolated:
-                v = np.log(t)[:, None]
-                diff = v - self._log_nodes
-                exact = diff == 0.0
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    terms = self._bary / diff
-                    ell = terms / terms.sum(axis=1, keepdims=True)
-                rows = np.any(exact, axis=1)
-                ell[rows] = exact[rows].astype(float)
-            else:  # the nearest group in log τ: below the geometric mean of two neighbours, the lower
-                groups = self._all_groups[1:-1]
-                nearest = np.searchsorted(np.sqrt(groups[1:] * groups[:-1]), t)
-                ell = (nearest[:, None] == np.arange(groups.size)).astype(float)
+            v = np.log(t)[:, None]
+            diff = v - self._log_nodes
+            exact = diff == 0.0
+            with np.errstate(divide="ignore", invalid="ignore"):
+                terms = self._bary / diff
+                ell = terms / terms.sum(axis=1, keepdims=True)
+            rows = np.any(exact, axis=1)
+            ell[rows] = exact[rows].astype(float)
             out[mid, 1 : G - 1] = ell
         return out
+
+    @staticmethod
+    def _sum_over_terms(weights: NDArray[np.float64], membership: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``λ_g = Σ_i k_i ℓ_g(τ_i)`` from the kernel's weights ``(..., I)`` and the membership ``(..., I, G)``."""
+        return np.matmul(weights[..., None, :], membership)[..., 0, :]
 
     def _group_weights(self, tau: NDArray[np.float64]) -> NDArray[np.float64]:
         """``λ_g = Σ_i k_i ℓ_g(τ_i)`` at points of viscous time ``τ = c/k``, shape ``(..., G)``."""
         weights, taus = self.kernel.time_constants(tau)                   # (..., I)
-        return np.einsum("...i,...ig->...g", weights, self._membership(taus))
+        return self._sum_over_terms(weights, self._membership(taus))
 
     def _psi(self, s, S, stiffness, lam) -> NDArray[np.float64]:
         """``ψ_{j,g}(s) = φ_j(s)/k(s) · λ_g(s)`` (:meth:`_group_weights`) with shape ``(..., J, G)``."""
@@ -201,21 +210,22 @@ class CreepCorrection:
         if self.interpolated:
             return self.coefficients(q.nodes.ravel())
         P, n = q.nodes.shape
+        psi = self.psi_at_nodes
+        if self.order == 1:  # the rule's weights per panel times ψ there, without repeating ψ per node
+            partial = q.half_widths[:, None, None] * (integration_matrix(n) @ psi.reshape(P, n, -1))
+            return (partial.reshape(psi.shape) + (self._cum0[:-1, None] - self._proj0)).reshape(P * n, *psi.shape[2:])
         p = np.repeat(np.arange(P), n)
         weights = (q.half_widths[:, None, None] * integration_matrix(n)).reshape(P * n, n)
-        return self._from_rule(q.nodes.ravel(), 0, p, q.nodes[p], weights, self.psi_at_nodes[p])
+        return self._from_rule(q.nodes.ravel(), 0, p, q.nodes[p], weights, psi[p])
 
     def _from_rule(self, x: NDArray[np.float64], derivative: int, p: NDArray[np.intp], nodes: NDArray[np.float64],
                    weights: NDArray[np.float64], psi: NDArray[np.float64]) -> NDArray[np.float64]:
         """C (or its x-derivative) at x from a rule for ``∫_{e_p}^{x}`` over each point's partial panel
         (panel p, nodes and weights ``(X, n)``, ψ there ``(X, n, J, G)``) and the full panels left of it."""
         xb = x[:, None, None]
-        if self.order == 1:
-            full = self._cum0[p]
-            partial = np.einsum("xn,xnjg->xjg", weights, psi)
-            return full + partial - self._proj0
-        if derivative == 1:
-            return self._cum0[p] + np.einsum("xn,xnjg->xjg", weights, psi) - self._proj1
+        if self.order == 1 or derivative == 1:
+            partial = np.matmul(weights[:, None, :], psi.reshape(*weights.shape, -1)).reshape(x.size, *psi.shape[2:])
+            return self._cum0[p] + partial - (self._proj0 if self.order == 1 else self._proj1)
         full = xb * self._cum0[p] - self._cum1[p]
         partial = np.einsum("xn,xnjg->xjg", weights * (x[:, None] - nodes), psi)
         return full + partial - self._proj0 - xb * self._proj1
@@ -223,9 +233,10 @@ class CreepCorrection:
 
 def _cumulative_panels(weights: NDArray[np.float64], values: NDArray[np.float64]) -> NDArray[np.float64]:
     """``Σ`` of ``weights · values`` over the panels left of each panel edge, ``(P + 1, …)``: the full panels of ``∫_{−l}^{x}``."""
-    panels = np.einsum("pn,pn...->p...", weights, values)
-    cumulative = np.zeros((panels.shape[0] + 1, *panels.shape[1:]))
-    np.cumsum(panels, axis=0, out=cumulative[1:])
+    P, n = weights.shape
+    cumulative = np.zeros((P + 1, *values.shape[2:]))
+    panels = np.matmul(weights[:, None, :], values.reshape(P, n, -1))
+    np.cumsum(panels.reshape(P, *values.shape[2:]), axis=0, out=cumulative[1:])
     return cumulative
 
 

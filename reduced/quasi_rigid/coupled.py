@@ -120,14 +120,7 @@ class QuasiRigidStepper:
         if initial_shape not in INITIAL_SHAPES:
             raise ValueError(f"initial_shape must be one of {INITIAL_SHAPES}, got {initial_shape!r}")
         self.body = body
-        l = body.half_length
-        self.positions = np.concatenate([[-l, l], np.atleast_1d(np.asarray(probes, dtype=float))])
-        C = body.coefficients(self.positions)                                 # (P, J, G)
-        self._C = C
-        self._Cf = np.ascontiguousarray(C.transpose(0, 2, 1).reshape(C.shape[0], -1))  # (P, G·J), state order
-        self._modes = body.rigid_modes(self.positions)                        # (P, K)
-        self._gain = body.rigid_gain                                          # (K, J)
-        self._modes_gain = self._modes @ self._gain                           # (P, J)
+        self.positions, self._C, self._Cf, self._modes, self._gain, self._modes_gain = _position_tables(body, probes)
         self._tau = body.tau_groups
         K, J = self._gain.shape
         G = self._tau.size
@@ -135,7 +128,8 @@ class QuasiRigidStepper:
         self.time = float(time)
         self.loads = L0.copy()
         self.rigid_displacement = np.zeros(K)
-        self.rigid_velocity = np.broadcast_to(np.asarray(initial_rigid_velocity, dtype=float), (K,)).copy()
+        self.rigid_velocity = np.empty(K)
+        self.rigid_velocity[...] = initial_rigid_velocity
         # filter states, (3, G, J): L_τ[L] (steady state of the held load), L_τ[L̇], L_τ[L̈]
         self._state = np.zeros((3, G, J))
         if initial_shape == "equilibrium":
@@ -143,7 +137,8 @@ class QuasiRigidStepper:
         self._y0 = self._state[0].ravel().copy()            # displacements count from this shape
         self._second = np.zeros(J)                          # L̈ estimate at the current time
         self._times: list[float] = []                       # the last four sample times and loads
-        self._history = np.broadcast_to(L0, (4, J)).copy()  # (held before the start)
+        self._history = np.empty((4, J))                    # (held before the start)
+        self._history[...] = L0
         self._inputs = np.zeros((2, 3, 1, J))               # filter inputs at both ends of a step
         self._cached_dt: float | None = None
         self._sum_load2 = 0.0
@@ -270,59 +265,7 @@ class QuasiRigidStepper:
         are ``displacement = D x + d₀`` (``d₀ = −C y₀``), ``velocity = V x``, ``acceleration = Acc x``;
         tests/reduced/quasi_rigid/test_coupled.py holds ``A`` to :meth:`step`.
         """
-        if not dt > 0.0:
-            raise ValueError("dt must be > 0")
-        d, a, b = update_coefficients(dt, self._tau)
-        K, J = self._gain.shape
-        G = self._tau.size
-        gj = G * J
-        q, qd, y, z, w, second = 0, K, 2 * K, 2 * K + gj, 2 * K + 2 * gj, 2 * K + 3 * gj
-        history = second + J
-        n = history + 3 * J
-        A = np.zeros((n, n))
-        B = np.zeros((n, J))
-        eye_k, eye_j = np.eye(K), np.eye(J)
-        current = slice(history + 2 * J, history + 3 * J)
-        g = self._gain
-        # rigid motion: q' = q + dt q̇ + dt²/6 (2 g L_n + g L_{n+1}),  q̇' = q̇ + dt/2 g (L_n + L_{n+1})
-        A[q:q + K, q:q + K] = eye_k
-        A[q:q + K, qd:qd + K] = dt * eye_k
-        A[q:q + K, current] = (dt * dt / 3.0) * g
-        B[q:q + K] = (dt * dt / 6.0) * g
-        A[qd:qd + K, qd:qd + K] = eye_k
-        A[qd:qd + K, current] = 0.5 * dt * g
-        B[qd:qd + K] = 0.5 * dt * g
-        # L̈_{n+1} from the last four samples
-        weights = _second_derivative_weights(-3.0 * dt, -2.0 * dt, -dt, 0.0)
-        A[second:second + J, history:history + J] = weights[0] * eye_j
-        A[second:second + J, history + J:history + 2 * J] = weights[1] * eye_j
-        A[second:second + J, current] = weights[2] * eye_j
-        B[second:second + J] = weights[3] * eye_j
-        # the filters, group by group (rows g·J + j): S' = d S + a·(start input) + b·(end input)
-        eye_g = np.tile(eye_j, (G, 1))                                         # (G·J, J)
-        dg, ag, bg = (np.repeat(coefficient, J)[:, None] for coefficient in (d, a, b))
-        filters = np.arange(y, y + 3 * gj)
-        A[filters, filters] = np.tile(dg[:, 0], 3)
-        A[y:y + gj, current] = ag * eye_g                                       # y: input L (L_n, then L_{n+1})
-        B[y:y + gj] = bg * eye_g
-        A[z:z + gj, current] = -(ag + bg) / dt * eye_g                          # z: input L̇ = (L_{n+1} − L_n)/dt
-        B[z:z + gj] = (ag + bg) / dt * eye_g
-        A[w:w + gj, second:second + J] = ag * eye_g                             # w: input L̈ (L̈_n, then its new estimate)
-        A[w:w + gj] += bg * np.tile(A[second:second + J], (G, 1))
-        B[w:w + gj] = bg * np.tile(B[second:second + J], (G, 1))
-        # the load history shifts
-        A[history:history + J, history + J:history + 2 * J] = eye_j
-        A[history + J:history + 2 * J, current] = eye_j
-        B[current] = eye_j
-        P = self.positions.size
-        displacement, velocity, acceleration = np.zeros((P, n)), np.zeros((P, n)), np.zeros((P, n))
-        displacement[:, q:q + K] = self._modes
-        displacement[:, y:y + gj] = self._Cf
-        velocity[:, qd:qd + K] = self._modes
-        velocity[:, z:z + gj] = self._Cf
-        acceleration[:, current] = self._modes_gain
-        acceleration[:, w:w + gj] = self._Cf
-        return StepMatrices(A, B, displacement, -(self._Cf @ self._y0), velocity, acceleration)
+        return _step_matrices(dt, self._tau, self._gain, self._modes, self._Cf, self._modes_gain, self._y0)
 
     # -- state -----------------------------------------------------------------------
     @property
@@ -382,3 +325,83 @@ class QuasiRigidStepper:
     def epsilon(self) -> float:
         """Small parameter at the load time scale seen so far (:meth:`QuasiRigidBody.epsilon_of_time_scale`)."""
         return self.body.epsilon_of_time_scale(self.load_time_scale)
+
+
+def _position_tables(body: QuasiRigidBody, probes: ArrayLike) -> tuple[NDArray[np.float64], ...]:
+    """``(positions, C, C_flat, modes, gain, modes @ gain)`` at ``positions = [−l, +l, *probes]``: the coefficients
+    ``C[x, j, g]`` ``(P, J, G)`` and flattened in the state's order ``g·J + j`` ``(P, G·J)``, the rigid modes
+    ``(P, K)``, the rigid gain ``(K, J)`` and the rigid accelerations per unit load there ``(P, J)``."""
+    l = body.half_length
+    positions = np.concatenate([[-l, l], np.atleast_1d(np.asarray(probes, dtype=float))])
+    C = body.coefficients(positions)
+    flat = np.ascontiguousarray(C.transpose(0, 2, 1).reshape(C.shape[0], -1))
+    modes, gain = body.rigid_modes(positions), body.rigid_gain
+    return positions, C, flat, modes, gain, modes @ gain
+
+
+def step_matrices(body: QuasiRigidBody, probes: ArrayLike, dt: float) -> StepMatrices:
+    """:meth:`QuasiRigidStepper.transition` of an undeformed stepper (``y₀ = 0``) at ``[−l, +l, *probes]``, without
+    making the stepper: what a car that is stepped as one matrix needs."""
+    _, _, flat, modes, gain, modes_gain = _position_tables(body, probes)
+    return _step_matrices(dt, body.tau_groups, gain, modes, flat, modes_gain, np.zeros(flat.shape[1]))
+
+
+def _step_matrices(dt: float, tau: NDArray[np.float64], gain: NDArray[np.float64], modes: NDArray[np.float64],
+                   Cf: NDArray[np.float64], modes_gain: NDArray[np.float64], y0: NDArray[np.float64]) -> StepMatrices:
+    """:meth:`QuasiRigidStepper.transition` from the tables of :func:`_position_tables` and the initial filter
+    state ``y₀``."""
+    if not dt > 0.0:
+        raise ValueError("dt must be > 0")
+    d, a, b = update_coefficients(dt, tau)
+    K, J = gain.shape
+    G = tau.size
+    gj = G * J
+    q, qd, y, z, w, second = 0, K, 2 * K, 2 * K + gj, 2 * K + 2 * gj, 2 * K + 3 * gj
+    history = second + J
+    n = history + 3 * J
+    A = np.zeros((n, n))
+    B = np.zeros((n, J))
+    eye_j = np.eye(J)
+    current = slice(history + 2 * J, history + 3 * J)
+    g = gain
+
+    def stacked(coefficient: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``(G·J, J)``: ``coefficient[g] · I_J`` in the rows ``g·J + j`` of group g."""
+        return (coefficient[:, None, None] * eye_j).reshape(gj, J)
+
+    # the diagonal: q and q̇ carried over, each filter state decays by d
+    diagonal = np.zeros(n)
+    diagonal[:2 * K] = 1.0
+    diagonal[y:second].reshape(3, G, J)[...] = d[:, None]
+    A.flat[::n + 1] = diagonal
+    # rigid motion: q' = q + dt q̇ + dt²/6 (2 g L_n + g L_{n+1}),  q̇' = q̇ + dt/2 g (L_n + L_{n+1})
+    A[q:q + K, qd:qd + K] = dt * np.eye(K)
+    A[q:q + K, current] = (dt * dt / 3.0) * g
+    B[q:q + K] = (dt * dt / 6.0) * g
+    A[qd:qd + K, current] = B[qd:qd + K] = 0.5 * dt * g
+    # L̈_{n+1} from the last four samples
+    weights = _second_derivative_weights(-3.0 * dt, -2.0 * dt, -dt, 0.0)
+    estimate = A[second:second + J, history:n]                              # (L_{n−2}, L_{n−1}, L_n) columns
+    estimate[...] = (eye_j[:, None, :] * weights[:3, None]).reshape(J, 3 * J)
+    B[second:second + J] = weights[3] * eye_j
+    # the filters, group by group (rows g·J + j): S' = d S + a·(start input) + b·(end input)
+    A[y:y + gj, current] = stacked(a)                                       # y: input L (L_n, then L_{n+1})
+    B[y:y + gj] = stacked(b)
+    rate = (a + b) / dt
+    A[z:z + gj, current] = -stacked(rate)                                   # z: input L̇ = (L_{n+1} − L_n)/dt
+    B[z:z + gj] = stacked(rate)
+    A[w:w + gj, second:second + J] = stacked(a)                             # w: input L̈ (L̈_n, then its new estimate)
+    A[w:w + gj, history:n] = (b[:, None, None] * estimate[None]).reshape(gj, 3 * J)
+    B[w:w + gj] = stacked(b * weights[3])
+    # the load history shifts: L_{n−1} → L_{n−2}, L_n → L_{n−1}, L_{n+1} → L_n
+    A[history:history + 2 * J, history + J:n] = np.eye(2 * J)
+    B[current] = eye_j
+    P = modes.shape[0]
+    displacement, velocity, acceleration = np.zeros((P, n)), np.zeros((P, n)), np.zeros((P, n))
+    displacement[:, q:q + K] = modes
+    displacement[:, y:y + gj] = Cf
+    velocity[:, qd:qd + K] = modes
+    velocity[:, z:z + gj] = Cf
+    acceleration[:, current] = modes_gain
+    acceleration[:, w:w + gj] = Cf
+    return StepMatrices(A, B, displacement, -(Cf @ y0), velocity, acceleration)

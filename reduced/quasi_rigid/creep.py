@@ -109,9 +109,12 @@ class CreepKernel:
         Returns ``(weights, taus)`` of shape ``(..., n_terms + 1)``: term 0 is the
         instantaneous part (τ = 0), term i the Prony term with ``τ/rᵢ`` (∞ stays ∞).
         """
-        tau = np.asarray(viscous_time, dtype=float)[..., None]
-        taus = np.concatenate([np.zeros_like(tau), tau / np.asarray(self.rates)], axis=-1)
-        weights = np.broadcast_to(np.asarray([self.instantaneous, *self.weights]), taus.shape)
+        tau = np.asarray(viscous_time, dtype=float)
+        taus = np.empty((*tau.shape, len(self.rates) + 1))
+        taus[..., 0] = 0.0
+        np.divide(tau[..., None], self.rates, out=taus[..., 1:])
+        weights = np.empty_like(taus)
+        weights[...] = (self.instantaneous, *self.weights)
         return weights, taus
 
 
@@ -131,6 +134,16 @@ def harmonic_factor(omega: ArrayLike, tau: ArrayLike) -> NDArray[np.complex128]:
     out[finite] = 1.0 / (1.0 - 1j * omega[finite] * tau[finite])
     out[np.isinf(tau) & (omega != 0.0)] = 0.0
     return out
+
+
+def harmonic_factor_at(omega: float, tau: float) -> complex:
+    """:func:`harmonic_factor` at one frequency and time constant, in plain complex arithmetic (no array set-up):
+    ``1/(1 − iωτ)``, 1 at τ = 0, at τ = ∞ 0 for ω ≠ 0 and 1 at ω = 0."""
+    if tau == 0.0 or (omega == 0.0 and math.isinf(tau)):
+        return 1.0 + 0.0j
+    if math.isinf(tau):
+        return 0.0j
+    return 1.0 / complex(1.0, -omega * tau)
 
 
 def update_coefficients(dt: float, tau: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:

@@ -99,13 +99,15 @@ def lagrange_antiderivatives(eta: ArrayLike, points: int) -> NDArray[np.float64]
     """
     zeta, bary, values = _antiderivative_table(points)
     difference = np.asarray(eta, dtype=float)[..., None] - zeta
-    with np.errstate(divide="ignore", invalid="ignore"):
+    exact = difference == 0.0
+    if not exact.any():
+        terms = bary / difference
+        return (terms / terms.sum(axis=-1, keepdims=True)) @ values
+    with np.errstate(divide="ignore", invalid="ignore"):  # η on a point: the formula's 0/0 is replaced below
         terms = bary / difference
         interpolation = terms / terms.sum(axis=-1, keepdims=True)
-    exact = difference == 0.0
-    if np.any(exact):
-        rows = np.any(exact, axis=-1)
-        interpolation[rows] = exact[rows]
+    rows = np.any(exact, axis=-1)
+    interpolation[rows] = exact[rows]
     return interpolation @ values
 
 
@@ -116,6 +118,15 @@ def integration_matrix(points: int) -> NDArray[np.float64]:
     matrix = lagrange_antiderivatives(gauss_legendre(points)[0], points)
     matrix.flags.writeable = False
     return matrix
+
+
+GAUSS_POINTS = 16
+"""The Gauss–Legendre rule's points per panel of a body's quadrature unless told otherwise."""
+
+# The default order's tables (its rule, its antiderivatives' and the order above's) are one constant per process,
+# whatever the body or the scene: made at import, not by the first body built (~0.3 ms, most of it the process's first
+# eigensolve).
+integration_matrix(GAUSS_POINTS)
 
 
 def _check_profile(name: str, values: NDArray[np.float64], positive: bool) -> None:
@@ -152,7 +163,7 @@ class BodyQuadrature:
     the panels' half-widths. Scalars:
     ``total_mass`` ``M = S₀(l)``, ``first_moment`` ``S₁(l)``, ``second_moment``
     ``J = S₂(l)`` (about x = 0), ``mean_mass`` ``M/2l``, ``mean_compliance``
-    ``⟨1/k⟩ = (1/2l)∫ dx/k`` and ``mean_viscous_time`` ``∫(c/k)/k dx / ∫ dx/k``.
+    ``⟨1/k⟩ = (1/2l)∫ dx/k`` (``compliance`` ``∫ dx/k``) and ``mean_viscous_time`` ``∫(c/k)/k dx / ∫ dx/k``.
     """
 
     def __init__(
@@ -163,7 +174,7 @@ class BodyQuadrature:
         viscosity: ProfileLike = 0.0,
         jumps: Iterable[float] = (),
         *,
-        gauss_points: int = 16,
+        gauss_points: int = GAUSS_POINTS,
         panels_per_segment: int = 4,
     ) -> None:
         l = float(half_length)
@@ -178,51 +189,63 @@ class BodyQuadrature:
 
         inner = [float(p) for p in [*jumps, *declared_breakpoints((mass_per_length, stiffness, viscosity))]]
         inner = sorted({p for p in inner if -l * (1 - 1e-12) < p < l * (1 - 1e-12)})
-        segment_edges = np.array([-l, *inner, l])
-        if any(right - left <= 1e-12 * l for left, right in zip([-l, *inner], [*inner, l])):
-            segment_edges = np.unique(np.round(segment_edges / (1e-12 * l)) * (1e-12 * l))
-        self.segment_edges = segment_edges
-        a, b = segment_edges[:-1, None], segment_edges[1:, None]
-        inside = a + (b - a) * (np.arange(1, panels_per_segment) / panels_per_segment)
-        self.panel_edges = np.concatenate([np.hstack([a, inside]).ravel(), segment_edges[-1:]])
-        self.panel_segment = np.repeat(np.arange(segment_edges.size - 1), panels_per_segment)
+        edges = [-l, *inner, l]
+        if any(right - left <= 1e-12 * l for left, right in zip(edges[:-1], edges[1:])):
+            edges = np.unique(np.round(np.array(edges) / (1e-12 * l)) * (1e-12 * l)).tolist()
+        self.segment_edges = segment_edges = np.array(edges)
+        segments = segment_edges.size - 1
+        a = segment_edges[:-1, None]
+        panel_edges = np.empty(segments * panels_per_segment + 1)
+        panel_edges[:-1] = (a + (segment_edges[1:, None] - a) * (np.arange(panels_per_segment) / panels_per_segment)).ravel()
+        panel_edges[-1] = l
+        self.panel_edges = panel_edges
+        self.panel_segment = np.arange(segments).repeat(panels_per_segment)
 
         xi, wi = gauss_legendre(gauss_points)
         self._xi, self._wi = xi, wi
-        a, b = self.panel_edges[:-1], self.panel_edges[1:]
-        self.half_widths = half = 0.5 * (b - a)
-        self.nodes = (0.5 * (a + b))[:, None] + half[:, None] * xi
-        self.weights = half[:, None] * wi
+        a, b = panel_edges[:-1, None], panel_edges[1:, None]
+        half = 0.5 * (b - a)
+        self.half_widths = half[:, 0]
+        self.nodes = s = (0.5 * (a + b)) + half * xi
+        self.weights = half * wi
+        self._flat_weights = self.weights.ravel()
 
-        self.mass = self.mass_function(self.nodes)
-        self.stiffness = self.stiffness_function(self.nodes)
-        self.viscosity = self.viscosity_function(self.nodes)
-        _check_profile("mass_per_length", self.mass, positive=True)
-        _check_profile("stiffness", self.stiffness, positive=True)
-        _check_profile("viscosity", self.viscosity, positive=False)
+        self.mass = m = self.mass_function(s)
+        self.stiffness = k = self.stiffness_function(s)
+        self.viscosity = c = self.viscosity_function(s)
+        _check_profile("mass_per_length", m, positive=True)
+        _check_profile("stiffness", k, positive=True)
+        _check_profile("viscosity", c, positive=False)
 
         # (1, s, s²) m at the nodes, (P, n, 3): the integrands of the moments
-        m, s = self.mass, self.nodes
-        self._moment_density = np.stack([m, m * s, m * (s * s)], axis=-1)
-        panel_moments = np.einsum("pn,pnk->pk", self.weights, self._moment_density)
-        self._cumulative = np.zeros((panel_moments.shape[0] + 1, 3))
-        np.cumsum(panel_moments, axis=0, out=self._cumulative[1:])
-        self.total_mass, self.first_moment, self.second_moment = (float(v) for v in self._cumulative[-1])
+        density = np.empty((*s.shape, 3))
+        density[..., 0] = m
+        np.multiply(m, s, out=density[..., 1])
+        np.multiply(density[..., 1], s, out=density[..., 2])
+        self._moment_density = density
+        self._cumulative = cumulative = np.zeros((s.shape[0] + 1, 3))
+        np.cumsum(np.matmul(self.weights[:, None, :], density)[:, 0], axis=0, out=cumulative[1:])
+        self.total_mass, self.first_moment, self.second_moment = cumulative[-1].tolist()
         # the moments at the nodes, :meth:`interpolant_rule` at the nodes themselves
-        self.node_moments = self._cumulative[:-1, None] + half[:, None, None] * (integration_matrix(gauss_points) @ self._moment_density)
+        self.node_moments = cumulative[:-1, None] + half[..., None] * (integration_matrix(gauss_points) @ density)
 
-        self.viscous_time = tau = viscous_time(self.stiffness, self.viscosity)
-        compliance = self.integrate(1.0 / self.stiffness)
+        self.viscous_time = c / k  # = viscous_time(k, c): k is finite and > 0, so c = 0 gives 0
+        self.compliance = compliance = float(self._flat_weights @ (1.0 / k).ravel())
         self.mean_mass = self.total_mass / (2.0 * l)
         self.mean_compliance = compliance / (2.0 * l)
+
+    @functools.cached_property
+    def mean_viscous_time(self) -> float:
+        """``∫(c/k)/k dx / ∫ dx/k`` (s; ∞ where any c is)."""
+        tau = self.viscous_time
         if np.isinf(tau).any():
-            self.mean_viscous_time = float(np.inf)
-        else:
-            self.mean_viscous_time = self.integrate(tau / self.stiffness) / compliance
+            return float(np.inf)
+        return float(self.integrate(tau / self.stiffness)) / self.compliance
 
     def integrate(self, values_at_nodes: NDArray[np.float64]) -> Any:
         """``∫_{−l}^{l} f dx`` from values at :attr:`nodes` (leading axes ``(P, n)``)."""
-        return np.einsum("pn,pn...->...", self.weights, values_at_nodes)
+        values = np.asarray(values_at_nodes)
+        return (self._flat_weights @ values.reshape(self._flat_weights.size, -1)).reshape(values.shape[2:])
 
     def panel_of(self, y: NDArray[np.float64]) -> NDArray[np.intp]:
         """Index of the panel holding each point (the right one on an edge, the last one for y = l)."""
@@ -231,7 +254,7 @@ class BodyQuadrature:
     def _checked_panel(self, y: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
         y = np.asarray(y, dtype=float)
         l = self.half_length
-        if np.any(np.abs(y) > l * (1 + 1e-12)):
+        if (np.abs(y) > l * (1 + 1e-12)).any():
             raise ValueError(f"positions must lie in [−l, l] = [{-l}, {l}]")
         return y, self.panel_of(y)
 

@@ -43,7 +43,7 @@ from numpy.typing import ArrayLike, NDArray
 from .body import HarmonicResponse, LoadLike, QuasiRigidBody, TransientResponse
 from .coupled import QuasiRigidStepper
 from .creep import VOIGT, CreepKernel
-from .profiles import BodyQuadrature, ProfileLike
+from .profiles import GAUSS_POINTS, BodyQuadrature, ProfileLike
 
 
 class QuasiRigidRod(QuasiRigidBody):
@@ -69,7 +69,7 @@ class QuasiRigidRod(QuasiRigidBody):
         *,
         jumps: Iterable[float] = (),
         creep: CreepKernel = VOIGT,
-        gauss_points: int = 16,
+        gauss_points: int = GAUSS_POINTS,
         panels_per_segment: int = 4,
         max_tau_groups: int = 24,
     ) -> None:
@@ -78,8 +78,10 @@ class QuasiRigidRod(QuasiRigidBody):
         super().__init__(quadrature, creep, max_tau_groups)
 
     def _shapes(self, s: NDArray[np.float64], S: NDArray[np.float64]) -> NDArray[np.float64]:
-        share = S[..., 0] / self.quadrature.total_mass
-        return np.stack([1.0 - share, share], axis=-1)
+        phi = np.empty((*s.shape, 2))
+        np.divide(S[..., 0], self.quadrature.total_mass, out=phi[..., 1])  # S₀/M
+        np.subtract(1.0, phi[..., 1], out=phi[..., 0])
+        return phi
 
     def rigid_modes(self, x: ArrayLike, derivative: int = 0) -> NDArray[np.float64]:
         return np.full((np.size(x), 1), 1.0 if derivative == 0 else 0.0)

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from reduced.quasi_rigid import CreepKernel, QuasiRigidBeam, QuasiRigidRod
+from reduced.quasi_rigid import CreepKernel, QuasiRigidBeam, QuasiRigidRod, harmonic_factor, harmonic_factor_at
 from support.convergence import observed_order
 
 L = 8.0
@@ -266,6 +266,26 @@ def test_complex_mass_and_epsilon():
     rigid = QuasiRigidRod(L, M_ROD, EA, np.inf)
     np.testing.assert_array_equal(rigid.epsilon(omega), 0.0)
     np.testing.assert_allclose(rigid.harmonic(omega, X, F2=1.0).acceleration, 1 / rigid.mass, rtol=1e-15)
+
+
+def test_epsilon_of_a_time_scale_is_epsilon_at_its_frequency():
+    """``epsilon_of_time_scale(T)`` (one frequency, plain complex arithmetic) equals ``epsilon(1/T)`` (the arrays'
+    path) to rounding for exact τ groups with τ = 0 and ∞ among them, interpolated ones and a rigid rod, and is 0 for
+    T = ∞; the scalar filter factor equals the array one at τ = 0, finite and ∞, ω = 0 and not."""
+    def viscosity(x):
+        return np.where(x < -2.0, 0.0, np.where(x < 3.0, 4.0e6, np.inf))
+
+    rods = (QuasiRigidRod(L, M_ROD, EA, viscosity, jumps=[-2.0, 3.0]),
+            QuasiRigidRod(L, M_ROD, EA, lambda x: 1.0e6 * 10.0 ** (x / L), max_tau_groups=8),
+            QuasiRigidRod(L, M_ROD, EA, np.inf))
+    assert rods[0].tau_groups[0] == 0.0 and np.isinf(rods[0].tau_groups[-1])
+    for rod in rods:
+        for scale in (1e-3, 0.02, 0.5):
+            assert rod.epsilon_of_time_scale(scale) == pytest.approx(rod.epsilon(1.0 / scale)[0], rel=1e-14, abs=1e-300)
+        assert rod.epsilon_of_time_scale(np.inf) == 0.0
+    for omega in (0.0, 3.0):
+        for tau in (0.0, 2.0e-3, np.inf):
+            assert harmonic_factor_at(omega, tau) == pytest.approx(harmonic_factor(omega, tau), rel=1e-15, abs=0.0)
 
 
 def test_bad_input_is_rejected():
