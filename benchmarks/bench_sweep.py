@@ -19,11 +19,16 @@ rigid    the whole ``run_sweep`` call of a 1000-sample rigid sweep on a warmed c
          reported apart): ≥ 1000 samples/s. ``rigid_worker_cpu_ms``: the workers' process CPU per sample, the client's
          apart (``rigid_client_cpu_ms``), figures a machine shared with other work moves less than the rate.
 floor    in this process, no Dask: the fem runs of 32 samples of the default scene (velocity drawn) stepped together
-         (:func:`femref.impact.kernels.batch.solve_batch`) against the **batched floor**, a minimal compiled loop
-         (:func:`batched_floor`, a measuring stick, not femref's) stepping 32 independent copies of a banded system of
-         the same DOFs and bandwidth with one factor, the copies innermost: per step three band products, one banded
-         solve, a Newmark update. Both as ns per DOF and step (``fem_batch_ns``, ``floor_ns``, best of ``repeats``);
-         the target is ``fem_batch_ns ≤ 5 × floor_ns``. ``fem_alone_ns``: one run alone (``solve_compiled``).
+         (:func:`femref.impact.kernels.batch.solve_batch`: side by side, one copy of the cars' matrices) against the
+         **batched floor**, a minimal compiled loop (:func:`batched_floor`, a measuring stick, not femref's) stepping 32
+         independent copies of a banded system of the same DOFs and bandwidth with one factor, the copies innermost:
+         per step three band products, one banded solve, a Newmark update. Both as ns per DOF and step
+         (``fem_batch_ns``, ``floor_ns``, best of ``repeats``); the target is ``fem_batch_ns ≤ 5 × floor_ns``.
+         ``fem_alone_ns``: one run alone (``solve_compiled``). ``floor_recorded_ns``: the floor's steps with the work
+         femref adds that it leaves out — the dissipated energy each step and the kinetic and strain energies at
+         every step, which the default scene records (:func:`recorded_floor`) — to say how much of a gap is that.
+         ``*_cpu_ns``: the same from the process's CPU time (the batch's whole ``solve_batch`` call), steadier than
+         wall time on a machine shared with other work.
 
 Only public API is used (but ``floor``, which needs femref.impact.kernels.batch), so the same script times another
 femref on the path (before/after comparisons: run it alternately with each on ``PYTHONPATH``; ``--json`` prints one
@@ -159,6 +164,54 @@ def batched_floor(factor, history_u, history_v, history_a, u, v, a, work, steps:
                 a[i, b] = work[i, b]
 
 
+@njit(cache=False)
+def _symmetric_product(bands, x, out) -> None:
+    """``out = A x`` for every copy (``x[:, b]``), ``A`` of symmetric bands ``bands[k, j] = A[j + k, j]``."""
+    n, copies = x.shape
+    for i in range(n):
+        for b in range(copies):
+            out[i, b] = bands[0, i] * x[i, b]
+    for k in range(1, bands.shape[0]):
+        for j in range(n - k):
+            for b in range(copies):
+                out[j + k, b] += bands[k, j] * x[j, b]
+                out[j, b] += bands[k, j] * x[j + k, b]
+
+
+@njit(cache=False)
+def recorded_floor(factor, history_u, history_v, history_a, u, v, a, work, steps: int, dt: float, stiffness, mass, damping,
+                   v_mid, product, energy) -> None:
+    """:func:`batched_floor`'s steps and what femref adds to each that the floor leaves out (not a stick, a measure of
+    that work): the dissipated energy ``dt v̄ᵀ C v̄`` (v̄ the step-mean velocity: a band product and a dot) and, at every
+    step (the default scene records every step), the kinetic and strain energies ``½ vᵀ M v``, ``½ uᵀ K u`` (two band
+    products, two dots) — the sensors and the coupler iteration left out."""
+    n, copies = u.shape
+    for _ in range(steps):
+        for i in range(n):
+            for b in range(copies):
+                v_mid[i, b] = 0.5 * v[i, b]
+        batched_floor(factor, history_u, history_v, history_a, u, v, a, work, 1, dt)
+        for i in range(n):
+            for b in range(copies):
+                v_mid[i, b] += 0.5 * v[i, b]
+        _symmetric_product(damping, v_mid, product)
+        for i in range(n):
+            for b in range(copies):
+                energy[0, b] += dt * v_mid[i, b] * product[i, b]
+        _symmetric_product(stiffness, u, product)
+        for b in range(copies):
+            energy[1, b] = 0.0
+        for i in range(n):
+            for b in range(copies):
+                energy[1, b] += 0.5 * u[i, b] * product[i, b]
+        _symmetric_product(mass, v, product)
+        for b in range(copies):
+            energy[2, b] = 0.0
+        for i in range(n):
+            for b in range(copies):
+                energy[2, b] += 0.5 * v[i, b] * product[i, b]
+
+
 def floor_copies(dofs: int, band: int, copies: int):
     """The arguments of :func:`batched_floor` for ``copies`` copies of a system of ``dofs`` DOFs and half-bandwidth
     ``band`` (a diagonally dominant band: the values stay bounded), compiled once."""
@@ -175,6 +228,23 @@ def floor_seconds(arguments, steps: int) -> float:
     """Wall time (s) of ``steps`` steps of :func:`batched_floor`."""
     started = time.perf_counter()
     batched_floor(*arguments, steps, 1e-4)
+    if not np.all(np.isfinite(arguments[4])):
+        raise RuntimeError("the floor's copies diverged")
+    return time.perf_counter() - started
+
+
+def recorded_copies(arguments):
+    """The extra arguments of :func:`recorded_floor` beside ``arguments`` of :func:`floor_copies`, compiled once."""
+    bands, u = arguments[1], arguments[4]
+    extra = (bands, bands, bands, np.zeros_like(u), np.zeros_like(u), np.zeros((3, u.shape[1])))
+    recorded_floor(*arguments, 2, 1e-4, *extra)
+    return extra
+
+
+def recorded_seconds(arguments, extra, steps: int) -> float:
+    """Wall time (s) of ``steps`` steps of :func:`recorded_floor`."""
+    started = time.perf_counter()
+    recorded_floor(*arguments, steps, 1e-4, *extra)
     if not np.all(np.isfinite(arguments[4])):
         raise RuntimeError("the floor's copies diverged")
     return time.perf_counter() - started
@@ -198,19 +268,31 @@ def floor(repeats: int, copies: int = 32) -> dict[str, float]:
     integrator = INTEGRATORS[scenes[0].integrator](scenes[0].rho_inf)
     steps_of = [impact_time_step(scene, scene.runs[0])[0] for scene in scenes]
     systems = [[model_form("fem", "impact")(car, scene, dt) for car in scene.cars] for scene, dt in zip(scenes, steps_of)]
-    batch, alone, bare = np.inf, np.inf, np.inf
+    batch, alone, bare, recorded = np.inf, np.inf, np.inf, np.inf
+    batch_cpu, bare_cpu, recorded_cpu = np.inf, np.inf, np.inf
     for repeat in range(repeats):  # interleaved: a machine whose load drifts moves the three alike
         runs = [prepare_run(scene, cars, integrator, dt) for scene, cars, dt in zip(scenes, systems, steps_of)]
         if repeat == 0:
             layout, steps = runs[0].pool.layout, runs[0].steps
             dofs, band = int(np.sum(layout[:, pool.DOFS])), int(np.max(layout[:, pool.BAND]))
             arguments = floor_copies(dofs, band, copies)
+            extra = recorded_copies(arguments)
+        cpu = time.process_time()
         batch = min(batch, sum(response.wall_time for response in solve_batch(runs)))
+        batch_cpu, cpu = min(batch_cpu, time.process_time() - cpu), time.process_time()
         alone = min(alone, solve_compiled(scenes[0], systems[0], integrator, steps_of[0]).wall_time)
+        cpu = time.process_time()
         bare = min(bare, floor_seconds(arguments, steps))
+        bare_cpu, cpu = min(bare_cpu, time.process_time() - cpu), time.process_time()
+        recorded = min(recorded, recorded_seconds(arguments, extra, steps))
+        recorded_cpu = min(recorded_cpu, time.process_time() - cpu)
     out = {"fem_dofs": dofs, "fem_band": band, "fem_steps": steps, "fem_batch_ns": 1e9 * batch / (copies * dofs * steps),
-           "fem_alone_ns": 1e9 * alone / (dofs * steps), "floor_ns": 1e9 * bare / (copies * dofs * steps)}
+           "fem_alone_ns": 1e9 * alone / (dofs * steps), "floor_ns": 1e9 * bare / (copies * dofs * steps),
+           "floor_recorded_ns": 1e9 * recorded / (copies * dofs * steps)}
     out["fem_batch_over_floor"] = out["fem_batch_ns"] / out["floor_ns"]
+    per_value = 1e9 / (copies * dofs * steps)
+    out.update(fem_batch_cpu_ns=per_value * batch_cpu, floor_cpu_ns=per_value * bare_cpu, floor_recorded_cpu_ns=per_value * recorded_cpu,
+               fem_batch_over_floor_cpu=batch_cpu / bare_cpu)
     return out
 
 

@@ -3,7 +3,7 @@
     python scripts/compile_kernels.py              # into this install's cache folder (make demo, after its install)
     python scripts/compile_kernels.py --into DIR   # into a scratch cache, then copied to DIR (scripts/femref_build.py)
 
-With ``--into`` (a wheel) the kernels of a sweep's batched runs are compiled too (about 10 s more), so that
+With ``--into`` (a wheel) the kernels of a sweep's batched runs are compiled too (about 18 s of CPU more), so that
 a first ``femref sweep`` after ``pip install .`` loads them; the demo needs only the single-run loop.
 
 While it compiles it prints the first run's notice ("compiling femref's impact kernels, once

@@ -6,8 +6,9 @@ Each run is stepped at its own automatic step (:func:`femref.run.timestep.impact
 fidelities (each model's car form, built once per geometry) and packed (:func:`femref.impact.kernels.loop.prepare_run`).
 Runs whose packed arrays share a structure (:func:`~femref.impact.kernels.batch.structure_of`: the samples of a
 velocity sweep do, a swept fidelity or a mass that changes a car's mesh does not) are stepped by one compiled call per
-chunk of steps (:func:`~femref.impact.kernels.batch.solve_batch`); the kernel and its arrays are those of a run alone,
-so every history is the same number (tests/sweep/test_batch.py). A run's ``wall_time_s`` is its own set-up and its
+chunk of steps (:func:`~femref.impact.kernels.batch.solve_batch`): side by side on one copy of their cars' matrices
+when those are the same numbers (values-only samples: speeds, measurement), else each on its own pool; either way
+every history is the number of the run alone (tests/sweep/test_batch.py). A run's ``wall_time_s`` is its own set-up and its
 share of its batch's stepping. Never raises for a run: an exception in a run's set-up or its batch's stepping is
 that run's failed result (:meth:`femref.results.ModelResult.failed`).
 """
@@ -22,6 +23,7 @@ from femref.core.threads import one_blas_thread
 from femref.fem import INTEGRATORS
 from femref.impact.kernels import cache
 from femref.impact.kernels.batch import run_batch, solve_batch, structure_of
+from femref.impact.kernels.batch_shared import run_shared
 from femref.impact.kernels.loop import PreparedRun, prepare_run
 from femref.models import model_form
 from femref.results import ModelResult
@@ -79,18 +81,21 @@ def load_batch_kernels(scene: ImpactScene) -> None:
     """Load the compiled kernels of a batched run (compiling them, the first time after an install) by stepping
     ``scene``'s cars once as rigid bodies in a batch of one, so that no run's timing pays the one-off loading; after
     the first call in a process it does nothing. The single-run loop (:func:`femref.run.runner.load_compiled_loop`) is
-    not loaded: :func:`~femref.impact.kernels.batch.run_batch` carries its own copy of ``run_steps``.
+    not loaded: :func:`~femref.impact.kernels.batch.run_batch` carries its own copy of ``run_steps``, and
+    :func:`~femref.impact.kernels.batch_shared.run_shared` its own step.
 
     Before a compile it logs why the process waits — "compiling femref's batched impact kernels, once (cached in
     DIR)" — at INFO on the logger ``femref.compile``, as the single-run loop does (the CLI shows it)."""
     global _loaded
     if _loaded:
         return
-    if not cache.cached((run_batch,)):
+    if not cache.cached((run_batch, run_shared)):
         logging.getLogger("femref.compile").info("compiling femref's batched impact kernels, once (cached in %s)", cache.cache_directory())
     one_step, dt = loading_step(scene)
     systems = [model_form("rigid", "impact")(car, one_step, dt) for car in scene.cars]
-    solve_batch([prepare_run(one_step, systems, INTEGRATORS[scene.integrator](scene.rho_inf), dt)])
+    integrator = INTEGRATORS[scene.integrator](scene.rho_inf)
+    for size in (1, 2):  # a batch of one steps each run on its own pool (run_batch), of two side by side (run_shared)
+        solve_batch([prepare_run(one_step, systems, integrator, dt) for _ in range(size)])
     _loaded = True
 
 

@@ -6,6 +6,7 @@ import pytest
 
 from femref.fem import INTEGRATORS
 from femref.impact.kernels.batch import solve_batch, structure_of
+from femref.impact.kernels.batch_shared import shares_matrices
 from femref.impact.kernels.loop import prepare_run
 from femref.models import model_form
 from femref.run import run_model
@@ -48,13 +49,16 @@ def assert_same_run(batched, alone):
     ({"cars.0.velocity": {"uniform": [1.0, 3.0]}, "fem.elements": {"choice": [6, 8]}}, 2),
 ], ids=["one structure", "mixed structures"])
 def test_batched_runs_equal_each_run_alone(parameters, structures):
-    """Velocities and coupler dampings drawn (one structure per model: a batch each), or the fem mesh drawn too (its
-    fem runs in two batches, its rigid runs in one): each run as femref.run.run_model gives it alone."""
+    """Velocities and coupler dampings drawn (one structure per model: a batch each, its cars the same matrices: side
+    by side), or the fem mesh drawn too (its fem runs in two batches, its rigid runs in one): each run as
+    femref.run.run_model gives it alone."""
     scenes = scenes_of(sweep_of(parameters, samples=6))
     integrator = INTEGRATORS[scenes[0].integrator](scenes[0].rho_inf)
     fem = [prepare_run(scene, [model_form(f, "impact")(car, scene, dt) for car, f in zip(scene.cars, scene.runs[0].fidelity)], integrator, dt)
            for scene in scenes for dt in [impact_time_step(scene, scene.runs[0])[0]]]
     assert len({structure_of(run) for run in fem}) == structures
+    if structures == 1:
+        assert shares_matrices(fem)
     for batched, scene in zip(run_models(scenes), scenes):
         for result, run in zip(batched, scene.runs):
             assert_same_run(result, run_model(scene, run))
