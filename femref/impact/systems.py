@@ -37,7 +37,9 @@ class SecondOrderSystem:
     row 1 if axial and 0 if vertical or pitch on a car that bends): the car starts undeformed
     at ``velocity · t``. The optional static correction (modal
     truncation) is massless: ``end_feedthrough`` R_e (Y × J), ``sensor_feedthrough`` R_s
-    (S × J), strain energy ``½ Lᵀ Q L`` (``feedthrough_energy`` Q, J × J).
+    (S × J), strain energy ``½ Lᵀ Q L`` (``feedthrough_energy`` Q, J × J). ``bands``, when the
+    builder has them (a fem rod), is ``(p, M, C, K)`` as row bands ``A[i, i + k − p]`` at ``[k, i]``:
+    what the packing takes as they are.
     """
 
     fidelity: str
@@ -52,6 +54,7 @@ class SecondOrderSystem:
     sensor_feedthrough: NDArray[np.float64] | None = None
     feedthrough_energy: NDArray[np.float64] | None = None
     settings: dict[str, Any] = field(default_factory=dict)
+    bands: tuple[int, NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]] | None = None
 
     @property
     def dofs(self) -> int:
