@@ -31,7 +31,7 @@ class SecondOrderSystem:
     """``M ü + C u̇ + K u = B L``; end outputs ``E u + R_e L``, sensor outputs ``O u + R_s L``.
 
     ``mass``, ``damping``, ``stiffness`` (n × n; scipy sparse for a FEM car, dense numpy
-    for a few modal or rigid DOFs), ``load_matrix`` B (n × J), ``end_outputs`` E (Y × n),
+    for a small FEM rod and a few modal or rigid DOFs), ``load_matrix`` B (n × J), ``end_outputs`` E (Y × n),
     ``sensor_outputs`` O (S × n), all dense but M, C, K. ``translation`` t is the DOF vector
     of a unit rigid translation (``K t = C t = 0``; every end output reads 1 from it, a sensor
     row 1 if axial and 0 if vertical or pitch on a car that bends): the car starts undeformed

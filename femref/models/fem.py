@@ -5,7 +5,8 @@
 * single body, transient: generalized-α / Newmark on ``M ü + C u̇ + K u = B f(t)``
   (:class:`femref.fem.Stepper`), energies and optional fields;
 * impact car: the rod's operators as a second-order system
-  (:class:`femref.impact.systems.SecondOrderSystem`), built once per geometry; a car that
+  (:class:`femref.impact.systems.SecondOrderSystem`) with their row bands, built once per
+  geometry (a small rod straight into the bands, :func:`small_rod_system`); a car that
   bends adds Hermite beam elements on the same nodes, driven through the coupler offsets.
 """
 
