@@ -1,6 +1,7 @@
 """femref against OpenSeesPy on one linear two-car impact: cost of 1 % and 0.1 % peak coupler force.
 
     python benchmarks/bench_peer.py [--quick] [--repeat 3] [--json PATH]
+    python benchmarks/bench_peer.py --parts [--elements 1] [--runs 100]
 
 **Scene** (linear, so both tools solve the same problem). Two identical homogeneous
 freight cars as axial rods: length 17 m, mass 119 t (7000 kg/m), EA = 3 GN, Voigt
@@ -82,6 +83,11 @@ round-robin over both tools' selected levels); other times in the convergence ta
 single runs. Times are wall-clock on this machine: only their ratios within one run mean
 something, and only on an otherwise idle machine.
 Exit 2 when openseespy cannot be imported; exit 1 when the two references disagree.
+
+**Parts** (``--parts``, femref alone, no OpenSees needed): ``--runs`` cold runs at ``--elements`` per car
+(default 1, the 1 % rung) — each run's wall time split by what femref records, building the cars plus the line
+plan and packing (``setup_time_s``), stepping plus the response (``stepping_time_s``) and the rest (the result),
+medians — then the same runs again under cProfile, the functions with the most own time.
 """
 
 from __future__ import annotations
@@ -413,13 +419,51 @@ def _finite(value: Any) -> Any:
     return value
 
 
+def parts(elements: int, runs: int, top: int = 20) -> None:
+    """Print the medians of ``runs`` cold femref runs at ``elements`` per car, part by part (module docstring), and
+    cProfile's ``top`` functions by own time over as many more."""
+    import cProfile  # noqa: PLC0415 (only here)
+    import pstats  # noqa: PLC0415
+
+    dt = time_step(elements)
+    cases = [femref_case(elements, dt) for _ in range(2 * runs + 5)]
+
+    def cold(case: dict[str, Any]) -> dict[str, float]:
+        forget_built()
+        scene = scene_from_case(parse_case(case, source="<bench_peer>"))
+        result = run_model(scene, scene.runs[0])
+        setup, stepping = float(result.settings["setup_time_s"]), float(result.settings["stepping_time_s"])
+        return {"wall": result.wall_time_s, "cars + line plan + packing": setup, "stepping + response": stepping,
+                "result": result.wall_time_s - setup - stepping}
+
+    for case in cases[:5]:
+        cold(case)
+    split = [cold(case) for case in cases[5 : 5 + runs]]
+    print(f"femref, {elements} element(s) per car, dt = h/c ({math.ceil(END_TIME / dt - 1e-9)} steps), {runs} cold runs, medians:")
+    for part in split[0]:
+        print(f"  {part:28} {statistics.median(run[part] for run in split) * 1e3:8.3f} ms")
+    profile = cProfile.Profile()
+    profile.enable()
+    for case in cases[5 + runs :]:
+        cold(case)
+    profile.disable()
+    print(f"cProfile over {runs} more cold runs (case parsing and the scene included), by own time:")
+    pstats.Stats(profile, stream=sys.stdout).sort_stats("tottime").print_stats(top)
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--parts", action="store_true", help="femref's cold run part by part and profiled (no OpenSees)")
+    parser.add_argument("--elements", type=int, default=1, help="with --parts: elements per car (default 1, the 1 %% rung)")
+    parser.add_argument("--runs", type=int, default=100, help="with --parts: cold runs (default 100)")
     parser.add_argument("--repeat", type=int, default=3, help="timed runs of each selected resolution (median; default 3)")
     parser.add_argument("--json", metavar="PATH", help="also write the numbers as JSON")
     parser.add_argument("--quick", action="store_true", help=f"short ladder (up to {QUICK_TOP} elements per car), a smoke run")
     parser.add_argument("--agree", type=float, default=1e-4, help="largest relative difference of the two references (default 1e-4)")
     args = parser.parse_args()
+    if args.parts:
+        parts(args.elements, args.runs)
+        return 0
     if not opensees_available():
         print(
             "error: openseespy cannot be imported. Install it into this environment with\n"

@@ -51,8 +51,11 @@ class Body:
         """Gauss points and weights on ``[−l, l]``: 5 per panel, panels ending on every jump and kink
         (exact for the piecewise-polynomial profile kinds)."""
         l = self.half_length
-        edges = np.unique(np.concatenate([np.linspace(-l, l, panels + 1), self.jumps]))
-        edges = edges[(edges >= -l) & (edges <= l)]
+        jumps = self.jumps
+        edges = np.linspace(-l, l, panels + 1)  # sorted and distinct: merged with the jumps only where there are any
+        if jumps:
+            edges = np.unique(np.concatenate([edges, jumps]))
+            edges = edges[(edges >= -l) & (edges <= l)]
         xg, wg = gauss_legendre(5)
         mid, half = 0.5 * (edges[1:] + edges[:-1]), 0.5 * np.diff(edges)
         return (mid[:, None] + half[:, None] * xg).ravel(), (half[:, None] * wg).ravel()

@@ -33,7 +33,7 @@ from numpy.typing import NDArray
 
 from femref.core.profiles import Profile
 from femref.core.quadrature import gauss_legendre
-from femref.fem.reference import assemble, pattern
+from femref.fem.reference import assemble_forms, pattern
 from femref.fem.shapes import SHAPES
 
 ROD_LOADS = ("F1", "F2")
@@ -47,7 +47,8 @@ class Operators:
     ``load_matrix`` B maps the end loads (``load_names``, e.g. F1, F2) to nodal forces;
     ``rigid_modes`` are the columns Φ with ``K Φ = C Φ = 0`` (translation; and rotation
     for beams). ``element_dofs[e]`` lists the local DOFs of element e in the order of
-    :mod:`femref.fem.shapes`.
+    :mod:`femref.fem.shapes`. A rod also keeps ``bands = (p, M, C, K)``, its matrices as row
+    bands ``A[i, i + k − p]`` at ``[k, i]`` (read-only; :func:`femref.fem.reference.assemble_forms`).
     """
 
     kind: str
@@ -63,6 +64,7 @@ class Operators:
     stiffness_profile: Profile
     viscosity_profile: Profile
     mass_profile: Profile
+    bands: tuple[int, NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]] | None = None
 
     @property
     def ndof(self) -> int:
@@ -84,30 +86,37 @@ class Operators:
 
     def interpolation(self, x: NDArray[np.float64], derivative: int = 0) -> sp.csr_matrix:
         """Sparse matrix P with ``(P u)[k] = dⁿu/dxⁿ(x[k])`` for the field u of DOF vector u."""
-        x, dofs, values = self._element_values(x, derivative)
+        x, dofs, values = element_values(self.element, self.nodes, self.element_dofs, x, derivative)
         row_starts = np.arange(0, values.size + 1, values.shape[0])  # row k: the nb DOFs of its element
         return sp.csr_matrix((values.T.ravel(), dofs.ravel(), row_starts), shape=(x.size, self.ndof))
 
     def sampling(self, x: NDArray[np.float64], derivative: int = 0) -> NDArray[np.float64]:
-        """:meth:`interpolation` as a dense array ``(len(x), ndof)``, for a few points."""
-        x, dofs, values = self._element_values(x, derivative)
-        dense = np.zeros((x.size, self.ndof))
-        dense[np.arange(x.size)[:, None], dofs] = values.T
-        return dense
+        """:meth:`interpolation` as a dense array ``(len(x), ndof)``, for a few points (:func:`sampling`)."""
+        return sampling(self.element, self.nodes, self.element_dofs, self.ndof, x, derivative)
 
-    def _element_values(self, x: NDArray[np.float64], derivative: int) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64]]:
-        """``x`` as an array, the DOFs of the element holding each point ``(npoints, nb)`` and the shape functions' n-th
-        derivatives there ``(nb, npoints)``."""
-        x = np.atleast_1d(np.asarray(x, dtype=float))
-        nodes = self.nodes
-        margin = 1e-12 * self.half_length
-        if np.any(x < nodes[0] - margin) or np.any(x > nodes[-1] + margin):
-            raise ValueError(f"positions {x} lie outside the body [{nodes[0]}, {nodes[-1]}]")
-        # np.minimum(np.maximum(…)) is np.clip without its wrappers' microseconds
-        e = np.minimum(np.maximum(np.searchsorted(nodes, x, side="right") - 1, 0), nodes.size - 2)
-        h = nodes[e + 1] - nodes[e]
-        xi = np.minimum(np.maximum((x - nodes[e]) / h, 0.0), 1.0)
-        return x, self.element_dofs[e], SHAPES[self.element](xi, h, derivative)
+
+def element_values(element: str, nodes: NDArray[np.float64], element_dofs: NDArray[np.int64], x: NDArray[np.float64],
+                   derivative: int) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64]]:
+    """``x`` as an array, the DOFs of the element holding each point ``(npoints, nb)`` and the shape functions' n-th
+    derivatives there ``(nb, npoints)``, on the mesh ``nodes`` of ``element``s (ValueError for a point off it)."""
+    x = np.atleast_1d(np.asarray(x, dtype=float))
+    margin = 1e-12 * (0.5 * float(nodes[-1] - nodes[0]))  # 1e-12 of the half-length
+    if np.any(x < nodes[0] - margin) or np.any(x > nodes[-1] + margin):
+        raise ValueError(f"positions {x} lie outside the body [{nodes[0]}, {nodes[-1]}]")
+    # np.minimum(np.maximum(…)) is np.clip without its wrappers' microseconds
+    e = np.minimum(np.maximum(np.searchsorted(nodes, x, side="right") - 1, 0), nodes.size - 2)
+    h = nodes[e + 1] - nodes[e]
+    xi = np.minimum(np.maximum((x - nodes[e]) / h, 0.0), 1.0)
+    return x, element_dofs[e], SHAPES[element](xi, h, derivative)
+
+
+def sampling(element: str, nodes: NDArray[np.float64], element_dofs: NDArray[np.int64], ndof: int, x: NDArray[np.float64],
+             derivative: int = 0) -> NDArray[np.float64]:
+    """Dense ``P`` (``len(x) × ndof``) with ``(P u)[k] = dⁿu/dxⁿ(x[k])`` on the mesh ``nodes`` of ``element``s."""
+    x, dofs, values = element_values(element, nodes, element_dofs, x, derivative)
+    dense = np.zeros((x.size, ndof))
+    dense[np.arange(x.size)[:, None], dofs] = values.T
+    return dense
 
 
 def assemble_rod(
@@ -130,8 +139,9 @@ def assemble_rod(
     if element is None:
         raise ValueError(f"rod elements are P1 or P2, got order {order}")
     nodes = np.array(nodes, dtype=float)
-    points = order + 2
     structure = pattern(element, nodes.size - 1)
+    assembled = assemble_forms(element, nodes, ((mass_per_length, 0), (axial_stiffness, 1), (axial_viscosity, 1)), order + 2)
+    mass, stiffness, damping = assembled.matrices
     ndof = structure.ndof
     index = structure.indices.dtype
     load_matrix = sp.csr_matrix((np.array([-1.0, 1.0]), np.array([0, 1], dtype=index), np.array([0, 1, *([1] * (ndof - 2)), 2], dtype=index)),
@@ -140,9 +150,9 @@ def assemble_rod(
         kind="rod",
         element=element,
         nodes=nodes,
-        mass=assemble(element, nodes, mass_per_length, 0, points),
-        stiffness=assemble(element, nodes, axial_stiffness, 1, points),
-        damping=assemble(element, nodes, axial_viscosity, 1, points),
+        mass=mass,
+        stiffness=stiffness,
+        damping=damping,
         load_names=ROD_LOADS,
         load_matrix=load_matrix,
         rigid_modes=np.ones((ndof, 1)),
@@ -150,6 +160,7 @@ def assemble_rod(
         stiffness_profile=axial_stiffness,
         viscosity_profile=axial_viscosity,
         mass_profile=mass_per_length,
+        bands=(assembled.half_bandwidth, assembled.bands[0], assembled.bands[2], assembled.bands[1]),
     )
 
 

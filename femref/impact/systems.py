@@ -31,13 +31,15 @@ class SecondOrderSystem:
     """``M ü + C u̇ + K u = B L``; end outputs ``E u + R_e L``, sensor outputs ``O u + R_s L``.
 
     ``mass``, ``damping``, ``stiffness`` (n × n; scipy sparse for a FEM car, dense numpy
-    for a few modal or rigid DOFs), ``load_matrix`` B (n × J), ``end_outputs`` E (Y × n),
+    for a small FEM rod and a few modal or rigid DOFs), ``load_matrix`` B (n × J), ``end_outputs`` E (Y × n),
     ``sensor_outputs`` O (S × n), all dense but M, C, K. ``translation`` t is the DOF vector
     of a unit rigid translation (``K t = C t = 0``; every end output reads 1 from it, a sensor
     row 1 if axial and 0 if vertical or pitch on a car that bends): the car starts undeformed
     at ``velocity · t``. The optional static correction (modal
     truncation) is massless: ``end_feedthrough`` R_e (Y × J), ``sensor_feedthrough`` R_s
-    (S × J), strain energy ``½ Lᵀ Q L`` (``feedthrough_energy`` Q, J × J).
+    (S × J), strain energy ``½ Lᵀ Q L`` (``feedthrough_energy`` Q, J × J). ``bands``, when the
+    builder has them (a fem rod), is ``(p, M, C, K)`` as row bands ``A[i, i + k − p]`` at ``[k, i]``:
+    what the packing takes as they are.
     """
 
     fidelity: str
@@ -52,6 +54,7 @@ class SecondOrderSystem:
     sensor_feedthrough: NDArray[np.float64] | None = None
     feedthrough_energy: NDArray[np.float64] | None = None
     settings: dict[str, Any] = field(default_factory=dict)
+    bands: tuple[int, NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]] | None = None
 
     @property
     def dofs(self) -> int:

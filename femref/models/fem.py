@@ -5,7 +5,8 @@
 * single body, transient: generalized-α / Newmark on ``M ü + C u̇ + K u = B f(t)``
   (:class:`femref.fem.Stepper`), energies and optional fields;
 * impact car: the rod's operators as a second-order system
-  (:class:`femref.impact.systems.SecondOrderSystem`), built once per geometry; a car that
+  (:class:`femref.impact.systems.SecondOrderSystem`) with their row bands, built once per
+  geometry (a small rod straight into the bands, :func:`small_rod_system`); a car that
   bends adds Hermite beam elements on the same nodes, driven through the coupler offsets.
 """
 
@@ -20,7 +21,9 @@ import scipy.sparse as sp
 from femref.core.body import Body
 from femref.fem import INTEGRATORS, Stepper, harmonic_response
 from femref.fem.build import FemSettings, build_operators
-from femref.fem.operators import Operators, assemble_beam
+from femref.fem.mesh import body_nodes
+from femref.fem.operators import Operators, assemble_beam, sampling
+from femref.fem.reference import assemble_bands, element_dofs
 from femref.impact.systems import SecondOrderSystem
 from femref.models.base import CarFidelity, Progress, Resolution, built_once
 from femref.results import ModelResult
@@ -36,6 +39,8 @@ ELEMENT_FACTORS: tuple[float, ...] = (0.25, 0.5, 1.0, 2.0)
 """Bench rows at these multiples of the case's ``fem.elements``."""
 DT_FACTORS: tuple[float, ...] = (2.0, 4.0)
 """Bench rows at the case's elements and these multiples of its step."""
+DENSE_CAR_DOFS = 64
+"""A rod car of at most this many DOFs is built with dense M, C, K (:func:`small_rod_system`); a larger one sparse."""
 MATRIX_BYTES_PER_DOF = 600.0
 """Sparse M, C, K, banded factors, dense load and output maps of a mesh, per DOF."""
 
@@ -183,6 +188,8 @@ def car_beam_operators(car: Car, settings: FemSettings) -> Operators:
 
 
 def _fem_system(car: Car, settings: FemSettings) -> SecondOrderSystem:
+    if car.bending is None and rod_dofs(car.body, settings.elements, settings.order) <= DENSE_CAR_DOFS:
+        return small_rod_system(car, settings)
     ops = car_operators(car, settings)
     l = car.body.half_length
     outputs = ops.sampling(np.concatenate([[-l, l], car.sensor_x]))  # the ends, then the sensors
@@ -196,10 +203,55 @@ def _fem_system(car: Car, settings: FemSettings) -> SecondOrderSystem:
         outputs[2:],
         translation=np.asarray(ops.rigid_modes[:, 0], dtype=float),
         settings={"element": ops.element, "elements": ops.elements, "dofs": ops.ndof, "nodes": ops.nodes},
+        bands=ops.bands,
     )
     if car.bending is None:
         return rod
     return bending_system(rod, car_beam_operators(car, settings), car.sensor_x, car.coupler_offset, car.coupler_slope)
+
+
+def small_rod_system(car: Car, settings: FemSettings) -> SecondOrderSystem:
+    """A rod car of at most :data:`DENSE_CAR_DOFS` DOFs assembled straight into its row bands
+    (:func:`femref.fem.reference.assemble_bands`: the numbers of :func:`car_operators`' matrices to the bit), its
+    M, C, K dense from them: no sparse matrix, no sparsity pattern, which cost a small car more than its arithmetic."""
+    body = car.body
+    element = {1: "P1", 2: "P2"}.get(settings.order)
+    if element is None:
+        raise ValueError(f"rod elements are P1 or P2, got order {settings.order}")
+    nodes = body_nodes(body.half_length, settings.elements, body.jumps, settings.grading)
+    p, (mass, stiffness, damping) = assemble_bands(element, nodes, ((body.mass_per_length, 0), (body.stiffness, 1), (body.viscosity, 1)),
+                                                   settings.order + 2)
+    n = mass.shape[1]
+    dofs = element_dofs(element, nodes.size - 1)
+    load_matrix = np.zeros((n, 2))
+    load_matrix[0, 0], load_matrix[n - 1, 1] = -1.0, 1.0  # −F1 at u(−l), F2 at u(l) (femref.fem.operators.assemble_rod)
+    l = body.half_length
+    outputs = sampling(element, nodes, dofs, n, np.concatenate([[-l, l], car.sensor_x]))  # the ends, then the sensors
+    return SecondOrderSystem(
+        "fem",
+        *dense_of_bands([mass, damping, stiffness], p),
+        load_matrix,
+        outputs[:2],
+        outputs[2:],
+        translation=np.ones(n),
+        settings={"element": element, "elements": nodes.size - 1, "dofs": n, "nodes": nodes},
+        bands=(p, mass, damping, stiffness),
+    )
+
+
+def dense_of_bands(bands: list[np.ndarray], p: int) -> list[np.ndarray]:
+    """The n × n matrices of row bands ``bands[m][k, i] = A_m[i, i + k − p]`` (one index for all)."""
+    n = bands[0].shape[1]
+    row = np.broadcast_to(np.arange(n), (2 * p + 1, n))
+    column = row + np.arange(-p, p + 1)[:, None]
+    inside = (column >= 0) & (column < n)
+    row, column = row[inside], column[inside]
+    dense = []
+    for band in bands:
+        matrix = np.zeros((n, n))
+        matrix[row, column] = band[inside]
+        dense.append(matrix)
+    return dense
 
 
 def coupler_line(beam: Operators, offset: tuple[float, float], slope: tuple[float, float]) -> np.ndarray:

@@ -74,8 +74,9 @@ def impact_scene_from_case(case: ImpactCase) -> ImpactScene:
     """Resolve the cars, couplers, model runs and settings of an impact case; :class:`CaseError` when
     :mod:`reduced.couplers` refuses a law by a rule the schema does not check, or a network file changed."""
     index = {name: i for i, name in enumerate(case.car_names)}
+    bodies: dict[tuple, Body] = {}
     return ImpactScene(
-        cars=tuple(_car_of(spec, _coupler_slopes(case, i)) for i, spec in enumerate(case.cars)),
+        cars=tuple(_car_of(spec, _coupler_slopes(case, i), bodies) for i, spec in enumerate(case.cars)),
         couplers=tuple(_coupler_of(k, spec, index) for k, spec in enumerate(case.couplers)),
         runs=tuple(ModelRun(name, fidelity) for name, fidelity in case.run_fidelities().items()),
         **_time_of(case),
@@ -115,9 +116,16 @@ def measured_scene_from_case(case: MeasuredCase) -> MeasuredScene:
     )
 
 
-def _car_of(spec: CarSpec, slopes: tuple[float, float] = (0.0, 0.0)) -> Car:
-    bending = body_from_spec(spec.body.beam()) if spec.body.bends else None
-    return Car(name=spec.name, body=body_from_spec(spec.body), velocity=spec.velocity, sensors=dict(spec.sensors),
+def _shared_body(spec: BodySchema, bodies: dict[tuple, Body]) -> Body:
+    """The body of ``spec``, one object per geometry in ``bodies`` (a scene's): cars alike share it, and with it
+    what it computes once (:attr:`Body.total_mass`)."""
+    body = body_from_spec(spec)
+    return bodies.setdefault((body.geometry, body.wave_travel_time), body)
+
+
+def _car_of(spec: CarSpec, slopes: tuple[float, float], bodies: dict[tuple, Body]) -> Car:
+    bending = _shared_body(spec.body.beam(), bodies) if spec.body.bends else None
+    return Car(name=spec.name, body=_shared_body(spec.body, bodies), velocity=spec.velocity, sensors=dict(spec.sensors),
                bending=bending, coupler_offset=(float(spec.coupler_offset[0]), float(spec.coupler_offset[1])), coupler_slope=slopes)
 
 

@@ -105,6 +105,50 @@ def test_rod_matrices_equal_a_scikit_fem_basis_einsum_bit_for_bit(order):
         assert np.array_equal(element_matrices(f"P{order}", nodes, profile, derivative, order + 2), theirs)
 
 
+@pytest.mark.parametrize("order", [1, 2])
+@pytest.mark.parametrize("profiles", ["uniform", "jumps", "inviscid"])
+@pytest.mark.parametrize("elements,grading", [(1, 1.0), (2, 1.0), (24, 1.0), (24, 3.0)])
+def test_rod_bands_are_its_sparse_matrices_bands_bit_for_bit(order, profiles, elements, grading):
+    """The row bands the assembly keeps (``bands[p + j − i, i] = A[i, j]``) are, to the bit, what the packing read off
+    the CSR matrices before (the banded conversion of their stored entries, femref.impact.kernels.packing), with the
+    same half-bandwidth: P1/P2, one to 24 elements, uniform and graded meshes; uniform profiles, piecewise/linear/
+    tabulated ones with jumps and kinks on nodes, and a rod without Voigt viscosity (C = 0, its entries dropped)."""
+    from femref.impact.kernels.packing import _bands_of
+
+    mass, stiff, visc = {"uniform": (Uniform(5000.0), Uniform(2.5e9), Uniform(1.5e6)), "jumps": (MASS, STIFF, VISC),
+                         "inviscid": (MASS, STIFF, Uniform(0.0))}[profiles]
+    nodes = body_nodes(L, elements, jumps=(mass.jumps + visc.kinks) if profiles != "uniform" else (), grading=grading)
+    ops = assemble_rod(nodes, order, mass, stiff, visc)
+    p, *bands = ops.bands
+    theirs_p, *theirs = _bands_of(ops.ndof, (ops.mass, ops.damping, ops.stiffness))
+    assert p == theirs_p == order
+    for mine, expected, matrix in zip(bands, theirs, (ops.mass, ops.damping, ops.stiffness)):
+        assert mine.shape == (2 * p + 1, ops.ndof) and not mine.flags.writeable
+        assert np.array_equal(mine, expected)
+        dense = matrix.toarray()
+        for k in range(2 * p + 1):  # and the band layout itself, against the dense matrix
+            i = np.arange(max(0, p - k), min(ops.ndof, ops.ndof + p - k))
+            assert np.array_equal(mine[k, i], dense[i, i + k - p])
+
+
+@pytest.mark.parametrize("element", ["P1", "P2"])
+@pytest.mark.parametrize("elements", [1, 2, 5, 64])
+def test_pattern_is_the_sorted_set_of_element_entries(element, elements):
+    """The pattern read off the band map equals the one by sorting the element entries' keys ``i·ndof + j``
+    (``np.unique``: CSR rows and columns sorted, ``slot`` the inverse)."""
+    from femref.fem.reference import element_dofs, pattern
+
+    dofs = element_dofs(element, elements)
+    n, ndof = dofs.shape[1], int(dofs.max()) + 1
+    rows, cols = np.repeat(dofs, n, axis=1).ravel(), np.tile(dofs, (1, n)).ravel()
+    keys, slot = np.unique(rows * ndof + cols, return_inverse=True)
+    mine = pattern(element, elements)
+    assert mine.ndof == ndof
+    assert np.array_equal(mine.slot, slot.ravel())
+    assert np.array_equal(mine.indices, keys % ndof)
+    assert np.array_equal(mine.indptr, np.searchsorted(keys, np.arange(ndof + 1) * ndof))
+
+
 @pytest.mark.parametrize("homogeneous", [True, False])
 def test_local_hermite_matches_scikit_fem_on_small_mesh(homogeneous):
     """Element-local Hermite assembly equals skfem's ElementLineHermite where the latter is accurate, for

@@ -219,10 +219,10 @@ _banded_forms: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 def _banded_form(system: SecondOrderSystem) -> tuple[int, NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """``(p, M, C, K)`` in row bands, p the half-bandwidth: once per system, since a system is built
     once per geometry and every run of it reuses them (a fem car's conversion costs milliseconds;
-    the arrays are only read)."""
+    the arrays are only read); a system that carries its bands (a fem rod) gives them."""
     form = _banded_forms.get(system)
     if form is None:
-        form = _bands_of(system.dofs, (system.mass, system.damping, system.stiffness))
+        form = system.bands if system.bands is not None else _bands_of(system.dofs, (system.mass, system.damping, system.stiffness))
         _banded_forms[system] = form
     return form
 
