@@ -21,9 +21,9 @@ declared), :mod:`.augmented` (the filter's model), :mod:`.linear_gaussian` (gene
 :mod:`.variants` (the band over perturbed models).
 """
 
-from .augmented import AugmentedModel, augmented_model, forced_response
-from .cars import CarDynamics, CoupledCars, SensorFilter
-from .estimate import DEFAULT_FORCE_RATE_RANGE, NOISE_SCALES, KalmanForce, estimate_force
+from .augmented import AugmentedModel, augmented_model, forced_response, undetectable_couplers
+from .cars import CarDynamics, ConsistCars, CoupledCars, SensorFilter
+from .estimate import DEFAULT_FORCE_RATE_RANGE, NOISE_SCALES, KalmanForce, estimate_force, estimate_forces
 from .linear_gaussian import GaussianSmoothing, kalman_smoother, van_loan_discretisation
 from .variants import VariantForceEstimate, corner_models, estimate_force_with_variants
 
@@ -31,6 +31,7 @@ __all__ = [
     "DEFAULT_FORCE_RATE_RANGE",
     "AugmentedModel",
     "CarDynamics",
+    "ConsistCars",
     "CoupledCars",
     "KalmanForce",
     "GaussianSmoothing",
@@ -40,8 +41,10 @@ __all__ = [
     "augmented_model",
     "corner_models",
     "estimate_force",
+    "estimate_forces",
     "estimate_force_with_variants",
     "forced_response",
     "kalman_smoother",
+    "undetectable_couplers",
     "van_loan_discretisation",
 ]

@@ -46,11 +46,11 @@ HOMES = {
         "records": ["SCALER_KINDS", "FeatureScaler", "peak_normalise", "resample_record"],
     },
     "reduced.kalman": {
-        "cars": ["CarDynamics", "CoupledCars", "SensorFilter"],
-        "augmented": ["AugmentedModel", "augmented_model", "forced_response"],
+        "cars": ["CarDynamics", "ConsistCars", "CoupledCars", "SensorFilter"],
+        "augmented": ["AugmentedModel", "augmented_model", "forced_response", "undetectable_couplers"],
         "linear_gaussian": ["GaussianSmoothing", "kalman_smoother", "van_loan_discretisation"],
         "steady": [],
-        "estimate": ["DEFAULT_FORCE_RATE_RANGE", "NOISE_SCALES", "KalmanForce", "estimate_force"],
+        "estimate": ["DEFAULT_FORCE_RATE_RANGE", "NOISE_SCALES", "KalmanForce", "estimate_force", "estimate_forces"],
         "variants": ["VariantForceEstimate", "corner_models", "estimate_force_with_variants"],
     },
 }
