@@ -28,7 +28,10 @@ from reduced.kalman import (
     SensorFilter,
     augmented_model,
     estimate_force,
+    corner_models,
+    estimate_force_with_variants,
     estimate_forces,
+    estimate_forces_with_variants,
     forced_response,
     kalman_smoother,
     undetectable_couplers,
@@ -199,6 +202,31 @@ def test_two_forces_through_an_uninstrumented_middle_car() -> None:
         assert abs(estimate.peak_force / truth - 1.0) <= 0.01
         assert estimate.peak_lower <= float(force[np.argmax(estimate.force), c]) <= estimate.peak_upper
     assert estimates[0].force_rate == estimates[1].force_rate
+
+
+def test_line_variants_cover_stiffer_cars_per_coupler() -> None:
+    """The record made by cars 10 % stiffer in frequency than declared (``K × 1.21``): with the corners
+    (frequency ± 15 %, damping × 0.6 and 1.6) at the nominal's force-rate level and a 2 % mass tolerance,
+    each coupler's envelope holds its true peak and contains the nominal's band; one model alone gives
+    back :func:`estimate_forces`."""
+    declared = line((119.0e3, 100.0e3, 90.0e3), (True, False, True))
+    stiffer = ConsistCars(tuple(CarDynamics(c.mass, c.damping, 1.21 * c.stiffness, c.load_map, c.sensor_map, c.coupler_load)
+                                for c in declared.cars))
+    t, force = line_record(declared, 400)
+    y = forced_response(stiffer, t, force) + NOISE * np.random.default_rng(8).standard_normal((t.size, 4))
+    models = [declared, *corner_models(declared, 0.15, (0.6, 1.6))]
+    assert len(models) == 5 and all(isinstance(m, ConsistCars) and m.couplers == 2 for m in models)
+    banded = estimate_forces_with_variants(models, t, y, NOISE, variant_force_rate="nominal", mass_tolerance=0.02)
+    alone = estimate_forces(declared, t, y, NOISE, noise_scale="estimated")
+    for c, band in enumerate(banded):
+        assert band.status == "ok" and len(band.estimates) == 5
+        truth = float(np.max(force[:, c]))
+        assert not band.nominal.peak_lower <= truth <= band.nominal.peak_upper  # the declared cars alone read ≈ 5 % low
+        assert band.peak_lower <= truth <= band.peak_upper
+        assert np.all(band.lower <= band.nominal.lower) and np.all(band.upper >= band.nominal.upper)
+        np.testing.assert_array_equal(band.force, alone[c].force)
+    with pytest.raises(ValueError, match="one coupler force"):
+        estimate_force_with_variants(models, t, y, NOISE)
 
 
 def test_filtered_line_is_the_butterworth_of_its_accelerations() -> None:
