@@ -220,7 +220,8 @@ def model_progress(console: Console, keep_finished: bool = True) -> Iterator:
 @contextmanager
 def compile_notices(console: Console) -> Iterator[None]:
     """Print the library's compile notices (INFO on the logger ``femref.compile``: the first run after an install
-    compiles the impact kernels, :func:`femref.run.runner.load_compiled_loop`) on ``console`` while in the block."""
+    compiles the impact kernels, :func:`femref.run.runner.load_compiled_loop`, and a first sweep its batched ones,
+    :func:`femref.sweep.batch.load_batch_kernels`) on ``console`` while in the block."""
     import logging
 
     class ToConsole(logging.Handler):

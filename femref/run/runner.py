@@ -284,6 +284,14 @@ def compiled_loop_cached() -> bool:
     return cache.cached(ENTRY_POINTS)
 
 
+def loading_step(scene: ImpactScene) -> tuple[ImpactScene, float]:
+    """``(one_step, dt)``: ``scene`` cut to one step ``dt`` (its coupler contact time / 100, else 1 ms), every step
+    recorded — what a load of compiled kernels steps (:func:`load_compiled_loop`,
+    :func:`femref.sweep.batch.load_batch_kernels`)."""
+    dt = scene.contact_time() / 100.0 if math.isfinite(scene.contact_time()) else 1e-3
+    return dataclasses.replace(scene, end=dt, output_stride=1), dt
+
+
 def load_compiled_loop(scene: ImpactScene) -> None:
     """Load the compiled impact loop (compiling it, the first time after an install) by stepping
     ``scene``'s cars once as rigid bodies, so that no model's timing pays the one-off loading (about
@@ -299,17 +307,15 @@ def load_compiled_loop(scene: ImpactScene) -> None:
     import logging  # noqa: PLC0415 (only where the loop is loaded)
 
     from femref.impact.kernels import cache  # noqa: PLC0415 (numba only where an impact is stepped)
-    from femref.impact.kernels.loop import ENTRY_POINTS  # noqa: PLC0415
 
-    compiling = not cache.cached(ENTRY_POINTS)
+    compiling = not compiled_loop_cached()
     if compiling:
         logging.getLogger("femref.compile").info(
             "compiling femref's impact kernels, once (about %.0f s; cached in %s)", cache.compile_seconds(), cache.cache_directory())
     started = time.perf_counter()
-    dt = scene.contact_time() / 100.0 if math.isfinite(scene.contact_time()) else 1e-3
-    one_step = dataclasses.replace(scene, end=dt, output_stride=1)
+    one_step, dt = loading_step(scene)
     step_cars(one_step, ModelRun("load", ("rigid",) * len(scene.cars)), dt)
-    if compiling and cache.cached(ENTRY_POINTS):
+    if compiling and compiled_loop_cached():  # compiled now: how long it took is the next notice's estimate
         cache.record_compile_seconds(time.perf_counter() - started)
     _loop_loaded = True
 
@@ -402,4 +408,4 @@ def _records_source(reference: ModelResult) -> str:
     return f"{reference.model} ({'measured' if reference.measured else 'model'})"
 
 
-__all__ = ["ONE_OFF_IMPORTS", "RunOutcome", "add_measured_records", "compiled_loop_cached", "load_compiled_loop", "load_one_off_imports", "model_result", "run_estimators", "run_model", "run_networks", "run_scene", "step_cars", "check_reference", "merge_scores"]
+__all__ = ["ONE_OFF_IMPORTS", "RunOutcome", "add_measured_records", "compiled_loop_cached", "load_compiled_loop", "loading_step", "load_one_off_imports", "model_result", "run_estimators", "run_model", "run_networks", "run_scene", "step_cars", "check_reference", "merge_scores"]

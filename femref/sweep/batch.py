@@ -14,9 +14,7 @@ that run's failed result (:meth:`femref.results.ModelResult.failed`).
 
 from __future__ import annotations
 
-import dataclasses
 import logging
-import math
 import time
 from dataclasses import dataclass
 
@@ -27,7 +25,7 @@ from femref.impact.kernels.batch import run_batch, solve_batch, structure_of
 from femref.impact.kernels.loop import PreparedRun, prepare_run
 from femref.models import model_form
 from femref.results import ModelResult
-from femref.run.runner import model_result
+from femref.run.runner import loading_step, model_result
 from femref.run.timestep import impact_time_step
 from femref.scene import ImpactScene
 
@@ -90,8 +88,7 @@ def load_batch_kernels(scene: ImpactScene) -> None:
         return
     if not cache.cached((run_batch,)):
         logging.getLogger("femref.compile").info("compiling femref's batched impact kernels, once (cached in %s)", cache.cache_directory())
-    dt = scene.contact_time() / 100.0 if math.isfinite(scene.contact_time()) else 1e-3
-    one_step = dataclasses.replace(scene, end=dt, output_stride=1)
+    one_step, dt = loading_step(scene)
     systems = [model_form("rigid", "impact")(car, one_step, dt) for car in scene.cars]
     solve_batch([prepare_run(one_step, systems, INTEGRATORS[scene.integrator](scene.rho_inf), dt)])
     _loaded = True
