@@ -25,7 +25,7 @@ from .augmented import AugmentedModel, augmented_model, forced_response, undetec
 from .cars import CarDynamics, ConsistCars, CoupledCars, SensorFilter
 from .estimate import DEFAULT_FORCE_RATE_RANGE, NOISE_SCALES, KalmanForce, estimate_force, estimate_forces
 from .linear_gaussian import GaussianSmoothing, kalman_smoother, van_loan_discretisation
-from .variants import VariantForceEstimate, corner_models, estimate_force_with_variants, estimate_forces_with_variants
+from .variants import VariantForceEstimate, car_mass_models, corner_models, estimate_force_with_variants, estimate_forces_with_variants
 
 __all__ = [
     "DEFAULT_FORCE_RATE_RANGE",
@@ -39,6 +39,7 @@ __all__ = [
     "VariantForceEstimate",
     "SensorFilter",
     "augmented_model",
+    "car_mass_models",
     "corner_models",
     "estimate_force",
     "estimate_forces",

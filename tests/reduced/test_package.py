@@ -51,7 +51,7 @@ HOMES = {
         "linear_gaussian": ["GaussianSmoothing", "kalman_smoother", "van_loan_discretisation"],
         "steady": [],
         "estimate": ["DEFAULT_FORCE_RATE_RANGE", "NOISE_SCALES", "KalmanForce", "estimate_force", "estimate_forces"],
-        "variants": ["VariantForceEstimate", "corner_models", "estimate_force_with_variants", "estimate_forces_with_variants"],
+        "variants": ["VariantForceEstimate", "car_mass_models", "corner_models", "estimate_force_with_variants", "estimate_forces_with_variants"],
     },
 }
 

@@ -28,6 +28,7 @@ from reduced.kalman import (
     SensorFilter,
     augmented_model,
     estimate_force,
+    car_mass_models,
     corner_models,
     estimate_force_with_variants,
     estimate_forces,
@@ -260,3 +261,30 @@ def test_a_line_is_validated() -> None:
         estimate_force(model, t, np.zeros((10, 6)), NOISE)
     with pytest.raises(ValueError, match="10 samples × 2 couplers"):
         forced_response(model, t, np.zeros(10))
+
+
+def test_each_cars_mass_corners_sum_to_the_common_scale() -> None:
+    """Every mass and the forces scaled by one factor leave the accelerations unchanged, so to first order the
+    shifts of one car's mass at a time add up to the common scale's ``m P``: ``Σ_i δ_i⁺ = m P`` within 2 % of
+    ``m max P`` at m = 1e-3 (the remainder O(m²)). The widened band contains the common-scale band, and in
+    this line the per-car shifts do not all share a sign, so it is wider somewhere."""
+    model = line((119.0e3, 100.0e3, 90.0e3), (True, True, True))
+    t, force = line_record(model, 300)
+    y = forced_response(model, t, force) + NOISE * np.random.default_rng(11).standard_normal((t.size, 6))
+    m = 1.0e-3
+    nominal = estimate_forces(model, t, y, NOISE, noise_scale="estimated")
+    level = nominal[0].force_rate / nominal[0].noise_scale**2
+    pairs = car_mass_models(model, m)
+    assert len(pairs) == 3 and all(len(pair) == 2 for pair in pairs)
+    shifted = [estimate_forces(pair[1], t, y, NOISE, noise_scale="estimated", force_rate=level) for pair in pairs]
+    for c in range(2):
+        total = sum(s[c].force - nominal[c].force for s in shifted)
+        assert np.max(np.abs(total - m * nominal[c].force)) <= 0.02 * m * np.max(nominal[c].force)
+    plain = estimate_forces_with_variants([model], t, y, NOISE, variant_force_rate="nominal", mass_tolerance=0.05)
+    wide = estimate_forces_with_variants([model], t, y, NOISE, variant_force_rate="nominal", mass_tolerance=0.05, car_mass_corners=True)
+    for p, w in zip(plain, wide):
+        np.testing.assert_array_equal(w.force, p.force)
+        assert np.all(w.lower <= p.lower) and np.all(w.upper >= p.upper)
+        assert w.peak_lower <= p.peak_lower and w.peak_upper >= p.peak_upper
+        assert np.max(w.upper - p.upper) > 1e-3 * np.max(p.force) or np.max(p.lower - w.lower) > 1e-3 * np.max(p.force)
+        assert len(w.variant_status) == 1 + 6
