@@ -88,8 +88,8 @@ class KalmanEstimator:
         names = [c.name for c in recorded.couplers]
         if found[0].status != "ok":
             nan = np.full(t.size, np.nan)
-            return [ForceEstimate(self.name, name, t, nan, nan, nan.copy(), bound="covariance", status="untrusted", message=found[0].status,
-                                  settings=dict(settings)) for name in names]
+            return [ForceEstimate(self.name, name, t, nan.copy(), nan.copy(), nan.copy(), bound="covariance", status="untrusted",
+                                  message=found[0].status, settings=dict(settings)) for name in names]
         estimates = [ForceEstimate(self.name, name, t, band.force, band.lower, band.upper, bound="covariance", settings=dict(settings))
                      for name, band in zip(names, found)]
         for estimate in estimates if len(estimates) > 1 else ():  # each coupler's contact, kept for the networks (recorded.contacts)
