@@ -92,36 +92,50 @@ class KalmanEstimator:
                                   message=found[0].status, settings=dict(settings)) for name in names]
         estimates = [ForceEstimate(self.name, name, t, band.force, band.lower, band.upper, bound="covariance", settings=dict(settings))
                      for name, band in zip(names, found)]
-        for estimate in estimates if len(estimates) > 1 else ():  # each coupler's contact, kept for the networks (recorded.contacts)
-            try:
-                contact = recorded.contacts[estimate.coupler] = self.contact(recorded, estimate)
+        for estimate, contact in zip(estimates, self._contacts(cars, noise, recorded, estimates) if len(estimates) > 1 else ()):
+            if isinstance(contact, ValueError):  # kept as a network keeps a contact it could not find
+                recorded.contacts[estimate.coupler] = note = f"{type(contact).__name__}: {contact}"
+                estimate.settings.update(contact_time=math.nan, contact_note=note)
+            else:  # each coupler's contact, where the networks read it
+                recorded.contacts[estimate.coupler] = contact
                 estimate.settings.update(contact_time=contact.time, contact_fit_residual=contact.residual)
-            except ValueError as error:
-                recorded.contacts[estimate.coupler] = f"{type(error).__name__}: {error}"
-                estimate.settings.update(contact_time=math.nan, contact_note=recorded.contacts[estimate.coupler])
         return estimates
 
     def contact(self, recorded: Recorded, estimate: ForceEstimate) -> ContactEstimate:
         """The contact instant in this estimator's force ``estimate`` of its coupler (:func:`femref.sensing.contact.onset_time`,
         docs/formulas.md §K2): the chain the rise is fitted through is the smoother itself, its responses to a unit
-        step and ramp of that coupler's force (the others at rest) the model's forced response
-        (:func:`reduced.kalman.forced_response`) estimated back at the event's force-rate level (the smoothed mean
-        is linear in the records)."""
-        t = recorded.time
+        step and ramp of that coupler's force (the others at rest) the model's forced response estimated back at the
+        event's force-rate level (:func:`reduced.kalman.smoothed_responses`; the smoothed mean is linear in the
+        records). ValueError when the force has no rise to fit."""
         cars, probes = self.cars(recorded)
-        noise = _noise(recorded, probes)
-        rate = float(estimate.settings["declared_force_rate"])
-        column = [c.name for c in recorded.couplers].index(estimate.coupler)
+        found = self._contacts(cars, _noise(recorded, probes), recorded, [estimate])[0]
+        if isinstance(found, ValueError):
+            raise found
+        return found
+
+    def _contacts(self, cars: kalman.ConsistCars, noise: list[float], recorded: Recorded,
+                  estimates: list[ForceEstimate]) -> list[ContactEstimate | ValueError]:
+        """:meth:`contact` of each estimate (the same force rate), or the error saying why there is none; one filter for all."""
+        t = recorded.time
+        names = [c.name for c in recorded.couplers]
         lags = t - t[t.size // 2]
-        scale = float(np.nanmax(estimate.force))
-        responses = []
-        for unit in (np.where(lags > 0.0, 1.0, 0.0), np.maximum(lags, 0.0) / (t[-1] - t[0])):
-            force = np.zeros((t.size, cars.couplers))
-            force[:, column] = scale * unit
-            accelerations = kalman.forced_response(cars, t, force)
-            found = kalman.estimate_forces(cars, t, accelerations, noise, force_rate=rate, nis_range=(1e-300, math.inf))
-            responses.append(found[column].force / scale)
-        return onset_time(t, np.nan_to_num(estimate.force), lags, responses[0], responses[1] * (t[-1] - t[0]))
+        shapes = (np.where(lags > 0.0, 1.0, 0.0), np.maximum(lags, 0.0) / (t[-1] - t[0]))
+        columns, scales, forces = [names.index(e.coupler) for e in estimates], [float(np.nanmax(e.force)) for e in estimates], []
+        for column, scale in zip(columns, scales):
+            for shape in shapes:
+                force = np.zeros((t.size, cars.couplers))
+                force[:, column] = scale * shape
+                forces.append(force)
+        rate = float(estimates[0].settings["declared_force_rate"])
+        responses = kalman.smoothed_responses(cars, t, forces, noise, rate)
+        found: list[ContactEstimate | ValueError] = []
+        for k, (estimate, column, scale) in enumerate(zip(estimates, columns, scales)):
+            step, ramp = responses[2 * k][:, column] / scale, responses[2 * k + 1][:, column] / scale
+            try:
+                found.append(onset_time(t, np.nan_to_num(estimate.force), lags, step, ramp * (t[-1] - t[0])))
+            except ValueError as error:
+                found.append(error)
+        return found
 
 
 def line_cars(cars: int, rears: Sequence[int]) -> list[tuple[int, np.ndarray]]:

@@ -23,7 +23,7 @@ declared), :mod:`.augmented` (the filter's model), :mod:`.linear_gaussian` (gene
 
 from .augmented import AugmentedModel, augmented_model, forced_response, undetectable_couplers
 from .cars import CarDynamics, ConsistCars, CoupledCars, SensorFilter
-from .estimate import DEFAULT_FORCE_RATE_RANGE, NOISE_SCALES, KalmanForce, estimate_force, estimate_forces
+from .estimate import DEFAULT_FORCE_RATE_RANGE, NOISE_SCALES, KalmanForce, estimate_force, estimate_forces, smoothed_responses
 from .linear_gaussian import GaussianSmoothing, kalman_smoother, van_loan_discretisation
 from .variants import VariantForceEstimate, car_mass_models, corner_models, estimate_force_with_variants, estimate_forces_with_variants
 
@@ -47,6 +47,7 @@ __all__ = [
     "estimate_forces_with_variants",
     "forced_response",
     "kalman_smoother",
+    "smoothed_responses",
     "undetectable_couplers",
     "van_loan_discretisation",
 ]

@@ -295,13 +295,18 @@ def forced_response(model: CoupledCars | ConsistCars, time: ArrayLike, force: Ar
     ``expm([[A_xx, A_xP, 0], [0, 0, I], [0, 0, 0]] h)``.
     """
     t = _checks.time_grid("time", time, uniform=True, min_length=2)
+    return forced_samples(augmented_model(model, float(t[1] - t[0]), 1.0), t, force)
+
+
+def forced_samples(aug: AugmentedModel, time: FloatArray, force: ArrayLike) -> FloatArray:
+    """:func:`forced_response` of the model ``aug`` was built from, on its step (any noise: the samples are in m/s²)."""
+    t = np.asarray(time, dtype=float)
     p = np.asarray(force, dtype=float)
-    nc = model.couplers
+    nc = aug.couplers
     p = p.reshape(-1, 1) if p.ndim == 1 and nc == 1 else p
     if p.shape != (t.size, nc) or not np.all(np.isfinite(p)):
         raise ValueError(f"force must be finite, {t.size} samples × {nc} couplers, got shape {np.shape(force)}")
-    h = float(t[1] - t[0])
-    aug = augmented_model(model, h, 1.0)
+    h = aug.step
     n = aug.system_matrix.shape[0] - nc
     block = np.zeros((n + 2 * nc, n + 2 * nc))
     block[:n, : n + nc] = aug.system_matrix[:n, :]

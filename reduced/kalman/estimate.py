@@ -31,7 +31,7 @@ pulses; otherwise slightly optimistic.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -39,9 +39,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from reduced import _checks
 
-from .augmented import AugmentedModel, augmented_model
+from .augmented import AugmentedModel, augmented_model, forced_samples
 from .cars import ConsistCars, CoupledCars
-from .steady import likelihoods, reference_force, smoothed_force
+from .steady import likelihoods, reference_force, smoothed_force, steady_filter
 
 DEFAULT_FORCE_RATE_RANGE: tuple[float, float] = (1.0e8, 1.0e18)  # N²/s
 Z95 = 1.959963984540054  # two-sided 95 % normal quantile
@@ -258,6 +258,35 @@ def estimate_forces(
     return tuple(results)
 
 
+def smoothed_responses(
+    model: CoupledCars | ConsistCars,
+    time: ArrayLike,
+    forces: Sequence[ArrayLike],
+    noise_std: float | ArrayLike,
+    force_rate: float,
+    *,
+    initial_force_std: float = 1.0e5,
+) -> list[FloatArray]:
+    """For each of ``forces`` (N × n_c, N), the smoothed coupler forces (N × n_c, N) of the model's noise-free samples
+    under it: ``estimate_forces(model, time, forced_response(model, time, f), noise_std, force_rate=force_rate)``
+    (the declared noise), with one filter model and one stationary filter for all (the smoothed mean is linear in
+    the records: the estimator's response to chosen forces)."""
+    t = _checks.time_grid("time", time, uniform=True, min_length=2)
+    q = _checks.positive("force_rate", force_rate)
+    prior = _checks.positive("initial_force_std", initial_force_std) ** 2
+    aug = augmented_model(model, float(t[1] - t[0]), noise_std)
+    if aug.undetectable:
+        def smoother(yw: FloatArray) -> FloatArray:
+            return reference_force(aug, yw, q, prior)[0]
+    else:
+        steady = steady_filter(aug, q)
+
+        def smoother(yw: FloatArray) -> FloatArray:
+            return smoothed_force(aug, yw, q, prior, steady)[0]
+    units = aug.state_unit[aug.force_slice]
+    return [smoother(forced_samples(aug, t, force) / aug.noise_std[None, :]) * units[None, :] for force in forces]
+
+
 def estimate_force(
     model: CoupledCars | ConsistCars,
     time: ArrayLike,
@@ -287,4 +316,5 @@ __all__ = [
     "KalmanForce",
     "estimate_force",
     "estimate_forces",
+    "smoothed_responses",
 ]

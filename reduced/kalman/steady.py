@@ -116,10 +116,17 @@ def likelihoods(aug: AugmentedModel, yw: FloatArray, rates: FloatArray, prior: f
     return ell, quad
 
 
-def smoothed_force(aug: AugmentedModel, yw: FloatArray, rate: float, prior: float) -> tuple[FloatArray, FloatArray, float, float]:
-    """Scaled smoothed forces' means and variances (N × n_c), whitened ℓ and ``Σ ν S⁻¹ ν`` (module docstring)."""
+def steady_filter(aug: AugmentedModel, rate: float) -> _Steady:
+    """The stationary filter of ``aug`` at one force rate, for :func:`smoothed_force` on several records."""
+    return _steady(aug, np.array([rate]))
+
+
+def smoothed_force(aug: AugmentedModel, yw: FloatArray, rate: float, prior: float,
+                   steady: _Steady | None = None) -> tuple[FloatArray, FloatArray, float, float]:
+    """Scaled smoothed forces' means and variances (N × n_c), whitened ℓ and ``Σ ν S⁻¹ ν`` (module docstring);
+    ``steady``: the stationary filter at ``rate`` (:func:`steady_filter`) if already made."""
     hw, forces, nc = aug.whitened_observation, aug.force_slice, aug.couplers
-    steady = _steady(aug, np.array([rate]))
+    steady = _steady(aug, np.array([rate])) if steady is None else steady
     p = steady.covariance[0]
     columns = p[:, forces]  # P∞ e_{P_c}
     rows, innovations = _steady_pass(steady, hw, yw, aug.quasi_static_directions, extra=columns)

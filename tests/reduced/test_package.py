@@ -50,7 +50,7 @@ HOMES = {
         "augmented": ["AugmentedModel", "augmented_model", "forced_response", "undetectable_couplers"],
         "linear_gaussian": ["GaussianSmoothing", "kalman_smoother", "van_loan_discretisation"],
         "steady": [],
-        "estimate": ["DEFAULT_FORCE_RATE_RANGE", "NOISE_SCALES", "KalmanForce", "estimate_force", "estimate_forces"],
+        "estimate": ["DEFAULT_FORCE_RATE_RANGE", "NOISE_SCALES", "KalmanForce", "estimate_force", "estimate_forces", "smoothed_responses"],
         "variants": ["VariantForceEstimate", "car_mass_models", "corner_models", "estimate_force_with_variants", "estimate_forces_with_variants"],
     },
 }

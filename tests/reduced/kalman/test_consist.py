@@ -35,6 +35,7 @@ from reduced.kalman import (
     estimate_forces_with_variants,
     forced_response,
     kalman_smoother,
+    smoothed_responses,
     undetectable_couplers,
 )
 from tests.reduced.test_kalman import NOISE, STEP, cars, half_sine, record
@@ -288,3 +289,16 @@ def test_each_cars_mass_corners_sum_to_the_common_scale() -> None:
         assert w.peak_lower <= p.peak_lower and w.peak_upper >= p.peak_upper
         assert np.max(w.upper - p.upper) > 1e-3 * np.max(p.force) or np.max(p.lower - w.lower) > 1e-3 * np.max(p.force)
         assert len(w.variant_status) == 1 + 6
+
+
+def test_smoothed_responses_are_the_estimator_on_forced_samples() -> None:
+    """One filter model and one stationary filter for several prescribed forces give what ``estimate_forces`` gives
+    on each one's ``forced_response`` at the same force rate, to 1e-12 of the force (filtered line, middle car blind)."""
+    model = ConsistCars(line((119.0e3, 100.0e3, 90.0e3), (True, False, True)).cars, SensorFilter(100.0, 4))
+    t, force = line_record(model, 300)
+    forces = [force, force[:, ::-1] * 0.5, np.column_stack([np.where(t > 0.1, 1.0e6, 0.0), np.zeros(t.size)])]
+    got = smoothed_responses(model, t, forces, NOISE, 5.0e10)
+    for f, g in zip(forces, got):
+        expected = estimate_forces(model, t, forced_response(model, t, f), NOISE, force_rate=5.0e10, nis_range=(1e-300, math.inf))
+        for c in range(2):
+            np.testing.assert_allclose(g[:, c], expected[c].force, rtol=0.0, atol=1e-12 * np.max(np.abs(f)))
