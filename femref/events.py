@@ -175,12 +175,12 @@ EVENT_UNITS = {
 
 def without_histories(event: EventResult) -> EventResult:
     """``event`` as a summary: every scalar, flag and message kept, its records dropped and each estimate's histories
-    cut to the sample of its peak (so ``peak`` is the same) and its settings dropped: what a table of many events
-    reads, at a few kilobytes each."""
+    cut to the sample of its peak (so ``peak`` is the same) and its settings dropped but its contact instant
+    (``contact_time``): what a table of many events reads, at a few kilobytes each."""
     def at_peak(estimate: ForceEstimate) -> ForceEstimate:
         k = slice(estimate.peak_index, estimate.peak_index + 1) if estimate.ok else slice(0, min(1, estimate.force.size))
         return dataclasses.replace(estimate, time=estimate.time[k].copy(), force=estimate.force[k].copy(), lower=estimate.lower[k].copy(),
-                                   upper=estimate.upper[k].copy(), settings={})
+                                   upper=estimate.upper[k].copy(), settings={key: estimate.settings[key] for key in ("contact_time",) if key in estimate.settings})
 
     return dataclasses.replace(event, time=event.time[:0].copy(), records={}, estimates=[at_peak(e) for e in event.estimates])
 

@@ -22,6 +22,7 @@ from femref.case.base import SceneCase
 from femref.case.bodies import RodBody
 from femref.case.cars import CarName, cars_rule
 from femref.case.couplers import Between, CouplerName, named_couplers
+from femref.case.coupler_observability import unobservable_couplers
 from femref.case.errors import Problem, did_you_mean, problems_error
 from femref.case.estimators import ANY_IMPACT, AnnEstimatorSpec, contract_scene_problems, estimator_entry
 from femref.case.fields import CaseModel, NonNegativeReal, PositiveReal, ProbeName, Real, duplicates, entry_name, resolve_case_path
@@ -45,7 +46,8 @@ class MeasuredCarSpec(CaseModel):
     body: RodBody | None = Field(default=None, description="The car body as a rod (as in impact cases). Give a body, or mass and length.")
     mass: PositiveReal | None = Field(default=None, description="Total mass (kg) of a car without a body.")
     length: PositiveReal | None = Field(default=None, description="Length over the ends (m) of a car without a body.")
-    sensors: dict[ProbeName, Real] = Field(description="Accelerometers: name → position x (m) within [−l, l]; at least one. Required.")
+    sensors: dict[ProbeName, Real] = Field(
+        description="Accelerometers: name → position x (m) within [−l, l]; {} for a car without (only kalman estimates through it). Required.")
 
     @model_validator(mode="after")
     def _body_or_mass(self) -> "MeasuredCarSpec":
@@ -54,8 +56,6 @@ class MeasuredCarSpec(CaseModel):
         if self.body is None and (self.mass is None or self.length is None):
             missing = [key for key in ("mass", "length") if getattr(self, key) is None]
             raise problems_error([Problem((key,), "required key is missing (a car without a body needs mass and length)") for key in missing])
-        if not self.sensors:
-            raise problems_error([Problem(("sensors",), "must name at least one sensor")])
         l = self.half_length  # noqa: E741
         problems = [Problem(("sensors", name), f"must lie on the car, |x| <= l = {l} m", x) for name, x in self.sensors.items() if abs(x) > l]
         if problems:
@@ -289,10 +289,18 @@ class MeasuredCase(SceneCase):
                     problems.append(Problem(("records", i, "channels", probe), f"car {car} has no sensor {sensor!r}{did_you_mean(sensor, known)}; its sensors: {', '.join(known)}", probe))
                 else:
                     recorded.add(car)
+        others = [entry for entry in self.estimators if not isinstance(entry, AnnEstimatorSpec) and entry != "kalman"]
         for k, car in enumerate(self.cars):
-            if car.name not in recorded and not problems:
-                problems.append(Problem(("cars", k, "sensors"), f"no channel of car {car.name} is recorded; map at least one of its sensors in records"))
+            if car.name not in recorded and others and not problems:
+                rule = (f"no channel of car {car.name} is recorded; map at least one of its sensors in records "
+                        f"(only kalman estimates through an uninstrumented car; {', '.join(others)} need every car recorded)")
+                problems.append(Problem(("cars", k, "sensors"), rule))
         return problems
+
+    def instrumented(self) -> list[bool]:
+        """Per car, whether at least one of its sensors is recorded."""
+        recorded = {probe.split("/")[0] for record in self.records for probe in record.channels}
+        return [car.name in recorded for car in self.cars]
 
     def _estimator_problems(self) -> list[Problem]:
         """What each estimator needs of the cars (a rod body; two recorded sensors on a coupler's front car;
@@ -310,8 +318,11 @@ class MeasuredCase(SceneCase):
                 bodiless = [car.name for car in self.cars if car.body is None]
                 if bodiless:
                     problems.append(Problem(("estimators", i), f"{name} needs every car's body (profiles); cars {', '.join(bodiless)} give only mass and length", name))
-            if name == "kalman" and len(self.couplers) != 1:
-                problems.append(Problem(("estimators", i), f"kalman estimates the force of one coupler between two cars; this case has {len(self.couplers)}", name))
+            if name == "kalman" and not problems:
+                index = {car.name: k for k, car in enumerate(self.cars)}
+                refused = unobservable_couplers([car.name for car in self.cars], self.instrumented(),
+                                                [index[c.between[0]] for c in self.couplers], [str(c.name) for c in self.couplers])
+                problems += [Problem(("couplers", coupler), f"kalman cannot observe its force: {why}") for coupler, why in refused.items()]
             if name == "inverse_quasi_rigid":
                 by_name = {car.name: car for car in self.cars}
                 for coupler in self.couplers:

@@ -262,8 +262,9 @@ def event_table(outcome) -> Table:
     several = len(outcome.scene.couplers) > 1
     table = Table(title=f"measured records: {len(outcome.events)} event(s); peak force with its 95 % band", title_justify="left",
                   caption_justify="left")
-    figures = ("t trigger s", "ρ0", "v m/s", "peak kN", "band kN")
-    for column in ("event", "t trigger s", "type", "ρ0", "v m/s", "closure", "wear", "alarm", "estimator", "status", "peak kN", "band kN"):
+    figures = ("t trigger s", "ρ0", "v m/s", "peak kN", "band kN", "contact s")
+    columns = ("event", "t trigger s", "type", "ρ0", "v m/s", "closure", "wear", "alarm", "estimator", "status", "peak kN", "band kN")
+    for column in columns + (("contact s",) if several else ()):
         table.add_column(column, justify="right" if column in figures else "left", no_wrap=column not in ("closure", "status"), overflow="fold")
     notes: list[str] = []
     for event in outcome.events:
@@ -271,15 +272,17 @@ def event_table(outcome) -> Table:
         head = [str(event.index), f"{event.trigger_time:.4f}", event.impact_type, _fmt(event.zero_harmonic_ratio, "{:.2f}"), _closing_speed(event),
                 closure, event.wear, event.alarm]
         if not event.estimates:  # not an impact: the event's own row, its evidence in the notes
-            table.add_row(*head, "none run", "", "", "")
+            table.add_row(*head, "none run", "", "", "", *([""] if several else []))
         for k, estimate in enumerate(event.estimates):
             peak, lower, upper = estimate.peak
+            contact = [_fmt(estimate.settings.get("contact_time"), "{:.4f}")] if several else []
             table.add_row(
                 *(head if k == 0 else [""] * len(head)),
                 estimate.estimator + (f" @{estimate.coupler}" if several else ""),
                 estimate.status,
                 _fmt(peak / 1e3, "{:.1f}"),
                 f"{lower / 1e3:.0f}–{upper / 1e3:.0f}" if math.isfinite(lower) else "",
+                *contact,
             )
         event_notes = list(event.flags) + [f"{e.estimator}: {e.message}" for e in event.estimates if not e.ok]
         event_notes += [event.classification_basis] if not event.estimates and event.classification_basis else []
@@ -296,6 +299,7 @@ def event_table(outcome) -> Table:
         ("closure", "the draft gear's closure, with its force"),
         ("peak kN", "peak coupler force, kN"),
         ("band kN", "its 95 % band, kN"),
+        *([("contact s", "the contact instant at that coupler, s on the records' clock")] if several else []),
     ))
     return table
 

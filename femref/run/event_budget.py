@@ -68,17 +68,21 @@ def stream_memory(rate: float, channels: int, max_window: float) -> float:
 
 
 def kalman_states(scene: MeasuredScene) -> int:
-    """The kalman filter's state size: ``2 × modes`` (each elastic mode's displacement and rate) for each car of the
-    first coupler, the force, and the anti-alias filter's ``order`` states of each of their recorded channels that
-    declares one (:mod:`reduced.kalman`)."""
+    """The kalman filter's state size: ``2 × modes`` (each elastic mode's displacement and rate) for each car a
+    coupler joins, one force per coupler, and the anti-alias filter's ``order`` states of each of their recorded
+    channels that declares one (:mod:`reduced.kalman`)."""
     filters = sum(f.order for probe, f in _kalman_filters(scene).items() if f is not None)
-    return 2 * 2 * scene.kalman.modes + 1 + filters
+    return 2 * len(_kalman_cars(scene)) * scene.kalman.modes + len(scene.couplers) + filters
+
+
+def _kalman_cars(scene: MeasuredScene) -> set[str]:
+    """The names of the cars the couplers join (the kalman model's cars)."""
+    return {scene.cars[i].name for coupler in scene.couplers for i in (coupler.rear, coupler.front)}
 
 
 def _kalman_filters(scene: MeasuredScene) -> dict:
-    """The anti-alias filter (or None) of each recorded channel of the first coupler's two cars."""
-    coupler = scene.couplers[0]
-    cars = {scene.cars[coupler.rear].name, scene.cars[coupler.front].name}
+    """The anti-alias filter (or None) of each recorded channel of the kalman model's cars."""
+    cars = _kalman_cars(scene)
     return {probe: f for probe, f in scene.anti_alias.items() if probe.split("/")[0] in cars}
 
 
@@ -91,7 +95,8 @@ def event_cost(scene: MeasuredScene, samples: int, channels: int, rate: float, w
         inverse_rigid   1e-6 s;  inverse_quasi_rigid 2e-6 s (+ 0.05 s set-up)
         kalman          1e-4 s + 5e-8 s × n² + (1 + corners) × 2e-5 s   (n states, kalman_states; the likelihood
                         search over 15 force rates side by side, then the smoother of the nominal cars and of each
-                        tolerance corner: frequency × (1 ± tolerance) × each damping factor)
+                        tolerance corner: frequency × (1 ± tolerance) × each damping factor, in a line of N ≥ 3 cars
+                        each car's two mass corners and a step and a ramp per coupler for its contact instant)
         network         2e-4 s (the contact instant from a kalman filter at the event's force rate)
 
     Memory: the window's records three times (read, offset-removed, kept), four histories per estimator and coupler,
@@ -107,6 +112,8 @@ def event_cost(scene: MeasuredScene, samples: int, channels: int, rate: float, w
         elif name == "kalman":
             n, m = kalman_states(scene), len(_kalman_filters(scene))
             corners = len({1.0 - scene.kalman.frequency_tolerance, 1.0 + scene.kalman.frequency_tolerance}) * len(set(scene.kalman.damping_factors))
+            line = len(_kalman_cars(scene))
+            corners += 2 * line + 2 * len(scene.couplers) if line > 2 else 0
             work += samples * (1e-4 + 5e-8 * n**2 + (1 + corners) * 2e-5)
             memory += _BYTES * samples * (_KALMAN_BATCH * (3 * n + 4 * m) + 4 * n)
     if scene.networks:

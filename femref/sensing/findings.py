@@ -255,6 +255,8 @@ def classify_event(cars: Cars, coupler: Any, time: NDArray[np.float64], records:
 
 
 def _central_sensor(car: Any) -> str:
+    if not car.sensors:
+        raise ValueError(f"car {car.name} has no sensor")
     return min(car.sensors, key=lambda name: abs(car.sensors[name]))
 
 
@@ -287,7 +289,7 @@ def checked_closing_speed(cars: Cars, couplers: Couplers, stated: ClosingSpeed |
         elif first is None:
             speed = unknown("no force history with a number to read it from")
         else:
-            channels = [quiet.get(f"{car.name}/{_central_sensor(car)}") for car in (rear, front)]
+            channels = [quiet.get(f"{car.name}/{_central_sensor(car)}") for car in (rear, front) if car.sensors]
             noise = math.sqrt(sum(c.std**2 for c in channels if c is not None and c.measured))
             speed = from_force(first.time, first.force, rear.mass * front.mass / (rear.mass + front.mass), noise, impact_type)
         flagged = [estimate for estimate in estimates if estimate.ok and _flag_implausible(estimate, speed.upper, line_mass)]

@@ -21,16 +21,17 @@ declared), :mod:`.augmented` (the filter's model), :mod:`.linear_gaussian` (gene
 :mod:`.variants` (the band over perturbed models).
 """
 
-from .augmented import AugmentedModel, augmented_model, forced_response
-from .cars import CarDynamics, CoupledCars, SensorFilter
-from .estimate import DEFAULT_FORCE_RATE_RANGE, NOISE_SCALES, KalmanForce, estimate_force
+from .augmented import AugmentedModel, augmented_model, forced_response, undetectable_couplers
+from .cars import CarDynamics, ConsistCars, CoupledCars, SensorFilter
+from .estimate import DEFAULT_FORCE_RATE_RANGE, NOISE_SCALES, KalmanForce, estimate_force, estimate_forces, smoothed_responses
 from .linear_gaussian import GaussianSmoothing, kalman_smoother, van_loan_discretisation
-from .variants import VariantForceEstimate, corner_models, estimate_force_with_variants
+from .variants import VariantForceEstimate, car_mass_models, corner_models, estimate_force_with_variants, estimate_forces_with_variants
 
 __all__ = [
     "DEFAULT_FORCE_RATE_RANGE",
     "AugmentedModel",
     "CarDynamics",
+    "ConsistCars",
     "CoupledCars",
     "KalmanForce",
     "GaussianSmoothing",
@@ -38,10 +39,15 @@ __all__ = [
     "VariantForceEstimate",
     "SensorFilter",
     "augmented_model",
+    "car_mass_models",
     "corner_models",
     "estimate_force",
+    "estimate_forces",
     "estimate_force_with_variants",
+    "estimate_forces_with_variants",
     "forced_response",
     "kalman_smoother",
+    "smoothed_responses",
+    "undetectable_couplers",
     "van_loan_discretisation",
 ]

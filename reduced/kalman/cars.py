@@ -1,6 +1,7 @@
-"""The two cars as the caller declares them: each car's linear dynamics and accelerometers
-(:class:`CarDynamics`), the recorders' anti-alias low-pass (:class:`SensorFilter`), and the pair
-joined by the coupler force (:class:`CoupledCars`); the model's equations open :mod:`reduced.kalman`.
+"""The cars as the caller declares them: each car's linear dynamics and accelerometers
+(:class:`CarDynamics`), the recorders' anti-alias low-pass (:class:`SensorFilter`), the pair
+joined by one coupler force (:class:`CoupledCars`) and a line of cars joined by ``n_c`` coupler
+forces (:class:`ConsistCars`); the model's equations open :mod:`reduced.kalman`.
 
 Recorders' anti-alias filter (:class:`SensorFilter`, ``CoupledCars.sensor_filter``): a channel
 that passes an analogue low-pass before it is sampled is modelled as such — the filter's
@@ -33,13 +34,16 @@ def _matrix(name: str, value: ArrayLike, shape: tuple[int, int]) -> FloatArray:
 
 @dataclass(frozen=True, eq=False)
 class CarDynamics:
-    """One car: ``M q̈ + C q̇ + K q = B L``, ``L = b P``, accelerometers ``a = O q̈``.
+    """One car: ``M q̈ + C q̇ + K q = B L``, ``L = B_c P``, accelerometers ``a = O q̈``.
 
     ``mass`` M (n × n, symmetric positive definite), ``damping`` C and ``stiffness`` K
     (n × n, symmetric; K positive semi-definite, its null space the rigid-body motion,
     which C must not damp), ``load_map`` B (n × J: generalised force of each end load),
-    ``sensor_map`` O (S × n), ``coupler_load`` b (J: end loads per unit compression-positive
-    coupler force ``P``; a rod's rear car ``(0, −1)``, front car ``(−1, 0)``).
+    ``sensor_map`` O (S × n), ``coupler_load`` B_c (J × n_c: end loads per unit
+    compression-positive force ``P_c`` of each coupler of the line; a vector of J is one
+    coupler — a rod's rear car ``(0, −1)``, front car ``(−1, 0)``; in a line of rods, car ``i``
+    has ``(−1, 0)`` in column ``i − 1``, the coupler at its −l end, and ``(0, −1)`` in column
+    ``i``, the coupler at its +l end).
     """
 
     mass: FloatArray
@@ -55,14 +59,15 @@ class CarDynamics:
         bmap = np.asarray(self.load_map, dtype=float)
         bmap = bmap.reshape(n, -1) if bmap.ndim <= 1 else bmap
         omap = np.atleast_2d(np.asarray(self.sensor_map, dtype=float))
-        b = np.asarray(self.coupler_load, dtype=float).reshape(-1)
+        b = np.asarray(self.coupler_load, dtype=float)
         object.__setattr__(self, "mass", _matrix("mass", m, (n, n)))
         object.__setattr__(self, "damping", _matrix("damping", self.damping, (n, n)))
         object.__setattr__(self, "stiffness", _matrix("stiffness", self.stiffness, (n, n)))
         object.__setattr__(self, "load_map", _matrix("load_map", bmap, (n, bmap.shape[-1])))
         object.__setattr__(self, "sensor_map", _matrix("sensor_map", omap, (omap.shape[0], n)))
-        if b.shape != (self.load_map.shape[1],) or not np.all(np.isfinite(b)):
-            raise ValueError(f"coupler_load must be a finite vector of {self.load_map.shape[1]} end loads, got shape {b.shape}")
+        j = self.load_map.shape[1]
+        if b.ndim not in (1, 2) or b.shape[0] != j or b.size == 0 or not np.all(np.isfinite(b)):
+            raise ValueError(f"coupler_load must be finite, {j} end loads (× couplers), got shape {b.shape}")
         object.__setattr__(self, "coupler_load", b)
         for name in ("mass", "damping", "stiffness"):
             a = getattr(self, name)
@@ -73,6 +78,11 @@ class CarDynamics:
     def channels(self) -> int:
         """Number of accelerometer channels S."""
         return int(self.sensor_map.shape[0])
+
+    @property
+    def coupler_map(self) -> FloatArray:
+        """``B_c`` as J × n_c (a one-coupler vector as its column)."""
+        return self.coupler_load.reshape(self.coupler_load.shape[0], -1)
 
 
 @dataclass(frozen=True)
@@ -139,6 +149,9 @@ class CoupledCars:
     sensor_filter: SensorFilter | tuple[SensorFilter | None, ...] | None = None
 
     def __post_init__(self) -> None:
+        for name, car in (("rear", self.rear), ("front", self.front)):
+            if car.coupler_map.shape[1] != 1:
+                raise ValueError(f"{name}.coupler_load: one coupler between two cars, got {car.coupler_map.shape[1]} (ConsistCars)")
         if isinstance(self.sensor_filter, tuple) and len(self.sensor_filter) != self.channels:
             raise ValueError(f"sensor_filter: one per channel ({self.channels}), got {len(self.sensor_filter)}")
 
@@ -154,9 +167,61 @@ class CoupledCars:
         """Total number of accelerometer channels."""
         return self.rear.channels + self.front.channels
 
+    @property
+    def cars(self) -> tuple[CarDynamics, ...]:
+        """The cars in channel order: rear, front."""
+        return (self.rear, self.front)
+
+    @property
+    def couplers(self) -> int:
+        """One coupler force."""
+        return 1
+
+
+@dataclass(frozen=True, eq=False)
+class ConsistCars:
+    """A line of cars joined by ``n_c`` coupler forces ``P_1 … P_{n_c}``: every car's
+    ``coupler_load`` is J × n_c over the same couplers (a car a coupler does not touch has a zero
+    column). Channels are ordered car by car; a car with no channel (``sensor_map`` 0 × n) is
+    uninstrumented and still moves with the line. ``sensor_filter`` as in :class:`CoupledCars`.
+    """
+
+    cars: tuple[CarDynamics, ...]
+    sensor_filter: SensorFilter | tuple[SensorFilter | None, ...] | None = None
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "cars", tuple(self.cars))
+        if len(self.cars) < 2 or not all(isinstance(c, CarDynamics) for c in self.cars):
+            raise ValueError(f"cars must be two or more CarDynamics, got {len(self.cars)}")
+        counts = {c.coupler_map.shape[1] for c in self.cars}
+        if len(counts) != 1:
+            raise ValueError(f"cars[*].coupler_load: every car over the same couplers, got counts {sorted(counts)}")
+        if self.channels == 0:
+            raise ValueError("cars[*].sensor_map: no car is instrumented")
+        if isinstance(self.sensor_filter, tuple) and len(self.sensor_filter) != self.channels:
+            raise ValueError(f"sensor_filter: one per channel ({self.channels}), got {len(self.sensor_filter)}")
+
+    @property
+    def channel_filters(self) -> tuple[SensorFilter | None, ...]:
+        """Each channel's anti-alias filter (None: unfiltered)."""
+        if isinstance(self.sensor_filter, tuple):
+            return self.sensor_filter
+        return (self.sensor_filter,) * self.channels
+
+    @property
+    def channels(self) -> int:
+        """Total number of accelerometer channels."""
+        return sum(c.channels for c in self.cars)
+
+    @property
+    def couplers(self) -> int:
+        """Number of coupler forces n_c."""
+        return int(self.cars[0].coupler_map.shape[1])
+
 
 __all__ = [
     "CarDynamics",
+    "ConsistCars",
     "CoupledCars",
     "SensorFilter",
 ]

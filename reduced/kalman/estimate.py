@@ -1,5 +1,9 @@
-"""The public force estimator: :func:`estimate_force` and its result :class:`KalmanForce` — the
+"""The public force estimators: :func:`estimate_force` (two cars, one coupler) and
+:func:`estimate_forces` (a line, one result per coupler), their result :class:`KalmanForce` — the
 force-rate search, the noise scale, the peak and its band, the status.
+
+A line's couplers share one force-rate level ``q_P`` (N²/s, each ``P_c`` a random walk of that
+intensity) and one likelihood; each coupler gets its own smoothed force, band and peak.
 
 Force-rate level: the innovation log-likelihood ℓ(q_P) (:mod:`.steady`) is maximised over a log grid
 (default 1e8 … 1e18 N²/s, 15 points, one batched pass) and refined by two rounds of a
@@ -27,7 +31,7 @@ pulses; otherwise slightly optimistic.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -35,9 +39,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from reduced import _checks
 
-from .augmented import AugmentedModel, augmented_model
-from .cars import CoupledCars
-from .steady import likelihoods, reference_force, smoothed_force
+from .augmented import AugmentedModel, augmented_model, forced_samples
+from .cars import ConsistCars, CoupledCars
+from .steady import likelihoods, reference_force, smoothed_force, steady_filter
 
 DEFAULT_FORCE_RATE_RANGE: tuple[float, float] = (1.0e8, 1.0e18)  # N²/s
 Z95 = 1.959963984540054  # two-sided 95 % normal quantile
@@ -148,8 +152,8 @@ def _status(
     return "; ".join(reasons) if reasons else "ok"
 
 
-def estimate_force(
-    model: CoupledCars,
+def estimate_forces(
+    model: CoupledCars | ConsistCars,
     time: ArrayLike,
     accelerations: ArrayLike,
     noise_std: float | ArrayLike,
@@ -160,15 +164,16 @@ def estimate_force(
     initial_force_std: float = 1.0e5,
     noise_scale: str = "declared",
     nis_range: tuple[float, float] = (0.5, 2.0),
-) -> KalmanForce:
-    """Smoothed coupler force ``P(t)`` from the cars' accelerations (equations in :mod:`reduced.kalman` and its modules).
+) -> tuple[KalmanForce, ...]:
+    """Smoothed coupler forces ``P_1(t) … P_{n_c}(t)``, one :class:`KalmanForce` each, from the cars'
+    accelerations (equations in :mod:`reduced.kalman` and its modules).
 
-    ``time`` (s, uniform, N samples), ``accelerations`` (m/s², N × channels, rear car's
-    channels first), ``noise_std`` (m/s², scalar or per channel). ``force_rate`` fixes
+    ``time`` (s, uniform, N samples), ``accelerations`` (m/s², N × channels, car by car in
+    the model's order), ``noise_std`` (m/s², scalar or per channel). ``force_rate`` fixes
     ``q_P`` (N²/s); otherwise the innovation likelihood is maximised over ``grid_points``
     log-spaced values in ``force_rate_range`` and refined. Prior: cars undeformed up to the
-    stationary filter uncertainty, and an initial force ``~ N(0, initial_force_std²)`` (N) in
-    quasi-static equilibrium. ``noise_scale``: ``"declared"`` trusts ``noise_std``;
+    stationary filter uncertainty, and initial forces ``~ N(0, initial_force_std²)`` (N, each coupler
+    independently) in quasi-static equilibrium. ``noise_scale``: ``"declared"`` trusts ``noise_std``;
     ``"estimated"`` multiplies all covariances by the ML scale ``λ̂`` (the likelihood
     concentrated over it, module docstring) so that model error shows as noise instead
     of driving ``q_P``; ``force_rate``, ``force_rate_range`` and the grid then refer to
@@ -193,7 +198,7 @@ def estimate_force(
 
     aug = augmented_model(model, float(t[1] - t[0]), noise_std)
     yw = y / aug.noise_std[None, :]
-    prior = force_std0**2  # N²: u is the scaled state of one newton
+    prior = force_std0**2  # N²: U's columns are the scaled states of one newton
     steps, m = y.shape
     count = steps * m
     constant = -0.5 * (count * math.log(2.0 * math.pi) + 2.0 * steps * float(np.sum(np.log(aug.noise_std))))
@@ -223,29 +228,86 @@ def estimate_force(
     mean, var, ell_w, quad = smoother(aug, yw, q, prior)
     ratio = quad / count  # NIS against the declared noise, = λ̂ when it is estimated
     scale = ratio if estimated else 1.0
-    unit = aug.state_unit[-1]
-    force, std = mean * unit, np.sqrt(var * scale) * unit
-    k = int(np.argmax(force))
-    return KalmanForce(
-        time=t,
-        force=force,
-        force_std=std,
-        lower=force - Z95 * std,
-        upper=force + Z95 * std,
-        peak_force=float(force[k]),
-        peak_time=float(t[k]),
-        peak_lower=float(force[k] - Z95 * std[k]),
-        peak_upper=float(force[k] + Z95 * std[k]),
-        force_rate=float(q * scale),
-        log_likelihood=float(objective(np.array([ell_w]), np.array([quad]))[0]),
-        at_edge=bool(at_edge),
-        nis=float(ratio / scale),
-        noise_scale=float(math.sqrt(scale)),
-        status=_status(at_edge, ratio, estimated, nis_range, aug, (lo, hi), q),
-        force_rate_range=(lo, hi),
-        force_rate_grid=grid,
-        log_likelihood_grid=grid_ell,
-    )
+    units = aug.state_unit[aug.force_slice]
+    status = _status(at_edge, ratio, estimated, nis_range, aug, (lo, hi), q)
+    log_likelihood = float(objective(np.array([ell_w]), np.array([quad]))[0])
+    results = []
+    for c, unit in enumerate(units):
+        force, std = mean[:, c] * unit, np.sqrt(var[:, c] * scale) * unit
+        k = int(np.argmax(force))
+        results.append(KalmanForce(
+            time=t,
+            force=force,
+            force_std=std,
+            lower=force - Z95 * std,
+            upper=force + Z95 * std,
+            peak_force=float(force[k]),
+            peak_time=float(t[k]),
+            peak_lower=float(force[k] - Z95 * std[k]),
+            peak_upper=float(force[k] + Z95 * std[k]),
+            force_rate=float(q * scale),
+            log_likelihood=log_likelihood,
+            at_edge=bool(at_edge),
+            nis=float(ratio / scale),
+            noise_scale=float(math.sqrt(scale)),
+            status=status,
+            force_rate_range=(lo, hi),
+            force_rate_grid=grid,
+            log_likelihood_grid=grid_ell,
+        ))
+    return tuple(results)
+
+
+def smoothed_responses(
+    model: CoupledCars | ConsistCars,
+    time: ArrayLike,
+    forces: Sequence[ArrayLike],
+    noise_std: float | ArrayLike,
+    force_rate: float,
+    *,
+    initial_force_std: float = 1.0e5,
+) -> list[FloatArray]:
+    """For each of ``forces`` (N × n_c, N), the smoothed coupler forces (N × n_c, N) of the model's noise-free samples
+    under it: ``estimate_forces(model, time, forced_response(model, time, f), noise_std, force_rate=force_rate)``
+    (the declared noise), with one filter model and one stationary filter for all (the smoothed mean is linear in
+    the records: the estimator's response to chosen forces)."""
+    t = _checks.time_grid("time", time, uniform=True, min_length=2)
+    q = _checks.positive("force_rate", force_rate)
+    prior = _checks.positive("initial_force_std", initial_force_std) ** 2
+    aug = augmented_model(model, float(t[1] - t[0]), noise_std)
+    if aug.undetectable:
+        def smoother(yw: FloatArray) -> FloatArray:
+            return reference_force(aug, yw, q, prior)[0]
+    else:
+        steady = steady_filter(aug, q)
+
+        def smoother(yw: FloatArray) -> FloatArray:
+            return smoothed_force(aug, yw, q, prior, steady)[0]
+    units = aug.state_unit[aug.force_slice]
+    return [smoother(forced_samples(aug, t, force) / aug.noise_std[None, :]) * units[None, :] for force in forces]
+
+
+def estimate_force(
+    model: CoupledCars | ConsistCars,
+    time: ArrayLike,
+    accelerations: ArrayLike,
+    noise_std: float | ArrayLike,
+    *,
+    force_rate: float | None = None,
+    force_rate_range: tuple[float, float] = DEFAULT_FORCE_RATE_RANGE,
+    grid_points: int = 15,
+    initial_force_std: float = 1.0e5,
+    noise_scale: str = "declared",
+    nis_range: tuple[float, float] = (0.5, 2.0),
+) -> KalmanForce:
+    """The one coupler force ``P(t)`` of two cars, the rear car's channels first (:func:`estimate_forces`)."""
+    if model.couplers != 1:
+        raise ValueError(f"model: estimate_force estimates one coupler force, the model has {model.couplers} (estimate_forces)")
+    return estimate_forces(model, time, accelerations, noise_std, force_rate=force_rate, force_rate_range=force_rate_range,
+                           grid_points=grid_points, initial_force_std=initial_force_std, noise_scale=noise_scale,
+                           nis_range=nis_range)[0]
+
+
 
 
 __all__ = [
@@ -253,4 +315,6 @@ __all__ = [
     "NOISE_SCALES",
     "KalmanForce",
     "estimate_force",
+    "estimate_forces",
+    "smoothed_responses",
 ]

@@ -21,7 +21,10 @@ innovations ``ν∞_k = h_k α + e_k``, ``h_k = H L^k u``, ``e_k ~ N(0, S∞)`` 
 (``ẑ∞``, ``V∞``: the stationary smoother given α = 0; ``ψ_k`` the smoothed response to a unit
 α: the same smoother run with prior mean ``u`` and zero data; ``V∞_k,PP = P∞_PP − Σ_{j<N−k}
 |S∞^{-1/2} H L^j P∞ e_P|²``), equal to the Joseph-form filter and smoother with the same prior
-(tests). Models that fail the detectability check have no stationary covariance; they fall back
+(tests). A line of ``n_c`` couplers: ``u`` becomes ``U`` (n × n_c), ``α ~ N(0, σ_0² I)``, ``h_k = H L^k U``,
+``s`` a vector and ``o`` a matrix ``O``: ``log(1 + σ_0² o) → log det(I + σ_0² O)``, ``s²/(σ_0⁻² + o) →
+sᵀ (I/σ_0² + O)⁻¹ s``, ``α | y ~ N((I/σ_0² + O)⁻¹ s, (I/σ_0² + O)⁻¹)``, and ``ψ_k``, ``V∞_k`` per coupler
+with ``e_{P_c}``. Models that fail the detectability check have no stationary covariance; they fall back
 to the reference recursion with the prior ``N(0, σ_0² u uᵀ)``.
 """
 
@@ -59,18 +62,17 @@ def _steady(aug: AugmentedModel, rates: FloatArray) -> _Steady:
 
 
 def _steady_pass(steady: _Steady, hw: FloatArray, yw: FloatArray, u: FloatArray, extra: FloatArray | None = None) -> tuple[FloatArray, FloatArray]:
-    """Predicted means of the stationary filter on the data (row 0) and ``L^k u`` (row 1), and
-    ``L^k extra`` (row 2) if given: ``(rows (N, G, R, n), innovations ν∞ (N, G, m))``."""
+    """Predicted means of the stationary filter on the data (row 0) and ``L^k u_c`` for each column of
+    ``u`` (rows 1 … n_c), and ``L^k extra_c`` for each column of ``extra`` (the rows after) if given:
+    ``(rows (N, G, R, n), innovations ν∞ (N, G, m))``."""
     count, n = steady.covariance.shape[:2]
     steps = yw.shape[0]
     drive = np.einsum("gnm,km->kgn", steady.drive, yw)
     lt = np.ascontiguousarray(transposed(steady.closed_loop))
-    rows = 2 if extra is None else 3
-    state = np.zeros((count, rows, n))
-    state[:, 1] = u
-    if extra is not None:
-        state[:, 2] = extra
-    out = np.empty((steps, count, rows, n))
+    columns = [u] if extra is None else [u, extra]
+    state = np.zeros((count, 1, n))
+    state = np.concatenate([state] + [np.broadcast_to(c.T, (count, *c.T.shape)) for c in columns], axis=1)
+    out = np.empty((steps, count, state.shape[1], n))
     if count == 1:
         s0, l0, d0 = state[0], lt[0], drive[:, 0]
         for k in range(steps):
@@ -86,64 +88,77 @@ def _steady_pass(steady: _Steady, hw: FloatArray, yw: FloatArray, u: FloatArray,
     return out, innovations
 
 
-def _regression(steady: _Steady, hw: FloatArray, rows: FloatArray, innovations: FloatArray, prior: float) -> tuple[FloatArray, ...]:
-    """``(ℓ_w, Σ ν S⁻¹ ν, E[α|y], Var[α|y])`` per G (whitened ℓ without constants)."""
-    h = rows[:, :, 1] @ hw.T  # h_k = H L^k u (N, G, m)
+def _regression(steady: _Steady, hw: FloatArray, rows: FloatArray, innovations: FloatArray, prior: float,
+                couplers: int) -> tuple[FloatArray, ...]:
+    """``(ℓ_w, Σ ν S⁻¹ ν, E[α|y], Var[α|y])`` per G (whitened ℓ without constants), ``α`` the n_c initial
+    forces: ``ℓ_w = −½ (N log det S∞ + log det(I + σ_0² O) + Σ ν S⁻¹ ν − sᵀ (I/σ_0² + O)⁻¹ s)``."""
+    h = rows[:, :, 1 : 1 + couplers] @ hw.T  # h_k = H L^k U (N, G, n_c, m)
     weighted = np.einsum("kgi,gij->kgj", innovations, steady.innovation_inverse)
     quad0 = np.einsum("kgj,kgj->g", weighted, innovations)
-    s = np.einsum("kgj,kgj->g", weighted, h)
-    o = np.einsum("kgi,gij,kgj->g", h, steady.innovation_inverse, h)
-    info = 1.0 / prior + o
-    quad = quad0 - s * s / info
+    s = np.einsum("kgj,kgcj->gc", weighted, h)
+    o = np.einsum("kgci,gij,kgdj->gcd", h, steady.innovation_inverse, h)
+    identity = np.eye(couplers)
+    info = identity / prior + o
+    alpha_var = np.linalg.inv(info)
+    alpha = np.einsum("gcd,gd->gc", alpha_var, s)
+    quad = quad0 - np.einsum("gc,gc->g", s, alpha)
     steps = innovations.shape[0]
-    ell = -0.5 * (steps * steady.logdet + np.log1p(prior * o) + quad)
-    return ell, quad, s / info, 1.0 / info
+    ell = -0.5 * (steps * steady.logdet + np.linalg.slogdet(identity + prior * o)[1] + quad)
+    return ell, quad, alpha, alpha_var
 
 
 def likelihoods(aug: AugmentedModel, yw: FloatArray, rates: FloatArray, prior: float) -> tuple[FloatArray, FloatArray]:
     """Whitened log-likelihoods (no constants) and ``Σ ν S⁻¹ ν`` for each force rate."""
     hw = aug.whitened_observation
     steady = _steady(aug, rates)
-    rows, innovations = _steady_pass(steady, hw, yw, aug.quasi_static_direction)
-    ell, quad, _, _ = _regression(steady, hw, rows, innovations, prior)
+    rows, innovations = _steady_pass(steady, hw, yw, aug.quasi_static_directions)
+    ell, quad, _, _ = _regression(steady, hw, rows, innovations, prior, aug.couplers)
     return ell, quad
 
 
-def smoothed_force(aug: AugmentedModel, yw: FloatArray, rate: float, prior: float) -> tuple[FloatArray, FloatArray, float, float]:
-    """Scaled smoothed force mean and variance, whitened ℓ and ``Σ ν S⁻¹ ν`` (module docstring)."""
-    hw, i = aug.whitened_observation, aug.force_index
-    steady = _steady(aug, np.array([rate]))
+def steady_filter(aug: AugmentedModel, rate: float) -> _Steady:
+    """The stationary filter of ``aug`` at one force rate, for :func:`smoothed_force` on several records."""
+    return _steady(aug, np.array([rate]))
+
+
+def smoothed_force(aug: AugmentedModel, yw: FloatArray, rate: float, prior: float,
+                   steady: _Steady | None = None) -> tuple[FloatArray, FloatArray, float, float]:
+    """Scaled smoothed forces' means and variances (N × n_c), whitened ℓ and ``Σ ν S⁻¹ ν`` (module docstring);
+    ``steady``: the stationary filter at ``rate`` (:func:`steady_filter`) if already made."""
+    hw, forces, nc = aug.whitened_observation, aug.force_slice, aug.couplers
+    steady = _steady(aug, np.array([rate])) if steady is None else steady
     p = steady.covariance[0]
-    column = p[:, i]
-    rows, innovations = _steady_pass(steady, hw, yw, aug.quasi_static_direction, extra=column)
-    ell, quad, alpha, alpha_var = (float(v[0]) for v in _regression(steady, hw, rows, innovations, prior))
+    columns = p[:, forces]  # P∞ e_{P_c}
+    rows, innovations = _steady_pass(steady, hw, yw, aug.quasi_static_directions, extra=columns)
+    ell, quad, alpha, alpha_var = _regression(steady, hw, rows, innovations, prior, nc)
+    alpha, alpha_var = alpha[0], alpha_var[0]
     rows, nu = rows[:, 0], innovations[:, 0]
     s_inv_h = steady.innovation_inverse[0] @ hw
-    h = rows[:, 1] @ hw.T
-    drive = np.stack([nu @ s_inv_h, -h @ s_inv_h], axis=1)  # Hᵀ S⁻¹ ν for the data and for ν = −h
+    h = rows[:, 1 : 1 + nc] @ hw.T  # (N, n_c, m)
+    drive = np.concatenate([(nu @ s_inv_h)[:, None], -h @ s_inv_h], axis=1)  # Hᵀ S⁻¹ ν for the data and for ν = −h_c
     closed = steady.closed_loop[0]
-    r = np.zeros((2, hw.shape[1]))
+    r = np.zeros((1 + nc, hw.shape[1]))
     adjoint = np.empty_like(drive)
     for k in range(yw.shape[0] - 1, -1, -1):
         r = drive[k] + r @ closed  # r_{k−1} = Hᵀ S⁻¹ ν_k + Lᵀ r_k
         adjoint[k] = r
-    data_mean = rows[:, 0, i] + adjoint[:, 0] @ column
-    response = rows[:, 1, i] + adjoint[:, 1] @ column  # ψ_k
-    c = rows[:, 2] @ hw.T  # H L^j P∞ e_P
-    terms = np.einsum("ki,ij,kj->k", c, steady.innovation_inverse[0], c)
-    gathered = np.cumsum(terms)[::-1]  # Σ_{j < N−k}
-    variance = np.maximum(p[i, i] - gathered, 0.0) + alpha_var * response**2
-    return data_mean + alpha * response, variance, ell, quad
+    data_mean = rows[:, 0, forces] + adjoint[:, 0] @ columns
+    response = rows[:, 1 : 1 + nc, forces] + adjoint[:, 1:] @ columns  # ψ_k: P_c (last axis) per unit α_d (middle axis)
+    c = rows[:, 1 + nc :] @ hw.T  # H L^j P∞ e_{P_c} (N, n_c, m)
+    terms = np.einsum("kci,ij,kcj->kc", c, steady.innovation_inverse[0], c)
+    gathered = np.cumsum(terms, axis=0)[::-1]  # Σ_{j < N−k}
+    spread = np.einsum("kdc,de,kec->kc", response, alpha_var, response)
+    variance = np.maximum(np.diag(p)[forces] - gathered, 0.0) + spread
+    return data_mean + response.transpose(0, 2, 1) @ alpha, variance, float(ell[0]), float(quad[0])
 
 
 def reference_force(aug: AugmentedModel, yw: FloatArray, rate: float, prior: float) -> tuple[FloatArray, FloatArray, float, float]:
-    """The same outputs by the Joseph-form reference, prior ``N(0, prior u uᵀ)`` (undetectable models)."""
-    u = aug.quasi_static_direction
-    n = u.size
-    out = joseph_smoother(aug.transition, aug.process_covariance(rate), aug.whitened_observation, yw, np.zeros(n), prior * np.outer(u, u))
-    i = aug.force_index
+    """The same outputs by the Joseph-form reference, prior ``N(0, prior U Uᵀ)`` (undetectable models)."""
+    u = aug.quasi_static_directions
+    n, forces = u.shape[0], aug.force_slice
+    out = joseph_smoother(aug.transition, aug.process_covariance(rate), aug.whitened_observation, yw, np.zeros(n), prior * (u @ u.T))
     _, _, _, _, xs, vs, _, _, logdet, quad = out
-    return xs[:, i], vs[:, i, i], -0.5 * float(np.sum(logdet + quad)), float(np.sum(quad))
+    return xs[:, forces], np.diagonal(vs[:, forces, forces], axis1=1, axis2=2), -0.5 * float(np.sum(logdet + quad)), float(np.sum(quad))
 
 
 __all__: list[str] = []  # package-internal: .estimate calls it

@@ -46,12 +46,12 @@ HOMES = {
         "records": ["SCALER_KINDS", "FeatureScaler", "peak_normalise", "resample_record"],
     },
     "reduced.kalman": {
-        "cars": ["CarDynamics", "CoupledCars", "SensorFilter"],
-        "augmented": ["AugmentedModel", "augmented_model", "forced_response"],
+        "cars": ["CarDynamics", "ConsistCars", "CoupledCars", "SensorFilter"],
+        "augmented": ["AugmentedModel", "augmented_model", "forced_response", "undetectable_couplers"],
         "linear_gaussian": ["GaussianSmoothing", "kalman_smoother", "van_loan_discretisation"],
         "steady": [],
-        "estimate": ["DEFAULT_FORCE_RATE_RANGE", "NOISE_SCALES", "KalmanForce", "estimate_force"],
-        "variants": ["VariantForceEstimate", "corner_models", "estimate_force_with_variants"],
+        "estimate": ["DEFAULT_FORCE_RATE_RANGE", "NOISE_SCALES", "KalmanForce", "estimate_force", "estimate_forces", "smoothed_responses"],
+        "variants": ["VariantForceEstimate", "car_mass_models", "corner_models", "estimate_force_with_variants", "estimate_forces_with_variants"],
     },
 }
 
