@@ -64,7 +64,7 @@ CHUNK_SECONDS = 0.1
 #: Fewest steps of a run's first chunk, before its speed is known (:func:`first_chunk`).
 FIRST_CHUNK = 64
 #: Pool values × steps of a run's first chunk (:func:`first_chunk`): a step costs a few ns per value of the
-#: pool (banded cars' products and solves, state-space cars' dense products) or, for a few values, the
+#: pool (banded cars' products and solves, state-space cars' sparse products) or, for a few values, the
 #: couplers' iteration, under a µs; so this is milliseconds, a small part of :data:`CHUNK_SECONDS`.
 FIRST_CHUNK_WORK = 2**20
 

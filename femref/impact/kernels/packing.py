@@ -26,12 +26,16 @@ from femref.fem.transient import Integrator
 from femref.impact.kernels.cars import factorise, start
 from femref.impact.kernels.pool import (
     BAND, COUPLER_COUNT, COUPLER_LOADS, COUPLER_OUTPUTS, DOFS, END_COUNT, FIELDS, GAIN_U, GAIN_V, LOAD_COUNT, LOADS, SECOND_ORDER,
-    SENSOR_START, STATE_SPACE, KIND, SENSOR_COUNT, TRANSLATION, V, X, CarPool,
+    SENSOR_START, STATE_SPACE, KIND, SENSOR_COUNT, TRANSLATION, V, X, CarPool, sparse_rows,
 )
 from femref.impact.systems import CarSystem, SecondOrderSystem, StateSpaceSystem
 
 FIELDS_AT = {name: f for f, name in enumerate(FIELDS, start=COUPLER_COUNT + 1)}
 """The layout column of each field by name."""
+SPARSE_FIELDS = ("transition", "kinetic_form", "strain_form", "end_outputs", "end_rates", "sensor_outputs", "sensor_rates",
+                 "sensor_accelerations")
+"""A state-space car's matrices stored sparse (:func:`~femref.impact.kernels.pool.sparse_rows`): its step's products
+skip their zeros (a quasi-rigid car's 16 × 16 transition has 35 nonzeros)."""
 
 
 def _bands(rows: NDArray[np.intp], cols: NDArray[np.intp], data: NDArray[np.float64], p: int, n: int) -> NDArray[np.float64]:
@@ -106,7 +110,8 @@ def _factorised(system: CarSystem, integrator: Integrator, dt: float, loads_shap
     if car is None:
         J, n_c = loads_shape
         sizes, fields = _car_fields(system, integrator, dt, J, outputs, n_c)
-        template, shapes, total = _layout(*(sizes[k] for k in (KIND, DOFS, BAND, LOAD_COUNT, END_COUNT, SENSOR_COUNT, COUPLER_COUNT)))
+        stored = tuple(fields[name].size for name in SPARSE_FIELDS) if sizes[KIND] == STATE_SPACE else ()
+        template, shapes, total = _layout(*(sizes[k] for k in (KIND, DOFS, BAND, LOAD_COUNT, END_COUNT, SENSOR_COUNT, COUPLER_COUNT)), stored)
         layout = template.copy()
         layout[: COUPLER_COUNT + 1] = sizes
         values = np.zeros(total)  # written straight into: the fields that start at zero (the state, scratch) are left so
@@ -133,13 +138,13 @@ def _with_maps(factorised: PreparedCar, coupler_loads: NDArray, coupler_outputs:
 
 
 @functools.lru_cache(maxsize=256)
-def _layout(kind: int, n: int, p: int, J: int, Y: int, S: int, n_c: int) -> tuple[NDArray[np.int64], dict[int, tuple[int, ...]], int]:
+def _layout(kind: int, n: int, p: int, J: int, Y: int, S: int, n_c: int,
+            stored: tuple[int, ...] = ()) -> tuple[NDArray[np.int64], dict[int, tuple[int, ...]], int]:
     """A car's layout row with its fields' offsets (sizes zero), their shapes by column and the values' length:
-    once per kind and sizes (read-only, shared)."""
+    once per kind and sizes (read-only, shared); ``stored``: a state-space car's sizes of its :data:`SPARSE_FIELDS`."""
     if kind == STATE_SPACE:
-        named = {"coefficients": (7,), "load": (n, J), "transition": (n, n), "kinetic_form": (n, n), "strain_form": (n, n),
-                 "work_map": (J, Y), "end_outputs": (Y, n), "end_rates": (Y, n), "sensor_outputs": (S, n), "sensor_rates": (S, n),
-                 "sensor_accelerations": (S, n), **{name: (n,) for name in ("x", "x_free", "work1", "work2", "work3")}}
+        named = {"coefficients": (7,), "load": (n, J), "work_map": (J, Y), **{name: (size,) for name, size in zip(SPARSE_FIELDS, stored)},
+                 **{name: (n,) for name in ("x", "x_free", "work1", "work2", "work3")}}
     else:
         bands, factor = (2 * p + 1, n), (p + 1, n)
         named = {"coefficients": (7,), **{name: bands for name in ("history_u", "history_v", "history_a", "damping", "stiffness", "mass")},
@@ -202,12 +207,10 @@ def _car_fields(
         n = system.transition.shape[0]
         S = system.sensor_displacement.shape[0]
         sizes = [STATE_SPACE, n, 0, 0, 0, J, Y, S, n_c]
-        fields = {
-            "coefficients": np.array([dt, 0, 0, 0, 0, 0, 0], dtype=float), "load": system.input, "transition": system.transition,
-            "kinetic_form": system.kinetic_form, "strain_form": system.strain_form, "work_map": system.work_map,
-            "end_outputs": system.end_displacement, "end_rates": system.end_velocity, "sensor_outputs": system.sensor_displacement,
-            "sensor_rates": system.sensor_velocity, "sensor_accelerations": system.sensor_acceleration,
-        }
+        matrices = (system.transition, system.kinetic_form, system.strain_form, system.end_displacement, system.end_velocity,
+                    system.sensor_displacement, system.sensor_velocity, system.sensor_acceleration)
+        fields = {"coefficients": np.array([dt, 0, 0, 0, 0, 0, 0], dtype=float), "load": system.input, "work_map": system.work_map,
+                  **{name: sparse_rows(matrix) for name, matrix in zip(SPARSE_FIELDS, matrices)}}
     else:
         sizes, fields = _second_order_fields(system, integrator, dt, J, Y, n_c)
     return sizes, {name: value for name, value in fields.items() if value is not None}
@@ -267,4 +270,4 @@ def _second_order_fields(
     }
 
 
-__all__ = ["PREPARED_PER_SYSTEM", "PreparedCar", "forget_layouts", "pack_cars", "prepared_car"]
+__all__ = ["PREPARED_PER_SYSTEM", "SPARSE_FIELDS", "PreparedCar", "forget_layouts", "pack_cars", "prepared_car"]
