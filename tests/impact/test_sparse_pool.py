@@ -19,11 +19,15 @@ def sparse_matrix(rows: int, cols: int, seed: int) -> np.ndarray:
 
 
 def test_sparse_rows_store_each_row_in_column_order_and_read_back():
-    """``[starts, columns, values]``: 3 rows with entries at (0, 1), (0, 3), (2, 0) give starts 0 2 2 3."""
+    """``[starts, columns, values]``: 3 rows with entries at (0, 1), (0, 3), (2, 0) give starts 0 2 2 3, alone or
+    stacked with other matrices of its column count (an empty one between)."""
     matrix = np.array([[0.0, 2.0, 0.0, -1.0], [0.0, 0.0, 0.0, 0.0], [4.0, 0.0, 0.0, 0.0]])
-    np.testing.assert_array_equal(sparse_rows(matrix), [0, 2, 2, 3, 1, 3, 0, 2.0, -1.0, 4.0])
-    np.testing.assert_array_equal(dense_of(sparse_rows(matrix), 3, 4), matrix)
-    np.testing.assert_array_equal(dense_of(sparse_rows(np.zeros((2, 2))), 2, 2), np.zeros((2, 2)))
+    stored, empty, again = sparse_rows(matrix, np.zeros((2, 4)), matrix)
+    np.testing.assert_array_equal(stored, [0, 2, 2, 3, 1, 3, 0, 2.0, -1.0, 4.0])
+    np.testing.assert_array_equal(again, stored)
+    np.testing.assert_array_equal(empty, [0, 0, 0])
+    np.testing.assert_array_equal(dense_of(stored, 3, 4), matrix)
+    np.testing.assert_array_equal(dense_of(empty, 2, 4), np.zeros((2, 4)))
 
 
 def test_sparse_products_equal_the_dense_ones_bit_for_bit():
@@ -33,7 +37,7 @@ def test_sparse_products_equal_the_dense_ones_bit_for_bit():
     for seed, (rows, cols) in enumerate([(16, 16), (3, 16)]):
         matrix = sparse_matrix(rows, cols, seed)
         x = rng.standard_normal(cols)
-        stored = sparse_rows(matrix)
+        (stored,) = sparse_rows(matrix)
         w = np.concatenate([matrix.ravel(), stored, x, np.zeros(rows), np.zeros(rows)])
         dense_at, sparse_at, x_at = 0, matrix.size, matrix.size + stored.size
         out_dense, out_sparse = x_at + cols, x_at + cols + rows
@@ -47,7 +51,7 @@ def test_sparse_products_equal_the_dense_ones_bit_for_bit():
             assert sparse_quadratic(w, sparse_at, rows, x_at) == quadratic(w, dense_at, rows, x_at)
     columns = rng.standard_normal((16, 2))  # row i of E times column j of a row-major 16 × 2 B: stride 2
     matrix = sparse_matrix(3, 16, 5)
-    w = np.concatenate([sparse_rows(matrix), columns.ravel()])
+    w = np.concatenate([*sparse_rows(matrix), columns.ravel()])
     for j in range(2):
         for i in range(3):
             expected = 0.0

@@ -226,8 +226,8 @@ def response_of(run: PreparedRun, pool: CarPool, counters: NDArray[np.int64], ch
         contact_changes=int(counters[CHANGES]),
         wall_time=wall_time,
         setup_time=run.setup_time,
-        car_settings=[car_settings_after(system, float(pool.field(c, SCALARS)[SUM_LOAD2]), float(pool.field(c, SCALARS)[SUM_RATE2]))
-                      for c, system in enumerate(run.systems)],
+        car_settings=[car_settings_after(system, float(pool.values[scalars + SUM_LOAD2]), float(pool.values[scalars + SUM_RATE2]))
+                      for system, scalars in zip(run.systems, pool.layout[:, SCALARS].tolist())],
         status=-1 if failed else 0,
         message=message,
         coupler_work=history["coupler_work"],

@@ -12,7 +12,6 @@ lower band by columns that the compiled Cholesky factorises in place.
 from __future__ import annotations
 
 import functools
-import itertools
 import math
 import weakref
 from dataclasses import dataclass
@@ -111,13 +110,12 @@ def _factorised(system: CarSystem, integrator: Integrator, dt: float, loads_shap
         J, n_c = loads_shape
         sizes, fields = _car_fields(system, integrator, dt, J, outputs, n_c)
         stored = tuple(fields[name].size for name in SPARSE_FIELDS) if sizes[KIND] == STATE_SPACE else ()
-        template, shapes, total = _layout(*(sizes[k] for k in (KIND, DOFS, BAND, LOAD_COUNT, END_COUNT, SENSOR_COUNT, COUPLER_COUNT)), stored)
+        template, shapes, slots = _layout(*(sizes[k] for k in (KIND, DOFS, BAND, LOAD_COUNT, END_COUNT, SENSOR_COUNT, COUPLER_COUNT)), stored)
         layout = template.copy()
         layout[: COUPLER_COUNT + 1] = sizes
-        values = np.zeros(total)  # written straight into: the fields that start at zero (the state, scratch) are left so
+        values = np.zeros(slots[FIELDS[-1]].stop)  # written straight into: the fields that start at zero (the state, scratch) are left so
         for name, value in fields.items():
-            f = FIELDS_AT[name]
-            values[template[f]: template[f] + math.prod(shapes[f])] = np.ravel(value)
+            values[slots[name]] = np.asarray(value, dtype=float).ravel()
         positive_definite = factorise(layout.reshape(1, -1), values, 0)
         layout.flags.writeable = values.flags.writeable = False
         car = PreparedCar(layout, values, shapes, bool(positive_definite), np.zeros((n_c, n_c)), np.zeros((n_c, n_c)))
@@ -139,9 +137,10 @@ def _with_maps(factorised: PreparedCar, coupler_loads: NDArray, coupler_outputs:
 
 @functools.lru_cache(maxsize=256)
 def _layout(kind: int, n: int, p: int, J: int, Y: int, S: int, n_c: int,
-            stored: tuple[int, ...] = ()) -> tuple[NDArray[np.int64], dict[int, tuple[int, ...]], int]:
-    """A car's layout row with its fields' offsets (sizes zero), their shapes by column and the values' length:
-    once per kind and sizes (read-only, shared); ``stored``: a state-space car's sizes of its :data:`SPARSE_FIELDS`."""
+            stored: tuple[int, ...] = ()) -> tuple[NDArray[np.int64], dict[int, tuple[int, ...]], dict[str, slice]]:
+    """A car's layout row with its fields' offsets (sizes zero), their shapes by column and their slices of the
+    values by name (the last field's ends the values): once per kind and sizes (read-only, shared); ``stored``: a
+    state-space car's sizes of its :data:`SPARSE_FIELDS`."""
     if kind == STATE_SPACE:
         named = {"coefficients": (7,), "load": (n, J), "work_map": (J, Y), **{name: (size,) for name, size in zip(SPARSE_FIELDS, stored)},
                  **{name: (n,) for name in ("x", "x_free", "work1", "work2", "work3")}}
@@ -155,12 +154,16 @@ def _layout(kind: int, n: int, p: int, J: int, Y: int, S: int, n_c: int,
     named.update({"gain_u": (Y, J), "gain_v": (Y, J), "coupler_loads": (J, n_c), "coupler_outputs": (n_c, Y),
                   **{name: (J,) for name in ("loads", "load_rate", "new_loads")},
                   **{name: (Y,) for name in ("end_free", "end_rate_free", "end_now")}, "scalars": (5,)})
-    shapes = {f: named.get(name, (0,)) for name, f in FIELDS_AT.items()}
-    offsets = [0, *itertools.accumulate(math.prod(shape) for shape in shapes.values())]  # the fields in column order
+    shapes, slots, start = {}, {}, 0
+    for name, f in FIELDS_AT.items():  # the fields in column order
+        shapes[f] = shape = named.get(name, (0,))
+        size = math.prod(shape)
+        slots[name] = slice(start, start + size)
+        start += size
     layout = np.zeros(COUPLER_COUNT + 1 + len(FIELDS), dtype=np.int64)
-    layout[COUPLER_COUNT + 1:] = offsets[:-1]
+    layout[COUPLER_COUNT + 1:] = [place.start for place in slots.values()]
     layout.flags.writeable = False
-    return layout, shapes, offsets[-1]
+    return layout, shapes, slots
 
 
 def forget_layouts() -> None:
@@ -210,7 +213,7 @@ def _car_fields(
         matrices = (system.transition, system.kinetic_form, system.strain_form, system.end_displacement, system.end_velocity,
                     system.sensor_displacement, system.sensor_velocity, system.sensor_acceleration)
         fields = {"coefficients": np.array([dt, 0, 0, 0, 0, 0, 0], dtype=float), "load": system.input, "work_map": system.work_map,
-                  **{name: sparse_rows(matrix) for name, matrix in zip(SPARSE_FIELDS, matrices)}}
+                  **dict(zip(SPARSE_FIELDS, sparse_rows(*matrices)))}
     else:
         sizes, fields = _second_order_fields(system, integrator, dt, J, Y, n_c)
     return sizes, {name: value for name, value in fields.items() if value is not None}

@@ -227,14 +227,22 @@ def sparse_quadratic(w: NDArray, A: int, n: int, x: int) -> float:
     return s
 
 
-def sparse_rows(matrix: NDArray[np.float64]) -> NDArray[np.float64]:
-    """A dense ``rows × cols`` matrix as the pool stores a sparse one: ``[starts (rows + 1), columns (nnz),
+def sparse_rows(*matrices: NDArray[np.float64]) -> list[NDArray[np.float64]]:
+    """Dense matrices of one column count as the pool stores a sparse one, each ``[starts (rows + 1), columns (nnz),
     values (nnz)]``, row i's entries at ``starts[i] … starts[i + 1] − 1`` in column order (indices as floats,
-    exact)."""
-    matrix = np.asarray(matrix, dtype=float)
-    rows, columns = np.nonzero(matrix)  # row-major order
-    starts = np.searchsorted(rows, np.arange(matrix.shape[0] + 1))
-    return np.concatenate([starts, columns, matrix[rows, columns]]).astype(float)
+    exact); found in one pass over the matrices stacked (a state-space car's maps all have its n columns)."""
+    stacked = np.vstack(matrices).astype(float, copy=False)
+    rows, columns = np.nonzero(stacked)  # row-major order
+    values = stacked[rows, columns]
+    starts = np.searchsorted(rows, np.arange(stacked.shape[0] + 1))
+    stored, first = [], 0
+    for matrix in matrices:
+        last = first + len(matrix)
+        here = starts[first: last + 1]
+        low, high = here[0], here[-1]
+        stored.append(np.concatenate([here - low, columns[low:high], values[low:high]]).astype(float))
+        first = last
+    return stored
 
 
 def dense_of(stored: NDArray[np.float64], rows: int, cols: int) -> NDArray[np.float64]:
