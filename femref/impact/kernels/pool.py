@@ -18,8 +18,8 @@ Storage in the pool: dense matrices row-major; banded ones ``bands[k, i] = A[i, 
 maps sparse by rows (:func:`sparse_rows`: a quasi-rigid car's 16 × 16 transition has 35 nonzeros,
 and its products summed over them are the dense ones bit for bit). The linear algebra here (banded
 Cholesky, solve and product, dense and sparse products) takes every operand as an offset into the
-pool and is inlined into the step (``inline="always"``: a call's arguments cost more than a
-one-DOF car's arithmetic); :func:`linear_solve` is the coupler iteration's small dense solve.
+pool; the products and solves are inlined into the cars' kernels (``inline="always"``: a call cost
+more than a one-DOF car's arithmetic); :func:`linear_solve` is the coupler iteration's small dense solve.
 """
 
 from __future__ import annotations
