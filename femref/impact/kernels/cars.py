@@ -18,7 +18,7 @@ the pool's products inside them are inlined). The arithmetic is that of the read
   ``Σ dt v̄ᵀ C v̄``, v̄ the step-mean velocity (one more banded product). A dense modal or rigid
   car is a banded one whose band is the whole matrix.
 * **state space** (kind 1), ``x_{n+1} = A x_n + B L_{n+1}``: one sparse product per step (A and the
-  output maps stored by rows, :func:`~femref.impact.kernels.pool.sparse_rows`); the
+  output maps stored by rows, compressed by :func:`factorise`: :func:`~femref.impact.kernels.pool.compress_rows`); the
   work of the end loads ``L̄ᵀ W Δy`` is booked every step for its dissipated energy.
 """
 
@@ -35,7 +35,7 @@ from femref.impact.kernels.pool import (
     SCALARS, SENSOR_ACCELERATIONS, SENSOR_COUNT, SENSOR_FEEDTHROUGH, SENSOR_OUTPUTS, SENSOR_RATES, SENSOR_START,
     SENSOR_TRAVEL, STATE_SPACE, STIFFNESS, STRAIN_FORM, SUM_LOAD2, SUM_RATE2, TRANSITION, TRANSLATION, U, U_FREE,
     V, V_FREE, WORK1, WORK2, WORK3, WORK_MAP, X, X_FREE, band_cholesky, band_product, band_solve, dot, matvec,
-    matvec_add, quadratic, sparse_matvec, sparse_quadratic, sparse_row,
+    compress_rows, matvec_add, quadratic, sparse_matvec, sparse_quadratic, sparse_row,
 )
 
 
@@ -45,11 +45,20 @@ from femref.impact.kernels.pool import (
 @njit(cache=True, _nrt=False)
 def factorise(layout: NDArray, w: NDArray, c: int) -> bool:
     """Factorise car ``c`` and precompute its response and gains (constant for its step); False if S or M
-    is not positive definite."""
+    is not positive definite. A state-space car's maps, packed dense, are compressed to sparse rows first."""
     at = layout[c]
     n, p, J, Y = at[DOFS], at[BAND], at[LOAD_COUNT], at[END_COUNT]
     gain_u, gain_v, load = at[GAIN_U], at[GAIN_V], at[LOAD]
     if at[KIND] == STATE_SPACE:
+        S = at[SENSOR_COUNT]
+        compress_rows(w, at[TRANSITION], n, n)
+        compress_rows(w, at[KINETIC_FORM], n, n)
+        compress_rows(w, at[STRAIN_FORM], n, n)
+        compress_rows(w, at[END_OUTPUTS], Y, n)
+        compress_rows(w, at[END_RATES], Y, n)
+        compress_rows(w, at[SENSOR_OUTPUTS], S, n)
+        compress_rows(w, at[SENSOR_RATES], S, n)
+        compress_rows(w, at[SENSOR_ACCELERATIONS], S, n)
         for i in range(Y):  # gains: end maps (sparse) times the input
             for j in range(J):
                 w[gain_u + i * J + j] = sparse_row(w, at[END_OUTPUTS], Y, i, load + j, J)

@@ -25,7 +25,7 @@ from femref.fem.transient import Integrator
 from femref.impact.kernels.cars import factorise, start
 from femref.impact.kernels.pool import (
     BAND, COUPLER_COUNT, COUPLER_LOADS, COUPLER_OUTPUTS, DOFS, END_COUNT, FIELDS, GAIN_U, GAIN_V, LOAD_COUNT, LOADS, SECOND_ORDER,
-    SENSOR_START, STATE_SPACE, KIND, SENSOR_COUNT, TRANSLATION, V, X, CarPool, sparse_rows,
+    SENSOR_START, STATE_SPACE, KIND, SENSOR_COUNT, TRANSLATION, V, X, CarPool, sparse_size,
 )
 from femref.impact.systems import CarSystem, SecondOrderSystem, StateSpaceSystem
 
@@ -33,8 +33,10 @@ FIELDS_AT = {name: f for f, name in enumerate(FIELDS, start=COUPLER_COUNT + 1)}
 """The layout column of each field by name."""
 SPARSE_FIELDS = ("transition", "kinetic_form", "strain_form", "end_outputs", "end_rates", "sensor_outputs", "sensor_rates",
                  "sensor_accelerations")
-"""A state-space car's matrices stored sparse (:func:`~femref.impact.kernels.pool.sparse_rows`): its step's products
-skip their zeros (a quasi-rigid car's 16 × 16 transition has 35 nonzeros)."""
+"""A state-space car's matrices stored sparse (:func:`~femref.impact.kernels.pool.compress_rows`): its step's products
+skip their zeros (a quasi-rigid car's 16 × 16 transition has 35 nonzeros). Packed dense at the end of its field (sized
+for a full matrix, :func:`~femref.impact.kernels.pool.sparse_size`), each is compressed in place by
+:func:`~femref.impact.kernels.cars.factorise`, in compiled code."""
 
 
 def _bands(rows: NDArray[np.intp], cols: NDArray[np.intp], data: NDArray[np.float64], p: int, n: int) -> NDArray[np.float64]:
@@ -109,13 +111,15 @@ def _factorised(system: CarSystem, integrator: Integrator, dt: float, loads_shap
     if car is None:
         J, n_c = loads_shape
         sizes, fields = _car_fields(system, integrator, dt, J, outputs, n_c)
-        stored = tuple(fields[name].size for name in SPARSE_FIELDS) if sizes[KIND] == STATE_SPACE else ()
-        template, shapes, slots = _layout(*(sizes[k] for k in (KIND, DOFS, BAND, LOAD_COUNT, END_COUNT, SENSOR_COUNT, COUPLER_COUNT)), stored)
+        template, shapes, slots = _layout(*(sizes[k] for k in (KIND, DOFS, BAND, LOAD_COUNT, END_COUNT, SENSOR_COUNT, COUPLER_COUNT)))
         layout = template.copy()
         layout[: COUPLER_COUNT + 1] = sizes
         values = np.zeros(slots[FIELDS[-1]].stop)  # written straight into: the fields that start at zero (the state, scratch) are left so
         for name, value in fields.items():
-            values[slots[name]] = np.asarray(value, dtype=float).ravel()
+            flat, slot = np.asarray(value, dtype=float).ravel(), slots[name]
+            if name in SPARSE_FIELDS:  # dense at the field's end, for factorise to compress
+                slot = slice(slot.stop - flat.size, slot.stop)
+            values[slot] = flat
         positive_definite = factorise(layout.reshape(1, -1), values, 0)
         layout.flags.writeable = values.flags.writeable = False
         car = PreparedCar(layout, values, shapes, bool(positive_definite), np.zeros((n_c, n_c)), np.zeros((n_c, n_c)))
@@ -136,13 +140,13 @@ def _with_maps(factorised: PreparedCar, coupler_loads: NDArray, coupler_outputs:
 
 
 @functools.lru_cache(maxsize=256)
-def _layout(kind: int, n: int, p: int, J: int, Y: int, S: int, n_c: int,
-            stored: tuple[int, ...] = ()) -> tuple[NDArray[np.int64], dict[int, tuple[int, ...]], dict[str, slice]]:
+def _layout(kind: int, n: int, p: int, J: int, Y: int, S: int, n_c: int) -> tuple[NDArray[np.int64], dict[int, tuple[int, ...]], dict[str, slice]]:
     """A car's layout row with its fields' offsets (sizes zero), their shapes by column and their slices of the
-    values by name (the last field's ends the values): once per kind and sizes (read-only, shared); ``stored``: a
-    state-space car's sizes of its :data:`SPARSE_FIELDS`."""
+    values by name (the last field's ends the values): once per kind and sizes (read-only, shared)."""
     if kind == STATE_SPACE:
-        named = {"coefficients": (7,), "load": (n, J), "work_map": (J, Y), **{name: (size,) for name, size in zip(SPARSE_FIELDS, stored)},
+        rows = {"transition": n, "kinetic_form": n, "strain_form": n, "end_outputs": Y, "end_rates": Y, "sensor_outputs": S,
+                "sensor_rates": S, "sensor_accelerations": S}
+        named = {"coefficients": (7,), "load": (n, J), "work_map": (J, Y), **{name: (sparse_size(rows[name], n),) for name in SPARSE_FIELDS},
                  **{name: (n,) for name in ("x", "x_free", "work1", "work2", "work3")}}
     else:
         bands, factor = (2 * p + 1, n), (p + 1, n)
@@ -213,7 +217,7 @@ def _car_fields(
         matrices = (system.transition, system.kinetic_form, system.strain_form, system.end_displacement, system.end_velocity,
                     system.sensor_displacement, system.sensor_velocity, system.sensor_acceleration)
         fields = {"coefficients": np.array([dt, 0, 0, 0, 0, 0, 0], dtype=float), "load": system.input, "work_map": system.work_map,
-                  **dict(zip(SPARSE_FIELDS, sparse_rows(*matrices)))}
+                  **dict(zip(SPARSE_FIELDS, matrices))}
     else:
         sizes, fields = _second_order_fields(system, integrator, dt, J, Y, n_c)
     return sizes, {name: value for name, value in fields.items() if value is not None}
