@@ -46,8 +46,8 @@ costs beyond them is the calls themselves. Hence:
 * a call copies every array of its arguments into its argument list (an array is 7 to 11
   words), so the kernels below :func:`solve` take a ``CouplerLaw``, not ``laws``, the law
   dispatchers are inlined (``inline="always"``), and so are :func:`solve` and the parts of
-  its Newton iteration on ``(laws, st)`` (residual, Jacobian, commit) — into the loop's step:
-  a rigid line's step 0.8 → 0.5 µs (busy machine).
+  its Newton iteration on ``(laws, st)`` (residual, Jacobian, commit) — into the loop's step
+  (with the pool's products inlined into the cars' kernels, a rigid line's step 0.78 → 0.56 µs).
 """
 
 from __future__ import annotations
