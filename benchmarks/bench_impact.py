@@ -1,7 +1,7 @@
 """Cost of the default impact scene per fidelity, as ratios measured in one run.
 
     python benchmarks/bench_impact.py [--quick]
-    python benchmarks/bench_impact.py --cold 5 [--json PATH]
+    python benchmarks/bench_impact.py --cold 5 [--json PATH] [--before CHECKOUT]
 
 Reports, for the built-in default scene (two covered hoppers, draft gear, 0.5 s):
 * each fidelity's wall time (median of repeats) for the whole run, steps per second,
@@ -12,6 +12,8 @@ Reports, for the built-in default scene (two covered hoppers, draft gear, 0.5 s)
 compiled loop and then running the scene's model runs once in their order (each model's wall time,
 ``ModelResult.wall_time_s``, including building its cars the first time in the process, as the run table's
 speed-up column does), and prints each model's median and the median of the per-process fem / model ratios.
+With ``--before CHECKOUT`` (another checkout of femref, e.g. the commit before a change) the processes alternate
+between that checkout (first on the path, its own copy of this script) and this one, and both columns are printed.
 Nothing here is asserted: the test suite checks correctness, this script measures speed.
 """
 
@@ -20,10 +22,12 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import os
 import statistics
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 from femref.case import parse_case
 from femref.case.defaults import DEFAULT_SCENE_SOURCE, default_scene_data
@@ -58,20 +62,33 @@ def cold_walls() -> dict[str, float]:
     return {run.name: run_model(scene, run).wall_time_s for run in scene.runs}
 
 
-def cold(processes: int, json_path: str | None) -> None:
-    """``processes`` fresh processes of :func:`cold_walls`: medians and fem / model ratios."""
-    runs = []
+def cold_once(checkout: Path) -> dict[str, float]:
+    """:func:`cold_walls` in a fresh process of the femref checked out at ``checkout`` (first on the path)."""
+    environment = {**os.environ, "PYTHONPATH": str(checkout)}
+    done = subprocess.run([sys.executable, str(checkout / "benchmarks" / "bench_impact.py"), "--cold-once"], cwd=checkout,
+                          env=environment, check=True, capture_output=True, text=True)
+    return json.loads(done.stdout.splitlines()[-1])
+
+
+def cold(processes: int, json_path: str | None, before: Path | None = None) -> None:
+    """``processes`` fresh processes of :func:`cold_walls` (alternating with ``before``'s): medians and fem / model ratios."""
+    here = Path(__file__).resolve().parents[1]
+    trees = {"": here} if before is None else {"before ": before.resolve(), "after ": here}
+    runs: dict[str, list[dict[str, float]]] = {label: [] for label in trees}
     for _ in range(processes):
-        done = subprocess.run([sys.executable, __file__, "--cold-once"], check=True, capture_output=True, text=True)
-        runs.append(json.loads(done.stdout.splitlines()[-1]))
-    print(f"default scene, cold ({processes} processes): median wall per model and of fem / model in each process")
-    print(f"{'model':<14} {'wall ms':>9} {'fem / this':>11}")
-    summary = {}
-    for name in runs[0]:
-        wall = statistics.median(r[name] for r in runs)
-        ratio = statistics.median(r["fem"] / r[name] for r in runs)
-        summary[name] = {"wall_s": wall, "fem_over_this": ratio, "runs_s": [r[name] for r in runs]}
-        print(f"{name:<14} {wall * 1e3:9.3f} {ratio:11.2f}")
+        for label, checkout in trees.items():
+            runs[label].append(cold_once(checkout))
+    print(f"default scene, cold ({processes} processes each): median wall per model and of fem / model in each process")
+    print(f"{'model':<14}" + "".join(f" {label + 'wall ms':>16} {label + 'fem / this':>18}" for label in trees))
+    summary: dict[str, dict] = {}
+    for name in runs[next(iter(trees))][0]:
+        row = f"{name:<14}"
+        for label, done in runs.items():
+            wall = statistics.median(r[name] for r in done)
+            ratio = statistics.median(r["fem"] / r[name] for r in done)
+            summary.setdefault(label.strip() or "this", {})[name] = {"wall_s": wall, "fem_over_this": ratio, "runs_s": [r[name] for r in done]}
+            row += f" {wall * 1e3:16.3f} {ratio:18.2f}"
+        print(row)
     if json_path:
         with open(json_path, "w", encoding="utf-8") as out:
             json.dump(summary, out, indent=2)
@@ -83,12 +100,13 @@ def main() -> None:
     parser.add_argument("--cold", type=int, metavar="N", help="N fresh processes of the default scene's run (cold)")
     parser.add_argument("--cold-once", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--json", metavar="PATH", help="with --cold: also write the numbers as JSON")
+    parser.add_argument("--before", type=Path, metavar="CHECKOUT", help="with --cold: alternate with this checkout's processes")
     args = parser.parse_args()
     if args.cold_once:
         print(json.dumps(cold_walls()))
         return
     if args.cold:
-        cold(args.cold, args.json)
+        cold(args.cold, args.json, args.before)
         return
     repeats = 3 if args.quick else 5
     scene = default_scene()

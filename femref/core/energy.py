@@ -17,18 +17,21 @@ def energy_balance_error(energy: ArrayLike, work: ArrayLike | None = None) -> fl
     definition of an energy balance, an impact run's and a single body's alike.
     """
     e = np.asarray(energy, dtype=float)
-    w = np.zeros_like(e) if work is None else np.asarray(work, dtype=float)
-    if e.shape != w.shape or e.ndim != 1:
-        raise ValueError(f"energy and work must be 1-D histories of one length, got shapes {e.shape} and {w.shape}")
-    known = np.isfinite(e) & np.isfinite(w)
-    if not np.any(known):
+    w = None if work is None else np.asarray(work, dtype=float)
+    if e.ndim != 1 or (w is not None and e.shape != w.shape):
+        raise ValueError(f"energy and work must be 1-D histories of one length, got shapes {e.shape} and {e.shape if w is None else w.shape}")
+    known = np.isfinite(e) if w is None else np.isfinite(e) & np.isfinite(w)
+    if known.all():  # (a run that reached its end: no NaN to leave out; a closed system's W = 0 adds nothing)
+        e0 = e[0]
+    elif not known.any():
         return 0.0
-    e0 = e[0] if np.isfinite(e[0]) else 0.0
-    e, w = e[known], w[known]
-    scale = float(max(np.max(np.abs(e)), np.max(np.abs(w))))
+    else:
+        e0 = e[0] if np.isfinite(e[0]) else 0.0
+        e, w = e[known], None if w is None else w[known]
+    scale = float(np.abs(e).max()) if w is None else float(max(np.abs(e).max(), np.abs(w).max()))
     if scale <= 0.0:
         return 0.0
-    return float(np.max(np.abs(e - e0 - w)) / scale)
+    return float(np.abs(e - e0 if w is None else e - e0 - w).max() / scale)
 
 
 __all__ = ["energy_balance_error"]

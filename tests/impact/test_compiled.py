@@ -259,9 +259,11 @@ def test_a_prepared_car_holds_its_system_field_by_field(fidelity):
         return matrix.toarray() if hasattr(matrix, "toarray") else np.asarray(matrix, dtype=float)
 
     if isinstance(system, StateSpaceSystem):
-        np.testing.assert_array_equal(packed.field(0, pool.TRANSITION), system.transition)
+        n = system.transition.shape[0]
+        S = system.sensor_displacement.shape[0]
+        np.testing.assert_array_equal(pool.dense_of(packed.field(0, pool.TRANSITION), n, n), system.transition)
         np.testing.assert_array_equal(packed.field(0, pool.LOAD), system.input)
-        np.testing.assert_array_equal(packed.field(0, pool.SENSOR_OUTPUTS), system.sensor_displacement)
+        np.testing.assert_array_equal(pool.dense_of(packed.field(0, pool.SENSOR_OUTPUTS), S, n), system.sensor_displacement)
         assert not np.any(packed.field(0, pool.X))
     else:
         n, p = system.dofs, int(car.layout[pool.BAND])

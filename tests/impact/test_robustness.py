@@ -443,6 +443,21 @@ def test_energy_balance_error_is_work_against_the_change_of_energy():
         energy_balance_error([1.0, 2.0], [0.0])
 
 
+def test_energy_balance_error_of_finite_histories_is_the_masked_formula():
+    """A history without NaN (the path that skips the mask) gives the formula over every sample exactly, closed or
+    driven; the same history with a NaN tail gives it over the samples before the tail."""
+    rng = np.random.default_rng(3)
+    energy, work = rng.standard_normal(40), rng.standard_normal(40)
+
+    def formula(e, w):
+        return float(np.max(np.abs(e - e[0] - w)) / max(np.max(np.abs(e)), np.max(np.abs(w))))
+
+    assert energy_balance_error(energy) == formula(energy, np.zeros(40))
+    assert energy_balance_error(energy, work) == formula(energy, work)
+    tailed = np.concatenate([energy[:25], np.full(15, math.nan)])
+    assert energy_balance_error(tailed, work) == formula(energy[:25], work[:25])
+
+
 def test_a_rigid_two_mass_impact_on_a_linear_spring_conserves_energy_to_round_off():
     """Newmark's average acceleration on two rigid cars and a bilateral spring: kinetic + stored stays at the
     initial kinetic energy to round-off, and the spring force's work on the cars is their loss of kinetic energy."""

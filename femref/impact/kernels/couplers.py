@@ -44,8 +44,10 @@ costs beyond them is the calls themselves. Hence:
   neither allocate nor hand an array to reference-counted code (hence ``law_of`` is for
   kernels only); callers with reference counting (:mod:`femref.impact.kernels.loop`) keep theirs;
 * a call copies every array of its arguments into its argument list (an array is 7 to 11
-  words), so the kernels below :func:`solve` take a ``CouplerLaw``, not ``laws``, and
-  the law dispatchers are inlined (``inline="always"``).
+  words), so the kernels below :func:`solve` take a ``CouplerLaw``, not ``laws``, the law
+  dispatchers are inlined (``inline="always"``), and so are :func:`solve` and the parts of
+  its Newton iteration on ``(laws, st)`` (residual, Jacobian, commit) — into the loop's step
+  (with the pool's products inlined into the cars' kernels, a rigid line's step 0.78 → 0.56 µs).
 """
 
 from __future__ import annotations
@@ -174,7 +176,7 @@ def start(laws, st, closure_rate):
         st.stored[j] = stored_energy(law, 0.0, state, mode)
 
 
-@njit(**_JIT)
+@njit(inline="always", **_JIT)
 def _residual(laws, st, dt, closure_free, rate_free, gain_u, gain_v, P, s, closure, rate, modes, state_rate, tangent, residual):
     """Closures, rates, modes, ``ṡ``, tangents and the residual ``(P − T, s − σ s_n − dt/2 (σ ṡ_n + ṡ))`` (in place;
     ``σ`` of :func:`_mirror` at the trial closure)."""
@@ -198,7 +200,7 @@ def _residual(laws, st, dt, closure_free, rate_free, gain_u, gain_v, P, s, closu
             residual[rows[j]] = s[j] - sigma * st.state[j] - 0.5 * dt * (sigma * st.state_rate[j] + state_rate[j])
 
 
-@njit(**_JIT)
+@njit(inline="always", **_JIT)
 def _jacobian(dt, gain_u, gain_v, rows, tangent, jacobian):
     """∂(residual)/∂(P, s) from the tangents and the gains, into ``jacobian`` (mirrors CouplerSolve._jacobian)."""
     n = rows.size
@@ -224,7 +226,7 @@ def _jacobian(dt, gain_u, gain_v, rows, tangent, jacobian):
         jacobian[r, r] -= 0.5 * dt * (rst + rfo * fst)
 
 
-@njit(**_JIT)
+@njit(inline="always", **_JIT)
 def _converged(residual, n, force_tolerance, state_tolerance):
     for k in range(residual.size):
         if not abs(residual[k]) <= (force_tolerance if k < n else state_tolerance):
@@ -477,7 +479,7 @@ def _held_at_jump(force, force_residual, tolerance, jump_fraction):
     return abs(force_residual) > max(tolerance, jump_fraction * max(abs(force), abs(law_value)))
 
 
-@njit(**_JIT)
+@njit(inline="always", **_JIT)
 def _commit(laws, st, dt, force_tolerance, P, s, closure, rate, state_rate, modes, residual):
     """Book the step's coupler energy and take the new values (mirrors CouplerSolve._commit; ``residual[j]``
     is ``P − T`` of coupler j)."""
@@ -509,7 +511,7 @@ def _commit(laws, st, dt, force_tolerance, P, s, closure, rate, state_rate, mode
         st.mode[j] = modes[j]
 
 
-@njit(**_JIT)
+@njit(inline="always", **_JIT)
 def solve(laws, st, dt, force_tolerance, closure_free, rate_free, gain_u, gain_v):
     """One step of the couplers (mirrors CouplerSolve.solve given the free closures, rates and gains).
 

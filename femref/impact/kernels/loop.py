@@ -64,7 +64,7 @@ CHUNK_SECONDS = 0.1
 #: Fewest steps of a run's first chunk, before its speed is known (:func:`first_chunk`).
 FIRST_CHUNK = 64
 #: Pool values × steps of a run's first chunk (:func:`first_chunk`): a step costs a few ns per value of the
-#: pool (banded cars' products and solves, state-space cars' dense products) or, for a few values, the
+#: pool (banded cars' products and solves, state-space cars' sparse products) or, for a few values, the
 #: couplers' iteration, under a µs; so this is milliseconds, a small part of :data:`CHUNK_SECONDS`.
 FIRST_CHUNK_WORK = 2**20
 
@@ -226,8 +226,8 @@ def response_of(run: PreparedRun, pool: CarPool, counters: NDArray[np.int64], ch
         contact_changes=int(counters[CHANGES]),
         wall_time=wall_time,
         setup_time=run.setup_time,
-        car_settings=[car_settings_after(system, float(pool.field(c, SCALARS)[SUM_LOAD2]), float(pool.field(c, SCALARS)[SUM_RATE2]))
-                      for c, system in enumerate(run.systems)],
+        car_settings=[car_settings_after(system, float(pool.values[scalars + SUM_LOAD2]), float(pool.values[scalars + SUM_RATE2]))
+                      for system, scalars in zip(run.systems, pool.layout[:, SCALARS].tolist())],
         status=-1 if failed else 0,
         message=message,
         coupler_work=history["coupler_work"],

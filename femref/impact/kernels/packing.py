@@ -12,7 +12,6 @@ lower band by columns that the compiled Cholesky factorises in place.
 from __future__ import annotations
 
 import functools
-import itertools
 import math
 import weakref
 from dataclasses import dataclass
@@ -26,12 +25,18 @@ from femref.fem.transient import Integrator
 from femref.impact.kernels.cars import factorise, start
 from femref.impact.kernels.pool import (
     BAND, COUPLER_COUNT, COUPLER_LOADS, COUPLER_OUTPUTS, DOFS, END_COUNT, FIELDS, GAIN_U, GAIN_V, LOAD_COUNT, LOADS, SECOND_ORDER,
-    SENSOR_START, STATE_SPACE, KIND, SENSOR_COUNT, TRANSLATION, V, X, CarPool,
+    SENSOR_START, STATE_SPACE, KIND, SENSOR_COUNT, TRANSLATION, V, X, CarPool, sparse_size,
 )
 from femref.impact.systems import CarSystem, SecondOrderSystem, StateSpaceSystem
 
 FIELDS_AT = {name: f for f, name in enumerate(FIELDS, start=COUPLER_COUNT + 1)}
 """The layout column of each field by name."""
+SPARSE_FIELDS = ("transition", "kinetic_form", "strain_form", "end_outputs", "end_rates", "sensor_outputs", "sensor_rates",
+                 "sensor_accelerations")
+"""A state-space car's matrices stored sparse (:func:`~femref.impact.kernels.pool.compress_rows`): its step's products
+skip their zeros (a quasi-rigid car's 16 × 16 transition has 35 nonzeros). Packed dense at the end of its field (sized
+for a full matrix, :func:`~femref.impact.kernels.pool.sparse_size`), each is compressed in place by
+:func:`~femref.impact.kernels.cars.factorise`, in compiled code."""
 
 
 def _bands(rows: NDArray[np.intp], cols: NDArray[np.intp], data: NDArray[np.float64], p: int, n: int) -> NDArray[np.float64]:
@@ -106,13 +111,15 @@ def _factorised(system: CarSystem, integrator: Integrator, dt: float, loads_shap
     if car is None:
         J, n_c = loads_shape
         sizes, fields = _car_fields(system, integrator, dt, J, outputs, n_c)
-        template, shapes, total = _layout(*(sizes[k] for k in (KIND, DOFS, BAND, LOAD_COUNT, END_COUNT, SENSOR_COUNT, COUPLER_COUNT)))
+        template, shapes, slots = _layout(*(sizes[k] for k in (KIND, DOFS, BAND, LOAD_COUNT, END_COUNT, SENSOR_COUNT, COUPLER_COUNT)))
         layout = template.copy()
         layout[: COUPLER_COUNT + 1] = sizes
-        values = np.zeros(total)  # written straight into: the fields that start at zero (the state, scratch) are left so
+        values = np.zeros(slots[FIELDS[-1]].stop)  # written straight into: the fields that start at zero (the state, scratch) are left so
         for name, value in fields.items():
-            f = FIELDS_AT[name]
-            values[template[f]: template[f] + math.prod(shapes[f])] = np.ravel(value)
+            flat, slot = np.asarray(value, dtype=float).ravel(), slots[name]
+            if name in SPARSE_FIELDS:  # dense at the field's end, for factorise to compress
+                slot = slice(slot.stop - flat.size, slot.stop)
+            values[slot] = flat
         positive_definite = factorise(layout.reshape(1, -1), values, 0)
         layout.flags.writeable = values.flags.writeable = False
         car = PreparedCar(layout, values, shapes, bool(positive_definite), np.zeros((n_c, n_c)), np.zeros((n_c, n_c)))
@@ -133,13 +140,14 @@ def _with_maps(factorised: PreparedCar, coupler_loads: NDArray, coupler_outputs:
 
 
 @functools.lru_cache(maxsize=256)
-def _layout(kind: int, n: int, p: int, J: int, Y: int, S: int, n_c: int) -> tuple[NDArray[np.int64], dict[int, tuple[int, ...]], int]:
-    """A car's layout row with its fields' offsets (sizes zero), their shapes by column and the values' length:
-    once per kind and sizes (read-only, shared)."""
+def _layout(kind: int, n: int, p: int, J: int, Y: int, S: int, n_c: int) -> tuple[NDArray[np.int64], dict[int, tuple[int, ...]], dict[str, slice]]:
+    """A car's layout row with its fields' offsets (sizes zero), their shapes by column and their slices of the
+    values by name (the last field's ends the values): once per kind and sizes (read-only, shared)."""
     if kind == STATE_SPACE:
-        named = {"coefficients": (7,), "load": (n, J), "transition": (n, n), "kinetic_form": (n, n), "strain_form": (n, n),
-                 "work_map": (J, Y), "end_outputs": (Y, n), "end_rates": (Y, n), "sensor_outputs": (S, n), "sensor_rates": (S, n),
-                 "sensor_accelerations": (S, n), **{name: (n,) for name in ("x", "x_free", "work1", "work2", "work3")}}
+        rows = {"transition": n, "kinetic_form": n, "strain_form": n, "end_outputs": Y, "end_rates": Y, "sensor_outputs": S,
+                "sensor_rates": S, "sensor_accelerations": S}
+        named = {"coefficients": (7,), "load": (n, J), "work_map": (J, Y), **{name: (sparse_size(rows[name], n),) for name in SPARSE_FIELDS},
+                 **{name: (n,) for name in ("x", "x_free", "work1", "work2", "work3")}}
     else:
         bands, factor = (2 * p + 1, n), (p + 1, n)
         named = {"coefficients": (7,), **{name: bands for name in ("history_u", "history_v", "history_a", "damping", "stiffness", "mass")},
@@ -150,12 +158,16 @@ def _layout(kind: int, n: int, p: int, J: int, Y: int, S: int, n_c: int) -> tupl
     named.update({"gain_u": (Y, J), "gain_v": (Y, J), "coupler_loads": (J, n_c), "coupler_outputs": (n_c, Y),
                   **{name: (J,) for name in ("loads", "load_rate", "new_loads")},
                   **{name: (Y,) for name in ("end_free", "end_rate_free", "end_now")}, "scalars": (5,)})
-    shapes = {f: named.get(name, (0,)) for name, f in FIELDS_AT.items()}
-    offsets = [0, *itertools.accumulate(math.prod(shape) for shape in shapes.values())]  # the fields in column order
+    shapes, slots, start = {}, {}, 0
+    for name, f in FIELDS_AT.items():  # the fields in column order
+        shapes[f] = shape = named.get(name, (0,))
+        size = math.prod(shape)
+        slots[name] = slice(start, start + size)
+        start += size
     layout = np.zeros(COUPLER_COUNT + 1 + len(FIELDS), dtype=np.int64)
-    layout[COUPLER_COUNT + 1:] = offsets[:-1]
+    layout[COUPLER_COUNT + 1:] = [place.start for place in slots.values()]
     layout.flags.writeable = False
-    return layout, shapes, offsets[-1]
+    return layout, shapes, slots
 
 
 def forget_layouts() -> None:
@@ -202,12 +214,10 @@ def _car_fields(
         n = system.transition.shape[0]
         S = system.sensor_displacement.shape[0]
         sizes = [STATE_SPACE, n, 0, 0, 0, J, Y, S, n_c]
-        fields = {
-            "coefficients": np.array([dt, 0, 0, 0, 0, 0, 0], dtype=float), "load": system.input, "transition": system.transition,
-            "kinetic_form": system.kinetic_form, "strain_form": system.strain_form, "work_map": system.work_map,
-            "end_outputs": system.end_displacement, "end_rates": system.end_velocity, "sensor_outputs": system.sensor_displacement,
-            "sensor_rates": system.sensor_velocity, "sensor_accelerations": system.sensor_acceleration,
-        }
+        matrices = (system.transition, system.kinetic_form, system.strain_form, system.end_displacement, system.end_velocity,
+                    system.sensor_displacement, system.sensor_velocity, system.sensor_acceleration)
+        fields = {"coefficients": np.array([dt, 0, 0, 0, 0, 0, 0], dtype=float), "load": system.input, "work_map": system.work_map,
+                  **dict(zip(SPARSE_FIELDS, matrices))}
     else:
         sizes, fields = _second_order_fields(system, integrator, dt, J, Y, n_c)
     return sizes, {name: value for name, value in fields.items() if value is not None}
@@ -267,4 +277,4 @@ def _second_order_fields(
     }
 
 
-__all__ = ["PREPARED_PER_SYSTEM", "PreparedCar", "forget_layouts", "pack_cars", "prepared_car"]
+__all__ = ["PREPARED_PER_SYSTEM", "SPARSE_FIELDS", "PreparedCar", "forget_layouts", "pack_cars", "prepared_car"]

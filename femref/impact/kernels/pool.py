@@ -14,9 +14,12 @@ car's arithmetic. The kernels are compiled without numba's reference counting
 
 Storage in the pool: dense matrices row-major; banded ones ``bands[k, i] = A[i, i + k − p]``
 (p the half-bandwidth, 2p + 1 rows of n) and Cholesky factors ``low[k, j] = L[j + k, j]``
-(p + 1 rows of n, the diagonal row holding ``1 / L[j, j]``), also row-major. The linear
-algebra here (banded Cholesky, solve and product, dense products) takes every operand as an
-offset into the pool; :func:`linear_solve` is the coupler iteration's small dense solve.
+(p + 1 rows of n, the diagonal row holding ``1 / L[j, j]``), also row-major; a state-space car's
+maps sparse by rows (:func:`compress_rows`: a quasi-rigid car's 16 × 16 transition has 35 nonzeros,
+and its products summed over them are the dense ones bit for bit). The linear algebra here (banded
+Cholesky, solve and product, dense and sparse products) takes every operand as an offset into the
+pool; the products and solves are inlined into the cars' kernels (``inline="always"``: a call cost
+more than a one-DOF car's arithmetic); :func:`linear_solve` is the coupler iteration's small dense solve.
 """
 
 from __future__ import annotations
@@ -46,7 +49,7 @@ FIELDS = (
     "response",              # (n, J) Z = (1−αf) S⁻¹ B
     "translation",           # (n,)
     "sensor_travel",         # (S,) what each sensor row reads of a unit rigid translation: O t (1 axial, 0 vertical, pitch)
-    "transition",            # state space: (n, n) A
+    "transition",            # state space: (n, n) A (this and the maps below to sensor_accelerations sparse, compress_rows)
     "kinetic_form", "strain_form",  # (n, n)
     "work_map",              # (J, Y)
     "end_outputs",           # (Y, n) E, or the state-space end displacement map
@@ -124,7 +127,7 @@ def band_cholesky(w: NDArray, low: int, p: int, n: int) -> bool:
     return True
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, inline="always")
 def band_solve(w: NDArray, low: int, p: int, n: int, rhs: int) -> None:
     """In place: ``rhs ← A⁻¹ rhs`` with the factor of :func:`band_cholesky`, both sweeps by columns
     (each finished unknown updates the p after it: the dependency chain is one product per row); a diagonal
@@ -145,7 +148,7 @@ def band_solve(w: NDArray, low: int, p: int, n: int, rhs: int) -> None:
             w[rhs + k] -= w[low + (i - k) * n + k] * xi
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, inline="always")
 def band_product(w: NDArray, bands: int, p: int, n: int, x: int, out: int) -> None:
     """``out = A x`` for ``bands[k, i] = A[i, i + k − p]``, diagonal by diagonal: each row still sums
     its diagonals in order k = 0 … 2p, and the inner loop, over views with a zero-based index (so
@@ -166,7 +169,7 @@ def band_product(w: NDArray, bands: int, p: int, n: int, x: int, out: int) -> No
             rows[i] += band[i] * shifted[i]
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, inline="always")
 def dot(w: NDArray, x: int, y: int, n: int) -> float:
     """``xᵀ y``."""
     s = 0.0
@@ -175,7 +178,7 @@ def dot(w: NDArray, x: int, y: int, n: int) -> float:
     return s
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, inline="always")
 def matvec(w: NDArray, A: int, rows: int, cols: int, x: int, out: int) -> None:
     """``out = A x`` (small or sparse-in-effect dense maps: a loop beats a BLAS call here)."""
     for i in range(rows):
@@ -185,7 +188,7 @@ def matvec(w: NDArray, A: int, rows: int, cols: int, x: int, out: int) -> None:
         w[out + i] = s
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, inline="always")
 def matvec_add(w: NDArray, A: int, rows: int, cols: int, x: int, factor: float, out: int) -> None:
     """``out += factor · A x``."""
     for i in range(rows):
@@ -195,7 +198,76 @@ def matvec_add(w: NDArray, A: int, rows: int, cols: int, x: int, factor: float, 
         w[out + i] += factor * s
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, inline="always")
+def sparse_row(w: NDArray, A: int, rows: int, i: int, x: int, stride: int = 1) -> float:
+    """``(A x)_i = Σ_j A_ij x_j`` (``x_j`` at ``x + j · stride``) over the stored entries of row i of a sparse ``A``
+    (:func:`compress_rows`), in column order: the dense sum's terms but its zeros, so the same value (a zero's sign
+    aside)."""
+    columns = A + rows + 1
+    values = columns + int(w[A + rows])
+    s = 0.0
+    for k in range(int(w[A + i]), int(w[A + i + 1])):
+        s += w[values + k] * w[x + int(w[columns + k]) * stride]
+    return s
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def sparse_matvec(w: NDArray, A: int, rows: int, x: int, out: int) -> None:
+    """``out = A x`` of a sparse ``A`` (:func:`compress_rows`); ``out`` must not overlap ``x``."""
+    for i in range(rows):
+        w[out + i] = sparse_row(w, A, rows, i, x)
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def sparse_quadratic(w: NDArray, A: int, n: int, x: int) -> float:
+    """``xᵀ A x`` of a sparse n × n ``A`` (:func:`compress_rows`), row by row as :func:`quadratic`."""
+    s = 0.0
+    for i in range(n):
+        s += w[x + i] * sparse_row(w, A, n, i, x)
+    return s
+
+
+def sparse_size(rows: int, cols: int) -> int:
+    """Floats a sparse ``rows × cols`` field takes in the pool: its row starts and, for a full matrix, a column and a
+    value per entry (:func:`compress_rows`)."""
+    return rows + 1 + 2 * rows * cols
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def compress_rows(w: NDArray, A: int, rows: int, cols: int) -> None:
+    """The dense row-major ``rows × cols`` matrix at the end of the field at ``A`` (:func:`sparse_size` long) as
+    sparse rows, in place: ``[starts (rows + 1), columns (nnz), values (nnz)]`` from ``A``, row i's entries at
+    ``starts[i] … starts[i + 1] − 1`` in column order (indices as floats, exact). Every entry moves to or before
+    where it is read, and after it is read."""
+    dense = A + rows + 1 + rows * cols
+    nnz = 0
+    for k in range(rows * cols):
+        if w[dense + k] != 0.0:
+            nnz += 1
+    columns = A + rows + 1
+    values = columns + nnz
+    k = 0
+    for i in range(rows):
+        w[A + i] = k
+        for j in range(cols):
+            entry = w[dense + i * cols + j]
+            if entry != 0.0:
+                w[columns + k] = j
+                w[values + k] = entry
+                k += 1
+    w[A + rows] = k
+
+
+def dense_of(stored: NDArray[np.float64], rows: int, cols: int) -> NDArray[np.float64]:
+    """The dense ``rows × cols`` matrix of a sparse one as :func:`compress_rows` stores it (reading a pool back)."""
+    starts = stored[: rows + 1].astype(np.int64)
+    nnz = int(starts[-1])
+    matrix = np.zeros((rows, cols))
+    matrix[np.repeat(np.arange(rows), np.diff(starts)), stored[rows + 1: rows + 1 + nnz].astype(np.int64)] = stored[rows + 1 + nnz: rows + 1 + 2 * nnz]
+    return matrix
+
+
+@njit(cache=True, _nrt=False, inline="always")
 def quadratic(w: NDArray, A: int, n: int, x: int) -> float:
     """``xᵀ A x`` (A n × n)."""
     s = 0.0
@@ -257,4 +329,5 @@ def linear_solve(a, x, pivots):
             x[i] -= a[i, k] * x[k]
 
 
-__all__ = ["CarPool", "band_cholesky", "band_product", "band_solve", "dot", "linear_solve", "matvec", "matvec_add", "quadratic"]
+__all__ = ["CarPool", "band_cholesky", "band_product", "band_solve", "dense_of", "dot", "linear_solve", "matvec", "matvec_add", "quadratic",
+           "compress_rows", "sparse_matvec", "sparse_quadratic", "sparse_row", "sparse_size"]
