@@ -135,8 +135,23 @@ class SensorFilter:
         return a, b, out
 
 
+class _FilteredChannels:
+    """What a line of cars derives from its ``sensor_filter`` and ``channels`` (both :class:`CoupledCars` and
+    :class:`ConsistCars`)."""
+
+    sensor_filter: SensorFilter | tuple[SensorFilter | None, ...] | None
+    channels: int
+
+    @property
+    def channel_filters(self) -> tuple[SensorFilter | None, ...]:
+        """Each channel's anti-alias filter (None: unfiltered)."""
+        if isinstance(self.sensor_filter, tuple):
+            return self.sensor_filter
+        return (self.sensor_filter,) * self.channels
+
+
 @dataclass(frozen=True, eq=False)
-class CoupledCars:
+class CoupledCars(_FilteredChannels):
     """The rear (hammer) and front (anvil) car joined by the coupler force ``P``.
 
     Accelerometer channels are ordered rear first, then front: a record is
@@ -156,13 +171,6 @@ class CoupledCars:
             raise ValueError(f"sensor_filter: one per channel ({self.channels}), got {len(self.sensor_filter)}")
 
     @property
-    def channel_filters(self) -> tuple[SensorFilter | None, ...]:
-        """Each channel's anti-alias filter (None: unfiltered)."""
-        if isinstance(self.sensor_filter, tuple):
-            return self.sensor_filter
-        return (self.sensor_filter,) * self.channels
-
-    @property
     def channels(self) -> int:
         """Total number of accelerometer channels."""
         return self.rear.channels + self.front.channels
@@ -179,7 +187,7 @@ class CoupledCars:
 
 
 @dataclass(frozen=True, eq=False)
-class ConsistCars:
+class ConsistCars(_FilteredChannels):
     """A line of cars joined by ``n_c`` coupler forces ``P_1 … P_{n_c}``: every car's
     ``coupler_load`` is J × n_c over the same couplers (a car a coupler does not touch has a zero
     column). Channels are ordered car by car; a car with no channel (``sensor_map`` 0 × n) is
@@ -200,13 +208,6 @@ class ConsistCars:
             raise ValueError("cars[*].sensor_map: no car is instrumented")
         if isinstance(self.sensor_filter, tuple) and len(self.sensor_filter) != self.channels:
             raise ValueError(f"sensor_filter: one per channel ({self.channels}), got {len(self.sensor_filter)}")
-
-    @property
-    def channel_filters(self) -> tuple[SensorFilter | None, ...]:
-        """Each channel's anti-alias filter (None: unfiltered)."""
-        if isinstance(self.sensor_filter, tuple):
-            return self.sensor_filter
-        return (self.sensor_filter,) * self.channels
 
     @property
     def channels(self) -> int:
