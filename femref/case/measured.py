@@ -48,6 +48,10 @@ class MeasuredCarSpec(CaseModel):
     length: PositiveReal | None = Field(default=None, description="Length over the ends (m) of a car without a body.")
     sensors: dict[ProbeName, Real] = Field(
         description="Accelerometers: name → position x (m) within [−l, l]; {} for a car without (only kalman estimates through it). Required.")
+    mass_tolerance: Annotated[float, Field(ge=0.0, lt=0.5)] | None = Field(
+        default=None,
+        description="Relative uncertainty of this car's mass as measured (a weigh-in-motion reading, a waybill's stated tolerance), "
+                    "in [0, 0.5); the body's or mass's value is the measured mass. Default null: declared, kalman.mass_tolerance applies.")
 
     @model_validator(mode="after")
     def _body_or_mass(self) -> "MeasuredCarSpec":
@@ -154,7 +158,8 @@ class KalmanSettings(CaseModel):
 
     modes: Annotated[int, Field(ge=1, le=16)] = Field(default=4, description="Elastic modes per car, 1–16. Default 4.")
     mass_tolerance: Annotated[float, Field(ge=0.0, lt=0.5)] = Field(
-        default=0.05, description="Relative uncertainty of the declared masses (waybill), in [0, 0.5). Default 0.05."
+        default=0.05, description="Relative uncertainty of the declared masses (waybill), in [0, 0.5); a car with its own "
+                                  "cars[i].mass_tolerance (measured) takes that instead. Default 0.05."
     )
     frequency_tolerance: Annotated[float, Field(ge=0.0, lt=0.5)] = Field(
         default=0.15, description="Relative uncertainty of the cars' axial mode frequencies (drawing stiffness), in [0, 0.5). Default 0.15."

@@ -2,7 +2,11 @@
 each force a random walk acting equal and opposite on its two cars), one band per coupler — the envelope over the
 declared cars' tolerances (:func:`reduced.kalman.estimate_forces_with_variants`: the corners of
 :func:`reduced.kalman.corner_models` at the nominal's force-rate level, widened for the masses: their common scale
-and, in a line of three or more cars, each car's own mass corners) — and the contact instant found in each force.
+and, in a line of three or more cars or where the cars' tolerances differ, each car's own mass corners) — and the
+contact instant found in each force. A car whose mass was measured (the case's ``cars[i].mass_tolerance``) enters
+the mass corners at its own tolerance, the others at the declared ``kalman.mass_tolerance``; the common scale is the
+smallest (a scale of every mass by ``s`` stays inside the box only for ``|s − 1| ≤ min_i m_i``). The force scales
+with the mass, so the mass part of the band is ``≈ m P``: measured to ±0.5 % rather than declared to ±5 %, a tenth.
 
 The model is the cars the case's couplers join (:func:`line_cars`): each its rigid mode and ``model.modes``
 elastic free-free modes of its fem mesh (:data:`KALMAN_FEM`, no static correction), loaded at its ends by the
@@ -75,9 +79,12 @@ class KalmanEstimator:
         cars, probes = self.cars(recorded)
         y = np.column_stack([recorded.records[probe] for probe in probes])
         noise = _noise(recorded, probes)
+        masses = self.car_masses(recorded)
+        tolerances = [tolerance for _, tolerance, _ in masses]
+        per_car = len(cars.cars) > 2 or len(set(tolerances)) > 1  # two cars at one tolerance: the common scale is the box
         found = kalman.estimate_forces_with_variants(
             [cars, *kalman.corner_models(cars, model.frequency_tolerance, model.damping_factors)], t, y, noise,
-            variant_force_rate="nominal", mass_tolerance=model.mass_tolerance, car_mass_corners=len(cars.cars) > 2,
+            variant_force_rate="nominal", mass_tolerance=min(tolerances), car_mass_corners=tolerances if per_car else False,
             nis_range=KALMAN_NIS_RANGE)
         nominal = found[0].nominal
         settings = {"modes": model.modes, "force_rate": nominal.force_rate, "noise_scale": nominal.noise_scale, "probes": probes,
@@ -85,6 +92,8 @@ class KalmanEstimator:
                     "anti_alias": [None if f is None else [f.corner, f.order] for f in cars.channel_filters],
                     "mass_tolerance": model.mass_tolerance, "frequency_tolerance": model.frequency_tolerance,
                     "damping_factors": list(model.damping_factors)}
+        if any(source == "measured" for _, _, source in masses):
+            settings["car_masses"] = {name: {"tolerance": tolerance, "source": source} for name, tolerance, source in masses}
         names = [c.name for c in recorded.couplers]
         if found[0].status != "ok":
             nan = np.full(t.size, np.nan)
@@ -100,6 +109,17 @@ class KalmanEstimator:
                 recorded.contacts[estimate.coupler] = contact
                 estimate.settings.update(contact_time=contact.time, contact_fit_residual=contact.residual)
         return estimates
+
+    def car_masses(self, recorded: Recorded) -> list[tuple[str, float, str]]:
+        """``(name, relative mass tolerance, "measured" | "declared")`` of each car of the line (:func:`line_cars`): its own
+        measured tolerance (``model.car_mass_tolerances``), else the declared ``model.mass_tolerance``."""
+        stated = self.model.car_mass_tolerances
+        masses = []
+        for index, _ in line_cars(len(recorded.cars), [c.rear for c in recorded.couplers]):
+            tolerance = stated[index] if index < len(stated) else None
+            name = recorded.cars[index].name
+            masses.append((name, self.model.mass_tolerance, "declared") if tolerance is None else (name, tolerance, "measured"))
+        return masses
 
     def contact(self, recorded: Recorded, estimate: ForceEstimate) -> ContactEstimate:
         """The contact instant in this estimator's force ``estimate`` of its coupler (:func:`femref.sensing.contact.onset_time`,

@@ -225,8 +225,19 @@ def _event_table(events: list[EventData], folder: Path) -> str:
              f"alarm — {event.attrs['alarm_basis']}; wear — {event.attrs['wear_basis']}"
              + "".join(f"; clock {recorder}: correction {c['correction']:+.6f} s, drift {c['drift']:+.2f} ppm, lag {c['lag']:+.6f} s "
                        f"(residual {c['residual']:+.2e} s) — {c['basis']}" for recorder, c in event.clocks.items())
+             + _kalman_masses(event)
              for event in events]
     return f'<div class="wide"><table>{header}{"".join(rows)}</table></div>' + "".join(f"<p>{escape(hide_local_paths(n, folder))}</p>" for n in notes)
+
+
+def _kalman_masses(event: EventData) -> str:
+    """Which car masses the kalman band took as measured (``settings["car_masses"]``, written only where one was):
+    each car's source and relative tolerance; nothing where every mass was declared."""
+    for estimate in (e for e in event.estimates if e.estimator == "kalman"):
+        masses = json.loads(estimate.attrs.get("settings", "{}")).get("car_masses")
+        if masses:
+            return "; kalman masses — " + ", ".join(f"{car} {m['source']} ±{100 * m['tolerance']:g} %" for car, m in masses.items())
+    return ""
 
 
 def _type_basis(attrs: dict[str, Any]) -> str:

@@ -55,12 +55,14 @@ class Checks:
 class KalmanModel:
     """The kalman estimator's cars — rigid mode and ``modes`` elastic modes — and the tolerances of the
     declared cars: masses ±``mass_tolerance``, mode frequencies ±``frequency_tolerance``, viscosity × the
-    ``damping_factors`` (low, high)."""
+    ``damping_factors`` (low, high); ``car_mass_tolerances`` per car the tolerance of its measured mass (None, or
+    no entry: declared)."""
 
     modes: int = 4
     mass_tolerance: float = 0.05
     frequency_tolerance: float = 0.15
     damping_factors: tuple[float, float] = (0.6, 1.6)
+    car_mass_tolerances: tuple[float | None, ...] = ()
 
 
 @dataclass(frozen=True, eq=False)

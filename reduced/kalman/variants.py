@@ -16,8 +16,9 @@ with near certainty even when none is right. The mass the data cannot discrimina
 every mass and the force by one factor leaves all accelerations unchanged, so a mass error
 passes one to one into the force. A line: the envelope per coupler over the same models; the mass
 tolerance both a common scale of every car's mass (exact, as above) and, with ``car_mass_corners``, each
-car's own mass (:func:`car_mass_models`: car ``i``'s ``M, C, K`` × ``(1 ± m)``, its frequencies kept), the
-corners of the box ``Π_i [1 − m, 1 + m]`` taken to first order: the estimate is linear in each car's
+car's own mass (:func:`car_mass_models`: car ``i``'s ``M, C, K`` × ``(1 ± m_i)``, its frequencies kept; ``m_i``
+that car's own tolerance where the cars' masses were measured to different ones), the corners of the box
+``Π_i [1 − m_i, 1 + m_i]`` taken to first order: the estimate is linear in each car's
 perturbation around the nominal, ``P(s) ≈ P + Σ_i δ_i(s_i)``, so its extremes over the box are
 ``P + Σ_i max(0, δ_i⁺, δ_i⁻)`` and ``P + Σ_i min(0, δ_i⁺, δ_i⁻)`` — 2N runs for 2^N corners. With every ``δ_i``
 of one sign the sum is the common scale's ``m P``; in a line it is not (a coupler read through a car between
@@ -89,7 +90,7 @@ def estimate_forces_with_variants(
     *,
     variant_force_rate: str = "own",
     mass_tolerance: float = 0.0,
-    car_mass_corners: bool = False,
+    car_mass_corners: bool | Sequence[float] = False,
     **options: object,
 ) -> tuple[VariantForceEstimate, ...]:
     """:func:`.estimate_forces` on each model (``models[0]`` nominal, all over the same couplers); per coupler,
@@ -102,8 +103,9 @@ def estimate_forces_with_variants(
     variant of a nominal whose status is not ok. ``mass_tolerance`` ``m``: scaling every mass by ``s`` scales the
     forces the accelerations imply by exactly ``s``, so each envelope widens to ``[lower (1 ∓ m), upper (1 ± m)]``.
     ``car_mass_corners``: also each car's own mass corners (:func:`car_mass_models`, at the nominal's rate level per
-    unit of the declared noise variance, module docstring), the band the envelope of both widenings; no mass
-    corner of a nominal whose status is not ok.
+    unit of the declared noise variance, module docstring), the band the envelope of both widenings; True: every
+    car ± ``mass_tolerance``, a sequence: car ``i`` ± its own ``car_mass_corners[i]`` (a car at 0 needs no run); no
+    mass corner of a nominal whose status is not ok.
     """
     if len(models) < 1:
         raise ValueError("models must hold at least the nominal model")
@@ -121,21 +123,27 @@ def estimate_forces_with_variants(
     else:
         variants = [estimate_forces(mdl, time, accelerations, noise_std, **options) for mdl in models[1:]]  # type: ignore[arg-type]
     banded = [_envelope((nominal[c], *(v[c] for v in variants)), mass_tolerance) for c in range(len(nominal))]
-    if not car_mass_corners or mass_tolerance == 0.0 or nominal[0].status != "ok":
+    if car_mass_corners is False:
+        return tuple(banded)
+    tolerances = [mass_tolerance] * len(models[0].cars) if car_mass_corners is True else list(car_mass_corners)
+    if len(tolerances) != len(models[0].cars):
+        raise ValueError(f"car_mass_corners: one tolerance per car of the model ({len(models[0].cars)}), got {len(tolerances)}")
+    if not any(tolerances) or nominal[0].status != "ok":
         return tuple(banded)
     level = nominal[0].force_rate / nominal[0].noise_scale**2
     corners = [[estimate_forces(mdl, time, accelerations, noise_std, **{**options, "force_rate": level})  # type: ignore[arg-type]
-                for mdl in pair] for pair in car_mass_models(models[0], mass_tolerance)]
+                for mdl in pair] for pair, m in zip(car_mass_models(models[0], tolerances), tolerances) if m > 0.0]
     return tuple(_with_car_masses(band, [[pair[0][c], pair[1][c]] for pair in corners]) for c, band in enumerate(banded))
 
 
-def car_mass_models(model: CoupledCars | ConsistCars, mass_tolerance: float) -> list[tuple[CoupledCars | ConsistCars, ...]]:
-    """Per car ``i``, the model with that car's ``M, C, K`` × ``1 − m`` and × ``1 + m`` (``m = mass_tolerance``; its
-    mode frequencies and damping ratios kept, the other cars as declared)."""
+def car_mass_models(model: CoupledCars | ConsistCars, mass_tolerance: float | Sequence[float]) -> list[tuple[CoupledCars | ConsistCars, ...]]:
+    """Per car ``i``, the model with that car's ``M, C, K`` × ``1 − m_i`` and × ``1 + m_i`` (``m_i = mass_tolerance``,
+    or its ``i``-th entry; its mode frequencies and damping ratios kept, the other cars as declared)."""
+    tolerances = [mass_tolerance] * len(model.cars) if isinstance(mass_tolerance, (int, float)) else list(mass_tolerance)
     pairs = []
-    for i in range(len(model.cars)):
+    for i, m in enumerate(tolerances):
         pair = []
-        for s in (1.0 - mass_tolerance, 1.0 + mass_tolerance):
+        for s in (1.0 - m, 1.0 + m):
             cars = tuple(CarDynamics(s * c.mass, s * c.damping, s * c.stiffness, c.load_map, c.sensor_map, c.coupler_load) if j == i else c
                          for j, c in enumerate(model.cars))
             pair.append(CoupledCars(*cars, model.sensor_filter) if isinstance(model, CoupledCars) else ConsistCars(cars, model.sensor_filter))
