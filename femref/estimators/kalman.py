@@ -113,13 +113,8 @@ class KalmanEstimator:
     def car_masses(self, recorded: Recorded) -> list[tuple[str, float, str]]:
         """``(name, relative mass tolerance, "measured" | "declared")`` of each car of the line (:func:`line_cars`): its own
         measured tolerance (``model.car_mass_tolerances``), else the declared ``model.mass_tolerance``."""
-        stated = self.model.car_mass_tolerances
-        masses = []
-        for index, _ in line_cars(len(recorded.cars), [c.rear for c in recorded.couplers]):
-            tolerance = stated[index] if index < len(stated) else None
-            name = recorded.cars[index].name
-            masses.append((name, self.model.mass_tolerance, "declared") if tolerance is None else (name, tolerance, "measured"))
-        return masses
+        return [(recorded.cars[index].name, *self.model.mass_tolerance_of(index))
+                for index, _ in line_cars(len(recorded.cars), [c.rear for c in recorded.couplers])]
 
     def contact(self, recorded: Recorded, estimate: ForceEstimate) -> ContactEstimate:
         """The contact instant in this estimator's force ``estimate`` of its coupler (:func:`femref.sensing.contact.onset_time`,

@@ -116,7 +116,8 @@ def event_result(scene: MeasuredScene, estimators: list[Estimator], cut: CutEven
     diagnosed = diagnose(cars, t, cut.records, records, quiet, event.trigger_time)
     result.diagnostics, result.flags = diagnosed.record(), (*result.flags, *diagnosed.flags)
     saturated = [flag for flag in event.flags if flag.startswith("saturated")]
-    found = findings.classify_event(cars, couplers[0], t, records, noise_std, scene.kalman.mass_tolerance, bool(saturated))
+    tolerances = [scene.kalman.mass_tolerance_of(k)[0] for k in range(len(cars))]
+    found = findings.classify_event(cars, couplers[0], t, records, noise_std, tolerances, bool(saturated))
     result.impact_type, result.zero_harmonic_ratio, result.classification_confidence = found.kind, found.zero_frequency_ratio, found.confidence
     result.classification_basis = found.basis
     if found.not_classified:

@@ -64,6 +64,12 @@ class KalmanModel:
     damping_factors: tuple[float, float] = (0.6, 1.6)
     car_mass_tolerances: tuple[float | None, ...] = ()
 
+    def mass_tolerance_of(self, car: int) -> tuple[float, str]:
+        """Car ``car``'s relative mass tolerance and whether its mass was ``measured`` (its own) or ``declared`` (the
+        common ``mass_tolerance``)."""
+        stated = self.car_mass_tolerances[car] if car < len(self.car_mass_tolerances) else None
+        return (self.mass_tolerance, "declared") if stated is None else (stated, "measured")
+
 
 @dataclass(frozen=True, eq=False)
 class MeasuredScene:

@@ -208,7 +208,7 @@ def classify_records(cars: Cars, coupler: Any, time: NDArray[np.float64], record
 
 
 def momentum_records(cars: Cars, coupler: Any, time: NDArray[np.float64], records: Mapping[str, NDArray[np.float64]],
-                     noise_std: Mapping[str, float], mass_tolerance: float) -> MomentumEvidence:
+                     noise_std: Mapping[str, float], mass_tolerance: float | Sequence[float]) -> MomentumEvidence:
     """Whether the event's forces are internal to the line and ``coupler`` closed (:func:`momentum_evidence` on each car's
     central sensor, low-passed at half the lowest first axial mode ``1/(2 T_wave)`` of the cars, :data:`RIGID_CORNER`
     when a car has no body); ValueError when the records cannot tell."""
@@ -236,7 +236,7 @@ class EventClass:
 
 
 def classify_event(cars: Cars, coupler: Any, time: NDArray[np.float64], records: Mapping[str, NDArray[np.float64]],
-                   noise_std: Mapping[str, float], mass_tolerance: float, saturated: bool) -> EventClass:
+                   noise_std: Mapping[str, float], mass_tolerance: float | Sequence[float], saturated: bool) -> EventClass:
     """The event's class at ``coupler``: its impact type (:func:`classify_records`), made ``not_an_impact`` when the
     forces are not internal to the line or the coupler did not close (:func:`momentum_records`) — but not when a
     channel ``saturated``: its clipped peak breaks the balance, so the event stays an impact."""

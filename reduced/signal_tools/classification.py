@@ -115,15 +115,17 @@ class MomentumEvidence:
 
 
 def momentum_evidence(accelerations: ArrayLike, masses: ArrayLike, noise_std: ArrayLike, dt: float, *, corner: float | None,
-                      mass_tolerance: float, rear: int = 0) -> MomentumEvidence:
+                      mass_tolerance: float | ArrayLike, rear: int = 0) -> MomentumEvidence:
     """``R = ∫(Σ_k m_k ā_k)² dt / ∫Σ_k (m_k ā_k)² dt`` and ``Δv = max_t |∫(a_{rear+1} − a_rear) dt|``.
 
     ``ā`` each car's acceleration (rows of ``accelerations``, m/s², a common axis) low-passed below ``corner``
     (Hz; None: unfiltered), under the cars' first elastic mode. Couplers are internal forces: ``Σ m_k a_k = 0`` for
     the rigid motion, so ``R ≈ 0`` for an impact; forces from outside give ``R ≈ 1`` uncorrelated (a knock on one car,
     a joint's jolts one car after the next), ``R ≈ n`` for the same deceleration of all ``n`` cars (brakes).
-    An impact's ``R`` is at most ``R_i = n τ²/(1 − τ)² + k E_n/E``: declared masses within ``τ`` leave ``|Σ m̂ a|² ≤
-    n τ² Σ (m a)²`` (Cauchy–Schwarz), white noise ``σ_k`` (``noise_std``) adds ``E_n = T Σ m_k² σ_k² min(1, 2 f_c dt)``
+    An impact's ``R`` is at most ``R_i = Σ_k τ_k²/(1 − max τ)² + k E_n/E`` (``n τ²/(1 − τ)²`` for one ``τ``):
+    declared masses ``m̂_k = m_k (1 + δ_k)``, ``|δ_k| ≤ τ_k`` (``mass_tolerance``, one or one per car — a car weighed
+    has its own) leave ``|Σ m̂ a|² = |Σ δ_k m_k a_k|² ≤ Σ τ_k² Σ (m a)²`` (Cauchy–Schwarz) against
+    ``Σ (m̂ a)² ≥ (1 − max τ)² Σ (m a)²``, white noise ``σ_k`` (``noise_std``) adds ``E_n = T Σ m_k² σ_k² min(1, 2 f_c dt)``
     against the measured ``E = ∫Σ (m ā)²`` (``k`` = :data:`NOISE_ENERGY_FACTOR`). The threshold ``t = √R_i``, the geometric
     mean of ``R_i`` and the uncorrelated 1, leaves both the same factor; from ``t`` ≥ :data:`MAX_THRESHOLD` the noise alone
     could give the ``R`` of an impact, and none is seen. The coupler between cars ``rear``
@@ -148,8 +150,11 @@ def momentum_evidence(accelerations: ArrayLike, masses: ArrayLike, noise_std: Ar
         raise ValueError("the accelerations are identically zero: nothing to classify")
     duration = a.shape[1] * dt
     noise_energy = duration * float(np.sum(m**2 * sigma**2)) * band
-    tolerance = _checks.finite("mass_tolerance", mass_tolerance)
-    threshold = math.sqrt(m.size * tolerance**2 / (1.0 - tolerance) ** 2 + NOISE_ENERGY_FACTOR * noise_energy / energy)
+    tolerance = np.asarray(mass_tolerance, dtype=float)
+    tolerance = np.full(m.shape, float(tolerance)) if tolerance.ndim == 0 else tolerance if tolerance.shape == m.shape else None
+    if tolerance is None or not np.all(np.isfinite(tolerance)) or np.any(tolerance < 0.0) or np.any(tolerance >= 1.0):
+        raise ValueError(f"mass_tolerance must be one number or one per car, each in [0, 1), got {mass_tolerance!r}")
+    threshold = math.sqrt(float(np.sum(tolerance**2)) / (1.0 - float(np.max(tolerance))) ** 2 + NOISE_ENERGY_FACTOR * noise_energy / energy)
     relative = a[rear + 1] - a[rear]
     velocity = np.cumsum(0.5 * (relative[1:] + relative[:-1])) * dt
     velocity_noise = math.hypot(sigma[rear], sigma[rear + 1]) * math.sqrt(dt * duration)

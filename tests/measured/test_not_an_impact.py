@@ -62,6 +62,27 @@ def test_the_momentum_ratio_follows_the_law():
     assert both.ratio == pytest.approx(2.0) and both.velocity_change == 0.0 and not both.internal
 
 
+def test_a_weighed_car_brings_its_own_tolerance_into_the_bound():
+    """One tolerance per car (a weighed car ±0.5 %, a declared one ±5 %): the bound ``Σ τ_k²/(1 − max τ)²`` (equal
+    tolerances: the one-number bound, to the bit), and the ratio of masses declared off by δ = (+0.5 %, −5 %) in closed
+    form, ``(δ_f − δ_r)² / ((1 + δ_r)² + (1 + δ_f)²)``, under it. A tolerance per car of the wrong count, negative or
+    ≥ 1 is refused."""
+    dt, m_r, m_f = 1e-3, 120e3, 80e3
+    t = np.arange(0.0, 1.0, dt)
+    force = np.where((t > 0.2) & (t < 0.3), 1e6 * np.sin(np.pi * (t - 0.2) / 0.1), 0.0)
+    pair = np.array([-force / m_r, force / m_f])
+    noise = [0.0, 0.0]
+    one = momentum_evidence(pair, [m_r, m_f], noise, dt, corner=None, mass_tolerance=0.05)
+    assert momentum_evidence(pair, [m_r, m_f], noise, dt, corner=None, mass_tolerance=[0.05, 0.05]).threshold == one.threshold
+    rear, front = 0.005, -0.05
+    mixed = momentum_evidence(pair, [m_r * (1 + rear), m_f * (1 + front)], noise, dt, corner=None, mass_tolerance=[0.005, 0.05])
+    assert mixed.threshold == pytest.approx(math.sqrt((0.005**2 + 0.05**2) / 0.95**2), rel=1e-12) and mixed.threshold < one.threshold
+    assert mixed.ratio == pytest.approx((front - rear) ** 2 / ((1 + rear) ** 2 + (1 + front) ** 2), rel=1e-9) and mixed.internal
+    for bad in ([0.05], [0.05, -0.01], [0.05, 1.0], [0.05, math.nan]):
+        with pytest.raises(ValueError, match="mass_tolerance"):
+            momentum_evidence(pair, [m_r, m_f], noise, dt, corner=None, mass_tolerance=bad)
+
+
 def _run(folder: Path, t: np.ndarray, probes: dict[str, np.ndarray], seed: int, masses: tuple[float, float] = (MASS, MASS),
          trigger: float = TRIGGER) -> Path:
     """Model accelerations through the measurement chain, written to one CSV, and the measured case reading it (two
