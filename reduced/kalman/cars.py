@@ -185,6 +185,10 @@ class CoupledCars(_FilteredChannels):
         """One coupler force."""
         return 1
 
+    def with_cars(self, cars: tuple[CarDynamics, ...]) -> CoupledCars:
+        """This model with ``cars`` (rear, front) in place of its own, its sensor filter kept."""
+        return CoupledCars(*cars, self.sensor_filter)
+
 
 @dataclass(frozen=True, eq=False)
 class ConsistCars(_FilteredChannels):
@@ -218,6 +222,10 @@ class ConsistCars(_FilteredChannels):
     def couplers(self) -> int:
         """Number of coupler forces n_c."""
         return int(self.cars[0].coupler_map.shape[1])
+
+    def with_cars(self, cars: tuple[CarDynamics, ...]) -> ConsistCars:
+        """This line with ``cars`` in place of its own, its sensor filter kept."""
+        return ConsistCars(cars, self.sensor_filter)
 
 
 __all__ = [

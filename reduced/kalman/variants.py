@@ -78,7 +78,7 @@ def corner_models(model: CoupledCars | ConsistCars, frequency_tolerance: float,
         for damping in set(damping_factors):
             cars = tuple(CarDynamics(c.mass, damping * c.damping, frequency**2 * c.stiffness, c.load_map, c.sensor_map, c.coupler_load)
                          for c in model.cars)
-            corners.append(CoupledCars(*cars, model.sensor_filter) if isinstance(model, CoupledCars) else ConsistCars(cars, model.sensor_filter))
+            corners.append(model.with_cars(cars))
     return corners
 
 
@@ -146,7 +146,7 @@ def car_mass_models(model: CoupledCars | ConsistCars, mass_tolerance: float | Se
         for s in (1.0 - m, 1.0 + m):
             cars = tuple(CarDynamics(s * c.mass, s * c.damping, s * c.stiffness, c.load_map, c.sensor_map, c.coupler_load) if j == i else c
                          for j, c in enumerate(model.cars))
-            pair.append(CoupledCars(*cars, model.sensor_filter) if isinstance(model, CoupledCars) else ConsistCars(cars, model.sensor_filter))
+            pair.append(model.with_cars(cars))
         pairs.append(tuple(pair))
     return pairs
 
