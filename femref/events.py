@@ -407,6 +407,13 @@ def _estimate_columns(estimator: str | None, coupler: str | None, data: h5py.Gro
     }
 
 
+def record_datasets(records: h5py.Group) -> dict[str, h5py.Dataset]:
+    """An event's ``records`` group by probe (``<car>/<sensor>``, a dataset in its car's group), its time axis apart."""
+    found: dict[str, h5py.Dataset] = {}
+    records.visititems(lambda name, item: found.__setitem__(name, item) if isinstance(item, h5py.Dataset) and name != "time" else None)
+    return found
+
+
 def event_histories(path: str | Path, event: int) -> dict[str, Any]:
     """Event ``event`` of the event file at ``path``: ``{"time": (t, units), "records": {probe: (a, units)},
     "estimates": {(estimator, coupler): {"time", "force", "force_lower", "force_upper": (values, units)} | attrs},
@@ -422,8 +429,7 @@ def event_histories(path: str | Path, event: int) -> dict[str, Any]:
             return dataset[()], str(attribute_value(dataset.attrs.get("units", "")))
 
         records = group["records"]
-        probes: dict[str, tuple[NDArray[np.float64], str]] = {}
-        records.visititems(lambda name, item: probes.__setitem__(name, read(item)) if isinstance(item, h5py.Dataset) and name != "time" else None)
+        probes = {probe: read(dataset) for probe, dataset in record_datasets(records).items()}
         estimates = {}
         for estimator, sub in group.items():
             if estimator in NOT_ESTIMATES:
@@ -436,5 +442,5 @@ def event_histories(path: str | Path, event: int) -> dict[str, Any]:
 
 
 __all__ = ["BOUNDS", "CLOCK_UNITS", "COMPLETE", "ClockCorrection", "EVENTS_GROUP", "EVENTS_WRITTEN", "ClosureResult", "FileKindError", "EventResult",
-           "EventWriter", "ForceEstimate", "NOT_ESTIMATES", "QUALITY_FLAGS", "TABLE_COLUMNS", "TABLE_UNITS", "attribute_value", "event_file", "event_histories", "event_rows",
+           "EventWriter", "ForceEstimate", "NOT_ESTIMATES", "QUALITY_FLAGS", "TABLE_COLUMNS", "TABLE_UNITS", "attribute_value", "event_file", "event_histories", "event_rows", "record_datasets",
            "is_event_file", "without_histories"]

@@ -20,13 +20,12 @@ import h5py
 import numpy as np
 from numpy.typing import NDArray
 
-from femref.events import COMPLETE, EVENTS_GROUP, EVENTS_WRITTEN
+from femref.events import COMPLETE, EVENTS_GROUP, EVENTS_WRITTEN, NOT_ESTIMATES, record_datasets
 from femref.report.figures import MODEL_COLORS, Picture, figure_legend, new_figure, figure_png
 from femref.report.html import hide_local_paths, page, pictures_html, table_row
 from femref.report.read import attrs_of
 from femref.sensing.diagnostics import amplitude_spectrum
 
-NOT_ESTIMATES = ("records", "closure", "clock")
 
 
 @dataclass
@@ -49,6 +48,7 @@ class EventData:
     estimates: list[EstimateData] = field(default_factory=list)
     closures: dict[str, dict[str, Any]] = field(default_factory=dict)
     clocks: dict[str, dict[str, Any]] = field(default_factory=dict)
+    time: NDArray[np.float64] = field(default_factory=lambda: np.empty(0))
     records: dict[str, NDArray[np.float64]] = field(default_factory=dict)
 
 
@@ -177,17 +177,10 @@ def _event(name: str, group: h5py.Group, histories: bool = True) -> EventData:
     if "clock" in group:
         event.clocks = {recorder: attrs_of(sub.attrs) for recorder, sub in group["clock"].items()}
     if histories and "records" in group:
-        event.records = {name: np.asarray(data[()], dtype=float) for name, data in _datasets(group["records"])}
+        records = group["records"]
+        event.time = np.asarray(records["time"][()], dtype=float)
+        event.records = {probe: np.asarray(data[()], dtype=float) for probe, data in record_datasets(records).items()}
     return event
-
-
-def _datasets(group: h5py.Group, prefix: str = "") -> Iterator[tuple[str, h5py.Dataset]]:
-    """Every dataset under ``group`` by its path there (a probe ``car/sensor`` is a dataset in a car's group)."""
-    for name, item in group.items():
-        if isinstance(item, h5py.Dataset):
-            yield prefix + name, item
-        else:
-            yield from _datasets(item, f"{prefix}{name}/")
 
 
 def _closing_speed(attrs: dict[str, Any]) -> str:
@@ -278,9 +271,9 @@ def _quality_pictures(event: EventData) -> list[Picture]:
     diagnostics' findings in the caption (:mod:`femref.sensing.diagnostics`)."""
     diagnostics = json.loads(event.attrs.get("diagnostics", "{}") or "{}")
     ends = diagnostics.get("ends", [])
-    if not ends or "time" not in event.records:
+    if not ends or event.time.size < 2:
         return []
-    time = event.records["time"]
+    time = event.time
     dt = float(time[1] - time[0])
     figure, (ax,) = new_figure()
     k = 0

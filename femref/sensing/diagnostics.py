@@ -40,6 +40,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from femref.sensing.noise_gate import QuietNoise
+
 TAIL = 0.25
 """The share of the samples after the trigger, at the record's end, over which ``ė`` is averaged."""
 GAIN_TOLERANCE = 0.01
@@ -138,10 +140,10 @@ def end_sensors(car: Any) -> tuple[str, str] | None:
     return min(car.sensors, key=car.sensors.__getitem__), max(car.sensors, key=car.sensors.__getitem__)
 
 
-def end_agreement(car: Any, time: NDArray[np.float64], records: Mapping[str, NDArray[np.float64]], noise: Mapping[str, Any],
+def end_agreement(car: Any, time: NDArray[np.float64], records: Mapping[str, NDArray[np.float64]], noise: Mapping[str, QuietNoise],
                   trigger_time: float) -> EndAgreement | None:
     """``car``'s :class:`EndAgreement` (module docstring) from offset-free ``records`` on the uniform ``time`` and each
-    channel's quiet noise (``std``, ``samples``, ``effective_samples``); None when the car has no two end sensors recorded,
+    channel's quiet noise; None when the car has no two end sensors recorded,
     or a gap (NaN) in either."""
     ends = end_sensors(car)
     if ends is None or any(f"{car.name}/{end}" not in records for end in ends):
@@ -161,7 +163,7 @@ def end_agreement(car: Any, time: NDArray[np.float64], records: Mapping[str, NDA
         quiet = noise.get(f"{car.name}/{end}")
         if quiet is not None and quiet.samples > 0 and math.isfinite(quiet.std):
             variance += quiet.std**2
-            correlation = max(correlation, quiet.samples / max(quiet.effective_samples, 1e-12))
+            correlation = max(correlation, quiet.correlation_time)
     noise_bound = SIGMAS * math.sqrt(variance * time.size * correlation) * dt
     spectrum = amplitude_spectrum(difference, dt)[1]
     zero_ratio = float(spectrum[0] / spectrum.max()) if spectrum.max() > 0.0 else math.nan
@@ -188,20 +190,20 @@ def channel_zero(probe: str, time: NDArray[np.float64], raw: NDArray[np.float64]
 
 
 def diagnose(cars: Sequence[Any], time: NDArray[np.float64], raw: Mapping[str, NDArray[np.float64]], corrected: Mapping[str, NDArray[np.float64]],
-             noise: Mapping[str, Any], trigger_time: float) -> Diagnostics:
+             noise: Mapping[str, QuietNoise], trigger_time: float) -> Diagnostics:
     """The event's :class:`Diagnostics`: every car's end agreement and every recorded channel's zero (``raw`` the records as
     recorded, ``corrected`` less their offsets, ``noise`` each channel's quiet noise)."""
     ends = [found for car in cars if (found := end_agreement(car, time, corrected, noise, trigger_time)) is not None]
     zeros = []
+    dt = float(time[1] - time[0])
     for car in cars:
         probes = [f"{car.name}/{sensor}" for sensor in car.sensors if f"{car.name}/{sensor}" in raw]
         if not probes:
             continue
-        dt = float(time[1] - time[0])
         velocity_change = abs(float(np.mean([np.nansum(corrected[p]) * dt for p in probes])))
         for probe in probes:
             quiet = noise.get(probe)
-            correlation = quiet.samples / quiet.effective_samples if quiet is not None and quiet.effective_samples > 0 else 1.0
+            correlation = quiet.correlation_time if quiet is not None else 1.0
             if (found := channel_zero(probe, time, raw[probe], trigger_time, velocity_change, correlation)) is not None:
                 zeros.append(found)
     return Diagnostics(tuple(ends), tuple(zeros))

@@ -52,6 +52,12 @@ class QuietNoise:
     def measured(self) -> bool:
         return self.samples > 0
 
+    @property
+    def correlation_time(self) -> float:
+        """``τ̂ = samples / effective_samples`` (samples, ≥ 1; 1 when not measured): how many samples one independent
+        one is worth."""
+        return self.samples / self.effective_samples if self.effective_samples > 0.0 else 1.0
+
 
 def quiet_noise(quiet: NDArray[np.float64]) -> QuietNoise:
     """``σ̂ = 1.4826 median|y − median y|`` of the quiet samples ``y`` (m/s²) with their effective count
