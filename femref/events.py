@@ -289,6 +289,16 @@ def _dataset(group: h5py.Group, name: str, data: NDArray, units: str) -> None:
 
 #: The groups of an event that are no estimator's.
 NOT_ESTIMATES = ("records", "closure", "clock")
+
+
+def finished_events(h5: h5py.File) -> list[str]:
+    """The names of the event groups of an open event file in order, those of a killed run's temporary
+    (``complete = false``) only the ``events_written`` finished before the kill: the group being written then may
+    be there, torn."""
+    if EVENTS_GROUP not in h5:
+        return []
+    names = sorted(h5[EVENTS_GROUP], key=int)
+    return names if h5.attrs.get(COMPLETE, True) else [name for name in names if int(name) < int(h5.attrs.get(EVENTS_WRITTEN, 0))]
 #: The columns of :func:`event_rows`, in order.
 TABLE_COLUMNS = (
     "event", "trigger_time_s", "start_s", "end_s", "trigger_probe", "type", "zero_harmonic_ratio", "classification_confidence",
@@ -362,7 +372,7 @@ def event_rows(path: str | Path) -> tuple[list[dict[str, Any]], dict[str, Any]]:
         limit = _alarm_limit(h5)
         order = json.loads(attribute_value(h5[SCENE_GROUP].attrs.get("estimators", "[]")))  # the case's order (its networks: after, by name)
         events = h5[EVENTS_GROUP]
-        for name in sorted(events, key=int):
+        for name in finished_events(h5):
             group = events[name]
             a = {key: attribute_value(value) for key, value in group.attrs.items()}
             flags = json.loads(a.get("flags", "[]"))
@@ -419,11 +429,10 @@ def event_histories(path: str | Path, event: int) -> dict[str, Any]:
     "estimates": {(estimator, coupler): {"time", "force", "force_lower", "force_upper": (values, units)} | attrs},
     "attrs": the event's attributes}``; FileKindError naming the file and its events when it has no such event."""
     with _open_events(path) as h5:
-        events = h5[EVENTS_GROUP]
-        if str(event) not in events:
-            held = sorted(events, key=int)
+        held = finished_events(h5)
+        if str(event) not in held:
             raise FileKindError(f"{path}: no event {event}; the file holds events {', '.join(held) if held else 'none'}")
-        group = events[str(event)]
+        group = h5[EVENTS_GROUP][str(event)]
 
         def read(dataset: h5py.Dataset) -> tuple[NDArray[np.float64], str]:
             return dataset[()], str(attribute_value(dataset.attrs.get("units", "")))
@@ -442,5 +451,5 @@ def event_histories(path: str | Path, event: int) -> dict[str, Any]:
 
 
 __all__ = ["BOUNDS", "CLOCK_UNITS", "COMPLETE", "ClockCorrection", "EVENTS_GROUP", "EVENTS_WRITTEN", "ClosureResult", "FileKindError", "EventResult",
-           "EventWriter", "ForceEstimate", "NOT_ESTIMATES", "QUALITY_FLAGS", "TABLE_COLUMNS", "TABLE_UNITS", "attribute_value", "event_file", "event_histories", "event_rows", "record_datasets",
+           "EventWriter", "ForceEstimate", "NOT_ESTIMATES", "QUALITY_FLAGS", "TABLE_COLUMNS", "TABLE_UNITS", "attribute_value", "event_file", "event_histories", "event_rows", "finished_events", "record_datasets",
            "is_event_file", "without_histories"]

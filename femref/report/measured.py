@@ -20,7 +20,7 @@ import h5py
 import numpy as np
 from numpy.typing import NDArray
 
-from femref.events import COMPLETE, EVENTS_GROUP, EVENTS_WRITTEN, NOT_ESTIMATES, record_datasets
+from femref.events import COMPLETE, EVENTS_GROUP, EVENTS_WRITTEN, NOT_ESTIMATES, finished_events, record_datasets
 from femref.report.figures import MODEL_COLORS, Picture, figure_legend, new_figure, figure_png
 from femref.report.html import hide_local_paths, page, pictures_html, table_row
 from femref.report.read import attrs_of
@@ -57,7 +57,7 @@ def event_report(path: Path, h5: h5py.File, output: str | None = None) -> str:
     :data:`EVENTS_PER_PAGE` events; else the index of the report written to ``output`` (a file name; default
     ``path``'s stem + ``.html``) — one row per event, read from the events' attributes only, each linking to its
     page of :func:`event_pages`, no figure."""
-    names = _event_names(h5)
+    names = finished_events(h5)
     title = f"femref report — {path.name}"
     facts = _facts(path, h5, len(names))
     if len(names) <= EVENTS_PER_PAGE:
@@ -107,7 +107,7 @@ def event_pages(path: Path, h5: h5py.File, output: str | None = None, progress_f
     (:func:`event_report`; nothing when the file holds no more than one page): the events' table and their coupler
     forces, drawn one event at a time. ``progress_for(label)`` is called as each page starts (``events 21–40 of
     1000``) and the callback it may return gets ``(done, total)`` after each event drawn."""
-    names = _event_names(h5)
+    names = finished_events(h5)
     if len(names) <= EVENTS_PER_PAGE:
         return
     index = output or f"{path.stem}.html"
@@ -129,10 +129,6 @@ def event_pages(path: Path, h5: h5py.File, output: str | None = None, progress_f
             "<h2>Data quality</h2>", pictures_html(quality, "no car with two sensors to check"),
         ]
         yield page_name(index, first, len(chunk), len(names)), page(f"femref report — {path.name}, {label}", [("result file", path.name)], body)
-
-
-def _event_names(h5: h5py.File) -> list[str]:
-    return sorted(h5[EVENTS_GROUP], key=int) if EVENTS_GROUP in h5 else []
 
 
 def _pages(names: list[str]) -> list[tuple[int, list[str]]]:

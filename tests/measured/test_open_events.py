@@ -161,3 +161,24 @@ def test_an_event_without_estimates_is_one_row_and_flags_are_columns(tmp_path):
     histories = open_event_histories(path, 1)
     np.testing.assert_array_equal(histories["force"].sel(estimator="kalman", coupler="c1").values, np.cos(t))
     assert "force" not in open_event_histories(path, 0) and open_event_histories(path, 0)["acceleration"].shape == (11, 1)
+
+
+def test_a_killed_runs_torn_event_is_never_read(tmp_path):
+    """A killed run's temporary (``complete = false``, ``events_written = 1``) holding event 0 whole, event 1 whole but
+    not yet counted and a torn group 2 (no attributes, no records: the kill came while HDF5 wrote it): the table, the
+    histories and the report read event 0 only (a report that read the torn group raised KeyError in a clean-clone CI)."""
+    t = np.linspace(0.0, 0.1, 11)
+    events = [EventResult(index=k, start=0.2 * k, end=0.2 * k + 0.1, trigger_time=0.2 * k + 0.02, trigger_probe="a/front", flags=(),
+                          time=t + 0.2 * k, records={"a/front": np.sin(t)}, impact_type="coupled") for k in range(2)]
+    path = write_events(tmp_path / "events.h5", {"cars": ["a", "b"], "couplers": ["c1"], "estimators": []}, events, "kind: measured\nchecks: {}\n")
+    with h5py.File(path, "a") as h5:
+        h5.attrs.update(complete=False, events_written=1)
+        h5["events"].create_group("2")
+    table = open_events(path)
+    assert table.event.tolist() == [0] and not table.attrs["complete"]
+    with pytest.raises(FileKindError, match="no event 1; the file holds events 0$"):
+        open_event_histories(path, 1)
+    result = CliRunner().invoke(main, ["report", str(path), "-o", str(tmp_path / "events.html")])
+    assert result.exit_code == 0, result.output
+    page = (tmp_path / "events.html").read_text()
+    assert "the run stopped after 1 events" in page and "<th>events</th><td>1</td>" in page
